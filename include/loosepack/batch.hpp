@@ -1,0 +1,103 @@
+// A batch of independent 2D systems of disks advanced together by one set of Kokkos kernels.
+// The host API uses plain structs; the device state stays behind the pointer to implementation.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "loosepack/params.hpp"
+
+namespace loosepack {
+
+struct Disk {
+  double x = 0.0, y = 0.0, theta = 0.0;
+  double vx = 0.0, vy = 0.0, w = 0.0;
+  double radius = 1.0;
+  bool fixed = false;          // infinite mass and inertia (a support, not part of the deposit)
+  bool lock_rotation = false;  // infinite inertia only
+  double y_deposit = 0.0;      // y_i: height at which the disk was deposited
+};
+
+struct SystemSetup {
+  SystemParams params;
+  std::vector<Disk> disks;
+  int capacity = 0;  // particle slots; at least disks.size()
+  // Key of the counter-based random stream of this system: (scan seed, member id).
+  std::uint64_t seed = 0;
+  std::uint64_t member = 0;
+};
+
+// Contact force of one contact, in force units (impulse / h).
+struct ContactForce {
+  int i = 0, j = 0;  // local disk indices; j = -1: the floor
+  double nx = 0.0, ny = 0.0, gap = 0.0;
+  double normal = 0.0, tangential = 0.0, moment = 0.0;
+};
+
+enum class Failure { None = 0, NonFinite = 1, ContactOverflow = 2, ParticleOverflow = 3 };
+std::string failure_message(Failure f);
+
+// Host copy of the per-system status after a step.
+struct SystemStatus {
+  bool active = false;
+  Failure failure = Failure::None;
+  int count = 0;
+  long steps = 0;         // steps taken
+  long sweeps = 0;        // solver sweeps, all steps
+  int last_sweeps = 0;    // sweeps of the last step
+  bool converged = true;  // the last step's solve reached the tolerance
+  double max_speed = 0.0;
+  int rest_steps = 0;     // consecutive steps below the rest speed with the solver converged
+  bool at_rest = false;
+};
+
+// Where the next disk goes on a vertical drop line.
+enum class DropRule {
+  Touch,    // highest height at which it touches a disk or the floor (protocol A)
+  Capture,  // Meakin's ballistic deposition with capture radius r_capt (protocol B)
+};
+
+// Result of one deposition attempt in one system.
+struct Deposit {
+  bool placed = false;   // false: the disk would stand above H; the system is full
+  double x = 0.0, y = 0.0, radius = 0.0;
+};
+
+class Batch {
+ public:
+  Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver = {},
+        const RestSettings& rest = {});
+  ~Batch();
+  Batch(const Batch&) = delete;
+  Batch& operator=(const Batch&) = delete;
+
+  int size() const;
+  const SystemParams& params(int s) const;
+  const SolverSettings& solver() const;
+
+  // One time step of every active system.
+  void step();
+  // Step until every active system is at rest or failed, or max_steps. Returns steps taken.
+  long run_to_rest(long max_steps);
+
+  void set_active(int s, bool active);
+  // Switch gravity on or off in one system (protocol C), keeping the state.
+  void set_gravity(int s, bool on);
+  const SystemStatus& status(int s) const;
+  void reset_rest(int s);
+
+  // Drop one disk into each system s with mask[s] at a random x from its stream.
+  std::vector<Deposit> deposit(const std::vector<char>& mask, DropRule rule);
+
+  std::vector<Disk> disks(int s) const;
+  std::vector<ContactForce> contacts(int s) const;
+  // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s.
+  double max_overlap(int s) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace loosepack

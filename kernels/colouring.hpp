@@ -1,0 +1,63 @@
+// Graph colouring of the contacts for parallel Gauss-Seidel: two contacts that share a body
+// never get the same colour (the floor is not a body: it takes no velocity). Jones-Plassmann:
+// in round r a contact takes colour r when no still-uncoloured contact sharing a body has a
+// higher priority. Priorities hash the contact's index within its own system, so the colouring
+// (and hence the sweep) of a system does not depend on the batch around it.
+#pragma once
+#include "kernels/random.hpp"
+#include "kernels/state.hpp"
+
+namespace loosepack {
+
+struct ColourPriority {
+  SystemViews sys;
+  ParticleViews part;
+  KOKKOS_INLINE_FUNCTION unsigned long long operator()(int c) const {
+    const int i = c / kSlots;
+    const int local = (i - sys.offset(part.system(i))) * kSlots + c % kSlots;
+    // the low bits carry the local index, so priorities within a system are distinct
+    return (static_cast<unsigned long long>(splitmix64(static_cast<std::uint64_t>(local))) << 24) |
+           static_cast<unsigned long long>(local & 0xFFFFFF);
+  }
+};
+
+struct ColourReset {
+  ContactViews con;
+  KOKKOS_INLINE_FUNCTION void operator()(int c) const {
+    con.colour(c) = con.partner(c) == kNoContact ? -2 : -1;
+  }
+};
+
+// One Jones-Plassmann round; counts the contacts still uncoloured after it.
+struct ColourRound {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  int round;
+
+  KOKKOS_INLINE_FUNCTION bool blocked_by(int body, int c, unsigned long long prio) const {
+    const ColourPriority priority{sys, part};
+    const int n = part.n_incident(body);
+    for (int a = 0; a < n; ++a) {
+      const int o = part.incident(body * kIncident + a);
+      if (o == c) continue;
+      const int oc = con.colour(o);
+      if ((oc == -1 || oc == round) && priority(o) > prio) return true;
+    }
+    return false;
+  }
+
+  KOKKOS_INLINE_FUNCTION void operator()(int c, int& uncoloured) const {
+    if (con.colour(c) != -1) return;
+    const ColourPriority priority{sys, part};
+    const unsigned long long prio = priority(c);
+    const int i = c / kSlots, j = con.partner(c);
+    if (blocked_by(i, c, prio) || (j >= 0 && blocked_by(j, c, prio))) {
+      ++uncoloured;
+      return;
+    }
+    con.colour(c) = round;
+  }
+};
+
+}  // namespace loosepack

@@ -1,0 +1,35 @@
+// Every spelling that differs between Kokkos versions lives here.
+// Kokkos 3.4 (Debian bookworm) keeps math functions in Kokkos::Experimental; 3.7+ has them in
+// Kokkos::. Drop the 3.4 branch once the minimum Kokkos is 3.7.
+#pragma once
+#include <Kokkos_Core.hpp>
+
+namespace loosepack {
+namespace kmath {
+#if KOKKOS_VERSION >= 30700
+using Kokkos::sqrt;
+using Kokkos::fabs;
+using Kokkos::floor;
+using Kokkos::isfinite;
+using Kokkos::asin;
+#else
+using Kokkos::Experimental::sqrt;
+using Kokkos::Experimental::fabs;
+using Kokkos::Experimental::floor;
+using Kokkos::Experimental::isfinite;
+using Kokkos::Experimental::asin;
+#endif
+KOKKOS_INLINE_FUNCTION double min(double a, double b) { return a < b ? a : b; }
+KOKKOS_INLINE_FUNCTION double max(double a, double b) { return a > b ? a : b; }
+KOKKOS_INLINE_FUNCTION double clamp(double v, double lo, double hi) {
+  return v < lo ? lo : (v > hi ? hi : v);
+}
+KOKKOS_INLINE_FUNCTION int imin(int a, int b) { return a < b ? a : b; }
+KOKKOS_INLINE_FUNCTION int imax(int a, int b) { return a > b ? a : b; }
+}  // namespace kmath
+
+using ExecSpace = Kokkos::DefaultExecutionSpace;
+using MemSpace = ExecSpace::memory_space;
+template <class T>
+using DView = Kokkos::View<T*, MemSpace>;
+}  // namespace loosepack

@@ -1,0 +1,173 @@
+// Contact detection: every pair (and disk-floor pair) whose gap is below the cohesion range
+// plus a motion margin becomes a contact slot of its lower-index particle, warm-started with
+// the impulses the same pair carried in the previous step.
+#pragma once
+#include "kernels/contact_law.hpp"
+#include "kernels/grid.hpp"
+
+namespace loosepack {
+
+// Minimum-image difference a - b in a periodic interval of length width.
+KOKKOS_INLINE_FUNCTION double periodic_delta(double d, double width) {
+  if (d > 0.5 * width) return d - width;
+  if (d < -0.5 * width) return d + width;
+  return d;
+}
+
+struct ContactBuild {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  GridViews grid;
+
+  KOKKOS_INLINE_FUNCTION void add(int p, int& k, int partner, double nx, double ny, double gap,
+                                  double rc, double lower) const {
+    if (k >= kSlots) {
+      Kokkos::atomic_exchange(&sys.failure(part.system(p)), int(kContactOverflow));
+      return;
+    }
+    const int c = p * kSlots + k;
+    con.partner(c) = partner;
+    con.nx(c) = nx;
+    con.ny(c) = ny;
+    con.gap(c) = gap;
+    con.rc(c) = rc;
+    con.lower(c) = lower;
+    double pn = 0.0, pt = 0.0, pm = 0.0;
+    for (int q = 0; q < kSlots; ++q) {
+      const int old = p * kSlots + q;
+      if (con.prev_partner(old) == partner) {
+        pn = con.prev_pn(old);
+        pt = con.prev_pt(old);
+        pm = con.prev_pm(old);
+        break;
+      }
+      if (con.prev_partner(old) == kNoContact) break;
+    }
+    con.pn(c) = pn;
+    con.pt(c) = pt;
+    con.pm(c) = pm;
+    ++k;
+  }
+
+  KOKKOS_INLINE_FUNCTION void operator()(int p) const {
+    if (part.cell(p) < 0) return;  // inactive system or empty slot: keep what it had
+    const int s = part.system(p);
+    int k = 0;
+    {
+      const double h = sys.time_step(s);
+      const double dc = sys.cohesion_range(s);
+      const double reach = dc + sys.margin(s);
+      const double fc_impulse = h * sys.cohesive_force(s);
+      const double rp = part.radius(p);
+      const double xp = part.x(p), yp = part.y(p);
+      const double floor_gap = yp - rp;
+      if (floor_gap < reach) {
+        const double lower = (sys.floor_cohesion(s) && floor_gap < dc) ? -fc_impulse : 0.0;
+        add(p, k, kFloor, 0.0, -1.0, floor_gap, rp, lower);
+      }
+      const int nx = sys.grid_nx(s), ny = sys.grid_ny(s);
+      const int c0 = part.cell(p) - sys.cell_offset(s);
+      const int cx = c0 % nx, cy = c0 / nx;
+      const ColumnRange cols = grid_columns(cx, nx);
+      const double width = sys.width(s);
+      for (int ry = kmath::imax(cy - 1, 0); ry <= kmath::imin(cy + 1, ny - 1); ++ry) {
+        for (int kc = 0; kc < cols.n; ++kc) {
+          const int c = sys.cell_offset(s) + ry * nx + cols[kc];
+          for (int a = grid.cell_start(c); a < grid.cell_start(c + 1); ++a) {
+            const int q = grid.cell_particles(a);
+            if (q <= p) continue;
+            const double dx = periodic_delta(part.x(q) - xp, width);
+            const double dy = part.y(q) - yp;
+            const double rq = part.radius(q);
+            const double reach_pq = rp + rq + reach;
+            const double d2 = dx * dx + dy * dy;
+            if (d2 >= reach_pq * reach_pq) continue;
+            const double d = kmath::sqrt(d2);
+            const double gap = d - rp - rq;
+            const double lower = gap < dc ? -fc_impulse : 0.0;
+            const double inv_d = d > 0.0 ? 1.0 / d : 0.0;
+            // Exactly coincident centres have no line of centres: push along +y by convention.
+            const double nxv = d > 0.0 ? dx * inv_d : 0.0;
+            const double nyv = d > 0.0 ? dy * inv_d : 1.0;
+            add(p, k, q, nxv, nyv, gap, kmath::min(rp, rq), lower);
+          }
+        }
+      }
+    }
+    for (int q = k; q < kSlots; ++q) con.partner(p * kSlots + q) = kNoContact;
+  }
+};
+
+// Contact slot ids incident to each particle: its own slots, then the slots of lower-index
+// neighbours that name it, in grid order.
+struct IncidentBuild {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  GridViews grid;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int p) const {
+    int n = 0;
+    const int s = part.system(p);
+    if (part.cell(p) >= 0) {
+      for (int k = 0; k < kSlots && con.partner(p * kSlots + k) != kNoContact; ++k)
+        part.incident(p * kIncident + n++) = p * kSlots + k;
+      const int nx = sys.grid_nx(s), ny = sys.grid_ny(s);
+      const int c0 = part.cell(p) - sys.cell_offset(s);
+      const int cx = c0 % nx, cy = c0 / nx;
+      const ColumnRange cols = grid_columns(cx, nx);
+      for (int ry = kmath::imax(cy - 1, 0); ry <= kmath::imin(cy + 1, ny - 1); ++ry) {
+        for (int kc = 0; kc < cols.n; ++kc) {
+          const int c = sys.cell_offset(s) + ry * nx + cols[kc];
+          for (int a = grid.cell_start(c); a < grid.cell_start(c + 1); ++a) {
+            const int q = grid.cell_particles(a);
+            if (q >= p) continue;
+            for (int k = 0; k < kSlots; ++k) {
+              const int slot = q * kSlots + k;
+              const int partner = con.partner(slot);
+              if (partner == kNoContact) break;
+              if (partner != p) continue;
+              if (n >= kIncident) {
+                Kokkos::atomic_exchange(&sys.failure(s), int(kContactOverflow));
+              } else {
+                part.incident(p * kIncident + n++) = slot;
+              }
+            }
+          }
+        }
+      }
+    }
+    part.n_incident(p) = n;
+  }
+};
+
+// Local Delassus entries of every contact. With mass splitting (Jacobi) each body's inverse
+// mass and inertia are multiplied by its number of contacts, which makes Jacobi convergent.
+struct ContactMobilityBuild {
+  ParticleViews part;
+  ContactViews con;
+  bool mass_splitting;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int c) const {
+    const int j = con.partner(c);
+    if (j == kNoContact) return;
+    const int i = c / kSlots;
+    const double si = mass_splitting ? double(kmath::imax(part.n_incident(i), 1)) : 1.0;
+    double inv_mj = 0.0, inv_Ij = 0.0, Rj = 0.0;
+    if (j >= 0) {
+      const double sj = mass_splitting ? double(kmath::imax(part.n_incident(j), 1)) : 1.0;
+      inv_mj = sj * part.inv_mass(j);
+      inv_Ij = sj * part.inv_inertia(j);
+      Rj = part.radius(j);
+    }
+    const ContactMobility w = contact_mobility(si * part.inv_mass(i), si * part.inv_inertia(i),
+                                               part.radius(i), inv_mj, inv_Ij, Rj);
+    con.wn(c) = w.wn;
+    con.wa(c) = w.a;
+    con.wb(c) = w.b;
+    con.wc(c) = w.c;
+  }
+};
+
+}  // namespace loosepack

@@ -1,0 +1,90 @@
+// Deposition of one disk per requesting system on a vertical drop line at a random x:
+// DropRule::Touch puts it at the highest height where it touches a disk or the floor
+// (protocol A); DropRule::Capture is Meakin's ballistic deposition with capture radius
+// (protocol B): the disk falls until its centre comes within r_capt (r + r_j) of a deposited
+// disk's centre (or it touches the floor), then moves along the line of centres to touch it.
+#pragma once
+#include "kernels/contacts.hpp"
+#include "kernels/random.hpp"
+
+namespace loosepack {
+
+struct DepositKernel {
+  using team_member = Kokkos::TeamPolicy<ExecSpace>::member_type;
+  SystemViews sys;
+  ParticleViews part;
+  DView<int> request;     // [S] 1: deposit one disk
+  DView<double> result;   // [S*4] placed, x, y, radius
+  bool capture;           // DropRule::Capture
+
+  KOKKOS_INLINE_FUNCTION void operator()(const team_member& team) const {
+    const int s = team.league_rank();
+    if (!request(s) || sys.failure(s) != kOk) return;
+    const std::uint64_t d0 = sys.draws(s);
+    const double width = sys.width(s);
+    const double x = width * uniform01(sys.seed(s), sys.member(s), d0);
+    double r = sys.radius(s);
+    const double sigma = sys.polydispersity(s);
+    if (sigma > 0.0) {
+      const double u = uniform01(sys.seed(s), sys.member(s), d0 + 1);
+      r *= 1.0 + kmath::sqrt(3.0) * sigma * (2.0 * u - 1.0);
+    }
+    const double rc = capture ? sys.capture_radius(s) : 1.0;
+    const int first = sys.offset(s), n = sys.count(s);
+    using Reducer = Kokkos::MaxLoc<double, int>;
+    typename Reducer::value_type best;
+    Kokkos::parallel_reduce(
+        Kokkos::TeamThreadRange(team, n),
+        [&](int a, typename Reducer::value_type& acc) {
+          const int q = first + a;
+          const double dx = periodic_delta(part.x(q) - x, width);
+          const double reach = rc * (r + part.radius(q));
+          if (kmath::fabs(dx) >= reach) return;
+          const double cand = part.y(q) + kmath::sqrt(reach * reach - dx * dx);
+          if (cand > acc.val || (cand == acc.val && q < acc.loc)) {
+            acc.val = cand;
+            acc.loc = q;
+          }
+        },
+        Reducer(best));
+    Kokkos::single(Kokkos::PerTeam(team), [&]() {
+      double px = x, py = r;  // the floor
+      if (best.loc >= 0 && best.val > r) {
+        const int q = best.loc;
+        const double reach = rc * (r + part.radius(q));
+        const double dx = periodic_delta(x - part.x(q), width);
+        const double dy = best.val - part.y(q);
+        const double pull = (r + part.radius(q)) / reach;
+        px = part.x(q) + pull * dx;
+        py = part.y(q) + pull * dy;
+        if (px < 0.0) px += width;
+        if (px >= width) px -= width;
+        if (px >= width) px = 0.0;
+      }
+      sys.draws(s) = d0 + 2;
+      result(4 * s + 0) = 0.0;
+      result(4 * s + 1) = px;
+      result(4 * s + 2) = py;
+      result(4 * s + 3) = r;
+      if (py + r > sys.height(s)) return;  // the system is full
+      if (n >= sys.capacity(s)) {
+        sys.failure(s) = kParticleOverflow;
+        return;
+      }
+      const int p = first + n;
+      const double m = sys.disk_density(s) * M_PI * r * r;
+      part.x(p) = px;
+      part.y(p) = py;
+      part.theta(p) = 0.0;
+      part.vx(p) = part.vy(p) = part.w(p) = 0.0;
+      part.radius(p) = r;
+      part.inv_mass(p) = 1.0 / m;
+      part.inv_inertia(p) = 2.0 / (m * r * r);
+      part.y_deposit(p) = py;
+      sys.count(s) = n + 1;
+      result(4 * s + 0) = 1.0;
+    });
+  }
+};
+
+}  // namespace loosepack

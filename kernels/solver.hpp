@@ -1,0 +1,181 @@
+// The iterative contact solve of one time step: warm start, Jacobi or graph-coloured
+// Gauss-Seidel sweeps, per-system convergence and masking.
+// Kernels are specialised at compile time on the effects the batch needs (Effects below), so a
+// batch without friction or rolling resistance compiles those parts out.
+#pragma once
+#include "kernels/contact_law.hpp"
+#include "kernels/state.hpp"
+
+namespace loosepack {
+
+template <bool Cohesion_, bool Friction_, bool Rolling_>
+struct Effects {
+  static constexpr bool Cohesion = Cohesion_;
+  static constexpr bool Friction = Friction_;
+  static constexpr bool Rolling = Rolling_;
+};
+
+// Relative velocities of contact c between i and j (j < 0: the floor, at rest).
+struct RelativeVelocity {
+  double un, ut, om;
+};
+
+KOKKOS_INLINE_FUNCTION RelativeVelocity relative_velocity(const ParticleViews& part,
+                                                          const ContactViews& con, int c, int i,
+                                                          int j) {
+  const double nx = con.nx(c), ny = con.ny(c);
+  double dvx = -part.vx(i), dvy = -part.vy(i);
+  double spin = part.radius(i) * part.w(i);
+  double om = -part.w(i);
+  if (j >= 0) {
+    dvx += part.vx(j);
+    dvy += part.vy(j);
+    spin += part.radius(j) * part.w(j);
+    om += part.w(j);
+  }
+  RelativeVelocity u;
+  u.un = dvx * nx + dvy * ny;
+  u.ut = -dvx * ny + dvy * nx - spin;
+  u.om = om;
+  return u;
+}
+
+// One exact local solve of contact c with everything else fixed; returns the impulse change
+// (dn, dt, dm) and the size of the change in force units for the convergence test.
+template <class Fx>
+KOKKOS_INLINE_FUNCTION double local_solve(const SystemViews& sys, const ParticleViews& part,
+                                          const ContactViews& con, int c, int i, int j,
+                                          double omega, double& dn, double& dt, double& dm) {
+  dn = dt = dm = 0.0;
+  if (con.wn(c) <= 0.0) return 0.0;  // two immobile bodies
+  const int s = part.system(i);
+  const double h = sys.time_step(s);
+  const RelativeVelocity u = relative_velocity(part, con, c, i, j);
+  const double lower = Fx::Cohesion ? con.lower(c) : 0.0;
+  const double pn0 = con.pn(c), pt0 = con.pt(c), pm0 = con.pm(c);
+  double pn = solve_normal(pn0, u.un, con.gap(c), h, con.wn(c), lower);
+  pn = pn0 + omega * (pn - pn0);
+  dn = pn - pn0;
+  double change = kmath::fabs(dn);
+  if (Fx::Friction) {
+    const double shifted = pn - lower;  // P_n + h F_c >= 0
+    // The tangential velocity after this contact's normal change is unchanged (t is orthogonal
+    // to n and a normal impulse exerts no torque on a disk).
+    const double bound_t = sys.friction(s) * shifted;
+    double pt = pt0, pm = pm0;
+    const double bound_r = Fx::Rolling ? sys.rolling_friction(s) * con.rc(c) * shifted : 0.0;
+    if (Fx::Rolling && bound_r > 0.0 && con.wb(c) > 0.0) {
+      solve_friction_rolling(pt0, pm0, u.ut, u.om, con.wa(c), con.wb(c), con.wc(c), bound_t,
+                             bound_r, pt, pm);
+    } else {
+      // No rolling resistance here: the moment goes to zero, which shifts u_t by -c pm0.
+      pt = solve_friction(pt0, u.ut - con.wc(c) * pm0, con.wa(c), bound_t);
+      pm = 0.0;
+    }
+    pt = pt0 + omega * (pt - pt0);
+    pm = pm0 + omega * (pm - pm0);
+    dt = pt - pt0;
+    dm = pm - pm0;
+    change += kmath::fabs(dt) + kmath::fabs(dm) / con.rc(c);
+  }
+  return change / (h * sys.weight(s));
+}
+
+// v = v_free + M^-1 sum H^T P over the contacts incident to each particle.
+struct BodyVelocity {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  bool only_unconverged;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int p) const {
+    const int s = part.system(p);
+    if (part.cell(p) < 0) return;
+    if (only_unconverged && !sys.unconverged(s)) return;
+    double vx = part.vfx(p), vy = part.vfy(p), w = part.wf(p);
+    const double im = part.inv_mass(p), iI = part.inv_inertia(p), r = part.radius(p);
+    const int n = part.n_incident(p);
+    for (int a = 0; a < n; ++a) {
+      const int c = part.incident(p * kIncident + a);
+      const double nx = con.nx(c), ny = con.ny(c);
+      const double pn = con.pn(c), pt = con.pt(c), pm = con.pm(c);
+      // impulse on the partner j: pn n + pt t, t = (-ny, nx)
+      const double fx = pn * nx - pt * ny, fy = pn * ny + pt * nx;
+      if (c / kSlots == p) {  // owner i
+        vx -= im * fx;
+        vy -= im * fy;
+        w += iI * (-r * pt - pm);
+      } else {
+        vx += im * fx;
+        vy += im * fy;
+        w += iI * (-r * pt + pm);
+      }
+    }
+    part.vx(p) = vx;
+    part.vy(p) = vy;
+    part.w(p) = w;
+  }
+};
+
+// Jacobi: every contact reads the velocities of the previous iterate. Writing the impulses in
+// place is safe: a contact's update reads only its own impulses and the (unchanged) velocities.
+template <class Fx>
+struct JacobiContacts {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  double omega;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int c) const {
+    const int j = con.partner(c);
+    if (j == kNoContact) return;
+    const int i = c / kSlots;
+    const int s = part.system(i);
+    if (!sys.unconverged(s)) return;
+    double dn, dt, dm;
+    const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
+    con.pn(c) += dn;
+    con.pt(c) += dt;
+    con.pm(c) += dm;
+    Kokkos::atomic_fetch_max(&sys.sweep_change(s), change);
+  }
+};
+
+// Gauss-Seidel on one colour: contacts of one colour share no body, so each applies its
+// impulse change to its two bodies at once without races.
+template <class Fx>
+struct GaussSeidelContacts {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  DView<int> list;  // contact slots of this colour
+  int first;
+  double omega;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int a) const {
+    const int c = list(first + a);
+    const int j = con.partner(c);
+    const int i = c / kSlots;
+    const int s = part.system(i);
+    if (!sys.unconverged(s)) return;
+    double dn, dt, dm;
+    const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
+    if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
+    con.pn(c) += dn;
+    con.pt(c) += dt;
+    con.pm(c) += dm;
+    const double nx = con.nx(c), ny = con.ny(c);
+    const double fx = dn * nx - dt * ny, fy = dn * ny + dt * nx;
+    part.vx(i) -= part.inv_mass(i) * fx;
+    part.vy(i) -= part.inv_mass(i) * fy;
+    part.w(i) += part.inv_inertia(i) * (-part.radius(i) * dt - dm);
+    if (j >= 0) {
+      part.vx(j) += part.inv_mass(j) * fx;
+      part.vy(j) += part.inv_mass(j) * fy;
+      part.w(j) += part.inv_inertia(j) * (-part.radius(j) * dt + dm);
+    }
+    Kokkos::atomic_fetch_max(&sys.sweep_change(s), change);
+  }
+};
+
+}  // namespace loosepack

@@ -1,0 +1,80 @@
+// Device state of a batch of independent systems, structure of arrays.
+// Shapes are written beside each field: [S] per system, [P] per particle slot (all systems
+// concatenated, system s owns [offset(s), offset(s) + capacity(s))), [P*kSlots] per contact slot
+// (particle p owns slots p*kSlots ... p*kSlots + kSlots - 1), [C] per grid cell of all systems.
+#pragma once
+#include <cstdint>
+
+#include "kernels/compat.hpp"
+
+namespace loosepack {
+
+// Contacts owned by one particle: its neighbours of higher index and the floor. Six disks at
+// most touch an equal disk in 2D; slack for polydispersity and the detection margin.
+constexpr int kSlots = 8;
+// Contacts incident to one particle (owned and as partner).
+constexpr int kIncident = 14;
+constexpr int kNoContact = -2;
+constexpr int kFloor = -1;
+
+// Why a system stopped being stepped.
+enum SystemFailure : int {
+  kOk = 0,
+  kNonFinite = 1,         // NaN or Inf in positions or velocities
+  kContactOverflow = 2,   // a particle had more contacts than the fixed capacity
+  kParticleOverflow = 3,  // more disks than the system's capacity
+};
+
+struct SystemViews {
+  // [S] layout
+  DView<int> offset, capacity, count;
+  // [S] parameters (see SystemParams)
+  DView<double> width, height, radius, polydispersity, disk_density, capture_radius, gravity_x, gravity_y, cohesive_force, cohesion_range, friction,
+      rolling_friction, time_step, weight;  // weight: m g of a mean disk, the force unit of tolerances
+  DView<int> floor_cohesion;
+  // [S] counter-based random stream: key (seed, member) and the next draw index
+  DView<std::uint64_t> seed, member, draws;
+  // [S] grid: cell edge, cells in x and y, first cell index
+  DView<double> cell_size;
+  DView<int> grid_nx, grid_ny, cell_offset;
+  // [S] status
+  DView<int> active;      // 1: stepped by step()
+  DView<int> unconverged; // 1: still iterating in the current step
+  DView<int> failure;     // SystemFailure
+  DView<double> sweep_change;  // max impulse change of the last sweep [h m g]
+  DView<double> max_speed;     // max(|v|, R|w|) after the last step
+  DView<double> margin;        // contact detection margin of the current step
+};
+
+struct ParticleViews {
+  // [P]
+  DView<int> system;  // owning system
+  DView<double> x, y, theta, vx, vy, w;
+  DView<double> vfx, vfy, wf;  // free velocities of the current step
+  DView<double> radius, inv_mass, inv_inertia;
+  DView<double> y_deposit;  // y_i, the height at which the disk was deposited
+  DView<int> cell;      // grid cell (global index)
+  DView<int> n_incident;        // [P] number of incident contacts
+  DView<int> incident;          // [P*kIncident] contact slot ids
+};
+
+struct ContactViews {
+  // [P*kSlots]
+  DView<int> partner;  // kNoContact, kFloor, or the partner's particle index
+  DView<double> nx, ny, gap, rc;
+  DView<double> wn, wa, wb, wc;  // local Delassus entries (with mass splitting for Jacobi)
+  DView<double> lower;           // -h F_c for a cohesive contact, else 0
+  DView<double> pn, pt, pm;      // impulses: normal, tangential, rolling moment
+  DView<int> colour;             // Gauss-Seidel colour, -1 when uncoloured
+  // [P*kSlots] previous step, for warm starting
+  DView<int> prev_partner;
+  DView<double> prev_pn, prev_pt, prev_pm;
+};
+
+struct GridViews {
+  DView<int> cell_start;  // [C+1]
+  DView<int> cell_fill;   // [C]
+  DView<int> cell_particles;  // [P]
+};
+
+}  // namespace loosepack

@@ -1,0 +1,676 @@
+// Host orchestration of a batch: allocation, the named stages of a time step, per-system
+// status and rest detection. All device work is in kernels/.
+#include "loosepack/batch.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "kernels/colouring.hpp"
+#include "kernels/contacts.hpp"
+#include "kernels/deposit.hpp"
+#include "kernels/integrate.hpp"
+#include "kernels/solver.hpp"
+
+namespace loosepack {
+
+std::string failure_message(Failure f) {
+  switch (f) {
+    case Failure::None: return "none";
+    case Failure::NonFinite: return "non-finite position or velocity (NaN or Inf)";
+    case Failure::ContactOverflow:
+      return "a disk had more contacts than the fixed capacity (overlapping disks?)";
+    case Failure::ParticleOverflow: return "more disks than the system's capacity";
+  }
+  return "unknown";
+}
+
+namespace {
+// Largest contact detection margin; sets the grid cell size together with radius and d_c.
+constexpr double kMaxMarginFactor = 0.5;   // times the mean radius
+constexpr double kMinMarginFactor = 0.05;  // times the mean radius
+
+template <class T>
+DView<T> alloc(const char* name, std::size_t n) {
+  return DView<T>(Kokkos::view_alloc(std::string(name)), n);
+}
+
+template <class T, class F>
+void fill_from(const DView<T>& v, std::size_t n, F f) {
+  auto h = Kokkos::create_mirror_view(v);
+  for (std::size_t k = 0; k < n; ++k) h(k) = f(k);
+  Kokkos::deep_copy(v, h);
+}
+}  // namespace
+
+struct Batch::Impl {
+  std::vector<SystemParams> params;
+  SolverSettings solver;
+  RestSettings rest;
+  int n_systems = 0, n_particles = 0, n_cells = 0;
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  GridViews grid;
+  DView<int> colour_list, colour_start, colour_fill;
+  DView<int> sweeps_this_step;  // [S]
+  std::vector<SystemStatus> status;
+  std::vector<int> offsets;
+  bool any_cohesion = false, any_friction = false, any_rolling = false;
+
+  void allocate(const std::vector<SystemSetup>& setups);
+  void upload_status_active();
+  template <class Fx>
+  void solve();
+  int colour();
+  void step();
+};
+
+void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
+  n_systems = static_cast<int>(setups.size());
+  if (n_systems == 0) throw std::invalid_argument("Batch: no systems");
+  const auto S = static_cast<std::size_t>(n_systems);
+  offsets.resize(S);
+  std::vector<int> capacity(S), cell_offset(S), nx(S), ny(S);
+  std::vector<double> cell(S);
+  for (std::size_t s = 0; s < S; ++s) {
+    const auto& su = setups[s];
+    const auto& pr = su.params;
+    params.push_back(pr);
+    capacity[s] = std::max<int>(su.capacity, static_cast<int>(su.disks.size()));
+    capacity[s] = std::max(capacity[s], 1);
+    offsets[s] = n_particles;
+    n_particles += capacity[s];
+    double rmax = pr.radius * (1.0 + std::sqrt(3.0) * pr.polydispersity);
+    for (const auto& d : su.disks) rmax = std::max(rmax, d.radius);
+    cell[s] = 2.0 * rmax + pr.cohesion_range + kMaxMarginFactor * pr.radius;
+    nx[s] = std::max(1, static_cast<int>(std::floor(pr.width / cell[s])));
+    ny[s] = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / cell[s])));
+    cell_offset[s] = n_cells;
+    n_cells += nx[s] * ny[s];
+    any_cohesion = any_cohesion || pr.cohesive_force() > 0.0;
+    any_friction = any_friction || pr.friction > 0.0;
+    any_rolling = any_rolling || (pr.friction > 0.0 && pr.rolling_friction > 0.0);
+  }
+  const auto P = static_cast<std::size_t>(n_particles);
+  const auto NC = P * kSlots;
+
+  sys.offset = alloc<int>("offset", S);
+  sys.capacity = alloc<int>("capacity", S);
+  sys.count = alloc<int>("count", S);
+  sys.width = alloc<double>("width", S);
+  sys.height = alloc<double>("height", S);
+  sys.radius = alloc<double>("radius", S);
+  sys.polydispersity = alloc<double>("polydispersity", S);
+  sys.disk_density = alloc<double>("disk_density", S);
+  sys.capture_radius = alloc<double>("capture_radius", S);
+  sys.gravity_x = alloc<double>("gravity_x", S);
+  sys.gravity_y = alloc<double>("gravity_y", S);
+  sys.cohesive_force = alloc<double>("cohesive_force", S);
+  sys.cohesion_range = alloc<double>("cohesion_range", S);
+  sys.friction = alloc<double>("friction", S);
+  sys.rolling_friction = alloc<double>("rolling_friction", S);
+  sys.time_step = alloc<double>("time_step", S);
+  sys.weight = alloc<double>("weight", S);
+  sys.floor_cohesion = alloc<int>("floor_cohesion", S);
+  sys.seed = alloc<std::uint64_t>("seed", S);
+  sys.member = alloc<std::uint64_t>("member", S);
+  sys.draws = alloc<std::uint64_t>("draws", S);
+  sys.cell_size = alloc<double>("cell_size", S);
+  sys.grid_nx = alloc<int>("grid_nx", S);
+  sys.grid_ny = alloc<int>("grid_ny", S);
+  sys.cell_offset = alloc<int>("cell_offset", S);
+  sys.active = alloc<int>("active", S);
+  sys.unconverged = alloc<int>("unconverged", S);
+  sys.failure = alloc<int>("failure", S);
+  sys.sweep_change = alloc<double>("sweep_change", S);
+  sys.max_speed = alloc<double>("max_speed", S);
+  sys.margin = alloc<double>("margin", S);
+  sweeps_this_step = alloc<int>("sweeps_this_step", S);
+
+  auto P_ = [&](std::size_t s) -> const SystemParams& { return params[s]; };
+  fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
+  fill_from(sys.capacity, S, [&](std::size_t s) { return capacity[s]; });
+  fill_from(sys.count, S, [&](std::size_t s) { return static_cast<int>(setups[s].disks.size()); });
+  fill_from(sys.width, S, [&](std::size_t s) { return P_(s).width; });
+  fill_from(sys.height, S, [&](std::size_t s) { return P_(s).height; });
+  fill_from(sys.radius, S, [&](std::size_t s) { return P_(s).radius; });
+  fill_from(sys.polydispersity, S, [&](std::size_t s) { return P_(s).polydispersity; });
+  fill_from(sys.disk_density, S, [&](std::size_t s) { return P_(s).disk_density; });
+  fill_from(sys.capture_radius, S, [&](std::size_t s) { return P_(s).capture_radius; });
+  fill_from(sys.gravity_x, S, [&](std::size_t s) {
+    return P_(s).gravity_on ? P_(s).gravity * P_(s).gravity_dir_x : 0.0;
+  });
+  fill_from(sys.gravity_y, S, [&](std::size_t s) {
+    return P_(s).gravity_on ? P_(s).gravity * P_(s).gravity_dir_y : 0.0;
+  });
+  fill_from(sys.cohesive_force, S, [&](std::size_t s) { return P_(s).cohesive_force(); });
+  fill_from(sys.cohesion_range, S, [&](std::size_t s) { return P_(s).cohesion_range; });
+  fill_from(sys.friction, S, [&](std::size_t s) { return P_(s).friction; });
+  fill_from(sys.rolling_friction, S, [&](std::size_t s) { return P_(s).rolling_friction; });
+  fill_from(sys.time_step, S, [&](std::size_t s) { return P_(s).time_step; });
+  fill_from(sys.weight, S, [&](std::size_t s) {
+    const double w = P_(s).reference_mass() * P_(s).gravity;
+    return w > 0.0 ? w : 1.0;
+  });
+  fill_from(sys.floor_cohesion, S, [&](std::size_t s) { return P_(s).floor_cohesion ? 1 : 0; });
+  fill_from(sys.seed, S, [&](std::size_t s) { return setups[s].seed; });
+  fill_from(sys.member, S, [&](std::size_t s) { return setups[s].member; });
+  fill_from(sys.cell_size, S, [&](std::size_t s) { return cell[s]; });
+  fill_from(sys.grid_nx, S, [&](std::size_t s) { return nx[s]; });
+  fill_from(sys.grid_ny, S, [&](std::size_t s) { return ny[s]; });
+  fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
+  Kokkos::deep_copy(sys.active, 1);
+
+  part.system = alloc<int>("system", P);
+  part.x = alloc<double>("x", P);
+  part.y = alloc<double>("y", P);
+  part.theta = alloc<double>("theta", P);
+  part.vx = alloc<double>("vx", P);
+  part.vy = alloc<double>("vy", P);
+  part.w = alloc<double>("w", P);
+  part.vfx = alloc<double>("vfx", P);
+  part.vfy = alloc<double>("vfy", P);
+  part.wf = alloc<double>("wf", P);
+  part.radius = alloc<double>("radius", P);
+  part.inv_mass = alloc<double>("inv_mass", P);
+  part.inv_inertia = alloc<double>("inv_inertia", P);
+  part.y_deposit = alloc<double>("y_deposit", P);
+  part.cell = alloc<int>("cell", P);
+  part.n_incident = alloc<int>("n_incident", P);
+  part.incident = alloc<int>("incident", P * kIncident);
+  {
+    auto hsys = Kokkos::create_mirror_view(part.system);
+    auto hx = Kokkos::create_mirror_view(part.x);
+    auto hy = Kokkos::create_mirror_view(part.y);
+    auto ht = Kokkos::create_mirror_view(part.theta);
+    auto hvx = Kokkos::create_mirror_view(part.vx);
+    auto hvy = Kokkos::create_mirror_view(part.vy);
+    auto hw = Kokkos::create_mirror_view(part.w);
+    auto hr = Kokkos::create_mirror_view(part.radius);
+    auto him = Kokkos::create_mirror_view(part.inv_mass);
+    auto hiI = Kokkos::create_mirror_view(part.inv_inertia);
+    auto hyd = Kokkos::create_mirror_view(part.y_deposit);
+    std::vector<double> speed(S, 0.0);
+    for (std::size_t s = 0; s < S; ++s) {
+      for (int k = 0; k < capacity[s]; ++k) {
+        const int p = offsets[s] + k;
+        hsys(p) = static_cast<int>(s);
+        hr(p) = params[s].radius;
+        if (k >= static_cast<int>(setups[s].disks.size())) continue;
+        const Disk& d = setups[s].disks[static_cast<std::size_t>(k)];
+        if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
+        hx(p) = std::fmod(std::fmod(d.x, params[s].width) + params[s].width, params[s].width);
+        hy(p) = d.y;
+        ht(p) = d.theta;
+        hvx(p) = d.vx;
+        hvy(p) = d.vy;
+        hw(p) = d.w;
+        hr(p) = d.radius;
+        hyd(p) = d.y_deposit;
+        const double m = params[s].disk_density * M_PI * d.radius * d.radius;
+        him(p) = d.fixed ? 0.0 : 1.0 / m;
+        hiI(p) = (d.fixed || d.lock_rotation) ? 0.0 : 2.0 / (m * d.radius * d.radius);
+        speed[s] = std::max({speed[s], std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)});
+      }
+    }
+    Kokkos::deep_copy(part.system, hsys);
+    Kokkos::deep_copy(part.x, hx);
+    Kokkos::deep_copy(part.y, hy);
+    Kokkos::deep_copy(part.theta, ht);
+    Kokkos::deep_copy(part.vx, hvx);
+    Kokkos::deep_copy(part.vy, hvy);
+    Kokkos::deep_copy(part.w, hw);
+    Kokkos::deep_copy(part.radius, hr);
+    Kokkos::deep_copy(part.inv_mass, him);
+    Kokkos::deep_copy(part.inv_inertia, hiI);
+    Kokkos::deep_copy(part.y_deposit, hyd);
+    fill_from(sys.max_speed, S, [&](std::size_t s) { return speed[s]; });
+  }
+
+  con.partner = alloc<int>("partner", NC);
+  con.prev_partner = alloc<int>("prev_partner", NC);
+  Kokkos::deep_copy(con.partner, kNoContact);
+  Kokkos::deep_copy(con.prev_partner, kNoContact);
+  con.nx = alloc<double>("cnx", NC);
+  con.ny = alloc<double>("cny", NC);
+  con.gap = alloc<double>("gap", NC);
+  con.rc = alloc<double>("rc", NC);
+  con.wn = alloc<double>("wn", NC);
+  con.wa = alloc<double>("wa", NC);
+  con.wb = alloc<double>("wb", NC);
+  con.wc = alloc<double>("wc", NC);
+  con.lower = alloc<double>("lower", NC);
+  con.pn = alloc<double>("pn", NC);
+  con.pt = alloc<double>("pt", NC);
+  con.pm = alloc<double>("pm", NC);
+  con.prev_pn = alloc<double>("prev_pn", NC);
+  con.prev_pt = alloc<double>("prev_pt", NC);
+  con.prev_pm = alloc<double>("prev_pm", NC);
+  con.colour = alloc<int>("colour", NC);
+  colour_list = alloc<int>("colour_list", NC);
+  colour_start = alloc<int>("colour_start", 2);
+  colour_fill = alloc<int>("colour_fill", 1);
+
+  grid.cell_start = alloc<int>("cell_start", static_cast<std::size_t>(n_cells) + 1);
+  grid.cell_fill = alloc<int>("cell_fill", static_cast<std::size_t>(n_cells));
+  grid.cell_particles = alloc<int>("cell_particles", P);
+
+  status.assign(S, SystemStatus{});
+  for (std::size_t s = 0; s < S; ++s) {
+    status[s].active = true;
+    status[s].count = static_cast<int>(setups[s].disks.size());
+  }
+  // Mark every slot as belonging to no cell until the first grid build.
+  Kokkos::deep_copy(part.cell, -1);
+}
+
+template <class Fx>
+void Batch::Impl::solve() {
+  const SystemViews sys_ = sys;
+  const auto sweeps = sweeps_this_step;
+  const double tol = solver.tolerance;
+  const double omega = solver.relaxation;
+  const bool jacobi = solver.kind == SolverKind::Jacobi;
+  const int n_contacts = n_particles * kSlots;
+  int n_colours = 0;
+  std::vector<int> colour_begin;
+  if (!jacobi) {
+    n_colours = colour();
+    auto hs = Kokkos::create_mirror_view(colour_start);
+    Kokkos::deep_copy(hs, colour_start);
+    colour_begin.assign(hs.data(), hs.data() + n_colours + 1);
+  }
+  Kokkos::deep_copy(sweeps, 0);
+  for (int sweep = 0; sweep < solver.max_sweeps; ++sweep) {
+    if (jacobi) {
+      Kokkos::parallel_for("jacobi_contacts", Kokkos::RangePolicy<ExecSpace>(0, n_contacts),
+                           JacobiContacts<Fx>{sys, part, con, omega});
+      Kokkos::parallel_for("jacobi_bodies", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
+                           BodyVelocity{sys, part, con, true});
+    } else {
+      for (int k = 0; k < n_colours; ++k) {
+        const int n = colour_begin[k + 1] - colour_begin[k];
+        if (n == 0) continue;
+        Kokkos::parallel_for("gauss_seidel_colour", Kokkos::RangePolicy<ExecSpace>(0, n),
+                             GaussSeidelContacts<Fx>{sys, part, con, colour_list,
+                                                     colour_begin[k], omega});
+      }
+    }
+    int still = 0;
+    Kokkos::parallel_reduce(
+        "convergence", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+        KOKKOS_LAMBDA(int s, int& n) {
+          if (!sys_.active(s) || !sys_.unconverged(s)) return;
+          sweeps(s) += 1;
+          if (sys_.sweep_change(s) <= tol) {
+            sys_.unconverged(s) = 0;
+          } else {
+            ++n;
+          }
+          sys_.sweep_change(s) = 0.0;
+        },
+        still);
+    if (still == 0) break;
+  }
+}
+
+int Batch::Impl::colour() {
+  const int n_contacts = n_particles * kSlots;
+  Kokkos::parallel_for("colour_reset", Kokkos::RangePolicy<ExecSpace>(0, n_contacts),
+                       ColourReset{con});
+  int rounds = 0;
+  for (;; ++rounds) {
+    int uncoloured = 0;
+    Kokkos::parallel_reduce("colour_round", Kokkos::RangePolicy<ExecSpace>(0, n_contacts),
+                            ColourRound{sys, part, con, rounds}, uncoloured);
+    if (uncoloured == 0) break;
+  }
+  const int n_colours = rounds + 1;
+  if (static_cast<int>(colour_fill.extent(0)) < n_colours) {
+    colour_fill = alloc<int>("colour_fill", static_cast<std::size_t>(n_colours));
+    colour_start = alloc<int>("colour_start", static_cast<std::size_t>(n_colours) + 1);
+  }
+  auto fill = colour_fill;
+  auto start = colour_start;
+  auto list = colour_list;
+  auto col = con.colour;
+  Kokkos::deep_copy(fill, 0);
+  Kokkos::parallel_for(
+      "colour_count", Kokkos::RangePolicy<ExecSpace>(0, n_contacts), KOKKOS_LAMBDA(int c) {
+        if (col(c) >= 0) Kokkos::atomic_increment(&fill(col(c)));
+      });
+  Kokkos::parallel_scan(
+      "colour_scan", Kokkos::RangePolicy<ExecSpace>(0, n_colours + 1),
+      KOKKOS_LAMBDA(int k, int& partial, bool final) {
+        const int n = k < n_colours ? fill(k) : 0;
+        if (final) start(k) = partial;
+        partial += n;
+      });
+  Kokkos::deep_copy(fill, 0);
+  Kokkos::parallel_for(
+      "colour_fill", Kokkos::RangePolicy<ExecSpace>(0, n_contacts), KOKKOS_LAMBDA(int c) {
+        const int k = col(c);
+        if (k >= 0) list(start(k) + Kokkos::atomic_fetch_add(&fill(k), 1)) = c;
+      });
+  return n_colours;
+}
+
+void Batch::Impl::step() {
+  bool any = false;
+  for (const auto& st : status) any = any || st.active;
+  if (!any) return;
+  const SystemViews sys_ = sys;
+
+  // Stage 1: detection margin from the last step's speeds, free velocities.
+  Kokkos::parallel_for(
+      "margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems), KOKKOS_LAMBDA(int s) {
+        const double h = sys_.time_step(s);
+        const double g = kmath::sqrt(sys_.gravity_x(s) * sys_.gravity_x(s) +
+                                     sys_.gravity_y(s) * sys_.gravity_y(s));
+        const double r = sys_.radius(s);
+        sys_.margin(s) = kmath::clamp(2.0 * h * (sys_.max_speed(s) + h * g),
+                                      kMinMarginFactor * r, kMaxMarginFactor * r);
+        sys_.unconverged(s) = sys_.active(s);
+        sys_.sweep_change(s) = 0.0;
+        sys_.max_speed(s) = sys_.active(s) ? 0.0 : sys_.max_speed(s);
+      });
+  // Stage 2: neighbour grid (inactive systems get no cells: all later kernels skip them).
+  build_grid(sys, part, grid, n_particles, n_cells);
+  Kokkos::parallel_for("free_velocity", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
+                       FreeVelocity{sys, part});
+  // Stage 3: contacts, warm-started from the previous step's impulses.
+  std::swap(con.partner, con.prev_partner);
+  std::swap(con.pn, con.prev_pn);
+  std::swap(con.pt, con.prev_pt);
+  std::swap(con.pm, con.prev_pm);
+  const auto prev_partner = con.prev_partner;
+  const auto partner = con.partner;
+  const auto psys = part.system;
+  const auto pcell = part.cell;
+  // Inactive systems keep their contacts (and impulses) for when they resume.
+  Kokkos::parallel_for(
+      "keep_inactive", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
+      KOKKOS_LAMBDA(int c) {
+        if (pcell(c / kSlots) < 0) partner(c) = prev_partner(c);
+      });
+  {
+    const auto pn = con.pn, pt = con.pt, pm = con.pm;
+    const auto ppn = con.prev_pn, ppt = con.prev_pt, ppm = con.prev_pm;
+    Kokkos::parallel_for(
+        "keep_inactive_impulses", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
+        KOKKOS_LAMBDA(int c) {
+          if (pcell(c / kSlots) < 0) {
+            pn(c) = ppn(c);
+            pt(c) = ppt(c);
+            pm(c) = ppm(c);
+          }
+        });
+  }
+  Kokkos::parallel_for("contacts", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
+                       ContactBuild{sys, part, con, grid});
+  Kokkos::parallel_for("incident", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
+                       IncidentBuild{sys, part, con, grid});
+  Kokkos::parallel_for(
+      "mobility", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
+      ContactMobilityBuild{part, con,
+                           solver.kind == SolverKind::Jacobi && solver.mass_splitting});
+  // Stage 4: velocities from the warm-start impulses, then the iterative solve.
+  Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
+                       BodyVelocity{sys, part, con, false});
+  if (any_rolling) {
+    solve<Effects<true, true, true>>();
+  } else if (any_friction) {
+    if (any_cohesion)
+      solve<Effects<true, true, false>>();
+    else
+      solve<Effects<false, true, false>>();
+  } else {
+    if (any_cohesion)
+      solve<Effects<true, false, false>>();
+    else
+      solve<Effects<false, false, false>>();
+  }
+  // Stage 5: positions.
+  Kokkos::parallel_for("integrate", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
+                       Integrate{sys, part});
+
+  // Stage 6: per-system status on the host.
+  auto h_fail = Kokkos::create_mirror_view(sys.failure);
+  auto h_speed = Kokkos::create_mirror_view(sys.max_speed);
+  auto h_unconv = Kokkos::create_mirror_view(sys.unconverged);
+  auto h_sweeps = Kokkos::create_mirror_view(sweeps_this_step);
+  auto h_count = Kokkos::create_mirror_view(sys.count);
+  Kokkos::deep_copy(h_fail, sys.failure);
+  Kokkos::deep_copy(h_speed, sys.max_speed);
+  Kokkos::deep_copy(h_unconv, sys.unconverged);
+  Kokkos::deep_copy(h_sweeps, sweeps_this_step);
+  Kokkos::deep_copy(h_count, sys.count);
+  bool deactivate = false;
+  for (int s = 0; s < n_systems; ++s) {
+    auto& st = status[static_cast<std::size_t>(s)];
+    if (!st.active) continue;
+    st.steps += 1;
+    st.last_sweeps = h_sweeps(s);
+    st.sweeps += h_sweeps(s);
+    st.converged = h_unconv(s) == 0;
+    st.max_speed = h_speed(s);
+    st.count = h_count(s);
+    st.failure = static_cast<Failure>(h_fail(s));
+    if (st.failure != Failure::None) {
+      st.active = false;
+      deactivate = true;
+      continue;
+    }
+    const bool quiet = st.converged && st.max_speed < rest.speed;
+    st.rest_steps = quiet ? st.rest_steps + 1 : 0;
+    st.at_rest = st.rest_steps >= rest.steps;
+  }
+  if (deactivate) upload_status_active();
+}
+
+void Batch::Impl::upload_status_active() {
+  fill_from(sys.active, static_cast<std::size_t>(n_systems),
+            [&](std::size_t s) { return status[s].active ? 1 : 0; });
+}
+
+Batch::Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver,
+             const RestSettings& rest)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->solver = solver;
+  impl_->rest = rest;
+  impl_->allocate(systems);
+}
+
+Batch::~Batch() = default;
+
+int Batch::size() const { return impl_->n_systems; }
+const SystemParams& Batch::params(int s) const {
+  return impl_->params.at(static_cast<std::size_t>(s));
+}
+const SolverSettings& Batch::solver() const { return impl_->solver; }
+
+void Batch::step() { impl_->step(); }
+
+long Batch::run_to_rest(long max_steps) {
+  long n = 0;
+  for (; n < max_steps; ++n) {
+    bool any = false;
+    for (int s = 0; s < size(); ++s) {
+      const auto& st = impl_->status[static_cast<std::size_t>(s)];
+      if (st.active && st.at_rest) set_active(s, false);
+      any = any || impl_->status[static_cast<std::size_t>(s)].active;
+    }
+    if (!any) break;
+    step();
+  }
+  return n;
+}
+
+void Batch::set_active(int s, bool active) {
+  auto& st = impl_->status.at(static_cast<std::size_t>(s));
+  if (active && st.failure != Failure::None) return;
+  if (st.active == active) return;
+  st.active = active;
+  impl_->upload_status_active();
+}
+
+void Batch::set_gravity(int s, bool on) {
+  auto& pr = impl_->params.at(static_cast<std::size_t>(s));
+  pr.gravity_on = on;
+  const double gx = on ? pr.gravity * pr.gravity_dir_x : 0.0;
+  const double gy = on ? pr.gravity * pr.gravity_dir_y : 0.0;
+  Kokkos::deep_copy(Kokkos::subview(impl_->sys.gravity_x, s), gx);
+  Kokkos::deep_copy(Kokkos::subview(impl_->sys.gravity_y, s), gy);
+  reset_rest(s);
+}
+
+const SystemStatus& Batch::status(int s) const {
+  return impl_->status.at(static_cast<std::size_t>(s));
+}
+
+void Batch::reset_rest(int s) {
+  auto& st = impl_->status.at(static_cast<std::size_t>(s));
+  st.rest_steps = 0;
+  st.at_rest = false;
+}
+
+std::vector<Deposit> Batch::deposit(const std::vector<char>& mask, DropRule rule) {
+  auto& I = *impl_;
+  const auto S = static_cast<std::size_t>(I.n_systems);
+  if (mask.size() != S) throw std::invalid_argument("Batch::deposit: mask size");
+  auto request = alloc<int>("deposit_request", S);
+  fill_from(request, S, [&](std::size_t s) {
+    return (mask[s] && I.status[s].failure == Failure::None) ? 1 : 0;
+  });
+  auto result = alloc<double>("deposit_result", 4 * S);
+  Kokkos::parallel_for("deposit", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
+                       DepositKernel{I.sys, I.part, request, result, rule == DropRule::Capture});
+  auto hr = Kokkos::create_mirror_view(result);
+  Kokkos::deep_copy(hr, result);
+  auto h_fail = Kokkos::create_mirror_view(I.sys.failure);
+  Kokkos::deep_copy(h_fail, I.sys.failure);
+  std::vector<Deposit> out(S);
+  bool deactivate = false;
+  for (std::size_t s = 0; s < S; ++s) {
+    if (!mask[s]) continue;
+    auto& st = I.status[s];
+    st.failure = static_cast<Failure>(h_fail(static_cast<int>(s)));
+    if (st.failure != Failure::None) {
+      deactivate = deactivate || st.active;
+      st.active = false;
+      continue;
+    }
+    out[s].placed = hr(4 * s) > 0.5;
+    out[s].x = hr(4 * s + 1);
+    out[s].y = hr(4 * s + 2);
+    out[s].radius = hr(4 * s + 3);
+    if (out[s].placed) {
+      st.count += 1;
+      st.rest_steps = 0;
+      st.at_rest = false;
+    }
+  }
+  if (deactivate) I.upload_status_active();
+  return out;
+}
+
+std::vector<Disk> Batch::disks(int s) const {
+  auto& I = *impl_;
+  const auto& st = I.status.at(static_cast<std::size_t>(s));
+  const int first = I.offsets[static_cast<std::size_t>(s)];
+  const auto range = std::make_pair(first, first + st.count);
+  auto get = [&](const DView<double>& v) {
+    auto sub = Kokkos::subview(v, range);
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sub);
+    return h;
+  };
+  auto x = get(I.part.x), y = get(I.part.y), th = get(I.part.theta);
+  auto vx = get(I.part.vx), vy = get(I.part.vy), w = get(I.part.w);
+  auto r = get(I.part.radius), im = get(I.part.inv_mass), iI = get(I.part.inv_inertia);
+  auto yd = get(I.part.y_deposit);
+  std::vector<Disk> out(static_cast<std::size_t>(st.count));
+  for (int k = 0; k < st.count; ++k) {
+    Disk& d = out[static_cast<std::size_t>(k)];
+    d.x = x(k);
+    d.y = y(k);
+    d.theta = th(k);
+    d.vx = vx(k);
+    d.vy = vy(k);
+    d.w = w(k);
+    d.radius = r(k);
+    d.fixed = im(k) == 0.0;
+    d.lock_rotation = !d.fixed && iI(k) == 0.0;
+    d.y_deposit = yd(k);
+  }
+  return out;
+}
+
+std::vector<ContactForce> Batch::contacts(int s) const {
+  auto& I = *impl_;
+  const auto& st = I.status.at(static_cast<std::size_t>(s));
+  const int first = I.offsets[static_cast<std::size_t>(s)];
+  const auto range = std::make_pair(first * kSlots, (first + st.count) * kSlots);
+  auto geti = [&](const DView<int>& v) {
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
+  };
+  auto getd = [&](const DView<double>& v) {
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
+  };
+  auto partner = geti(I.con.partner);
+  auto nx = getd(I.con.nx), ny = getd(I.con.ny), gap = getd(I.con.gap);
+  auto pn = getd(I.con.pn), pt = getd(I.con.pt), pm = getd(I.con.pm);
+  const double h = I.params[static_cast<std::size_t>(s)].time_step;
+  std::vector<ContactForce> out;
+  for (int c = 0; c < st.count * kSlots; ++c) {
+    if (partner(c) == kNoContact) continue;
+    ContactForce f;
+    f.i = c / kSlots;
+    f.j = partner(c) == kFloor ? -1 : partner(c) - first;
+    f.nx = nx(c);
+    f.ny = ny(c);
+    f.gap = gap(c);
+    f.normal = pn(c) / h;
+    f.tangential = pt(c) / h;
+    f.moment = pm(c) / h;
+    out.push_back(f);
+  }
+  return out;
+}
+
+double Batch::max_overlap(int s) const {
+  const auto d = disks(s);
+  const double width = params(s).width;
+  double worst = 0.0;
+  // Bucket by column of width >= the largest diameter; compare within neighbouring columns.
+  double rmax = 0.0;
+  for (const auto& a : d) rmax = std::max(rmax, a.radius);
+  const int ncol = std::max(1, static_cast<int>(width / (2.0 * rmax + 1e-12)));
+  std::vector<std::vector<int>> col(static_cast<std::size_t>(ncol));
+  for (std::size_t k = 0; k < d.size(); ++k) {
+    worst = std::max(worst, d[k].radius - d[k].y);
+    int c = std::min(ncol - 1, static_cast<int>(d[k].x / width * ncol));
+    col[static_cast<std::size_t>(c)].push_back(static_cast<int>(k));
+  }
+  for (int c = 0; c < ncol; ++c) {
+    for (int a : col[static_cast<std::size_t>(c)]) {
+      const int span = ncol < 3 ? ncol : 3;
+      for (int e = 0; e < span; ++e) {
+        const int cc = ncol < 3 ? e : (c - 1 + e + ncol) % ncol;
+        for (int b : col[static_cast<std::size_t>(cc)]) {
+          if (b <= a) continue;
+          const auto& p = d[static_cast<std::size_t>(a)];
+          const auto& q = d[static_cast<std::size_t>(b)];
+          const double dx = periodic_delta(q.x - p.x, width);
+          const double dy = q.y - p.y;
+          const double ov = p.radius + q.radius - std::sqrt(dx * dx + dy * dy);
+          worst = std::max(worst, ov);
+        }
+      }
+    }
+  }
+  return worst;
+}
+
+}  // namespace loosepack
