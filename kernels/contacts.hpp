@@ -63,7 +63,8 @@ struct ContactBuild {
       const double xp = part.x(p), yp = part.y(p);
       const double floor_gap = yp - rp;
       if (floor_gap < reach) {
-        const double lower = (sys.floor_cohesion(s) && floor_gap < dc) ? -fc_impulse : 0.0;
+        const double lower =
+            (sys.floor_cohesion(s) && floor_gap < dc && fc_impulse > 0.0) ? -fc_impulse : 0.0;
         add(p, k, kFloor, 0.0, -1.0, floor_gap, rp, lower);
       }
       const int nx = sys.grid_nx(s), ny = sys.grid_ny(s);
@@ -85,7 +86,7 @@ struct ContactBuild {
             if (d2 >= reach_pq * reach_pq) continue;
             const double d = kmath::sqrt(d2);
             const double gap = d - rp - rq;
-            const double lower = gap < dc ? -fc_impulse : 0.0;
+            const double lower = (gap < dc && fc_impulse > 0.0) ? -fc_impulse : 0.0;
             const double inv_d = d > 0.0 ? 1.0 / d : 0.0;
             // Exactly coincident centres have no line of centres: push along +y by convention.
             const double nxv = d > 0.0 ? dx * inv_d : 0.0;

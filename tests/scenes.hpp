@@ -1,6 +1,7 @@
 // Small scene builders shared by the physics tests.
 #pragma once
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "loosepack/batch.hpp"
@@ -49,6 +50,61 @@ inline double mechanical_energy(const std::vector<Disk>& disks, const SystemPara
     e -= m * g * (p.gravity_dir_x * d.x + p.gravity_dir_y * d.y);
   }
   return e;
+}
+
+}  // namespace loosepack::scenes
+
+namespace loosepack::scenes {
+
+// n disks on a jittered square lattice (spacing 2.4 R) above the floor, at rest: a random drop.
+inline std::vector<Disk> random_drop(int n, double width, unsigned seed, double radius = 1.0) {
+  std::vector<Disk> d(static_cast<std::size_t>(n));
+  const int per_row = static_cast<int>(width / (2.4 * radius));
+  std::uint64_t state = seed;
+  auto uniform = [&state]() {  // SplitMix64, enough for a test scene
+    state += 0x9E3779B97F4A7C15ULL;
+    std::uint64_t z = state;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    return static_cast<double>((z ^ (z >> 31)) >> 11) * 0x1.0p-53;
+  };
+  for (int k = 0; k < n; ++k) {
+    auto& a = d[static_cast<std::size_t>(k)];
+    a.radius = radius;
+    a.x = (k % per_row + 0.5) * 2.4 * radius + 0.15 * radius * (2.0 * uniform() - 1.0);
+    a.y = (k / per_row) * 2.4 * radius + 2.0 * radius + 0.15 * radius * (2.0 * uniform() - 1.0);
+  }
+  return d;
+}
+
+// Rows of touching disks in a hexagonal packing on the floor, n_rows x per_row, periodic width.
+inline std::vector<Disk> hexagonal(int per_row, int n_rows, double radius = 1.0) {
+  std::vector<Disk> d;
+  for (int r = 0; r < n_rows; ++r)
+    for (int k = 0; k < per_row; ++k) {
+      Disk a;
+      a.radius = radius;
+      a.x = radius * (1.0 + 2.0 * k + (r % 2));
+      a.y = radius * (1.0 + std::sqrt(3.0) * r);
+      d.push_back(a);
+    }
+  return d;
+}
+
+// Gaps of all disk pairs and disk-floor pairs below `range` (host, O(N^2): small scenes only).
+template <class F>
+void for_each_close_pair(const std::vector<Disk>& d, double width, double range, F f) {
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    const double gf = d[i].y - d[i].radius;
+    if (gf < range) f(gf, true);
+    for (std::size_t j = i + 1; j < d.size(); ++j) {
+      double dx = d[j].x - d[i].x;
+      dx -= width * std::round(dx / width);
+      const double dy = d[j].y - d[i].y;
+      const double gap = std::sqrt(dx * dx + dy * dy) - d[i].radius - d[j].radius;
+      if (gap < range) f(gap, false);
+    }
+  }
 }
 
 }  // namespace loosepack::scenes

@@ -54,3 +54,240 @@ TEST(Validation, ColumnCarriesWeights) {
   std::printf("column of %d: %ld sweeps over 20 steps (first step %ld)\n", n,
               batch.status(0).sweeps, batch.status(0).sweeps);
 }
+
+// The column converges with Jacobi too (mass splitting), to the same forces.
+TEST(Validation, ColumnJacobiMatchesWeights) {
+  const int n = 20;
+  auto p = bare_params(20.0, 50.0);
+  p.friction = 0.3;
+  Batch batch({setup(p, column(n, 10.0))}, tight(SolverKind::Jacobi));
+  for (int k = 0; k < 10; ++k) batch.step();
+  ASSERT_TRUE(batch.status(0).converged);
+  const double mg = p.reference_mass() * p.gravity;
+  for (const auto& c : batch.contacts(0)) {
+    if (c.j >= 0 && c.j != c.i + 1) continue;
+    const int upper = c.j < 0 ? c.i : c.j;
+    EXPECT_NEAR(c.normal, (n - upper) * mg, 1e-6 * (n - upper) * mg);
+  }
+  std::printf("column of %d, Jacobi: %ld sweeps over 10 steps\n", n, batch.status(0).sweeps);
+}
+
+// 2. Three-disk pyramid without rolling friction.
+namespace {
+// The base disks stand a hair apart: touching, their contact could take any compression the
+// friction leaves free (a statically indeterminate family); apart, the answer is unique.
+constexpr double kBaseGap = 1e-9;
+std::vector<Disk> pyramid() {
+  std::vector<Disk> d(3);
+  const double half = 1.0 + 0.5 * kBaseGap;
+  d[0].x = 10.0 - half;
+  d[0].y = 1.0;
+  d[1].x = 10.0 + half;
+  d[1].y = 1.0;
+  d[2].x = 10.0;
+  d[2].y = 1.0 + std::sqrt(4.0 - half * half);
+  return d;
+}
+}  // namespace
+
+TEST(Validation, PyramidForcesAndStability) {
+  const double threshold = 2.0 - std::sqrt(3.0);  // 0.2679
+  for (double mu : {0.3, 0.25}) {
+    auto p = bare_params();
+    p.friction = mu;
+    Batch batch({setup(p, pyramid())}, tight());
+    for (int k = 0; k < 1000; ++k) batch.step();  // 10 time units
+    const auto d = batch.disks(0);
+    const double drop = pyramid()[2].y - d[2].y;
+    if (mu >= threshold) {
+      EXPECT_LT(drop, 1e-6) << "mu = " << mu;
+      int upper = 0;
+      for (const auto& c : batch.contacts(0)) {
+        if (c.j != 2) continue;
+        EXPECT_NEAR(c.normal, 0.5, 1e-6);
+        EXPECT_NEAR(std::fabs(c.tangential), threshold / 2.0, 1e-6);
+        ++upper;
+      }
+      EXPECT_EQ(upper, 2);
+    } else {
+      EXPECT_GT(drop, 0.1) << "mu = " << mu << " should collapse";
+    }
+  }
+}
+
+// 3. Disk on an incline: the floor with gravity tilted by theta.
+namespace {
+SystemParams incline(double theta, double mu, double mu_r) {
+  auto p = bare_params(1000.0, 10.0);
+  p.friction = mu;
+  p.rolling_friction = mu_r;
+  p.gravity_dir_x = std::sin(theta);
+  p.gravity_dir_y = -std::cos(theta);
+  return p;
+}
+std::vector<Disk> one_disk(bool lock_rotation = false) {
+  std::vector<Disk> d(1);
+  d[0].x = 100.0;
+  d[0].y = 1.0;
+  d[0].lock_rotation = lock_rotation;
+  return d;
+}
+// Distance the disk travels down the slope in time t.
+double slide(double theta, double mu, double mu_r, bool lock, double t, double* speed = nullptr) {
+  Batch batch({setup(incline(theta, mu, mu_r), one_disk(lock))}, tight());
+  const int steps = static_cast<int>(std::lround(t / 0.01));
+  for (int k = 0; k < steps; ++k) batch.step();
+  const auto d = batch.disks(0);
+  if (speed) *speed = d[0].vx;
+  EXPECT_NEAR(d[0].y, 1.0, 1e-9);  // stays on the incline
+  return d[0].x - 100.0;
+}
+}  // namespace
+
+TEST(Validation, InclineRotationLockedStaticIffTanBelowMu) {
+  const double mu = 0.3;
+  EXPECT_LT(std::fabs(slide(std::atan(0.98 * mu), mu, 0.0, true, 2.0)), 1e-9);
+  const double theta = std::atan(1.02 * mu);
+  double v = 0.0;
+  slide(theta, mu, 0.0, true, 2.0, &v);
+  const double a = std::sin(theta) - mu * std::cos(theta);  // g = 1
+  EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0 + 1e-12);
+}
+
+TEST(Validation, InclineRollingFrictionStaticIffTanBelowMuR) {
+  const double mu = 0.3, mu_r = 0.1;  // threshold atan(0.1) = 5.71 degrees
+  EXPECT_LT(std::fabs(slide(std::atan(0.98 * mu_r), mu, mu_r, false, 2.0)), 1e-9);
+  EXPECT_GT(slide(std::atan(1.02 * mu_r), mu, mu_r, false, 2.0), 1e-3);
+}
+
+TEST(Validation, InclineRollsWithTwoThirdsGSinTheta) {
+  const double mu = 0.3;
+  for (double theta : {0.2, std::atan(2.9 * mu)}) {  // below the 3 mu rolling limit
+    double v = 0.0;
+    const double t = 2.0;
+    slide(theta, mu, 0.0, false, t, &v);
+    const double expected = 2.0 / 3.0 * std::sin(theta) * t;
+    EXPECT_NEAR(v, expected, 0.01 * expected) << "theta = " << theta;
+  }
+  // Beyond tan(theta) = 3 mu it slides: faster than rolling allows.
+  const double theta = std::atan(3.3 * mu);
+  double v = 0.0;
+  slide(theta, mu, 0.0, false, 2.0, &v);
+  EXPECT_GT(v, 1.02 * 2.0 / 3.0 * std::sin(theta) * 2.0);
+}
+
+// 4. Disk launched sliding on the floor.
+TEST(Validation, SlidingDiskStartsRollingAtTwoThirdsV0) {
+  const double mu = 0.3, v0 = 2.0, h = 1e-3;
+  auto p = bare_params(1000.0, 10.0);
+  p.friction = mu;
+  p.time_step = h;
+  auto d = one_disk();
+  d[0].vx = v0;
+  Batch batch({setup(p, d)}, tight());
+  const double t_slide = v0 / (3.0 * mu);
+  const double x_slide = 5.0 * v0 * v0 / (18.0 * mu);
+  const double t_end = 2.0 * t_slide;
+  const int steps = static_cast<int>(std::lround(t_end / h));
+  for (int k = 0; k < steps; ++k) batch.step();
+  const auto e = batch.disks(0);
+  EXPECT_NEAR(e[0].vx, 2.0 * v0 / 3.0, 0.02 * 2.0 * v0 / 3.0);
+  EXPECT_NEAR(e[0].w * e[0].radius, -e[0].vx, 1e-9);  // rolling: no slip
+  const double x_expected = x_slide + 2.0 * v0 / 3.0 * (t_end - t_slide);
+  EXPECT_NEAR(e[0].x - 100.0, x_expected, 0.02 * x_expected);
+}
+
+// 5. Cohesive chain hanging from a ceiling (the floor, with gravity reversed).
+TEST(Validation, HangingChainHoldsIffNAtMostBo) {
+  const double bo = 5.0;
+  for (int n : {5, 6}) {
+    auto p = bare_params(20.0, 30.0);
+    p.bond_number = bo;
+    p.friction = 0.3;
+    p.rolling_friction = 0.1;
+    p.gravity_dir_y = 1.0;  // away from the floor, which is the ceiling
+    Batch batch({setup(p, column(n, 10.0))}, tight());
+    for (int k = 0; k < 200; ++k) batch.step();
+    const auto d = batch.disks(0);
+    const double gap = d[0].y - d[0].radius;
+    if (n <= bo) {
+      EXPECT_LT(gap, 1e-9) << n << " disks should hang";
+    } else {
+      EXPECT_GT(gap, 10.0 * p.cohesion_range) << n << " disks should fall";
+    }
+  }
+}
+
+// 6. Pull-off barrier: escape iff v > sqrt(2 F_c d_c / m_n), approached as h shrinks.
+namespace {
+bool escapes(double v, double h, double bo, double dc) {
+  auto p = bare_params(40.0, 10.0);
+  p.gravity_on = false;
+  p.bond_number = bo;
+  p.cohesion_range = dc;
+  p.time_step = h;
+  std::vector<Disk> d(2);
+  d[0].x = 10.0;
+  d[0].y = 5.0;
+  d[1].x = 12.0;
+  d[1].y = 5.0;
+  d[1].vx = v;
+  Batch batch({setup(p, d)}, tight());
+  // Long enough to cross the range at a tenth of the threshold speed several times over.
+  const int steps = static_cast<int>(std::ceil(20.0 * dc / (0.1 * v) / h)) + 10;
+  for (int k = 0; k < steps; ++k) batch.step();
+  const auto e = batch.disks(0);
+  return e[1].x - e[0].x - 2.0 > dc;
+}
+
+double escape_threshold(double h, double bo, double dc, double v_lo, double v_hi) {
+  for (int it = 0; it < 24; ++it) {
+    const double mid = 0.5 * (v_lo + v_hi);
+    (escapes(mid, h, bo, dc) ? v_hi : v_lo) = mid;
+  }
+  return 0.5 * (v_lo + v_hi);
+}
+}  // namespace
+
+TEST(Validation, PullOffBarrier) {
+  const double bo = 10.0, dc = 0.01, m_n = 0.5;
+  const double v_star = std::sqrt(2.0 * bo * dc / m_n);  // F_c = Bo m g with m = g = 1
+  const double h_scale = std::sqrt(2.0 * m_n * dc / bo);  // sqrt(2 m_n d_c / F_c) = 0.032
+  const double h1 = h_scale / 10.0, h2 = h_scale / 100.0;
+  EXPECT_FALSE(escapes(0.95 * v_star, h2, bo, dc));
+  EXPECT_TRUE(escapes(1.05 * v_star, h2, bo, dc));
+  const double t1 = escape_threshold(h1, bo, dc, 0.5 * v_star, 2.0 * v_star);
+  const double t2 = escape_threshold(h2, bo, dc, 0.5 * v_star, 2.0 * v_star);
+  std::printf("pull-off threshold / v*: h = %.2g: %.4f, h = %.2g: %.4f\n", h1, t1 / v_star, h2,
+              t2 / v_star);
+  EXPECT_LT(std::fabs(t2 - v_star), std::fabs(t1 - v_star));  // converges as h shrinks
+  EXPECT_NEAR(t2, v_star, 0.02 * v_star);
+}
+
+// 7. Cohesive cantilever: a chain standing on the wall (the floor) with gravity sideways.
+TEST(Validation, CantileverHoldsIffJSquaredAtMostMuRBo) {
+  const double bo = 260.0, mu_r = 0.1;  // mu_r Bo = 26: j = 5 holds, j = 6 falls
+  for (int j : {5, 6}) {
+    auto p = bare_params(60.0, 30.0);
+    p.bond_number = bo;
+    p.friction = 0.3;  // j <= mu Bo = 78 either way
+    p.rolling_friction = mu_r;
+    p.gravity_dir_x = 1.0;
+    p.gravity_dir_y = 0.0;
+    Batch batch({setup(p, column(j, 10.0))}, tight());
+    for (int k = 0; k < 300; ++k) batch.step();
+    const auto d = batch.disks(0);
+    const double tip = d[static_cast<std::size_t>(j - 1)].x - 10.0;
+    if (j * j <= mu_r * bo) {
+      EXPECT_LT(std::fabs(tip), 1e-6) << j << " disks should hold";
+      // Root contact: moment j^2 m g R and shear j m g.
+      for (const auto& c : batch.contacts(0)) {
+        if (c.j != -1) continue;
+        EXPECT_NEAR(std::fabs(c.moment), j * j * 1.0, 1e-6 * j * j);
+        EXPECT_NEAR(std::fabs(c.tangential), j * 1.0, 1e-6 * j);
+      }
+    } else {
+      EXPECT_GT(tip, 0.1) << j << " disks should fall";
+    }
+  }
+}

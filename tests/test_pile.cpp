@@ -1,0 +1,201 @@
+// Many-disk scenes: energy, settling, determinism across batches, Jacobi against Gauss-Seidel.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+
+#include "loosepack/batch.hpp"
+#include "tests/scenes.hpp"
+
+using namespace loosepack;
+using namespace loosepack::scenes;
+
+namespace {
+// Kinetic + gravitational + cohesive energy. A pair inside the cohesion range stores
+// F_c (min(gap, 0) ... ) : the potential of a constant force F_c over the range, F_c (gap - d_c).
+double total_energy(const std::vector<Disk>& d, const SystemParams& p) {
+  double e = mechanical_energy(d, p);
+  const double fc = p.cohesive_force();
+  if (fc > 0.0) {
+    for_each_close_pair(d, p.width, p.cohesion_range, [&](double gap, bool floor) {
+      if (floor && !p.floor_cohesion) return;
+      e += fc * (gap - p.cohesion_range);
+    });
+  }
+  return e;
+}
+}  // namespace
+
+// 8. Energy never increases beyond the solver tolerance in a settling pile.
+TEST(Energy, SettlingPileNeverGainsEnergy) {
+  for (double bo : {0.0, 10.0}) {
+    auto p = bare_params(24.0, 60.0);
+    p.friction = 0.3;
+    p.rolling_friction = 0.1;
+    p.bond_number = bo;
+    p.time_step = 0.005;
+    const int n = 60;
+    SolverSettings s;
+    s.tolerance = 1e-9;
+    s.max_sweeps = 100000;
+    Batch batch({setup(p, random_drop(n, p.width, 7))}, s);
+    double e_prev = total_energy(batch.disks(0), p);
+    const double e0 = e_prev;
+    double worst = 0.0;
+    for (int k = 0; k < 1500; ++k) {
+      batch.step();
+      const double e = total_energy(batch.disks(0), p);
+      worst = std::max(worst, e - e_prev);
+      e_prev = e;
+    }
+    ASSERT_EQ(batch.status(0).failure, Failure::None);
+    // The solver stops when impulses change by less than tol * h m g per sweep; over all
+    // contacts (about 3 per disk) and speeds below 10 sqrt(gR), that bounds the energy error
+    // per step by about 3 n tol h m g * 10 R.
+    const double bound = 3.0 * n * s.tolerance * p.time_step * 10.0;
+    std::printf("Bo = %g: energy %.3f -> %.3f, largest rise in one step %.3g (bound %.3g)\n", bo,
+                e0, e_prev, worst, bound);
+    EXPECT_LE(worst, bound) << "Bo = " << bo;
+    EXPECT_LT(e_prev, e0);
+  }
+}
+
+// 9. A random pile settles: finite, small overlaps, and bit-identical alone or in a batch.
+TEST(Pile, SettlesAndIsBitIdenticalInsideABatch) {
+  auto p = bare_params(30.0, 80.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.0;
+  const int n = 300;
+  const auto drop = random_drop(n, p.width, 11);
+  SolverSettings s;  // defaults
+  Batch alone({setup(p, drop)}, s);
+  const long steps = alone.run_to_rest(20000);
+  const auto& st = alone.status(0);
+  ASSERT_EQ(st.failure, Failure::None);
+  EXPECT_TRUE(st.at_rest) << "not at rest after " << steps << " steps";
+  const double overlap = alone.max_overlap(0);
+  std::printf("pile of %d: at rest after %ld steps, %ld sweeps, max overlap %.3g R\n", n, st.steps,
+              st.sweeps, overlap);
+  EXPECT_LT(overlap, 0.02);
+  const auto a = alone.disks(0);
+  double top = 0.0;
+  for (const auto& d : a) {
+    EXPECT_TRUE(std::isfinite(d.x) && std::isfinite(d.y));
+    EXPECT_GE(d.x, 0.0);
+    EXPECT_LT(d.x, p.width);
+    top = std::max(top, d.y);
+  }
+  // The pile is compact: n disks in a width of 30 R pack at least as densely as 0.6.
+  EXPECT_LT(top, n * M_PI / (0.6 * p.width) + 2.0);
+
+  // The same system as member 5 of 8, among others with cohesion, rolling friction, other sizes.
+  std::vector<SystemSetup> mixed;
+  for (int k = 0; k < 8; ++k) {
+    if (k == 5) {
+      mixed.push_back(setup(p, drop));
+      continue;
+    }
+    auto q = bare_params(20.0 + 2.0 * k, 60.0);
+    q.friction = 0.1 * k;
+    q.rolling_friction = 0.05 * (k % 3);
+    q.bond_number = k % 2 ? 100.0 : 0.0;
+    mixed.push_back(setup(q, random_drop(40 + 30 * k, q.width, 100 + k), 400));
+  }
+  Batch batch(mixed, s);
+  batch.run_to_rest(20000);
+  const auto b = batch.disks(5);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(batch.status(5).steps, st.steps);
+  EXPECT_EQ(batch.status(5).sweeps, st.sweeps);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(std::memcmp(&a[k].x, &b[k].x, sizeof(double)), 0);
+    EXPECT_EQ(std::memcmp(&a[k].y, &b[k].y, sizeof(double)), 0);
+    EXPECT_EQ(std::memcmp(&a[k].w, &b[k].w, sizeof(double)), 0);
+  }
+}
+
+// 10. Jacobi converges on a dense hexagonal packing under load; Jacobi and Gauss-Seidel agree
+// where the forces are determinate.
+namespace {
+// Sum of the vertical force components crossing from row r+1 onto row r must carry the weight
+// of all rows above r (equilibrium of the slab above, whatever the indeterminate split).
+void check_row_loads(const Batch& batch, int per_row, int n_rows) {
+  const auto disks = batch.disks(0);
+  std::vector<double> load(static_cast<std::size_t>(n_rows), 0.0);
+  for (const auto& c : batch.contacts(0)) {
+    if (c.j < 0) {
+      load[0] += c.normal;  // floor: row "-1" carries row 0 and above
+      continue;
+    }
+    const int ri = c.i / per_row, rj = c.j / per_row;
+    if (ri == rj) continue;
+    const int upper = std::max(ri, rj);
+    // vertical component of the force on the upper disk
+    const double fy = (c.normal * c.ny + c.tangential * c.nx) * (rj > ri ? 1.0 : -1.0);
+    load[static_cast<std::size_t>(upper)] += fy;
+  }
+  for (int r = 0; r < n_rows; ++r)
+    EXPECT_NEAR(load[static_cast<std::size_t>(r)], (n_rows - r) * per_row, 1e-5 * n_rows * per_row)
+        << "row " << r;
+  (void)disks;
+}
+}  // namespace
+
+TEST(Solver, JacobiConvergesOnDenseHexagonalPacking) {
+  const int per_row = 10, n_rows = 12;
+  auto p = bare_params(20.0, 40.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel}) {
+    SolverSettings s;
+    s.kind = kind;
+    s.tolerance = 1e-10;
+    s.max_sweeps = 200000;
+    Batch batch({setup(p, hexagonal(per_row, n_rows))}, s);
+    batch.step();
+    const long first = batch.status(0).last_sweeps;
+    for (int k = 0; k < 9; ++k) batch.step();
+    ASSERT_TRUE(batch.status(0).converged);
+    EXPECT_LT(batch.status(0).max_speed, 1e-6);
+    check_row_loads(batch, per_row, n_rows);
+    std::printf("hexagonal %dx%d, %s: %ld sweeps in the first step, %ld over 10 steps\n", per_row,
+                n_rows, kind == SolverKind::Jacobi ? "Jacobi" : "Gauss-Seidel", first,
+                batch.status(0).sweeps);
+  }
+}
+
+TEST(Solver, JacobiAndGaussSeidelAgreeOnDeterminatePiles) {
+  // The column and the pyramid have unique contact forces.
+  std::vector<Disk> pyr(3);
+  const double half = 1.0 + 0.5e-9;
+  pyr[0].x = 10.0 - half;
+  pyr[0].y = 1.0;
+  pyr[1].x = 10.0 + half;
+  pyr[1].y = 1.0;
+  pyr[2].x = 10.0;
+  pyr[2].y = 1.0 + std::sqrt(4.0 - half * half);
+  auto p = bare_params(20.0, 40.0);
+  p.friction = 0.3;
+  for (const auto& scene : {column(15, 10.0), pyr}) {
+    std::vector<std::vector<ContactForce>> forces;
+    for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel}) {
+      SolverSettings s;
+      s.kind = kind;
+      s.tolerance = 1e-10;
+      s.max_sweeps = 200000;
+      Batch batch({setup(p, scene)}, s);
+      for (int k = 0; k < 5; ++k) batch.step();
+      forces.push_back(batch.contacts(0));
+      std::printf("%zu disks, %s: %ld sweeps\n", scene.size(),
+                  kind == SolverKind::Jacobi ? "Jacobi" : "Gauss-Seidel", batch.status(0).sweeps);
+    }
+    ASSERT_EQ(forces[0].size(), forces[1].size());
+    for (std::size_t k = 0; k < forces[0].size(); ++k) {
+      EXPECT_EQ(forces[0][k].i, forces[1][k].i);
+      EXPECT_EQ(forces[0][k].j, forces[1][k].j);
+      EXPECT_NEAR(forces[0][k].normal, forces[1][k].normal, 1e-6);
+      EXPECT_NEAR(forces[0][k].tangential, forces[1][k].tangential, 1e-6);
+    }
+  }
+}
