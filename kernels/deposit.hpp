@@ -81,6 +81,7 @@ struct DepositKernel {
       part.inv_mass(p) = 1.0 / m;
       part.inv_inertia(p) = 2.0 / (m * r * r);
       part.y_deposit(p) = py;
+      part.y_mark(p) = py;
       sys.count(s) = n + 1;
       result(4 * s + 0) = 1.0;
     });

@@ -53,6 +53,7 @@ struct ParticleViews {
   DView<double> vfx, vfy, wf;  // free velocities of the current step
   DView<double> radius, inv_mass, inv_inertia;
   DView<double> y_deposit;  // y_i, the height at which the disk was deposited
+  DView<double> y_mark;     // height at the start of the current avalanche event
   DView<int> cell;      // grid cell (global index)
   DView<int> n_incident;        // [P] number of incident contacts
   DView<int> incident;          // [P*kIncident] contact slot ids

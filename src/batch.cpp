@@ -10,6 +10,7 @@
 #include "kernels/colouring.hpp"
 #include "kernels/contacts.hpp"
 #include "kernels/deposit.hpp"
+#include "kernels/events.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/solver.hpp"
 
@@ -177,6 +178,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   part.inv_mass = alloc<double>("inv_mass", P);
   part.inv_inertia = alloc<double>("inv_inertia", P);
   part.y_deposit = alloc<double>("y_deposit", P);
+  part.y_mark = alloc<double>("y_mark", P);
   part.cell = alloc<int>("cell", P);
   part.n_incident = alloc<int>("n_incident", P);
   part.incident = alloc<int>("incident", P * kIncident);
@@ -226,6 +228,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
     Kokkos::deep_copy(part.inv_mass, him);
     Kokkos::deep_copy(part.inv_inertia, hiI);
     Kokkos::deep_copy(part.y_deposit, hyd);
+    Kokkos::deep_copy(part.y_mark, hy);
     fill_from(sys.max_speed, S, [&](std::size_t s) { return speed[s]; });
   }
 
@@ -573,6 +576,25 @@ std::vector<Deposit> Batch::deposit(const std::vector<char>& mask, DropRule rule
     }
   }
   if (deactivate) I.upload_status_active();
+  return out;
+}
+
+std::vector<Batch::Avalanche> Batch::close_events(const std::vector<char>& mask,
+                                                 double threshold) {
+  auto& I = *impl_;
+  const auto S = static_cast<std::size_t>(I.n_systems);
+  if (mask.size() != S) throw std::invalid_argument("Batch::close_events: mask size");
+  auto request = alloc<int>("event_request", S);
+  fill_from(request, S, [&](std::size_t s) { return mask[s] ? 1 : 0; });
+  auto result = alloc<double>("event_result", 2 * S);
+  Kokkos::parallel_for("event_measure", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
+                       EventMeasure{I.sys, I.part, request, result, threshold});
+  auto hr = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), result);
+  std::vector<Avalanche> out(S);
+  for (std::size_t s = 0; s < S; ++s) {
+    out[s].moved = static_cast<int>(hr(2 * s));
+    out[s].downward = hr(2 * s + 1);
+  }
   return out;
 }
 

@@ -1,1 +1,243 @@
-// placeholder until written
+// Per-member observables (MODEL.md, "Observables") and their ensemble aggregates.
+#include "loosepack/observables.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "kernels/contact_law.hpp"
+
+namespace loosepack {
+
+std::vector<double> volume_fraction_profile(const std::vector<double>& y,
+                                            const std::vector<double>& r, double width,
+                                            double strip, int n_strips) {
+  std::vector<double> area(static_cast<std::size_t>(std::max(n_strips, 0)), 0.0);
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    const int lo = std::max(0, static_cast<int>(std::floor((y[k] - r[k]) / strip)));
+    const int hi = std::min(n_strips - 1, static_cast<int>(std::floor((y[k] + r[k]) / strip)));
+    for (int s = lo; s <= hi; ++s)
+      area[static_cast<std::size_t>(s)] += disk_strip_area(y[k], r[k], s * strip, (s + 1) * strip);
+  }
+  for (auto& a : area) a /= width * strip;
+  return area;
+}
+
+double band_volume_fraction(const std::vector<double>& y, const std::vector<double>& r,
+                            double width, double a, double b) {
+  if (!(b > a)) return std::numeric_limits<double>::quiet_NaN();
+  double area = 0.0;
+  for (std::size_t k = 0; k < y.size(); ++k) area += disk_strip_area(y[k], r[k], a, b);
+  return area / (width * (b - a));
+}
+
+double deposit_top(const std::vector<double>& y, const std::vector<double>& r) {
+  double top = 0.0;
+  for (std::size_t k = 0; k < y.size(); ++k) top = std::max(top, y[k] + r[k]);
+  return top;
+}
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+Scalar mean_sem(const std::vector<double>& v) {
+  Scalar s;
+  double sum = 0.0, sum2 = 0.0;
+  for (double x : v) {
+    if (std::isnan(x)) continue;
+    sum += x;
+    sum2 += x * x;
+    ++s.n;
+  }
+  if (s.n == 0) {
+    s.mean = s.sem = kNaN;
+    return s;
+  }
+  s.mean = sum / s.n;
+  const double var = s.n > 1 ? std::max(0.0, (sum2 - s.n * s.mean * s.mean) / (s.n - 1)) : kNaN;
+  s.sem = std::sqrt(var / s.n);
+  return s;
+}
+
+// Columns of per-member profiles -> mean, standard error, relative fluctuation per entry.
+EnsembleProfile ensemble(const std::vector<std::vector<double>>& rows,
+                         const std::vector<double>& centre) {
+  EnsembleProfile e;
+  e.centre = centre;
+  for (std::size_t k = 0; k < centre.size(); ++k) {
+    std::vector<double> col;
+    for (const auto& r : rows) col.push_back(k < r.size() ? r[k] : kNaN);
+    const Scalar s = mean_sem(col);
+    e.mean.push_back(s.mean);
+    e.sem.push_back(s.sem);
+    e.members.push_back(s.n);
+    e.rel_fluctuation.push_back(s.n > 1 && s.mean != 0.0 ? s.sem * std::sqrt(double(s.n)) / s.mean
+                                                         : kNaN);
+  }
+  return e;
+}
+
+// Avalanche profile: Delta y binned by `key` (y_i or y_e), pooled over members, with the
+// standard error of the bin mean estimated from the scatter of the member means.
+BinnedStat binned(const std::vector<const MemberResult*>& ok, bool by_initial, double bin,
+                  int n_bins) {
+  BinnedStat b;
+  const auto N = static_cast<std::size_t>(n_bins);
+  std::vector<double> sum(N, 0.0), sum2(N, 0.0), cnt(N, 0.0);
+  std::vector<std::vector<double>> member_means(N);
+  for (const auto* r : ok) {
+    std::vector<double> ms(N, 0.0), mc(N, 0.0);
+    for (std::size_t k = 0; k < r->y_e.size(); ++k) {
+      const double key = by_initial ? r->y_i[k] : r->y_e[k];
+      const int j = static_cast<int>(std::floor(key / bin));
+      if (j < 0 || j >= n_bins) continue;
+      const double dy = r->y_e[k] - r->y_i[k];
+      const auto u = static_cast<std::size_t>(j);
+      sum[u] += dy;
+      sum2[u] += dy * dy;
+      cnt[u] += 1.0;
+      ms[u] += dy;
+      mc[u] += 1.0;
+    }
+    for (std::size_t u = 0; u < N; ++u)
+      if (mc[u] > 0.0) member_means[u].push_back(ms[u] / mc[u]);
+  }
+  for (std::size_t u = 0; u < N; ++u) {
+    b.centre.push_back((static_cast<double>(u) + 0.5) * bin);
+    b.count.push_back(cnt[u]);
+    if (cnt[u] == 0.0) {
+      b.mean.push_back(kNaN);
+      b.stddev.push_back(kNaN);
+      b.sem.push_back(kNaN);
+      continue;
+    }
+    const double m = sum[u] / cnt[u];
+    b.mean.push_back(m);
+    b.stddev.push_back(
+        cnt[u] > 1.0 ? std::sqrt(std::max(0.0, (sum2[u] - cnt[u] * m * m) / (cnt[u] - 1.0))) : kNaN);
+    b.sem.push_back(mean_sem(member_means[u]).sem);
+  }
+  return b;
+}
+
+}  // namespace
+
+std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberResult>& results) {
+  const auto& obs = scan.observables;
+  std::vector<PointResult> out;
+  for (const auto& pt : scan.points) {
+    PointResult pr;
+    pr.point = pt;
+    const SystemParams& p = pt.params;
+    const double H = p.height;
+    const int n_strips = std::max(1, static_cast<int>(std::ceil(H / obs.strip_width)));
+    const int n_bins = std::max(1, static_cast<int>(std::ceil(H / obs.bin_width)));
+    std::vector<const MemberResult*> ok;
+    std::vector<std::vector<double>> nu_rows, nud_rows;
+    std::vector<double> lower_half, abs_dy_means, nu_i, nu_f, rel;
+    for (const auto& r : results) {
+      if (r.member.point != pt.index) continue;
+      ++pr.members;
+      const double top = deposit_top(r.y_e, r.radius);
+      pr.m_disks.push_back(static_cast<double>(r.y_e.size()));
+      pr.m_top.push_back(top);
+      pr.m_steps.push_back(static_cast<double>(r.steps));
+      pr.m_sweeps.push_back(static_cast<double>(r.sweeps));
+      pr.m_wall_time.push_back(r.wall_time);
+      pr.m_failure.push_back(static_cast<double>(r.failure));
+      pr.m_capped.push_back(r.capped);
+      pr.m_seed_index.push_back(r.member.seed_index);
+      // For C the final deposit is lower than H: its bulk band ends at half its own top.
+      const double band_top = pt.protocol == Protocol::C ? 0.5 * top : 0.5 * H;
+      const double nlh =
+          band_volume_fraction(r.y_e, r.radius, p.width, obs.lower_half_from, band_top);
+      pr.m_nu_lower_half.push_back(r.ok() ? nlh : kNaN);
+      if (!r.ok()) {
+        ++pr.failed;
+        continue;  // failed members are excluded from every aggregate
+      }
+      ok.push_back(&r);
+      nu_rows.push_back(volume_fraction_profile(r.y_e, r.radius, p.width, obs.strip_width, n_strips));
+      // Deposition density: disk area by deposition height y_i (centre counting of y_i).
+      std::vector<double> nud(static_cast<std::size_t>(n_strips), 0.0);
+      double sum_abs = 0.0;
+      for (std::size_t k = 0; k < r.y_i.size(); ++k) {
+        const int s = static_cast<int>(std::floor(r.y_i[k] / obs.strip_width));
+        if (s >= 0 && s < n_strips)
+          nud[static_cast<std::size_t>(s)] +=
+              M_PI * r.radius[k] * r.radius[k] / (p.width * obs.strip_width);
+        sum_abs += std::fabs(r.y_e[k] - r.y_i[k]);
+      }
+      nud_rows.push_back(nud);
+      lower_half.push_back(nlh);
+      abs_dy_means.push_back(r.y_i.empty() ? kNaN : sum_abs / static_cast<double>(r.y_i.size()));
+      if (pt.protocol == Protocol::C) {
+        const double ni = band_volume_fraction(r.y_i, r.radius, p.width, obs.lower_half_from,
+                                               0.5 * deposit_top(r.y_i, r.radius));
+        nu_i.push_back(ni);
+        nu_f.push_back(nlh);
+        rel.push_back((nlh - ni) / ni);
+      }
+    }
+    std::vector<double> strip_centre, bin_centre;
+    for (int s = 0; s < n_strips; ++s) strip_centre.push_back((s + 0.5) * obs.strip_width);
+    pr.nu = ensemble(nu_rows, strip_centre);
+    pr.nu_deposition = ensemble(nud_rows, strip_centre);
+    pr.nu_lower_half = mean_sem(lower_half);
+    pr.mean_abs_dy = mean_sem(abs_dy_means);
+    pr.nu_initial = mean_sem(nu_i);
+    pr.nu_final = mean_sem(nu_f);
+    pr.relative_increase = mean_sem(rel);
+    pr.dy_by_yi = binned(ok, true, obs.bin_width, n_bins);
+    pr.dy_by_ye = binned(ok, false, obs.bin_width, n_bins);
+
+    // |Delta y| histograms: all disks, and without the bottom and top of the final deposit.
+    double max_abs = 0.0;
+    for (const auto* r : ok)
+      for (std::size_t k = 0; k < r->y_i.size(); ++k)
+        max_abs = std::max(max_abs, std::fabs(r->y_e[k] - r->y_i[k]));
+    const int n_hist = std::max(1, static_cast<int>(std::floor(max_abs / obs.abs_dy_bin)) + 1);
+    for (int k = 0; k <= n_hist; ++k) pr.abs_dy_edges.push_back(k * obs.abs_dy_bin);
+    pr.abs_dy_counts.assign(static_cast<std::size_t>(n_hist), 0.0);
+    pr.abs_dy_counts_cut.assign(static_cast<std::size_t>(n_hist), 0.0);
+    for (const auto* r : ok) {
+      const double top = deposit_top(r->y_e, r->radius);
+      for (std::size_t k = 0; k < r->y_i.size(); ++k) {
+        const double a = std::fabs(r->y_e[k] - r->y_i[k]);
+        const auto j = static_cast<std::size_t>(
+            std::min(n_hist - 1, static_cast<int>(std::floor(a / obs.abs_dy_bin))));
+        pr.abs_dy_counts[j] += 1.0;
+        if (r->y_e[k] >= obs.cut_bottom && r->y_e[k] <= top - obs.cut_top)
+          pr.abs_dy_counts_cut[j] += 1.0;
+      }
+    }
+
+    // Avalanche events (protocol A): logarithmic bins, 4 per decade from 1e-3 to 1e5.
+    if (pt.protocol == Protocol::A) {
+      const int per_decade = 4, decades = 8;
+      for (int k = 0; k <= per_decade * decades; ++k)
+        pr.event_edges.push_back(std::pow(10.0, -3.0 + static_cast<double>(k) / per_decade));
+      const auto nb = static_cast<std::size_t>(per_decade * decades);
+      pr.event_downward_counts.assign(nb, 0.0);
+      pr.event_moved_counts.assign(nb, 0.0);
+      auto bin_of = [&](double v) {
+        const int j = static_cast<int>(std::floor((std::log10(v) + 3.0) * per_decade));
+        return static_cast<std::size_t>(std::clamp(j, 0, per_decade * decades - 1));
+      };
+      for (const auto* r : ok)
+        for (const auto& ev : r->events) {
+          if (ev.moved == 0) {
+            pr.events_without_motion += 1.0;
+            continue;
+          }
+          pr.event_moved_counts[bin_of(ev.moved)] += 1.0;
+          if (ev.downward > 0.0) pr.event_downward_counts[bin_of(ev.downward)] += 1.0;
+        }
+    }
+    out.push_back(std::move(pr));
+  }
+  return out;
+}
+
+}  // namespace loosepack

@@ -1,1 +1,319 @@
-// placeholder until written
+// HDF5 output through the C API, with a small RAII handle.
+#include "loosepack/output.hpp"
+
+#include <hdf5.h>
+#include <unistd.h>
+
+#include <Kokkos_Core.hpp>
+#include <cmath>
+#include <cstdio>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+namespace loosepack {
+
+namespace {
+
+class H5 {
+ public:
+  H5(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
+    if (id_ < 0) throw std::runtime_error("HDF5: cannot " + what);
+  }
+  ~H5() {
+    if (id_ >= 0) close_(id_);
+  }
+  H5(const H5&) = delete;
+  H5& operator=(const H5&) = delete;
+  operator hid_t() const { return id_; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+void check(herr_t e, const std::string& what) {
+  if (e < 0) throw std::runtime_error("HDF5: cannot " + what);
+}
+
+H5 group(hid_t parent, const std::string& name) {
+  return H5(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+            "create group " + name);
+}
+
+void dataset(hid_t parent, const std::string& name, const std::vector<double>& v) {
+  const hsize_t n = v.size();
+  H5 space(H5Screate_simple(1, &n, nullptr), H5Sclose, "create dataspace");
+  H5 set(H5Dcreate2(parent, name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT,
+                    H5P_DEFAULT),
+         H5Dclose, "create dataset " + name);
+  if (n > 0)
+    check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
+          "write dataset " + name);
+}
+
+void attribute(hid_t obj, const std::string& name, double v) {
+  H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
+  H5 a(H5Acreate2(obj, name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "create attribute " + name);
+  check(H5Awrite(a, H5T_NATIVE_DOUBLE, &v), "write attribute " + name);
+}
+
+void attribute(hid_t obj, const std::string& name, const std::string& v) {
+  H5 type(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
+  check(H5Tset_size(type, v.empty() ? 1 : v.size()), "set string size");
+  H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
+  H5 a(H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "create attribute " + name);
+  const std::string s = v.empty() ? std::string(1, '\0') : v;
+  check(H5Awrite(a, type, s.data()), "write attribute " + name);
+}
+
+void scalar(hid_t obj, const std::string& name, const Scalar& s) {
+  attribute(obj, name + "_mean", s.mean);
+  attribute(obj, name + "_sem", s.sem);
+  attribute(obj, name + "_n", static_cast<double>(s.n));
+}
+
+void profile(hid_t parent, const std::string& name, const EnsembleProfile& e) {
+  H5 g = group(parent, name);
+  dataset(g, "centre", e.centre);
+  dataset(g, "mean", e.mean);
+  dataset(g, "sem", e.sem);
+  dataset(g, "members", e.members);
+  dataset(g, "rel_fluctuation", e.rel_fluctuation);
+}
+
+void binned(hid_t parent, const std::string& name, const BinnedStat& b) {
+  H5 g = group(parent, name);
+  dataset(g, "centre", b.centre);
+  dataset(g, "mean", b.mean);
+  dataset(g, "stddev", b.stddev);
+  dataset(g, "count", b.count);
+  dataset(g, "sem", b.sem);
+}
+
+void params(hid_t g, const SystemParams& p) {
+  attribute(g, "width", p.width);
+  attribute(g, "height", p.height);
+  attribute(g, "radius", p.radius);
+  attribute(g, "polydispersity", p.polydispersity);
+  attribute(g, "disk_density", p.disk_density);
+  attribute(g, "gravity", p.gravity);
+  attribute(g, "bond_number", p.bond_number);
+  attribute(g, "cohesive_force", p.cohesive_force());
+  attribute(g, "cohesion_range", p.cohesion_range);
+  attribute(g, "floor_cohesion", p.floor_cohesion ? 1.0 : 0.0);
+  attribute(g, "friction", p.friction);
+  attribute(g, "rolling_friction", p.rolling_friction);
+  attribute(g, "time_step", p.time_step);
+  attribute(g, "capture_radius", p.capture_radius);
+}
+
+std::string point_name(int k) {
+  std::ostringstream o;
+  o << "points/" << std::setw(4) << std::setfill('0') << k;
+  return o.str();
+}
+
+}  // namespace
+
+void write_results(const std::string& path, const Scan& scan, const RunInfo& info,
+                   const std::vector<PointResult>& points, const std::vector<MemberResult>& members,
+                   bool snapshots) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  try {
+    {
+      H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+              "create " + tmp);
+      attribute(file, "program", std::string("loosepack"));
+      attribute(file, "version", std::string(LOOSEPACK_VERSION));
+      attribute(file, "git_commit", std::string(LOOSEPACK_GIT_COMMIT));
+      attribute(file, "compiler", std::string(LOOSEPACK_COMPILER));
+      attribute(file, "cxx_flags", std::string(LOOSEPACK_CXX_FLAGS));
+      attribute(file, "kokkos_execution_space", std::string(Kokkos::DefaultExecutionSpace::name()));
+      attribute(file, "kokkos_version", static_cast<double>(KOKKOS_VERSION));
+      attribute(file, "units", std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
+                                           "time sqrt(R/g); lengths in R"));
+      attribute(file, "start_time", info.start_time);
+      attribute(file, "end_time", info.end_time);
+      attribute(file, "wall_seconds", info.wall_seconds);
+      attribute(file, "mpi_ranks", static_cast<double>(info.ranks));
+      attribute(file, "scan_file", scan.file);
+      attribute(file, "scan_text", scan.text);
+      attribute(file, "scan_name", scan.name);
+      attribute(file, "seed", static_cast<double>(scan.seed));
+      attribute(file, "seeds", static_cast<double>(scan.seeds));
+      attribute(file, "batch_size", static_cast<double>(scan.batch_size));
+      {
+        H5 g = group(file, "settings");
+        attribute(g, "solver_kind",
+                  std::string(scan.solver.kind == SolverKind::Jacobi ? "jacobi" : "gauss_seidel"));
+        attribute(g, "solver_tolerance", scan.solver.tolerance);
+        attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
+        attribute(g, "solver_relaxation", scan.solver.relaxation);
+        attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
+        attribute(g, "rest_speed", scan.rest.speed);
+        attribute(g, "rest_steps", static_cast<double>(scan.rest.steps));
+        attribute(g, "max_relax_time", scan.protocol.max_relax_time);
+        attribute(g, "max_collapse_time", scan.protocol.max_collapse_time);
+        const auto& o = scan.observables;
+        attribute(g, "strip_width", o.strip_width);
+        attribute(g, "lower_half_from", o.lower_half_from);
+        attribute(g, "bin_width", o.bin_width);
+        attribute(g, "abs_dy_bin", o.abs_dy_bin);
+        attribute(g, "cut_bottom", o.cut_bottom);
+        attribute(g, "cut_top", o.cut_top);
+        attribute(g, "event_threshold", o.event_threshold);
+      }
+      H5 all = group(file, "points");
+      for (const auto& pr : points) {
+        H5 g = group(file, point_name(pr.point.index));
+        attribute(g, "protocol", protocol_name(pr.point.protocol));
+        params(g, pr.point.params);
+        attribute(g, "members", static_cast<double>(pr.members));
+        attribute(g, "failed", static_cast<double>(pr.failed));
+        scalar(g, "nu_lower_half", pr.nu_lower_half);
+        scalar(g, "mean_abs_dy", pr.mean_abs_dy);
+        profile(g, "nu", pr.nu);
+        std::vector<double> depth;
+        for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
+        dataset(g, "nu/depth", depth);
+        profile(g, "nu_deposition", pr.nu_deposition);
+        binned(g, "avalanche_by_yi", pr.dy_by_yi);
+        binned(g, "avalanche_by_ye", pr.dy_by_ye);
+        {
+          H5 h = group(g, "abs_dy_histogram");
+          dataset(h, "edges", pr.abs_dy_edges);
+          dataset(h, "counts", pr.abs_dy_counts);
+          dataset(h, "counts_cut", pr.abs_dy_counts_cut);
+        }
+        if (pr.point.protocol == Protocol::C) {
+          scalar(g, "nu_initial", pr.nu_initial);
+          scalar(g, "nu_final", pr.nu_final);
+          scalar(g, "relative_increase", pr.relative_increase);
+        }
+        if (pr.point.protocol == Protocol::A) {
+          H5 e = group(g, "events");
+          dataset(e, "edges", pr.event_edges);
+          dataset(e, "downward_counts", pr.event_downward_counts);
+          dataset(e, "moved_counts", pr.event_moved_counts);
+          attribute(e, "without_motion", pr.events_without_motion);
+        }
+        H5 m = group(g, "members");
+        dataset(m, "seed_index", pr.m_seed_index);
+        dataset(m, "disks", pr.m_disks);
+        dataset(m, "top", pr.m_top);
+        dataset(m, "nu_lower_half", pr.m_nu_lower_half);
+        dataset(m, "steps", pr.m_steps);
+        dataset(m, "sweeps", pr.m_sweeps);
+        dataset(m, "wall_time", pr.m_wall_time);
+        dataset(m, "failure", pr.m_failure);
+        dataset(m, "capped", pr.m_capped);
+        if (snapshots) {
+          for (const auto& r : members) {
+            if (r.member.point != pr.point.index) continue;
+            H5 s = group(m, "snapshot_" + std::to_string(r.member.seed_index));
+            dataset(s, "x", r.x);
+            dataset(s, "y_i", r.y_i);
+            dataset(s, "y_e", r.y_e);
+            dataset(s, "radius", r.radius);
+          }
+        }
+      }
+      check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0)
+      throw std::runtime_error("cannot rename " + tmp + " to " + path);
+  } catch (...) {
+    std::remove(tmp.c_str());
+    throw;
+  }
+}
+
+std::vector<double> read_dataset(const std::string& path, const std::string& name) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  H5 set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+  H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  std::vector<double> v(static_cast<std::size_t>(n));
+  if (n > 0)
+    check(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
+          "read dataset " + name);
+  return v;
+}
+
+double read_attribute_double(const std::string& path, const std::string& object,
+                             const std::string& name) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  H5 a(H5Aopen_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "open attribute " + object + "@" + name);
+  double v = 0.0;
+  check(H5Aread(a, H5T_NATIVE_DOUBLE, &v), "read attribute " + name);
+  return v;
+}
+
+std::string read_attribute_string(const std::string& path, const std::string& object,
+                                  const std::string& name) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  H5 a(H5Aopen_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "open attribute " + object + "@" + name);
+  H5 type(H5Aget_type(a), H5Tclose, "get attribute type");
+  const std::size_t n = H5Tget_size(type);
+  std::string s(n, '\0');
+  H5 mem(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
+  check(H5Tset_size(mem, n), "set string size");
+  check(H5Aread(a, mem, s.data()), "read attribute " + name);
+  while (!s.empty() && s.back() == '\0') s.pop_back();
+  return s;
+}
+
+void print_summary(const std::string& path, std::ostream& out) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  std::vector<std::string> names;
+  {
+    H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
+            "open " + path + " (not an HDF5 file written by loosepack?)");
+    H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
+    H5G_info_t info;
+    check(H5Gget_info(g, &info), "list points");
+    for (hsize_t k = 0; k < info.nlinks; ++k) {
+      char buf[64];
+      H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, buf, sizeof buf, H5P_DEFAULT);
+      names.emplace_back(std::string("points/") + buf);
+    }
+  }
+  out << "# " << path << ": scan '" << read_attribute_string(path, "/", "scan_name") << "', "
+      << names.size() << " points, " << read_attribute_double(path, "/", "wall_seconds")
+      << " s\n";
+  out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10)
+      << "Bo" << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu"
+      << std::setw(8) << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20)
+      << "<|dy|> [R]" << std::setw(16) << "dnu/nu_i" << "members(failed)\n";
+  for (const auto& n : names) {
+    auto d = [&](const char* a) { return read_attribute_double(path, n, a); };
+    auto pm = [](double m, double s) {
+      std::ostringstream o;
+      o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4)
+        << (std::isnan(s) ? 0.0 : s);
+      return o.str();
+    };
+    const std::string prot = read_attribute_string(path, n, "protocol");
+    std::string rel = "-";
+    if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
+    std::ostringstream bo;
+    bo << d("bond_number");
+    out << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
+        << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
+        << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction") << std::setw(22)
+        << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
+        << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(16) << rel
+        << static_cast<int>(d("members")) << "(" << static_cast<int>(d("failed")) << ")\n";
+  }
+}
+
+}  // namespace loosepack

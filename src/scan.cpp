@@ -1,1 +1,391 @@
-// placeholder until written
+// Scan files: parsing with toml++, validation of every key before any work, expansion of the
+// axes into scan points.
+#include "loosepack/scan.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <sstream>
+
+#define TOML_EXCEPTIONS 1
+#include <toml++/toml.h>
+
+namespace loosepack {
+
+std::string protocol_name(Protocol p) {
+  switch (p) {
+    case Protocol::A: return "A";
+    case Protocol::B: return "B";
+    case Protocol::C: return "C";
+  }
+  return "?";
+}
+
+namespace {
+
+std::string where(const std::string& file, const toml::source_region& src) {
+  std::ostringstream o;
+  o << file << ":" << src.begin.line << ":" << src.begin.column;
+  return o.str();
+}
+
+[[noreturn]] void fail(const std::string& file, const toml::node& node, const std::string& key,
+                       const std::string& what) {
+  throw ScanError(where(file, node.source()) + ": key '" + key + "': " + what);
+}
+
+// A number: integer, float, or the strings "inf" / "infinity".
+double as_number(const std::string& file, const toml::node& node, const std::string& key) {
+  if (auto v = node.as_floating_point()) return v->get();
+  if (auto v = node.as_integer()) return static_cast<double>(v->get());
+  if (auto v = node.as_string()) {
+    if (v->get() == "inf" || v->get() == "infinity") return INFINITY;
+  }
+  fail(file, node, key, "expected a number (or \"inf\")");
+}
+
+bool as_bool(const std::string& file, const toml::node& node, const std::string& key) {
+  if (auto v = node.as_boolean()) return v->get();
+  fail(file, node, key, "expected true or false");
+}
+
+// A scalar, an array of values, or a range table {from, to, points[, log]} (+ also = [...]).
+std::vector<double> as_axis(const std::string& file, const toml::node& node,
+                            const std::string& key) {
+  std::vector<double> out;
+  if (auto arr = node.as_array()) {
+    if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
+    for (const auto& e : *arr) out.push_back(as_number(file, e, key));
+    return out;
+  }
+  if (auto tbl = node.as_table()) {
+    double from = NAN, to = NAN;
+    int points = 0;
+    bool log = false;
+    for (const auto& [k, v] : *tbl) {
+      const std::string kk(k.str());
+      if (kk == "from") {
+        from = as_number(file, v, key + ".from");
+      } else if (kk == "to") {
+        to = as_number(file, v, key + ".to");
+      } else if (kk == "points") {
+        auto i = v.as_integer();
+        if (!i || i->get() < 1) fail(file, v, key + ".points", "expected an integer >= 1");
+        points = static_cast<int>(i->get());
+      } else if (kk == "log") {
+        log = as_bool(file, v, key + ".log");
+      } else if (kk == "also") {
+        auto arr = v.as_array();
+        if (!arr) fail(file, v, key + ".also", "expected an array of values");
+        for (const auto& e : *arr) out.push_back(as_number(file, e, key + ".also"));
+      } else {
+        fail(file, v, key + "." + kk,
+             "unknown key in a range (allowed: from, to, points, log, also)");
+      }
+    }
+    if (std::isnan(from) || std::isnan(to) || points == 0)
+      fail(file, node, key, "a range needs from, to and points");
+    if (log && !(from > 0.0 && to > 0.0 && std::isfinite(from) && std::isfinite(to)))
+      fail(file, node, key, "a logarithmic range needs finite positive from and to");
+    std::vector<double> range;
+    for (int k = 0; k < points; ++k) {
+      const double f = points == 1 ? 0.0 : static_cast<double>(k) / (points - 1);
+      range.push_back(log ? std::exp(std::log(from) + f * (std::log(to) - std::log(from)))
+                          : from + f * (to - from));
+    }
+    out.insert(out.begin(), range.begin(), range.end());
+    return out;
+  }
+  return {as_number(file, node, key)};
+}
+
+struct SystemKey {
+  const char* name;
+  std::function<void(SystemParams&, double)> set;
+  std::function<std::string(const SystemParams&)> check;  // empty when valid
+};
+
+const std::vector<SystemKey>& system_keys() {
+  static const std::vector<SystemKey> keys = {
+      {"width", [](SystemParams& p, double v) { p.width = v; },
+       [](const SystemParams& p) {
+         return p.width >= 4.0 * p.radius && std::isfinite(p.width) ? "" : "L_x must be >= 4 R";
+       }},
+      {"height", [](SystemParams& p, double v) { p.height = v; },
+       [](const SystemParams& p) {
+         return p.height >= 4.0 * p.radius && std::isfinite(p.height) ? "" : "H must be >= 4 R";
+       }},
+      {"radius", [](SystemParams& p, double v) { p.radius = v; },
+       [](const SystemParams& p) {
+         return p.radius > 0.0 && std::isfinite(p.radius) ? "" : "R must be > 0";
+       }},
+      {"polydispersity", [](SystemParams& p, double v) { p.polydispersity = v; },
+       [](const SystemParams& p) {
+         return p.polydispersity >= 0.0 && p.polydispersity <= 0.3
+                    ? ""
+                    : "sigma_R/R must be in [0, 0.3] (radii stay positive and contacts per "
+                      "disk bounded)";
+       }},
+      {"bond_number", [](SystemParams& p, double v) { p.bond_number = v; },
+       [](const SystemParams& p) {
+         return (p.bond_number >= 0.0 && p.bond_number <= 1e8) || std::isinf(p.bond_number)
+                    ? ""
+                    : "Bo must be 0, in (0, 1e8], or \"inf\"";
+       }},
+      {"cohesion_range", [](SystemParams& p, double v) { p.cohesion_range = v; },
+       [](const SystemParams& p) {
+         return p.cohesion_range > 0.0 && p.cohesion_range <= 0.5 * p.radius
+                    ? ""
+                    : "d_c must be in (0, R/2]";
+       }},
+      {"friction", [](SystemParams& p, double v) { p.friction = v; },
+       [](const SystemParams& p) {
+         return p.friction >= 0.0 && std::isfinite(p.friction) ? "" : "mu must be >= 0";
+       }},
+      {"rolling_friction", [](SystemParams& p, double v) { p.rolling_friction = v; },
+       [](const SystemParams& p) {
+         return p.rolling_friction >= 0.0 && std::isfinite(p.rolling_friction)
+                    ? ""
+                    : "mu_r must be >= 0";
+       }},
+      {"time_step", [](SystemParams& p, double v) { p.time_step = v; },
+       [](const SystemParams& p) {
+         return p.time_step > 0.0 && p.time_step <= 0.1 ? ""
+                                                        : "h must be in (0, 0.1] sqrt(R/g)";
+       }},
+      {"capture_radius", [](SystemParams& p, double v) { p.capture_radius = v; },
+       [](const SystemParams& p) {
+         return p.capture_radius >= 1.0 && p.capture_radius <= 10.0
+                    ? ""
+                    : "r_capt must be in [1, 10]";
+       }},
+      {"floor_cohesion", [](SystemParams& p, double v) { p.floor_cohesion = v != 0.0; },
+       [](const SystemParams&) { return std::string(); }},
+  };
+  return keys;
+}
+
+template <class F>
+void for_each_key(const toml::table& tbl, F f) {
+  for (const auto& [k, v] : tbl) f(std::string(k.str()), v);
+}
+
+}  // namespace
+
+Scan load_scan(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ScanError(path + ": cannot open the scan file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_scan(ss.str(), path);
+}
+
+Scan parse_scan(const std::string& text, const std::string& file) {
+  Scan scan;
+  scan.file = file;
+  scan.text = text;
+  toml::table root;
+  try {
+    root = toml::parse(text, file);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream o;
+    o << file << ":" << e.source().begin.line << ":" << e.source().begin.column << ": "
+      << e.description();
+    throw ScanError(o.str());
+  }
+
+  std::vector<Protocol> protocols = {Protocol::A};
+  // Axis values of the system keys, in the order of system_keys(); scalars are one-value axes.
+  std::map<std::string, std::pair<std::vector<double>, const toml::node*>> axes;
+  std::map<std::string, bool> bool_keys;
+
+  auto positive_int = [&](const toml::node& v, const std::string& key, int lo, int hi) {
+    auto i = v.as_integer();
+    if (!i || i->get() < lo || i->get() > hi)
+      fail(file, v, key,
+           "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    return static_cast<int>(i->get());
+  };
+  auto real = [&](const toml::node& v, const std::string& key, double lo, double hi) {
+    const double x = as_number(file, v, key);
+    if (!(x >= lo && x <= hi)) {
+      std::ostringstream o;
+      o << "value " << x << " outside the allowed range [" << lo << ", " << hi << "]";
+      fail(file, v, key, o.str());
+    }
+    return x;
+  };
+
+  for_each_key(root, [&](const std::string& section, const toml::node& node) {
+    auto tbl = node.as_table();
+    if (!tbl)
+      fail(file, node, section,
+           "expected a table ([scan], [system], [solver], [rest], [protocol], [observables])");
+    if (section == "scan") {
+      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
+        const std::string key = "scan." + k;
+        if (k == "name") {
+          auto s = v.as_string();
+          if (!s) fail(file, v, key, "expected a string");
+          scan.name = s->get();
+        } else if (k == "seed") {
+          auto i = v.as_integer();
+          if (!i || i->get() < 0) fail(file, v, key, "expected an integer >= 0");
+          scan.seed = static_cast<std::uint64_t>(i->get());
+        } else if (k == "seeds") {
+          scan.seeds = positive_int(v, key, 1, 1000000);
+        } else if (k == "batch_size") {
+          scan.batch_size = positive_int(v, key, 1, 1000000);
+        } else if (k == "protocol") {
+          protocols.clear();
+          auto one = [&](const toml::node& e) {
+            auto s = e.as_string();
+            if (!s || (s->get() != "A" && s->get() != "B" && s->get() != "C"))
+              fail(file, e, key, "expected \"A\", \"B\" or \"C\"");
+            protocols.push_back(s->get() == "A"   ? Protocol::A
+                                : s->get() == "B" ? Protocol::B
+                                                  : Protocol::C);
+          };
+          if (auto arr = v.as_array()) {
+            if (arr->empty()) fail(file, v, key, "an axis needs at least one value");
+            for (const auto& e : *arr) one(e);
+          } else {
+            one(v);
+          }
+        } else {
+          fail(file, v, key, "unknown key (allowed: name, seed, seeds, batch_size, protocol)");
+        }
+      });
+    } else if (section == "system") {
+      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
+        const std::string key = "system." + k;
+        bool known = false;
+        for (const auto& sk : system_keys()) known = known || k == sk.name;
+        if (!known) {
+          std::string allowed;
+          for (const auto& sk : system_keys()) allowed += std::string(allowed.empty() ? "" : ", ") + sk.name;
+          fail(file, v, key, "unknown key (allowed: " + allowed + ")");
+        }
+        if (k == "floor_cohesion") {
+          bool_keys[k] = as_bool(file, v, key);
+          return;
+        }
+        axes[k] = {as_axis(file, v, key), &v};
+      });
+    } else if (section == "solver") {
+      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
+        const std::string key = "solver." + k;
+        if (k == "kind") {
+          auto s = v.as_string();
+          if (!s || (s->get() != "jacobi" && s->get() != "gauss_seidel"))
+            fail(file, v, key, "expected \"jacobi\" or \"gauss_seidel\"");
+          scan.solver.kind = s->get() == "jacobi" ? SolverKind::Jacobi : SolverKind::GaussSeidel;
+        } else if (k == "tolerance") {
+          scan.solver.tolerance = real(v, key, 1e-14, 1.0);
+        } else if (k == "max_sweeps") {
+          scan.solver.max_sweeps = positive_int(v, key, 1, 100000000);
+        } else if (k == "relaxation") {
+          scan.solver.relaxation = real(v, key, 0.01, 1.0);
+        } else if (k == "mass_splitting") {
+          scan.solver.mass_splitting = as_bool(file, v, key);
+        } else {
+          fail(file, v, key,
+               "unknown key (allowed: kind, tolerance, max_sweeps, relaxation, mass_splitting)");
+        }
+      });
+    } else if (section == "rest") {
+      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
+        const std::string key = "rest." + k;
+        if (k == "speed") {
+          scan.rest.speed = real(v, key, 1e-12, 1.0);
+        } else if (k == "steps") {
+          scan.rest.steps = positive_int(v, key, 1, 1000000);
+        } else {
+          fail(file, v, key, "unknown key (allowed: speed, steps)");
+        }
+      });
+    } else if (section == "protocol") {
+      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
+        const std::string key = "protocol." + k;
+        if (k == "max_relax_time") {
+          scan.protocol.max_relax_time = real(v, key, 1e-3, 1e9);
+        } else if (k == "max_collapse_time") {
+          scan.protocol.max_collapse_time = real(v, key, 1e-3, 1e9);
+        } else {
+          fail(file, v, key, "unknown key (allowed: max_relax_time, max_collapse_time)");
+        }
+      });
+    } else if (section == "observables") {
+      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
+        const std::string key = "observables." + k;
+        auto& o = scan.observables;
+        if (k == "strip_width") {
+          o.strip_width = real(v, key, 1e-3, 1e6);
+        } else if (k == "lower_half_from") {
+          o.lower_half_from = real(v, key, 0.0, 1e9);
+        } else if (k == "bin_width") {
+          o.bin_width = real(v, key, 1e-3, 1e6);
+        } else if (k == "abs_dy_bin") {
+          o.abs_dy_bin = real(v, key, 1e-3, 1e6);
+        } else if (k == "cut_bottom") {
+          o.cut_bottom = real(v, key, 0.0, 1e9);
+        } else if (k == "cut_top") {
+          o.cut_top = real(v, key, 0.0, 1e9);
+        } else if (k == "event_threshold") {
+          o.event_threshold = real(v, key, 0.0, 1e9);
+        } else {
+          fail(file, v, key,
+               "unknown key (allowed: strip_width, lower_half_from, bin_width, abs_dy_bin, "
+               "cut_bottom, cut_top, event_threshold)");
+        }
+      });
+    } else {
+      fail(file, node, section,
+           "unknown section (allowed: scan, system, solver, rest, protocol, observables)");
+    }
+  });
+
+  // Expand the grid: protocol slowest, then the system keys in their fixed order.
+  std::vector<ScanPoint> points;
+  for (Protocol pr : protocols) {
+    ScanPoint sp;
+    sp.protocol = pr;
+    for (const auto& [k, b] : bool_keys)
+      if (k == "floor_cohesion") sp.params.floor_cohesion = b;
+    points.push_back(sp);
+  }
+  for (const auto& sk : system_keys()) {
+    auto it = axes.find(sk.name);
+    if (it == axes.end()) continue;
+    std::vector<ScanPoint> next;
+    for (const auto& base : points)
+      for (double v : it->second.first) {
+        ScanPoint sp = base;
+        sk.set(sp.params, v);
+        next.push_back(sp);
+      }
+    points = std::move(next);
+  }
+  // Validate every point; report the first offending key with its location.
+  for (auto& sp : points) {
+    for (const auto& sk : system_keys()) {
+      const std::string why = sk.check(sp.params);
+      if (why.empty()) continue;
+      auto it = axes.find(sk.name);
+      if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + sk.name, why);
+      throw ScanError(file + ": default of key 'system." + sk.name + "' invalid here: " + why);
+    }
+    if (sp.protocol == Protocol::C && std::isinf(sp.params.bond_number)) {
+      auto it = axes.find("bond_number");
+      const std::string why = "protocol C with Bo = inf has no collapse; use protocol B";
+      if (it != axes.end()) fail(file, *it->second.second, "system.bond_number", why);
+      throw ScanError(file + ": " + why);
+    }
+  }
+  for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
+  scan.points = std::move(points);
+  return scan;
+}
+
+}  // namespace loosepack

@@ -90,6 +90,15 @@ class Batch {
   // Drop one disk into each system s with mask[s] at a random x from its stream.
   std::vector<Deposit> deposit(const std::vector<char>& mask, DropRule rule);
 
+  // Avalanche of the last event in each system s with mask[s]: disks that moved more than
+  // `threshold` in y since the event began, and their summed downward displacement; then a new
+  // event begins (heights marked again). Deposited disks are marked where they were placed.
+  struct Avalanche {
+    int moved = 0;
+    double downward = 0.0;
+  };
+  std::vector<Avalanche> close_events(const std::vector<char>& mask, double threshold);
+
   std::vector<Disk> disks(int s) const;
   std::vector<ContactForce> contacts(int s) const;
   // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s.

@@ -1,0 +1,61 @@
+// Observables of one member and their aggregates over the members of a scan point.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "loosepack/protocols.hpp"
+
+namespace loosepack {
+
+// Volume fraction of disks (centres y, radii r) in strips [k w, (k+1) w), k < n_strips.
+std::vector<double> volume_fraction_profile(const std::vector<double>& y,
+                                            const std::vector<double>& r, double width,
+                                            double strip, int n_strips);
+// Mean volume fraction of the band [a, b) (exact disk/strip areas).
+double band_volume_fraction(const std::vector<double>& y, const std::vector<double>& r,
+                            double width, double a, double b);
+// Top of a deposit: max(y + r), 0 when empty.
+double deposit_top(const std::vector<double>& y, const std::vector<double>& r);
+
+// Mean, standard error (across members) and count of a binned quantity.
+struct BinnedStat {
+  std::vector<double> centre;
+  std::vector<double> mean;    // pooled over all samples of all members
+  std::vector<double> stddev;  // pooled standard deviation of the samples
+  std::vector<double> count;   // samples
+  std::vector<double> sem;     // standard error of the mean from member-to-member scatter
+};
+
+// Mean and standard error over members of a per-member profile (NaN entries skipped).
+struct EnsembleProfile {
+  std::vector<double> centre, mean, sem, members;
+  std::vector<double> rel_fluctuation;  // standard deviation / mean across members
+};
+
+struct Scalar {
+  double mean = 0.0, sem = 0.0;
+  int n = 0;
+};
+
+struct PointResult {
+  ScanPoint point;
+  int members = 0, failed = 0;
+  EnsembleProfile nu;             // nu(y), strips of strip_width from the floor up to H
+  EnsembleProfile nu_deposition;  // nu_d(y_i): deposited disk area per strip by y_i
+  Scalar nu_lower_half;
+  BinnedStat dy_by_yi, dy_by_ye;  // avalanche profiles: Delta y = y_e - y_i
+  std::vector<double> abs_dy_edges, abs_dy_counts, abs_dy_counts_cut;
+  Scalar mean_abs_dy;
+  // Protocol C: bulk volume fraction before (nu_i) and after (nu_f), relative increase.
+  Scalar nu_initial, nu_final, relative_increase;
+  // Protocol A: avalanche-event size distributions on logarithmic bins.
+  std::vector<double> event_edges, event_downward_counts, event_moved_counts;
+  double events_without_motion = 0.0;
+  // Per member scalars (member order).
+  std::vector<double> m_disks, m_top, m_nu_lower_half, m_steps, m_sweeps, m_wall_time, m_failure,
+      m_capped, m_seed_index;
+};
+
+std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberResult>& results);
+
+}  // namespace loosepack

@@ -1,0 +1,58 @@
+// The protocols of MODEL.md run on batches of ensemble members.
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "loosepack/batch.hpp"
+#include "loosepack/scan.hpp"
+
+namespace loosepack {
+
+// One ensemble member: a scan point and a seed.
+struct Member {
+  int point = 0;
+  int seed_index = 0;
+  std::uint64_t id = 0;  // point * seeds + seed_index: keys the random stream
+  Protocol protocol = Protocol::A;
+  SystemParams params;
+};
+
+std::vector<Member> members_of(const Scan& scan);
+
+// One deposition event of protocol A.
+struct AvalancheEvent {
+  int moved = 0;          // disks that moved more than the threshold in y
+  double downward = 0.0;  // their summed downward displacement [R]
+  long steps = 0;         // steps to rest
+  bool capped = false;    // hit max_relax_time before rest
+};
+
+struct MemberResult {
+  Member member;
+  Failure failure = Failure::None;
+  std::vector<double> x, y_i, y_e, radius;  // per disk, in deposition order
+  std::vector<AvalancheEvent> events;       // protocol A
+  long steps = 0, sweeps = 0;
+  int capped = 0;        // A: events that hit the cap; C: 1 if the collapse hit its cap
+  double wall_time = 0.0;
+  bool ok() const { return failure == Failure::None; }
+};
+
+// Called after each finished member (and periodically with done == false for progress).
+struct Progress {
+  int members_done = 0;
+  int members_total = 0;
+  long disks_deposited = 0;
+};
+using ProgressFn = std::function<void(const Progress&)>;
+
+// Run the members in batches of scan.batch_size; results in member order.
+std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
+                                      const ProgressFn& progress = {});
+
+// Grid capacity for one member: enough slots for the densest packing below H.
+int member_capacity(const SystemParams& p);
+
+}  // namespace loosepack

@@ -1,0 +1,66 @@
+// A scan: the TOML file a user writes, validated and expanded into scan points and members.
+#pragma once
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "loosepack/params.hpp"
+
+namespace loosepack {
+
+enum class Protocol {
+  A,  // slow deposition under gravity, relaxing to rest after every disk
+  B,  // ballistic deposition with capture radius, no dynamics
+  C,  // B, then gravity switched on: collapse to rest
+};
+std::string protocol_name(Protocol p);
+
+// How the observables are measured (MODEL.md, "Observables").
+struct ObservableSettings {
+  double strip_width = 3.97;      // w of the volume fraction profile nu(y) [R]
+  double lower_half_from = 50.0;  // nu_lower_half: mean nu between this height and H/2 [R]
+  double bin_width = 4.0;         // avalanche profile bins in y_i and y_e (2 diameters) [R]
+  double abs_dy_bin = 0.5;        // |Delta y| histogram bin [R]
+  double cut_bottom = 20.0;       // |Delta y| histogram without the bottom ... [R]
+  double cut_top = 20.0;          // ... and the top of the final deposit [R]
+  double event_threshold = 0.1;   // a disk counts as moved in an avalanche beyond this [R]
+};
+
+// Limits of the protocols' dynamics.
+struct ProtocolSettings {
+  double max_relax_time = 20.0;      // A: relaxation after one disk is capped here [sqrt(R/g)]
+  double max_collapse_time = 3000.0; // C: the collapse is capped here [sqrt(R/g)]
+};
+
+struct ScanPoint {
+  int index = 0;
+  Protocol protocol = Protocol::A;
+  SystemParams params;
+};
+
+struct Scan {
+  std::string file;  // path as given
+  std::string text;  // the whole scan file
+  std::string name = "scan";
+  std::uint64_t seed = 1;
+  int seeds = 1;          // members per scan point
+  int batch_size = 16;    // systems advanced together
+  SolverSettings solver;
+  RestSettings rest;
+  ObservableSettings observables;
+  ProtocolSettings protocol;
+  std::vector<ScanPoint> points;
+  int members() const { return static_cast<int>(points.size()) * seeds; }
+};
+
+// Thrown for any invalid scan file; the message names file:line:column and the key.
+class ScanError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+Scan load_scan(const std::string& path);
+Scan parse_scan(const std::string& text, const std::string& file);
+
+}  // namespace loosepack
