@@ -178,4 +178,60 @@ struct GaussSeidelContacts {
   }
 };
 
+// Gauss-Seidel in contact order within each system, one thread per system, alternating the
+// direction every sweep (symmetric Gauss-Seidel). Systems share nothing, so this is parallel
+// across the batch; within a system it needs no colouring. Also runs the convergence test:
+// returns the number of systems still iterating.
+template <class Fx>
+struct SequentialGaussSeidel {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  DView<int> sweeps;  // [S] sweeps of this step
+  double omega, tolerance;
+  bool backward;
+
+  KOKKOS_INLINE_FUNCTION void apply(int c, int s, double& worst) const {
+    const int j = con.partner(c);
+    if (j == kNoContact) return;
+    const int i = c / kSlots;
+    double dn, dt, dm;
+    const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
+    if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
+    worst = kmath::max(worst, change);
+    con.pn(c) += dn;
+    con.pt(c) += dt;
+    con.pm(c) += dm;
+    const double nx = con.nx(c), ny = con.ny(c);
+    const double fx = dn * nx - dt * ny, fy = dn * ny + dt * nx;
+    part.vx(i) -= part.inv_mass(i) * fx;
+    part.vy(i) -= part.inv_mass(i) * fy;
+    part.w(i) += part.inv_inertia(i) * (-part.radius(i) * dt - dm);
+    if (j >= 0) {
+      part.vx(j) += part.inv_mass(j) * fx;
+      part.vy(j) += part.inv_mass(j) * fy;
+      part.w(j) += part.inv_inertia(j) * (-part.radius(j) * dt + dm);
+    }
+    (void)s;
+  }
+
+  KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
+    if (!sys.active(s) || !sys.unconverged(s)) return;
+    const int first = sys.offset(s) * kSlots;
+    const int end = (sys.offset(s) + sys.count(s)) * kSlots;
+    double worst = 0.0;
+    if (backward) {
+      for (int c = end - 1; c >= first; --c) apply(c, s, worst);
+    } else {
+      for (int c = first; c < end; ++c) apply(c, s, worst);
+    }
+    sweeps(s) += 1;
+    if (worst <= tolerance) {
+      sys.unconverged(s) = 0;
+    } else {
+      ++still;
+    }
+  }
+};
+
 }  // namespace loosepack

@@ -277,6 +277,17 @@ void Batch::Impl::solve() {
   const double omega = solver.relaxation;
   const bool jacobi = solver.kind == SolverKind::Jacobi;
   const int n_contacts = n_particles * kSlots;
+  if (solver.kind == SolverKind::SequentialGaussSeidel) {
+    Kokkos::deep_copy(sweeps, 0);
+    for (int sweep = 0; sweep < solver.max_sweeps; ++sweep) {
+      int still = 0;
+      Kokkos::parallel_reduce(
+          "sequential_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+          SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, tol, sweep % 2 == 1}, still);
+      if (still == 0) break;
+    }
+    return;
+  }
   int n_colours = 0;
   std::vector<int> colour_begin;
   if (!jacobi) {

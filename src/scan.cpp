@@ -278,9 +278,13 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         const std::string key = "solver." + k;
         if (k == "kind") {
           auto s = v.as_string();
-          if (!s || (s->get() != "jacobi" && s->get() != "gauss_seidel"))
-            fail(file, v, key, "expected \"jacobi\" or \"gauss_seidel\"");
-          scan.solver.kind = s->get() == "jacobi" ? SolverKind::Jacobi : SolverKind::GaussSeidel;
+          if (!s || (s->get() != "jacobi" && s->get() != "gauss_seidel" &&
+                     s->get() != "sequential_gauss_seidel"))
+            fail(file, v, key,
+                 "expected \"jacobi\", \"gauss_seidel\" or \"sequential_gauss_seidel\"");
+          scan.solver.kind = s->get() == "jacobi"         ? SolverKind::Jacobi
+                             : s->get() == "gauss_seidel" ? SolverKind::GaussSeidel
+                                                          : SolverKind::SequentialGaussSeidel;
         } else if (k == "tolerance") {
           scan.solver.tolerance = real(v, key, 1e-14, 1.0);
         } else if (k == "max_sweeps") {

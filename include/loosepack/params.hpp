@@ -33,11 +33,15 @@ struct SystemParams {
   }
 };
 
-enum class SolverKind { Jacobi, GaussSeidel };
+enum class SolverKind {
+  Jacobi,       // all contacts at once from the previous iterate (parallel over contacts)
+  GaussSeidel,  // graph-coloured Gauss-Seidel (parallel over the contacts of one colour)
+  SequentialGaussSeidel,  // symmetric Gauss-Seidel in contact order, one thread per system
+};
 
 // How the contact problem is solved; shared by all systems of a batch.
 struct SolverSettings {
-  SolverKind kind = SolverKind::GaussSeidel;
+  SolverKind kind = SolverKind::SequentialGaussSeidel;
   double tolerance = 1e-4;      // max impulse change per sweep, in units of h m g (per system)
   int max_sweeps = 2000;        // iteration cap per step
   double relaxation = 1.0;      // omega: P <- P + omega (P_local - P)
