@@ -1,0 +1,222 @@
+// Protocols end to end on small ensembles: physics trends, reproducibility, the output file.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include "loosepack/observables.hpp"
+#include "loosepack/output.hpp"
+#include "loosepack/protocols.hpp"
+
+using namespace loosepack;
+
+namespace {
+Scan scan_of(const std::string& text) { return parse_scan(text, "test.toml"); }
+
+std::vector<PointResult> run(const Scan& scan) {
+  return aggregate(scan, run_members(scan, members_of(scan)));
+}
+
+// Least-squares slope of y against x, with its standard error.
+std::pair<double, double> slope(const std::vector<double>& x, const std::vector<double>& y) {
+  const double n = static_cast<double>(x.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    sx += x[k];
+    sy += y[k];
+    sxx += x[k] * x[k];
+    sxy += x[k] * y[k];
+  }
+  const double b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  const double a = (sy - b * sx) / n;
+  double rss = 0;
+  for (std::size_t k = 0; k < x.size(); ++k) rss += std::pow(y[k] - a - b * x[k], 2);
+  const double se = std::sqrt(rss / (n - 2) / (sxx - sx * sx / n));
+  return {b, se};
+}
+}  // namespace
+
+// Protocol B: the bulk density of off-lattice ballistic deposition is flat in y and lies in the
+// known range for 2D monodisperse disks (0.30-0.40: the maximum height of a deposit of n disks
+// grows as h ~ n pi / (0.31 L_x), which bounds the bulk density from below by about 0.31); a
+// larger capture radius gives a looser deposit. Near the floor the deposit is denser and
+// approaches the bulk value over a few tens of R (Lubachevsky, Privman and Roy 1993 saw the
+// same power-law approach in 3D), so the flatness check starts 40 R above the floor.
+TEST(ProtocolB, FlatProfileKnownDensityAndCaptureRadiusLoosens) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "B"
+seeds = 4
+[system]
+width = 100.0
+height = 150.0
+capture_radius = [1.0, 1.5]
+[observables]
+lower_half_from = 10.0
+)");
+  const auto points = run(scan);
+  ASSERT_EQ(points.size(), 2u);
+  const auto& p1 = points[0];
+  EXPECT_EQ(p1.failed, 0);
+  EXPECT_GT(p1.nu_lower_half.mean, 0.30);
+  EXPECT_LT(p1.nu_lower_half.mean, 0.40);
+  std::printf("BD r_capt = 1: nu = %.4f +- %.4f; r_capt = 1.5: %.4f +- %.4f\n",
+              p1.nu_lower_half.mean, p1.nu_lower_half.sem, points[1].nu_lower_half.mean,
+              points[1].nu_lower_half.sem);
+  // Flat: the slope of nu(y) over the bulk (40 R above the floor to 30 R below H) is zero
+  // within three standard errors.
+  std::vector<double> y, nu;
+  for (std::size_t k = 0; k < p1.nu.centre.size(); ++k)
+    if (p1.nu.centre[k] > 40.0 && p1.nu.centre[k] < 120.0) {
+      y.push_back(p1.nu.centre[k]);
+      nu.push_back(p1.nu.mean[k]);
+    }
+  const auto [b, se] = slope(y, nu);
+  EXPECT_LT(std::fabs(b), 3.0 * se + 1e-5) << "slope " << b << " +- " << se;
+  EXPECT_LT(points[1].nu_lower_half.mean + 3.0 * points[1].nu_lower_half.sem,
+            p1.nu_lower_half.mean - 3.0 * p1.nu_lower_half.sem);
+  // No dynamics: nothing moved.
+  EXPECT_EQ(p1.mean_abs_dy.mean, 0.0);
+}
+
+// Protocol A: dense at Bo = 0, loose at Bo = 1e2, loosest at Bo = inf (ballistic deposition).
+TEST(ProtocolA, DensityFallsWithBondNumber) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 2
+batch_size = 4
+[system]
+width = 16.0
+height = 20.0
+bond_number = [0, 100, "inf"]
+[solver]
+tolerance = 1e-3
+max_sweeps = 1000
+[observables]
+lower_half_from = 3.0
+)");
+  const auto points = run(scan);  // 2 seeds of 16 R x 20 R per Bond number
+  ASSERT_EQ(points.size(), 3u);
+  for (const auto& p : points) EXPECT_EQ(p.failed, 0);
+  const double n0 = points[0].nu_lower_half.mean, n2 = points[1].nu_lower_half.mean,
+               ninf = points[2].nu_lower_half.mean;
+  std::printf("nu_lower_half: Bo=0 %.3f, Bo=1e2 %.3f, Bo=inf %.3f\n", n0, n2, ninf);
+  EXPECT_GT(n0, 0.75);  // close to the dense limit of monodisperse disks
+  EXPECT_GT(n0, n2);
+  EXPECT_GT(n2, ninf);
+  // Bo = 0: disks move down after deposition (rolling into place); Bo = inf: nothing moves.
+  EXPECT_GT(points[0].mean_abs_dy.mean, 0.1);
+  EXPECT_EQ(points[2].mean_abs_dy.mean, 0.0);
+  // every deposition of A closes one avalanche event
+  double events = points[1].events_without_motion;
+  for (double c : points[1].event_moved_counts) events += c;
+  double disks = 0.0;
+  for (double d : points[1].m_disks) disks += d;
+  EXPECT_EQ(events, disks);
+}
+
+// Protocol C: the collapse is linear in y_e, and the identity dnu/nu_i = -d(Delta y)/dy_e holds.
+TEST(ProtocolC, LinearAvalancheProfileAndMassConservation) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "C"
+seeds = 3
+[system]
+width = 40.0
+height = 40.0
+bond_number = 30
+[solver]
+tolerance = 1e-3
+max_sweeps = 1000
+[observables]
+lower_half_from = 4.0
+)");
+  const auto points = run(scan);
+  const auto& p = points[0];
+  ASSERT_EQ(p.failed, 0);
+  std::vector<double> ye, dy;
+  for (std::size_t k = 0; k < p.dy_by_ye.centre.size(); ++k)
+    if (p.dy_by_ye.count[k] > 20 && p.dy_by_ye.centre[k] > 4.0) {
+      ye.push_back(p.dy_by_ye.centre[k]);
+      dy.push_back(p.dy_by_ye.mean[k]);
+    }
+  ASSERT_GE(ye.size(), 3u);
+  const auto [b, se] = slope(ye, dy);
+  std::printf("collapse: d(Delta y)/dy_e = %.4f +- %.4f, dnu/nu_i = %.4f +- %.4f\n", b, se,
+              p.relative_increase.mean, p.relative_increase.sem);
+  EXPECT_LT(b, 0.0);  // higher disks fall further
+  EXPECT_GT(p.relative_increase.mean, 0.0);
+  const double err = std::sqrt(se * se + p.relative_increase.sem * p.relative_increase.sem);
+  EXPECT_NEAR(p.relative_increase.mean, -b, 3.0 * err + 0.02);
+}
+
+// The same scan gives identical results whatever the batch size.
+TEST(Reproducibility, BatchSizeDoesNotChangeResults) {
+  const std::string text = R"(
+[scan]
+protocol = ["A", "C"]
+seeds = 3
+[system]
+width = 12.0
+height = 12.0
+bond_number = 50
+[observables]
+lower_half_from = 2.0
+)";
+  auto one = scan_of(text);
+  one.batch_size = 1;
+  auto many = scan_of(text);
+  many.batch_size = 6;
+  const auto a = run_members(one, members_of(one));
+  const auto b = run_members(many, members_of(many));
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
+    EXPECT_EQ(a[k].x, b[k].x) << "member " << k;
+    EXPECT_EQ(a[k].steps, b[k].steps);
+  }
+}
+
+// The output file holds what was computed and is replaced only by a complete file.
+TEST(Output, RoundTripAndAtomicReplace) {
+  const auto scan = scan_of(R"(
+[scan]
+name = "roundtrip"
+protocol = "B"
+seeds = 2
+[system]
+width = 30.0
+height = 30.0
+capture_radius = [1.0, 2.0]
+[observables]
+lower_half_from = 3.0
+)");
+  const auto members = run_members(scan, members_of(scan));
+  const auto points = aggregate(scan, members);
+  char dir[] = "/tmp/loosepack-test-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  const std::string path = std::string(dir) + "/out.h5";
+  RunInfo info;
+  info.start_time = "t0";
+  info.end_time = "t1";
+  write_results(path, scan, info, points, members, true);
+  EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "roundtrip");
+  EXPECT_EQ(read_attribute_string(path, "/", "scan_text"), scan.text);
+  EXPECT_EQ(read_attribute_string(path, "points/0001", "protocol"), "B");
+  EXPECT_EQ(read_attribute_double(path, "points/0001", "capture_radius"), 2.0);
+  EXPECT_EQ(read_dataset(path, "points/0000/nu/mean"), points[0].nu.mean);
+  EXPECT_EQ(read_attribute_double(path, "points/0000", "nu_lower_half_mean"),
+            points[0].nu_lower_half.mean);
+  EXPECT_EQ(read_dataset(path, "points/0001/members/snapshot_1/y_e"), members[3].y_e);
+  // Writing into a directory that does not exist fails and leaves the old file untouched.
+  EXPECT_THROW(write_results(std::string(dir) + "/missing/out.h5", scan, info, points, members,
+                             false),
+               std::runtime_error);
+  EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "roundtrip");
+  std::remove(path.c_str());
+  rmdir(dir);
+}

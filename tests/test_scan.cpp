@@ -1,0 +1,78 @@
+// Scan files: expansion of axes, and every rejected case with its message.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "loosepack/scan.hpp"
+
+using namespace loosepack;
+
+namespace {
+std::string error_of(const std::string& text) {
+  try {
+    parse_scan(text, "bad.toml");
+  } catch (const ScanError& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(Scan, AxesCombineAsAGrid) {
+  const auto scan = parse_scan(R"(
+[scan]
+seeds = 3
+protocol = ["A", "C"]
+[system]
+bond_number = { from = 1, to = 1e4, points = 5, log = true, also = [0] }
+friction = [0.3, 0.5]
+)",
+                               "ok.toml");
+  ASSERT_EQ(scan.points.size(), 2u * 6u * 2u);
+  EXPECT_EQ(scan.members(), 72);
+  // protocol slowest, then bond_number (declared order of the system keys), then friction
+  EXPECT_EQ(scan.points[0].protocol, Protocol::A);
+  EXPECT_DOUBLE_EQ(scan.points[0].params.bond_number, 1.0);
+  EXPECT_DOUBLE_EQ(scan.points[1].params.friction, 0.5);
+  EXPECT_NEAR(scan.points[2].params.bond_number, 10.0, 1e-12);  // log spacing, a decade apart
+  EXPECT_DOUBLE_EQ(scan.points[10].params.bond_number, 0.0);    // `also` after the range
+  EXPECT_EQ(scan.points[12].protocol, Protocol::C);
+}
+
+TEST(Scan, InfiniteBondNumberIsAccepted) {
+  const auto scan = parse_scan("[system]\nbond_number = [0, \"inf\"]\n", "ok.toml");
+  ASSERT_EQ(scan.points.size(), 2u);
+  EXPECT_TRUE(std::isinf(scan.points[1].params.bond_number));
+}
+
+TEST(Scan, RejectsBadInputWithFileLineAndKey) {
+  struct Case {
+    const char* text;
+    const char* expect;
+  };
+  const Case cases[] = {
+      {"[system]\nbond_number = -1\n", "bad.toml:2:15: key 'system.bond_number': Bo must be"},
+      {"[system]\nfriction = [0.3, -0.1]\n", "key 'system.friction': mu must be >= 0"},
+      {"[system]\ncapture_radius = 0.5\n", "key 'system.capture_radius': r_capt must be in [1, 10]"},
+      {"[system]\nheight = 3\n", "key 'system.height': H must be >= 4 R"},
+      {"[system]\nwidth = 2\n", "key 'system.width': L_x must be >= 4 R"},
+      {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
+      {"[system]\nwidth = \"wide\"\n", "key 'system.width': expected a number"},
+      {"[scan]\nseeds = 0\n", "key 'scan.seeds': expected an integer in [1,"},
+      {"[scan]\nprotocol = \"D\"\n", "key 'scan.protocol': expected \"A\", \"B\" or \"C\""},
+      {"[solver]\nkind = \"newton\"\n", "key 'solver.kind'"},
+      {"[solver]\ntolerance = 2.0\n", "key 'solver.tolerance': value 2 outside the allowed range"},
+      {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
+      {"[colour]\nred = 1\n", "key 'colour': unknown section"},
+      {"[system]\nbond_number = { from = 0, to = 10, points = 3, log = true }\n",
+       "a logarithmic range needs finite positive from and to"},
+      {"[scan]\nprotocol = \"C\"\n[system]\nbond_number = \"inf\"\n",
+       "protocol C with Bo = inf has no collapse"},
+      {"[system\nwidth = 3\n", "bad.toml:1:"},
+  };
+  for (const auto& c : cases) {
+    const std::string msg = error_of(c.text);
+    EXPECT_NE(msg.find(c.expect), std::string::npos)
+        << "input:\n" << c.text << "message: " << msg << "\nexpected to contain: " << c.expect;
+  }
+}
