@@ -226,7 +226,7 @@ struct SequentialGaussSeidel {
       for (int c = first; c < end; ++c) apply(c, s, worst);
     }
     sweeps(s) += 1;
-    if (worst <= tolerance) {
+    if (!(worst > tolerance)) {  // a NaN system stops iterating; the integrate guard fails it
       sys.unconverged(s) = 0;
     } else {
       ++still;

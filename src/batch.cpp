@@ -318,7 +318,7 @@ void Batch::Impl::solve() {
         KOKKOS_LAMBDA(int s, int& n) {
           if (!sys_.active(s) || !sys_.unconverged(s)) return;
           sweeps(s) += 1;
-          if (sys_.sweep_change(s) <= tol) {
+          if (!(sys_.sweep_change(s) > tol)) {
             sys_.unconverged(s) = 0;
           } else {
             ++n;

@@ -291,3 +291,40 @@ TEST(Validation, CantileverHoldsIffJSquaredAtMostMuRBo) {
     }
   }
 }
+
+// A system that goes non-finite stops with its reason; the others in the batch go on unchanged.
+TEST(Guard, NonFiniteStopsOnlyItsSystem) {
+  auto p = bare_params();
+  p.friction = 0.3;
+  auto bad = column(3, 10.0);
+  bad[2].vy = std::nan("");
+  const auto good = column(4, 5.0);
+  Batch both({setup(p, bad), setup(p, good)}, tight());
+  Batch alone({setup(p, good)}, tight());
+  for (int k = 0; k < 20; ++k) {
+    both.step();
+    alone.step();
+  }
+  EXPECT_EQ(both.status(0).failure, Failure::NonFinite);
+  EXPECT_FALSE(both.status(0).active);
+  EXPECT_EQ(both.status(0).steps, 1);
+  EXPECT_NE(failure_message(Failure::NonFinite).find("NaN"), std::string::npos);
+  EXPECT_EQ(both.status(1).failure, Failure::None);
+  EXPECT_EQ(both.status(1).steps, 20);
+  const auto a = both.disks(1), b = alone.disks(0);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].y, b[k].y);
+    EXPECT_EQ(a[k].x, b[k].x);
+  }
+}
+
+// Too many disks for the capacity stops the system with its reason.
+TEST(Guard, CapacityOverflowIsReported) {
+  auto p = bare_params(8.0, 40.0);
+  SystemSetup s = setup(p, {}, 3);
+  Batch batch({s});
+  int placed = 0;
+  for (int k = 0; k < 5; ++k) placed += batch.deposit({1}, DropRule::Touch)[0].placed ? 1 : 0;
+  EXPECT_EQ(placed, 3);
+  EXPECT_EQ(batch.status(0).failure, Failure::ParticleOverflow);
+}

@@ -158,7 +158,7 @@ lower_half_from = 4.0
 TEST(Reproducibility, BatchSizeDoesNotChangeResults) {
   const std::string text = R"(
 [scan]
-protocol = ["A", "C"]
+protocol = ["A", "B", "C"]
 seeds = 3
 [system]
 width = 12.0

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Debug build with AddressSanitizer and UndefinedBehaviorSanitizer (LOOSEPACK_SANITIZE=ON), then
+# the unit and validation tests that run in reasonable time without optimisation.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DLOOSEPACK_SANITIZE=ON \
+  -DLOOSEPACK_BUILD_BENCH=OFF >/dev/null
+cmake --build build-asan -j"$(nproc)" --target loosepack_tests
+ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ./build-asan/tests/loosepack_tests \
+  --gtest_filter='ContactLaw*:Validation*:Scan*:Output*:Solver*:Guard*:Reproducibility*'

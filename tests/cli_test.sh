@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Command-line behaviour: help, a bad scan refused before any work with file:line and key, an
+# existing result file left untouched, and a small good run with its summary.
+set -euo pipefail
+exe="$1"
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+"$exe" --help | grep -q "run" || fail "--help does not list run"
+"$exe" run --help | grep -q -- "--output" || fail "run --help does not list --output"
+
+printf '[system]\nwidth = 20\nfriction = -0.5\n' > "$dir/bad.toml"
+echo "previous results" > "$dir/out.h5"
+set +e
+msg=$("$exe" run "$dir/bad.toml" -o "$dir/out.h5" 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 2 ] || fail "bad scan exit code $rc, expected 2"
+echo "$msg" | grep -q "bad.toml:3:12: key 'system.friction': mu must be >= 0" || fail "message: $msg"
+[ "$(cat "$dir/out.h5")" = "previous results" ] || fail "existing output was touched"
+ls "$dir" | grep -q tmp && fail "a temporary file was left behind"
+
+printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nheight = 20\n[observables]\nlower_half_from = 2\n' > "$dir/good.toml"
+"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q
+"$exe" summary "$dir/good.h5" | grep -q "scan 'cli'" || fail "summary header"
+"$exe" summary "$dir/good.h5" | grep -qE "^0000 +B " || fail "summary row"
+set +e
+"$exe" summary "$dir/bad.toml" >/dev/null 2>&1 && fail "summary of a non-HDF5 file succeeded"
+set -e
+echo "cli: all checks passed"
