@@ -57,10 +57,11 @@ struct Batch::Impl {
   DView<int> colour_list, colour_start, colour_fill;
   DView<int> sweeps_this_step;  // [S]
   std::vector<SystemStatus> status;
-  std::vector<int> offsets;
+  std::vector<int> offsets, slot_capacity, slot_cells;
   bool any_cohesion = false, any_friction = false, any_rolling = false;
 
   void allocate(const std::vector<SystemSetup>& setups);
+  void load(int s, const SystemSetup& setup);
   void upload_status_active();
   template <class Fx>
   void solve();
@@ -68,31 +69,44 @@ struct Batch::Impl {
   void step();
 };
 
+namespace {
+struct GridShape {
+  double cell;
+  int nx, ny;
+};
+GridShape grid_shape(const SystemSetup& su) {
+  const auto& pr = su.params;
+  double rmax = pr.radius * (1.0 + std::sqrt(3.0) * pr.polydispersity);
+  for (const auto& d : su.disks) rmax = std::max(rmax, d.radius);
+  GridShape g;
+  g.cell = 2.0 * rmax + pr.cohesion_range + kMaxMarginFactor * pr.radius;
+  g.nx = std::max(1, static_cast<int>(std::floor(pr.width / g.cell)));
+  g.ny = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / g.cell)));
+  return g;
+}
+}  // namespace
+
+int grid_cells_needed(const SystemSetup& setup) {
+  const GridShape g = grid_shape(setup);
+  return g.nx * g.ny;
+}
+
 void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   n_systems = static_cast<int>(setups.size());
   if (n_systems == 0) throw std::invalid_argument("Batch: no systems");
   const auto S = static_cast<std::size_t>(n_systems);
   offsets.resize(S);
-  std::vector<int> capacity(S), cell_offset(S), nx(S), ny(S);
-  std::vector<double> cell(S);
+  slot_capacity.resize(S);
+  slot_cells.resize(S);
+  std::vector<int> cell_offset(S);
   for (std::size_t s = 0; s < S; ++s) {
     const auto& su = setups[s];
-    const auto& pr = su.params;
-    params.push_back(pr);
-    capacity[s] = std::max<int>(su.capacity, static_cast<int>(su.disks.size()));
-    capacity[s] = std::max(capacity[s], 1);
+    slot_capacity[s] = std::max({su.capacity, static_cast<int>(su.disks.size()), 1});
+    slot_cells[s] = std::max(su.grid_cells, grid_cells_needed(su));
     offsets[s] = n_particles;
-    n_particles += capacity[s];
-    double rmax = pr.radius * (1.0 + std::sqrt(3.0) * pr.polydispersity);
-    for (const auto& d : su.disks) rmax = std::max(rmax, d.radius);
-    cell[s] = 2.0 * rmax + pr.cohesion_range + kMaxMarginFactor * pr.radius;
-    nx[s] = std::max(1, static_cast<int>(std::floor(pr.width / cell[s])));
-    ny[s] = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / cell[s])));
+    n_particles += slot_capacity[s];
     cell_offset[s] = n_cells;
-    n_cells += nx[s] * ny[s];
-    any_cohesion = any_cohesion || pr.cohesive_force() > 0.0;
-    any_friction = any_friction || pr.friction > 0.0;
-    any_rolling = any_rolling || (pr.friction > 0.0 && pr.rolling_friction > 0.0);
+    n_cells += slot_cells[s];
   }
   const auto P = static_cast<std::size_t>(n_particles);
   const auto NC = P * kSlots;
@@ -129,40 +143,9 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.max_speed = alloc<double>("max_speed", S);
   sys.margin = alloc<double>("margin", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
-
-  auto P_ = [&](std::size_t s) -> const SystemParams& { return params[s]; };
   fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
-  fill_from(sys.capacity, S, [&](std::size_t s) { return capacity[s]; });
-  fill_from(sys.count, S, [&](std::size_t s) { return static_cast<int>(setups[s].disks.size()); });
-  fill_from(sys.width, S, [&](std::size_t s) { return P_(s).width; });
-  fill_from(sys.height, S, [&](std::size_t s) { return P_(s).height; });
-  fill_from(sys.radius, S, [&](std::size_t s) { return P_(s).radius; });
-  fill_from(sys.polydispersity, S, [&](std::size_t s) { return P_(s).polydispersity; });
-  fill_from(sys.disk_density, S, [&](std::size_t s) { return P_(s).disk_density; });
-  fill_from(sys.capture_radius, S, [&](std::size_t s) { return P_(s).capture_radius; });
-  fill_from(sys.gravity_x, S, [&](std::size_t s) {
-    return P_(s).gravity_on ? P_(s).gravity * P_(s).gravity_dir_x : 0.0;
-  });
-  fill_from(sys.gravity_y, S, [&](std::size_t s) {
-    return P_(s).gravity_on ? P_(s).gravity * P_(s).gravity_dir_y : 0.0;
-  });
-  fill_from(sys.cohesive_force, S, [&](std::size_t s) { return P_(s).cohesive_force(); });
-  fill_from(sys.cohesion_range, S, [&](std::size_t s) { return P_(s).cohesion_range; });
-  fill_from(sys.friction, S, [&](std::size_t s) { return P_(s).friction; });
-  fill_from(sys.rolling_friction, S, [&](std::size_t s) { return P_(s).rolling_friction; });
-  fill_from(sys.time_step, S, [&](std::size_t s) { return P_(s).time_step; });
-  fill_from(sys.weight, S, [&](std::size_t s) {
-    const double w = P_(s).reference_mass() * P_(s).gravity;
-    return w > 0.0 ? w : 1.0;
-  });
-  fill_from(sys.floor_cohesion, S, [&](std::size_t s) { return P_(s).floor_cohesion ? 1 : 0; });
-  fill_from(sys.seed, S, [&](std::size_t s) { return setups[s].seed; });
-  fill_from(sys.member, S, [&](std::size_t s) { return setups[s].member; });
-  fill_from(sys.cell_size, S, [&](std::size_t s) { return cell[s]; });
-  fill_from(sys.grid_nx, S, [&](std::size_t s) { return nx[s]; });
-  fill_from(sys.grid_ny, S, [&](std::size_t s) { return ny[s]; });
+  fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
   fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
-  Kokkos::deep_copy(sys.active, 1);
 
   part.system = alloc<int>("system", P);
   part.x = alloc<double>("x", P);
@@ -183,54 +166,13 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   part.n_incident = alloc<int>("n_incident", P);
   part.incident = alloc<int>("incident", P * kIncident);
   {
-    auto hsys = Kokkos::create_mirror_view(part.system);
-    auto hx = Kokkos::create_mirror_view(part.x);
-    auto hy = Kokkos::create_mirror_view(part.y);
-    auto ht = Kokkos::create_mirror_view(part.theta);
-    auto hvx = Kokkos::create_mirror_view(part.vx);
-    auto hvy = Kokkos::create_mirror_view(part.vy);
-    auto hw = Kokkos::create_mirror_view(part.w);
-    auto hr = Kokkos::create_mirror_view(part.radius);
-    auto him = Kokkos::create_mirror_view(part.inv_mass);
-    auto hiI = Kokkos::create_mirror_view(part.inv_inertia);
-    auto hyd = Kokkos::create_mirror_view(part.y_deposit);
-    std::vector<double> speed(S, 0.0);
-    for (std::size_t s = 0; s < S; ++s) {
-      for (int k = 0; k < capacity[s]; ++k) {
-        const int p = offsets[s] + k;
-        hsys(p) = static_cast<int>(s);
-        hr(p) = params[s].radius;
-        if (k >= static_cast<int>(setups[s].disks.size())) continue;
-        const Disk& d = setups[s].disks[static_cast<std::size_t>(k)];
-        if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
-        hx(p) = std::fmod(std::fmod(d.x, params[s].width) + params[s].width, params[s].width);
-        hy(p) = d.y;
-        ht(p) = d.theta;
-        hvx(p) = d.vx;
-        hvy(p) = d.vy;
-        hw(p) = d.w;
-        hr(p) = d.radius;
-        hyd(p) = d.y_deposit;
-        const double m = params[s].disk_density * M_PI * d.radius * d.radius;
-        him(p) = d.fixed ? 0.0 : 1.0 / m;
-        hiI(p) = (d.fixed || d.lock_rotation) ? 0.0 : 2.0 / (m * d.radius * d.radius);
-        speed[s] = std::max({speed[s], std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)});
-      }
-    }
-    Kokkos::deep_copy(part.system, hsys);
-    Kokkos::deep_copy(part.x, hx);
-    Kokkos::deep_copy(part.y, hy);
-    Kokkos::deep_copy(part.theta, ht);
-    Kokkos::deep_copy(part.vx, hvx);
-    Kokkos::deep_copy(part.vy, hvy);
-    Kokkos::deep_copy(part.w, hw);
-    Kokkos::deep_copy(part.radius, hr);
-    Kokkos::deep_copy(part.inv_mass, him);
-    Kokkos::deep_copy(part.inv_inertia, hiI);
-    Kokkos::deep_copy(part.y_deposit, hyd);
-    Kokkos::deep_copy(part.y_mark, hy);
-    fill_from(sys.max_speed, S, [&](std::size_t s) { return speed[s]; });
+    auto h = Kokkos::create_mirror_view(part.system);
+    for (std::size_t s = 0; s < S; ++s)
+      for (int k = 0; k < slot_capacity[s]; ++k) h(offsets[s] + k) = static_cast<int>(s);
+    Kokkos::deep_copy(part.system, h);
   }
+  // No slot belongs to a cell until the first grid build.
+  Kokkos::deep_copy(part.cell, -1);
 
   con.partner = alloc<int>("partner", NC);
   con.prev_partner = alloc<int>("prev_partner", NC);
@@ -260,13 +202,93 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   grid.cell_fill = alloc<int>("cell_fill", static_cast<std::size_t>(n_cells));
   grid.cell_particles = alloc<int>("cell_particles", P);
 
+  params.resize(S);
   status.assign(S, SystemStatus{});
-  for (std::size_t s = 0; s < S; ++s) {
-    status[s].active = true;
-    status[s].count = static_cast<int>(setups[s].disks.size());
+  for (std::size_t s = 0; s < S; ++s) load(static_cast<int>(s), setups[s]);
+}
+
+// Puts one system into slot s: parameters, grid shape, disks; contacts and status cleared.
+void Batch::Impl::load(int s, const SystemSetup& su) {
+  const auto k = static_cast<std::size_t>(s);
+  const SystemParams& pr = su.params;
+  const int count = static_cast<int>(su.disks.size());
+  if (std::max(su.capacity, count) > slot_capacity[k])
+    throw std::invalid_argument("Batch: system needs " + std::to_string(std::max(su.capacity, count)) +
+                                " disk slots, the batch slot has " +
+                                std::to_string(slot_capacity[k]));
+  const GridShape g = grid_shape(su);
+  if (g.nx * g.ny > slot_cells[k])
+    throw std::invalid_argument("Batch: system needs " + std::to_string(g.nx * g.ny) +
+                                " grid cells, the batch slot has " + std::to_string(slot_cells[k]));
+  params[k] = pr;
+  auto set = [s](const auto& view, auto value) { Kokkos::deep_copy(Kokkos::subview(view, s), value); };
+  set(sys.count, count);
+  set(sys.width, pr.width);
+  set(sys.height, pr.height);
+  set(sys.radius, pr.radius);
+  set(sys.polydispersity, pr.polydispersity);
+  set(sys.disk_density, pr.disk_density);
+  set(sys.capture_radius, pr.capture_radius);
+  set(sys.gravity_x, pr.gravity_on ? pr.gravity * pr.gravity_dir_x : 0.0);
+  set(sys.gravity_y, pr.gravity_on ? pr.gravity * pr.gravity_dir_y : 0.0);
+  set(sys.cohesive_force, pr.cohesive_force());
+  set(sys.cohesion_range, pr.cohesion_range);
+  set(sys.friction, pr.friction);
+  set(sys.rolling_friction, pr.rolling_friction);
+  set(sys.time_step, pr.time_step);
+  const double weight = pr.reference_mass() * pr.gravity;
+  set(sys.weight, weight > 0.0 ? weight : 1.0);
+  set(sys.floor_cohesion, pr.floor_cohesion ? 1 : 0);
+  set(sys.seed, su.seed);
+  set(sys.member, su.member);
+  set(sys.draws, std::uint64_t(0));
+  set(sys.cell_size, g.cell);
+  set(sys.grid_nx, g.nx);
+  set(sys.grid_ny, g.ny);
+  set(sys.active, 1);
+  set(sys.unconverged, 0);
+  set(sys.failure, int(kOk));
+  any_cohesion = any_cohesion || pr.cohesive_force() > 0.0;
+  any_friction = any_friction || pr.friction > 0.0;
+  any_rolling = any_rolling || (pr.friction > 0.0 && pr.rolling_friction > 0.0);
+
+  const int first = offsets[k], cap = slot_capacity[k];
+  const auto range = std::make_pair(first, first + cap);
+  auto upload = [&](const DView<double>& v, auto f) {
+    auto sub = Kokkos::subview(v, range);
+    auto h = Kokkos::create_mirror_view(sub);
+    for (int a = 0; a < cap; ++a) h(a) = a < count ? f(su.disks[static_cast<std::size_t>(a)]) : 0.0;
+    Kokkos::deep_copy(sub, h);
+  };
+  const double width = pr.width;
+  auto mass = [&](const Disk& d) { return pr.disk_density * M_PI * d.radius * d.radius; };
+  double speed = 0.0;
+  for (const auto& d : su.disks) {
+    if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
+    speed = std::max({speed, std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)});
   }
-  // Mark every slot as belonging to no cell until the first grid build.
-  Kokkos::deep_copy(part.cell, -1);
+  upload(part.x, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
+  upload(part.y, [](const Disk& d) { return d.y; });
+  upload(part.theta, [](const Disk& d) { return d.theta; });
+  upload(part.vx, [](const Disk& d) { return d.vx; });
+  upload(part.vy, [](const Disk& d) { return d.vy; });
+  upload(part.w, [](const Disk& d) { return d.w; });
+  upload(part.radius, [](const Disk& d) { return d.radius; });
+  upload(part.inv_mass, [&](const Disk& d) { return d.fixed ? 0.0 : 1.0 / mass(d); });
+  upload(part.inv_inertia, [&](const Disk& d) {
+    return (d.fixed || d.lock_rotation) ? 0.0 : 2.0 / (mass(d) * d.radius * d.radius);
+  });
+  upload(part.y_deposit, [](const Disk& d) { return d.y_deposit; });
+  upload(part.y_mark, [](const Disk& d) { return d.y; });
+  set(sys.max_speed, speed);
+  const auto slots = std::make_pair(first * kSlots, (first + cap) * kSlots);
+  Kokkos::deep_copy(Kokkos::subview(con.partner, slots), kNoContact);
+  Kokkos::deep_copy(Kokkos::subview(con.prev_partner, slots), kNoContact);
+  Kokkos::deep_copy(Kokkos::subview(part.cell, range), -1);
+
+  status[k] = SystemStatus{};
+  status[k].active = true;
+  status[k].count = count;
 }
 
 template <class Fx>
@@ -506,6 +528,11 @@ const SystemParams& Batch::params(int s) const {
 const SolverSettings& Batch::solver() const { return impl_->solver; }
 
 void Batch::step() { impl_->step(); }
+
+void Batch::reset(int s, const SystemSetup& setup) {
+  if (s < 0 || s >= size()) throw std::out_of_range("Batch::reset: no system " + std::to_string(s));
+  impl_->load(s, setup);
+}
 
 long Batch::run_to_rest(long max_steps) {
   long n = 0;

@@ -22,7 +22,8 @@ struct Disk {
 struct SystemSetup {
   SystemParams params;
   std::vector<Disk> disks;
-  int capacity = 0;  // particle slots; at least disks.size()
+  int capacity = 0;    // particle slots; at least disks.size()
+  int grid_cells = 0;  // grid cells to reserve (at least what these parameters need)
   // Key of the counter-based random stream of this system: (scan seed, member id).
   std::uint64_t seed = 0;
   std::uint64_t member = 0;
@@ -64,6 +65,9 @@ struct Deposit {
   double x = 0.0, y = 0.0, radius = 0.0;
 };
 
+// Grid cells a system with these parameters needs (to size batch slots for reuse).
+int grid_cells_needed(const SystemSetup& setup);
+
 class Batch {
  public:
   Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver = {},
@@ -78,6 +82,9 @@ class Batch {
 
   // One time step of every active system.
   void step();
+  // Put a new system into slot s (a finished member frees its slot for the next one). The
+  // setup must fit the slot: capacity and grid cells no larger than the slot's.
+  void reset(int s, const SystemSetup& setup);
   // Step until every active system is at rest or failed, or max_steps. Returns steps taken.
   long run_to_rest(long max_steps);
 

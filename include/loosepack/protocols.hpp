@@ -36,7 +36,7 @@ struct MemberResult {
   std::vector<AvalancheEvent> events;       // protocol A
   long steps = 0, sweeps = 0;
   int capped = 0;        // A: events that hit the cap; C: 1 if the collapse hit its cap
-  double wall_time = 0.0;
+  double wall_time = 0.0;  // seconds the member held its batch slot (shared with the others)
   bool ok() const { return failure == Failure::None; }
 };
 
@@ -48,7 +48,8 @@ struct Progress {
 };
 using ProgressFn = std::function<void(const Progress&)>;
 
-// Run the members in batches of scan.batch_size; results in member order.
+// Run the members on one batch of scan.batch_size slots: members of any protocol advance
+// together, and a finished member's slot takes the next member. Results in member order.
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
                                       const ProgressFn& progress = {});
 
