@@ -58,6 +58,12 @@ struct Batch::Impl {
   DView<int> sweeps_this_step;  // [S]
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
+  // Batch steps taken, and the last one each system took part in: a system that sat out a step
+  // has stale contact arrays (they are swapped every step) and resumes with a cold start, so
+  // its results never depend on what the rest of the batch did meanwhile.
+  long batch_steps = 0;
+  std::vector<long> last_stepped;
+  void drop_warm_start(int s);
   bool any_cohesion = false, any_friction = false, any_rolling = false;
 
   void allocate(const std::vector<SystemSetup>& setups);
@@ -204,6 +210,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
 
   params.resize(S);
   status.assign(S, SystemStatus{});
+  last_stepped.assign(S, 0);
   for (std::size_t s = 0; s < S; ++s) load(static_cast<int>(s), setups[s]);
 }
 
@@ -289,6 +296,15 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   status[k] = SystemStatus{};
   status[k].active = true;
   status[k].count = count;
+  last_stepped[k] = batch_steps;
+}
+
+void Batch::Impl::drop_warm_start(int s) {
+  const int first = offsets[static_cast<std::size_t>(s)];
+  const int cap = slot_capacity[static_cast<std::size_t>(s)];
+  const auto slots = std::make_pair(first * kSlots, (first + cap) * kSlots);
+  Kokkos::deep_copy(Kokkos::subview(con.partner, slots), kNoContact);
+  Kokkos::deep_copy(Kokkos::subview(con.prev_partner, slots), kNoContact);
 }
 
 template <class Fx>
@@ -416,34 +432,12 @@ void Batch::Impl::step() {
   build_grid(sys, part, grid, n_particles, n_cells);
   Kokkos::parallel_for("free_velocity", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        FreeVelocity{sys, part});
-  // Stage 3: contacts, warm-started from the previous step's impulses.
+  // Stage 3: contacts, warm-started from the previous step's impulses. Systems not stepped
+  // now keep nothing: their warm start is dropped when they resume (see set_active).
   std::swap(con.partner, con.prev_partner);
   std::swap(con.pn, con.prev_pn);
   std::swap(con.pt, con.prev_pt);
   std::swap(con.pm, con.prev_pm);
-  const auto prev_partner = con.prev_partner;
-  const auto partner = con.partner;
-  const auto psys = part.system;
-  const auto pcell = part.cell;
-  // Inactive systems keep their contacts (and impulses) for when they resume.
-  Kokkos::parallel_for(
-      "keep_inactive", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
-      KOKKOS_LAMBDA(int c) {
-        if (pcell(c / kSlots) < 0) partner(c) = prev_partner(c);
-      });
-  {
-    const auto pn = con.pn, pt = con.pt, pm = con.pm;
-    const auto ppn = con.prev_pn, ppt = con.prev_pt, ppm = con.prev_pm;
-    Kokkos::parallel_for(
-        "keep_inactive_impulses", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
-        KOKKOS_LAMBDA(int c) {
-          if (pcell(c / kSlots) < 0) {
-            pn(c) = ppn(c);
-            pt(c) = ppt(c);
-            pm(c) = ppm(c);
-          }
-        });
-  }
   Kokkos::parallel_for("contacts", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        ContactBuild{sys, part, con, grid});
   Kokkos::parallel_for("incident", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
@@ -484,9 +478,11 @@ void Batch::Impl::step() {
   Kokkos::deep_copy(h_sweeps, sweeps_this_step);
   Kokkos::deep_copy(h_count, sys.count);
   bool deactivate = false;
+  ++batch_steps;
   for (int s = 0; s < n_systems; ++s) {
     auto& st = status[static_cast<std::size_t>(s)];
     if (!st.active) continue;
+    last_stepped[static_cast<std::size_t>(s)] = batch_steps;
     st.steps += 1;
     st.last_sweeps = h_sweeps(s);
     st.sweeps += h_sweeps(s);
@@ -554,6 +550,10 @@ void Batch::set_active(int s, bool active) {
   if (active && st.failure != Failure::None) return;
   if (st.active == active) return;
   st.active = active;
+  if (active && impl_->last_stepped[static_cast<std::size_t>(s)] != impl_->batch_steps) {
+    impl_->drop_warm_start(s);
+    impl_->last_stepped[static_cast<std::size_t>(s)] = impl_->batch_steps;
+  }
   impl_->upload_status_active();
 }
 
@@ -678,9 +678,14 @@ std::vector<ContactForce> Batch::contacts(int s) const {
   auto getd = [&](const DView<double>& v) {
     return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
   };
-  auto partner = geti(I.con.partner);
+  // Partner and impulse arrays are swapped every batch step: a system that sat out an odd
+  // number of steps since its last one has its contacts in the other buffer. (The geometry
+  // arrays are not swapped; a system that sat out steps keeps its own.)
+  const bool other = (I.batch_steps - I.last_stepped[static_cast<std::size_t>(s)]) % 2 == 1;
+  auto partner = geti(other ? I.con.prev_partner : I.con.partner);
   auto nx = getd(I.con.nx), ny = getd(I.con.ny), gap = getd(I.con.gap);
-  auto pn = getd(I.con.pn), pt = getd(I.con.pt), pm = getd(I.con.pm);
+  auto pn = getd(other ? I.con.prev_pn : I.con.pn), pt = getd(other ? I.con.prev_pt : I.con.pt),
+       pm = getd(other ? I.con.prev_pm : I.con.pm);
   const double h = I.params[static_cast<std::size_t>(s)].time_step;
   std::vector<ContactForce> out;
   for (int c = 0; c < st.count * kSlots; ++c) {
