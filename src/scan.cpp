@@ -217,11 +217,39 @@ Scan parse_scan(const std::string& text, const std::string& file) {
     return x;
   };
 
+  // Explicit points ([[point]] tables): each one system-key override set, plus its protocol.
+  struct Explicit {
+    const toml::node* node;
+    std::vector<std::pair<std::string, const toml::node*>> keys;
+  };
+  std::vector<Explicit> explicit_points;
+  const toml::node* protocol_node = nullptr;
+
   for_each_key(root, [&](const std::string& section, const toml::node& node) {
+    if (section == "point") {
+      auto arr = node.as_array();
+      if (!arr || arr->empty() || !arr->is_array_of_tables())
+        fail(file, node, section, "expected [[point]] tables");
+      for (const auto& e : *arr) {
+        Explicit ex{&e, {}};
+        for_each_key(*e.as_table(), [&](const std::string& k, const toml::node& v) {
+          bool known = k == "protocol";
+          for (const auto& sk : system_keys()) known = known || k == sk.name;
+          if (!known)
+            fail(file, v, "point." + k, "unknown key (allowed: protocol and the [system] keys)");
+          if (v.is_array() || v.is_table())
+            fail(file, v, "point." + k, "a point takes single values, not axes");
+          ex.keys.emplace_back(k, &v);
+        });
+        explicit_points.push_back(ex);
+      }
+      return;
+    }
     auto tbl = node.as_table();
     if (!tbl)
       fail(file, node, section,
-           "expected a table ([scan], [system], [solver], [rest], [protocol], [observables])");
+           "expected a table ([scan], [system], [solver], [rest], [protocol], [observables]) or "
+           "[[point]] tables");
     if (section == "scan") {
       for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
         const std::string key = "scan." + k;
@@ -238,6 +266,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         } else if (k == "batch_size") {
           scan.batch_size = positive_int(v, key, 1, 1000000);
         } else if (k == "protocol") {
+          protocol_node = &v;
           protocols.clear();
           auto one = [&](const toml::node& e) {
             auto s = e.as_string();
@@ -350,6 +379,13 @@ Scan parse_scan(const std::string& text, const std::string& file) {
     }
   });
 
+  if (!explicit_points.empty()) {
+    if (protocols.size() > 1) fail(file, *protocol_node, "scan.protocol", "axes and [[point]] tables do not mix: list the points, or the axes");
+    for (const auto& [k, ax] : axes)
+      if (ax.first.size() > 1)
+        fail(file, *ax.second, "system." + k,
+             "axes and [[point]] tables do not mix: list the points, or the axes");
+  }
   // Expand the grid: protocol slowest, then the system keys in their fixed order.
   std::vector<ScanPoint> points;
   for (Protocol pr : protocols) {
@@ -370,6 +406,36 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         next.push_back(sp);
       }
     points = std::move(next);
+  }
+  // Explicit points: the [system] values (now all scalars) overridden by each point's keys.
+  if (!explicit_points.empty()) {
+    const ScanPoint base = points.front();
+    points.clear();
+    for (const auto& ex : explicit_points) {
+      ScanPoint sp = base;
+      for (const auto& [k, v] : ex.keys) {
+        if (k == "protocol") {
+          auto str = v->as_string();
+          if (!str || (str->get() != "A" && str->get() != "B" && str->get() != "C"))
+            fail(file, *v, "point.protocol", "expected \"A\", \"B\" or \"C\"");
+          sp.protocol = str->get() == "A" ? Protocol::A : str->get() == "B" ? Protocol::B : Protocol::C;
+        } else if (k == "floor_cohesion") {
+          sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
+        } else {
+          for (const auto& sk : system_keys())
+            if (k == sk.name) sk.set(sp.params, as_number(file, *v, "point." + k));
+          axes[k] = {{as_number(file, *v, "point." + k)}, v};  // for error locations below
+        }
+      }
+      for (const auto& sk : system_keys()) {
+        const std::string why = sk.check(sp.params);
+        if (why.empty()) continue;
+        auto it = axes.find(sk.name);
+        if (it != axes.end()) fail(file, *it->second.second, std::string("point.") + sk.name, why);
+        fail(file, *ex.node, std::string("point.") + sk.name, why);
+      }
+      points.push_back(sp);
+    }
   }
   // Validate every point; report the first offending key with its location.
   for (auto& sp : points) {

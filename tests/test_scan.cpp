@@ -76,3 +76,38 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
         << "input:\n" << c.text << "message: " << msg << "\nexpected to contain: " << c.expect;
   }
 }
+
+TEST(Scan, ExplicitPointsOverrideTheSystemDefaults) {
+  const auto scan = parse_scan(R"(
+[system]
+width = 30
+friction = 0.4
+[[point]]
+protocol = "A"
+bond_number = 0
+[[point]]
+protocol = "C"
+bond_number = 1000
+capture_radius = 2.0
+)",
+                               "ok.toml");
+  ASSERT_EQ(scan.points.size(), 2u);
+  EXPECT_EQ(scan.points[0].protocol, Protocol::A);
+  EXPECT_EQ(scan.points[0].params.bond_number, 0.0);
+  EXPECT_EQ(scan.points[1].protocol, Protocol::C);
+  EXPECT_EQ(scan.points[1].params.capture_radius, 2.0);
+  EXPECT_EQ(scan.points[1].params.width, 30.0);
+  EXPECT_EQ(scan.points[1].params.friction, 0.4);
+  EXPECT_EQ(scan.points[1].index, 1);
+}
+
+TEST(Scan, ExplicitPointErrors) {
+  EXPECT_NE(error_of("[system]\nbond_number = [1, 2]\n[[point]]\nwidth = 30\n")
+                .find("key 'system.bond_number': axes and [[point]] tables do not mix"),
+            std::string::npos);
+  EXPECT_NE(error_of("[[point]]\nwidth = [30, 40]\n").find("bad.toml:2:9: key 'point.width': a point takes single values"),
+            std::string::npos);
+  EXPECT_NE(error_of("[[point]]\nmu = 0.3\n").find("key 'point.mu': unknown key"), std::string::npos);
+  EXPECT_NE(error_of("[[point]]\nfriction = -1\n").find("bad.toml:2:12: key 'point.friction': mu must be >= 0"),
+            std::string::npos);
+}
