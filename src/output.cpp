@@ -166,6 +166,8 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         attribute(g, "cut_bottom", o.cut_bottom);
         attribute(g, "cut_top", o.cut_top);
         attribute(g, "event_threshold", o.event_threshold);
+        attribute(g, "trajectory_every", static_cast<double>(o.trajectory_every));
+        attribute(g, "trajectory_interval", static_cast<double>(o.trajectory_interval));
       }
       H5 all = group(file, "points");
       for (const auto& pr : points) {
@@ -211,6 +213,16 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         dataset(m, "wall_time", pr.m_wall_time);
         dataset(m, "failure", pr.m_failure);
         dataset(m, "capped", pr.m_capped);
+        if (scan.observables.trajectory_every > 0) {
+          for (const auto& r : members) {
+            if (r.member.point != pr.point.index) continue;
+            H5 t = group(m, "trajectory_" + std::to_string(r.member.seed_index));
+            dataset(t, "time", r.trajectory_time);
+            dataset(t, "disk", r.trajectory_disk);
+            dataset(t, "x", r.trajectory_x);
+            dataset(t, "y", r.trajectory_y);
+          }
+        }
         if (snapshots) {
           for (const auto& r : members) {
             if (r.member.point != pr.point.index) continue;
@@ -219,6 +231,19 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
             dataset(s, "y_i", r.y_i);
             dataset(s, "y_e", r.y_e);
             dataset(s, "radius", r.radius);
+            std::vector<double> ci, cj, cn, ct, cm;
+            for (const auto& c : r.contacts) {
+              ci.push_back(c.i);
+              cj.push_back(c.j);
+              cn.push_back(c.normal);
+              ct.push_back(c.tangential);
+              cm.push_back(c.moment);
+            }
+            dataset(s, "contact_i", ci);
+            dataset(s, "contact_j", cj);
+            dataset(s, "contact_normal", cn);
+            dataset(s, "contact_tangential", ct);
+            dataset(s, "contact_moment", cm);
           }
         }
       }

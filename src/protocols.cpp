@@ -121,6 +121,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.y_e.push_back(d.y);
       r.radius.push_back(d.radius);
     }
+    if (st.failure == Failure::None) r.contacts = batch.contacts(s);
     results[sl.member] = std::move(r);
     ++prog.members_done;
     begin(k);
@@ -138,6 +139,18 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   for (std::size_t k = 0; k < n_slots; ++k) begin(k);
 
   const double threshold = scan.observables.event_threshold;
+  const int every = scan.observables.trajectory_every;
+  auto sample = [&](std::size_t k, double when) {
+    if (every <= 0) return;
+    MemberResult& r = slots[k].result;
+    const auto disks = batch.disks(static_cast<int>(k));
+    for (std::size_t d = 0; d < disks.size(); d += static_cast<std::size_t>(every)) {
+      r.trajectory_time.push_back(when);
+      r.trajectory_disk.push_back(static_cast<double>(d));
+      r.trajectory_x.push_back(disks[d].x);
+      r.trajectory_y.push_back(disks[d].y);
+    }
+  };
   for (;;) {
     // Ballistic deposition: one disk per slot and round.
     auto [mb, any_b] = mask_of(Phase::Ballistic);
@@ -153,6 +166,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
                    members[slots[k].member].protocol == Protocol::C) {
           slots[k].phase = Phase::Collapse;  // full: switch gravity on
           slots[k].steps = 0;
+          sample(k, 0.0);
           slots[k].cap = static_cast<long>(
               std::ceil(scan.protocol.max_collapse_time / batch.params(s).time_step));
           batch.set_gravity(s, true);
@@ -202,7 +216,11 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         continue;
       }
       ++sl.steps;
-      if (!st.at_rest && sl.steps < sl.cap) continue;
+      const bool done = st.at_rest || sl.steps >= sl.cap;
+      if (sl.phase == Phase::Collapse &&
+          (done || sl.steps % scan.observables.trajectory_interval == 0))
+        sample(k, static_cast<double>(sl.steps));
+      if (!done) continue;
       if (sl.phase == Phase::Collapse) {
         sl.result.capped = st.at_rest ? 0 : 1;
         finish(k);
@@ -223,6 +241,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       ev.capped = !batch.status(static_cast<int>(k)).at_rest;
       sl.result.capped += ev.capped ? 1 : 0;
       sl.result.events.push_back(ev);
+      sample(k, static_cast<double>(sl.deposited));
       sl.phase = Phase::Deposit;
       batch.set_active(static_cast<int>(k), false);
     }

@@ -367,10 +367,14 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           o.cut_top = real(v, key, 0.0, 1e9);
         } else if (k == "event_threshold") {
           o.event_threshold = real(v, key, 0.0, 1e9);
+        } else if (k == "trajectory_every") {
+          o.trajectory_every = positive_int(v, key, 0, 1000000);
+        } else if (k == "trajectory_interval") {
+          o.trajectory_interval = positive_int(v, key, 1, 100000000);
         } else {
           fail(file, v, key,
                "unknown key (allowed: strip_width, lower_half_from, bin_width, abs_dy_bin, "
-               "cut_bottom, cut_top, event_threshold)");
+               "cut_bottom, cut_top, event_threshold, trajectory_every, trajectory_interval)");
         }
       });
     } else {

@@ -220,3 +220,45 @@ lower_half_from = 3.0
   std::remove(path.c_str());
   rmdir(dir);
 }
+
+// Final contact forces and trajectories: the floor carries the whole weight of a deposit at
+// rest (Bo = 0, so no cohesive pre-stress), and a trajectory ends where its disk ends.
+TEST(Snapshots, ContactForcesCarryTheWeightAndTrajectoriesEndAtFinalPositions) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 1
+[system]
+width = 10.0
+height = 10.0
+bond_number = 0
+[solver]
+tolerance = 1e-5
+max_sweeps = 20000
+[observables]
+trajectory_every = 3
+)");
+  const auto r = run_members(scan, members_of(scan)).at(0);
+  ASSERT_TRUE(r.ok());
+  double floor = 0.0, weight = 0.0;
+  for (const auto& c : r.contacts)
+    if (c.j < 0) floor += c.normal;
+  for (double rad : r.radius) weight += rad * rad;  // m g with m = r^2 (m = 1 at R = 1), g = 1
+  EXPECT_NEAR(floor, weight, 1e-3 * weight);
+  ASSERT_FALSE(r.trajectory_time.empty());
+  for (std::size_t d = 0; d < r.y_e.size(); d += 3) {
+    double last_t = -1, x = 0, y = 0, first_t = 1e300;
+    for (std::size_t k = 0; k < r.trajectory_time.size(); ++k) {
+      if (r.trajectory_disk[k] != static_cast<double>(d)) continue;
+      first_t = std::min(first_t, r.trajectory_time[k]);
+      if (r.trajectory_time[k] >= last_t) {
+        last_t = r.trajectory_time[k];
+        x = r.trajectory_x[k];
+        y = r.trajectory_y[k];
+      }
+    }
+    EXPECT_EQ(x, r.x[d]) << "disk " << d;
+    EXPECT_EQ(y, r.y_e[d]) << "disk " << d;
+    EXPECT_GE(first_t, static_cast<double>(d + 1));  // sampled only once deposited
+  }
+}

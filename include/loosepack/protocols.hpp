@@ -34,6 +34,10 @@ struct MemberResult {
   Failure failure = Failure::None;
   std::vector<double> x, y_i, y_e, radius;  // per disk, in deposition order
   std::vector<AvalancheEvent> events;       // protocol A
+  std::vector<ContactForce> contacts;       // final contact forces (force chains, paper fig. 1)
+  // Trajectories of every k-th disk (observables.trajectory_every = k > 0), one row per sample:
+  // when (A: disks deposited so far; C: collapse step), which disk, where.
+  std::vector<double> trajectory_time, trajectory_disk, trajectory_x, trajectory_y;
   long steps = 0, sweeps = 0;
   int capped = 0;        // A: events that hit the cap; C: 1 if the collapse hit its cap
   double wall_time = 0.0;  // seconds the member held its batch slot (shared with the others)

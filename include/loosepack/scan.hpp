@@ -25,6 +25,8 @@ struct ObservableSettings {
   double cut_bottom = 20.0;       // |Delta y| histogram without the bottom ... [R]
   double cut_top = 20.0;          // ... and the top of the final deposit [R]
   double event_threshold = 0.1;   // a disk counts as moved in an avalanche beyond this [R]
+  int trajectory_every = 0;       // record the trajectory of every k-th disk (0: none)
+  int trajectory_interval = 100;  // C: steps between trajectory samples during the collapse
 };
 
 // Limits of the protocols' dynamics.
