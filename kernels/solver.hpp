@@ -81,6 +81,22 @@ KOKKOS_INLINE_FUNCTION double local_solve(const SystemViews& sys, const Particle
   return change / (h * sys.weight(s));
 }
 
+// Applies an impulse change (dn, dt, dm) of contact c to the velocities of its bodies i and j.
+KOKKOS_INLINE_FUNCTION void apply_impulse_change(const ParticleViews& part, const ContactViews& con,
+                                                 int c, int i, int j, double dn, double dt,
+                                                 double dm) {
+  const double nx = con.nx(c), ny = con.ny(c);
+  const double fx = dn * nx - dt * ny, fy = dn * ny + dt * nx;
+  part.vx(i) -= part.inv_mass(i) * fx;
+  part.vy(i) -= part.inv_mass(i) * fy;
+  part.w(i) += part.inv_inertia(i) * (-part.radius(i) * dt - dm);
+  if (j >= 0) {
+    part.vx(j) += part.inv_mass(j) * fx;
+    part.vy(j) += part.inv_mass(j) * fy;
+    part.w(j) += part.inv_inertia(j) * (-part.radius(j) * dt + dm);
+  }
+}
+
 // v = v_free + M^-1 sum H^T P over the contacts incident to each particle.
 struct BodyVelocity {
   SystemViews sys;
@@ -164,16 +180,7 @@ struct GaussSeidelContacts {
     con.pn(c) += dn;
     con.pt(c) += dt;
     con.pm(c) += dm;
-    const double nx = con.nx(c), ny = con.ny(c);
-    const double fx = dn * nx - dt * ny, fy = dn * ny + dt * nx;
-    part.vx(i) -= part.inv_mass(i) * fx;
-    part.vy(i) -= part.inv_mass(i) * fy;
-    part.w(i) += part.inv_inertia(i) * (-part.radius(i) * dt - dm);
-    if (j >= 0) {
-      part.vx(j) += part.inv_mass(j) * fx;
-      part.vy(j) += part.inv_mass(j) * fy;
-      part.w(j) += part.inv_inertia(j) * (-part.radius(j) * dt + dm);
-    }
+    apply_impulse_change(part, con, c, i, j, dn, dt, dm);
     Kokkos::atomic_fetch_max(&sys.sweep_change(s), change);
   }
 };
@@ -191,7 +198,7 @@ struct SequentialGaussSeidel {
   double omega, tolerance;
   bool backward;
 
-  KOKKOS_INLINE_FUNCTION void apply(int c, int s, double& worst) const {
+  KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     const int j = con.partner(c);
     if (j == kNoContact) return;
     const int i = c / kSlots;
@@ -202,17 +209,7 @@ struct SequentialGaussSeidel {
     con.pn(c) += dn;
     con.pt(c) += dt;
     con.pm(c) += dm;
-    const double nx = con.nx(c), ny = con.ny(c);
-    const double fx = dn * nx - dt * ny, fy = dn * ny + dt * nx;
-    part.vx(i) -= part.inv_mass(i) * fx;
-    part.vy(i) -= part.inv_mass(i) * fy;
-    part.w(i) += part.inv_inertia(i) * (-part.radius(i) * dt - dm);
-    if (j >= 0) {
-      part.vx(j) += part.inv_mass(j) * fx;
-      part.vy(j) += part.inv_mass(j) * fy;
-      part.w(j) += part.inv_inertia(j) * (-part.radius(j) * dt + dm);
-    }
-    (void)s;
+    apply_impulse_change(part, con, c, i, j, dn, dt, dm);
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
@@ -221,9 +218,9 @@ struct SequentialGaussSeidel {
     const int end = (sys.offset(s) + sys.count(s)) * kSlots;
     double worst = 0.0;
     if (backward) {
-      for (int c = end - 1; c >= first; --c) apply(c, s, worst);
+      for (int c = end - 1; c >= first; --c) apply(c, worst);
     } else {
-      for (int c = first; c < end; ++c) apply(c, s, worst);
+      for (int c = first; c < end; ++c) apply(c, worst);
     }
     sweeps(s) += 1;
     if (!(worst > tolerance)) {  // a NaN system stops iterating; the integrate guard fails it
