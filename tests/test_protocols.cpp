@@ -179,6 +179,23 @@ lower_half_from = 2.0
     EXPECT_EQ(a[k].x, b[k].x) << "member " << k;
     EXPECT_EQ(a[k].steps, b[k].steps);
   }
+  // And in the files: every dataset but the wall times is identical.
+  char dir[] = "/tmp/loosepack-repro-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  const std::string fa = std::string(dir) + "/a.h5", fb = std::string(dir) + "/b.h5";
+  write_results(fa, one, RunInfo{}, aggregate(one, a), a, true);
+  write_results(fb, many, RunInfo{}, aggregate(many, b), b, true);
+  for (const char* point : {"points/0000", "points/0001", "points/0002"})
+    for (const char* set : {"nu/mean", "nu/sem", "nu_deposition/mean", "avalanche_by_yi/mean",
+                            "avalanche_by_ye/sem", "abs_dy_histogram/counts", "members/steps",
+                            "members/sweeps", "members/disks", "members/snapshot_2/y_e",
+                            "members/snapshot_0/contact_normal"}) {
+      const std::string name = std::string(point) + "/" + set;
+      EXPECT_EQ(read_dataset(fa, name), read_dataset(fb, name)) << name;
+    }
+  std::remove(fa.c_str());
+  std::remove(fb.c_str());
+  rmdir(dir);
 }
 
 // The output file holds what was computed and is replaced only by a complete file.
