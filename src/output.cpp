@@ -318,7 +318,7 @@ void print_summary(const std::string& path, std::ostream& out) {
   out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10)
       << "Bo" << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu"
       << std::setw(8) << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20)
-      << "<|dy|> [R]" << std::setw(16) << "dnu/nu_i" << "members(failed)\n";
+      << "<|dy|> [R]" << std::setw(22) << "dnu/nu_i" << "members(failed)\n";
   for (const auto& n : names) {
     auto d = [&](const char* a) { return read_attribute_double(path, n, a); };
     auto pm = [](double m, double s) {
@@ -336,7 +336,7 @@ void print_summary(const std::string& path, std::ostream& out) {
         << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
         << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction") << std::setw(22)
         << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
-        << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(16) << rel
+        << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel
         << static_cast<int>(d("members")) << "(" << static_cast<int>(d("failed")) << ")\n";
   }
 }
