@@ -63,6 +63,22 @@ struct Batch::Impl {
   // its results never depend on what the rest of the batch did meanwhile.
   long batch_steps = 0;
   std::vector<long> last_stepped;
+  // Named stages of a step and their accumulated wall time (fenced, when timing is on).
+  bool timing = false;
+  std::vector<std::pair<std::string, double>> stage_seconds;
+  Kokkos::Timer stage_timer;
+  void stage_done(const char* name) {
+    if (!timing) return;
+    ExecSpace().fence();
+    const double t = stage_timer.seconds();
+    stage_timer.reset();
+    for (auto& [n, sec] : stage_seconds)
+      if (n == name) {
+        sec += t;
+        return;
+      }
+    stage_seconds.emplace_back(name, t);
+  }
   void drop_warm_start(int s);
   bool any_cohesion = false, any_friction = false, any_rolling = false;
 
@@ -414,6 +430,10 @@ void Batch::Impl::step() {
   for (const auto& st : status) any = any || st.active;
   if (!any) return;
   const SystemViews sys_ = sys;
+  if (timing) {
+    ExecSpace().fence();
+    stage_timer.reset();
+  }
 
   // Stage 1: detection margin from the last step's speeds, free velocities.
   Kokkos::parallel_for(
@@ -432,6 +452,7 @@ void Batch::Impl::step() {
   build_grid(sys, part, grid, n_particles, n_cells);
   Kokkos::parallel_for("free_velocity", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        FreeVelocity{sys, part});
+  stage_done("grid");
   // Stage 3: contacts, warm-started from the previous step's impulses. Systems not stepped
   // now keep nothing: their warm start is dropped when they resume (see set_active).
   std::swap(con.partner, con.prev_partner);
@@ -449,6 +470,7 @@ void Batch::Impl::step() {
   // Stage 4: velocities from the warm-start impulses, then the iterative solve.
   Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        BodyVelocity{sys, part, con, false});
+  stage_done("contacts");
   if (any_rolling) {
     solve<Effects<true, true, true>>();
   } else if (any_friction) {
@@ -462,9 +484,11 @@ void Batch::Impl::step() {
     else
       solve<Effects<false, false, false>>();
   }
+  stage_done("solve");
   // Stage 5: positions.
   Kokkos::parallel_for("integrate", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        Integrate{sys, part});
+  stage_done("integrate");
 
   // Stage 6: per-system status on the host.
   auto h_fail = Kokkos::create_mirror_view(sys.failure);
@@ -500,6 +524,7 @@ void Batch::Impl::step() {
     st.at_rest = st.rest_steps >= rest.steps;
   }
   if (deactivate) upload_status_active();
+  stage_done("status");
 }
 
 void Batch::Impl::upload_status_active() {
@@ -524,6 +549,11 @@ const SystemParams& Batch::params(int s) const {
 const SolverSettings& Batch::solver() const { return impl_->solver; }
 
 void Batch::step() { impl_->step(); }
+
+void Batch::set_timing(bool on) { impl_->timing = on; }
+const std::vector<std::pair<std::string, double>>& Batch::stage_seconds() const {
+  return impl_->stage_seconds;
+}
 
 void Batch::reset(int s, const SystemSetup& setup) {
   if (s < 0 || s >= size()) throw std::out_of_range("Batch::reset: no system " + std::to_string(s));

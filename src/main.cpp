@@ -30,7 +30,7 @@ std::string directory_of(const std::string& path) {
 }
 
 int run(const std::string& scan_path, const std::string& out_path, bool quiet, int batch_size,
-        bool snapshots) {
+        bool snapshots, bool timing) {
   Scan scan;
   try {
     scan = load_scan(scan_path);
@@ -68,7 +68,16 @@ int run(const std::string& scan_path, const std::string& out_path, bool quiet, i
                    el * (p.members_total - p.members_done) / p.members_done);
     std::fprintf(stderr, "\n");
   };
-  const auto results = run_members(scan, members, progress);
+  std::vector<std::pair<std::string, double>> stages;
+  const auto results = run_members(scan, members, progress, timing ? &stages : nullptr);
+  if (timing) {
+    double total = 0.0;
+    for (const auto& st : stages) total += st.second;
+    std::fprintf(stderr, "loosepack: time per stage of the step (fenced)\n");
+    for (const auto& [name, sec] : stages)
+      std::fprintf(stderr, "  %-10s %10.3f s  %5.1f %%\n", name.c_str(), sec,
+                   total > 0 ? 100.0 * sec / total : 0.0);
+  }
   info.end_time = utc_now();
   info.wall_seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -107,13 +116,16 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("-q,--quiet", quiet, "no progress on stderr");
   run_cmd->add_option("--batch-size", batch_size, "systems per batch (overrides scan.batch_size)")
       ->check(CLI::Range(1, 1000000));
-  run_cmd->add_flag("--snapshots", snapshots, "store every member's final disks (x, y_i, y_e, r)");
+  run_cmd->add_flag("--snapshots", snapshots,
+                    "store every member's final disks (x, y_i, y_e, r) and contact forces");
+  bool timing = false;
+  run_cmd->add_flag("--timing", timing, "print the wall time per stage of the step at the end");
   auto* sum_cmd = app.add_subcommand("summary", "Print a table per scan point of a result file");
   sum_cmd->add_option("file", summary_path, "result file (HDF5)")->required()->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
 
   Kokkos::ScopeGuard kokkos(argc, argv);
-  if (*run_cmd) return run(scan_path, out_path, quiet, batch_size, snapshots);
+  if (*run_cmd) return run(scan_path, out_path, quiet, batch_size, snapshots, timing);
   try {
     print_summary(summary_path, std::cout);
   } catch (const std::exception& e) {

@@ -61,7 +61,8 @@ struct Slot {
 }  // namespace
 
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
-                                      const ProgressFn& progress) {
+                                      const ProgressFn& progress,
+                                      std::vector<std::pair<std::string, double>>* stage_seconds) {
   std::vector<MemberResult> results(members.size());
   if (members.empty()) return results;
   // Every slot can hold every member: capacity and grid of the largest.
@@ -85,6 +86,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   std::vector<SystemSetup> setups;
   for (std::size_t k = 0; k < n_slots; ++k) setups.push_back(setup_of(members[k]));
   Batch batch(setups, scan.solver, scan.rest);
+  batch.set_timing(stage_seconds != nullptr);
   std::vector<Slot> slots(n_slots);
   std::size_t next = 0;
   Progress prog;
@@ -246,6 +248,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       batch.set_active(static_cast<int>(k), false);
     }
   }
+  if (stage_seconds) *stage_seconds = batch.stage_seconds();
   return results;
 }
 

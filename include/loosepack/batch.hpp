@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "loosepack/params.hpp"
@@ -82,6 +83,10 @@ class Batch {
 
   // One time step of every active system.
   void step();
+  // Wall time per named stage of the step (grid, contacts, solve, integrate, status), summed
+  // over all steps since timing was switched on. Timing fences after every stage.
+  void set_timing(bool on);
+  const std::vector<std::pair<std::string, double>>& stage_seconds() const;
   // Put a new system into slot s (a finished member frees its slot for the next one). The
   // setup must fit the slot: capacity and grid cells no larger than the slot's.
   void reset(int s, const SystemSetup& setup);

@@ -54,8 +54,10 @@ using ProgressFn = std::function<void(const Progress&)>;
 
 // Run the members on one batch of scan.batch_size slots: members of any protocol advance
 // together, and a finished member's slot takes the next member. Results in member order.
-std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
-                                      const ProgressFn& progress = {});
+// stage_seconds, when given, receives the wall time per named stage of the batch step.
+std::vector<MemberResult> run_members(
+    const Scan& scan, const std::vector<Member>& members, const ProgressFn& progress = {},
+    std::vector<std::pair<std::string, double>>* stage_seconds = nullptr);
 
 // Grid capacity for one member: enough slots for the densest packing below H.
 int member_capacity(const SystemParams& p);
