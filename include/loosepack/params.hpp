@@ -42,7 +42,7 @@ enum class SolverKind {
 // How the contact problem is solved; shared by all systems of a batch.
 struct SolverSettings {
   SolverKind kind = SolverKind::SequentialGaussSeidel;
-  double tolerance = 1e-4;      // max impulse change per sweep, in units of h m g (per system)
+  double tolerance = 1e-3;      // max impulse change per sweep, in units of h m g (per system)
   int max_sweeps = 2000;        // iteration cap per step
   double relaxation = 1.0;      // omega: P <- P + omega (P_local - P)
   bool mass_splitting = true;   // Jacobi: each body's mass divided by its contact count
