@@ -457,6 +457,14 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       throw ScanError(file + ": " + why);
     }
   }
+  for (const auto& sp : points)
+    if (!(scan.observables.lower_half_from < 0.5 * sp.params.height)) {
+      std::ostringstream o;
+      o << file << ": key 'observables.lower_half_from': " << scan.observables.lower_half_from
+        << " must lie below H/2 = " << 0.5 * sp.params.height
+        << " of every point (nu_lower_half is the band from it to H/2)";
+      throw ScanError(o.str());
+    }
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   scan.points = std::move(points);
   return scan;

@@ -254,6 +254,7 @@ tolerance = 1e-5
 max_sweeps = 20000
 [observables]
 trajectory_every = 3
+lower_half_from = 1.0
 )");
   const auto r = run_members(scan, members_of(scan)).at(0);
   ASSERT_TRUE(r.ok());

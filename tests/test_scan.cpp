@@ -69,6 +69,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[scan]\nprotocol = \"C\"\n[system]\nbond_number = \"inf\"\n",
        "protocol C with Bo = inf has no collapse"},
       {"[system\nwidth = 3\n", "bad.toml:1:"},
+      {"[system]\nheight = 40\n", "key 'observables.lower_half_from': 50 must lie below H/2 = 20"},
   };
   for (const auto& c : cases) {
     const std::string msg = error_of(c.text);
