@@ -357,3 +357,25 @@ TEST(Guard, PausedSystemKeepsItsContactsAndResumesLikeAlone) {
   const auto c = both.disks(0), d = fresh.disks(0);
   for (std::size_t k = 0; k < c.size(); ++k) EXPECT_EQ(c[k].y, d[k].y);
 }
+
+// The periodic boundary is invisible: a pyramid straddling x = 0 carries the same forces.
+TEST(Validation, PyramidAcrossThePeriodicBoundary) {
+  auto p = bare_params(20.0, 40.0);
+  p.friction = 0.3;
+  auto d = pyramid();
+  for (auto& a : d) a.x -= 10.0;  // top disk exactly at x = 0, base disks at x < 0 and x > 0
+  Batch batch({setup(p, d)}, tight());
+  for (int k = 0; k < 100; ++k) batch.step();
+  int upper = 0;
+  for (const auto& c : batch.contacts(0)) {
+    if (c.j != 2) continue;
+    EXPECT_NEAR(c.normal, 0.5, 1e-6);
+    EXPECT_NEAR(std::fabs(c.tangential), (2.0 - std::sqrt(3.0)) / 2.0, 1e-6);
+    ++upper;
+  }
+  EXPECT_EQ(upper, 2);
+  for (const auto& a : batch.disks(0)) {
+    EXPECT_GE(a.x, 0.0);
+    EXPECT_LT(a.x, p.width);
+  }
+}
