@@ -15,17 +15,19 @@ struct DepositKernel {
   ParticleViews part;
   DView<int> request;     // [S] 1: deposit one disk
   DView<double> result;   // [S*4] placed, x, y, radius
+  DView<double> given_x;  // [S] abscissae to use instead of random draws (empty: draw)
   bool capture;           // DropRule::Capture
 
   KOKKOS_INLINE_FUNCTION void operator()(const team_member& team) const {
     const int s = team.league_rank();
     if (!request(s) || sys.failure(s) != kOk) return;
+    const bool given = given_x.extent(0) > 0;
     const std::uint64_t d0 = sys.draws(s);
     const double width = sys.width(s);
-    const double x = width * uniform01(sys.seed(s), sys.member(s), d0);
+    const double x = given ? given_x(s) : width * uniform01(sys.seed(s), sys.member(s), d0);
     double r = sys.radius(s);
     const double sigma = sys.polydispersity(s);
-    if (sigma > 0.0) {
+    if (sigma > 0.0 && !given) {
       const double u = uniform01(sys.seed(s), sys.member(s), d0 + 1);
       r *= 1.0 + kmath::sqrt(3.0) * sigma * (2.0 * u - 1.0);
     }
@@ -61,7 +63,7 @@ struct DepositKernel {
         if (px >= width) px -= width;
         if (px >= width) px = 0.0;
       }
-      sys.draws(s) = d0 + 2;
+      if (!given) sys.draws(s) = d0 + 2;
       result(4 * s + 0) = 0.0;
       result(4 * s + 1) = px;
       result(4 * s + 2) = py;

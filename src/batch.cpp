@@ -608,16 +608,25 @@ void Batch::reset_rest(int s) {
 }
 
 std::vector<Deposit> Batch::deposit(const std::vector<char>& mask, DropRule rule) {
+  return deposit_at(mask, {}, rule);
+}
+
+std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std::vector<double>& x,
+                                       DropRule rule) {
   auto& I = *impl_;
   const auto S = static_cast<std::size_t>(I.n_systems);
   if (mask.size() != S) throw std::invalid_argument("Batch::deposit: mask size");
+  if (!x.empty() && x.size() != S) throw std::invalid_argument("Batch::deposit_at: x size");
+  DView<double> given("deposit_x", x.size());
+  if (!x.empty()) fill_from(given, S, [&](std::size_t s) { return x[s]; });
   auto request = alloc<int>("deposit_request", S);
   fill_from(request, S, [&](std::size_t s) {
     return (mask[s] && I.status[s].failure == Failure::None) ? 1 : 0;
   });
   auto result = alloc<double>("deposit_result", 4 * S);
   Kokkos::parallel_for("deposit", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
-                       DepositKernel{I.sys, I.part, request, result, rule == DropRule::Capture});
+                       DepositKernel{I.sys, I.part, request, result, given,
+                                     rule == DropRule::Capture});
   auto hr = Kokkos::create_mirror_view(result);
   Kokkos::deep_copy(hr, result);
   auto h_fail = Kokkos::create_mirror_view(I.sys.failure);

@@ -101,6 +101,10 @@ class Batch {
 
   // Drop one disk into each system s with mask[s] at a random x from its stream.
   std::vector<Deposit> deposit(const std::vector<char>& mask, DropRule rule);
+  // The same at given abscissae x[s] (standard scenes with their own random sequence); the
+  // disk has the system's mean radius and no random draw is consumed.
+  std::vector<Deposit> deposit_at(const std::vector<char>& mask, const std::vector<double>& x,
+                                  DropRule rule);
 
   // Avalanche of the last event in each system s with mask[s]: disks that moved more than
   // `threshold` in y since the event began, and their summed downward displacement; then a new

@@ -1,0 +1,226 @@
+// The standard scenes S1 (sequential deposition, no cohesion) and S2 (collapse of a ballistic
+// deposit) of shared/design/BENCH-SCENES.md, run through loosepack's engine with periodic x;
+// prints one JSON record per scene and N, to set beside other engines' records.
+//
+//   bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H]
+#include <Kokkos_Core.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "loosepack/batch.hpp"
+
+using namespace loosepack;
+
+namespace {
+
+constexpr double kWidth = 100.0;
+
+// SplitMix64 exactly as the scene defines it.
+struct SplitMix64 {
+  std::uint64_t s;
+  double next() {
+    s += 0x9E3779B97F4A7C15ULL;
+    std::uint64_t z = s;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) * 0x1.0p-53;
+  }
+};
+
+double strip_area(double yc, double a, double b) {
+  auto F = [](double t) {
+    t = std::clamp(t, -1.0, 1.0);
+    return t * std::sqrt(1.0 - t * t) + std::asin(t);
+  };
+  return F(b - yc) - F(a - yc);
+}
+
+struct Measure {
+  double h_top = 0, h_mean = 0, phi_final = NAN, phi_aux = NAN, max_overlap = 0;
+};
+
+Measure measure(const Batch& batch) {
+  const auto d = batch.disks(0);
+  Measure m;
+  for (const auto& a : d) m.h_top = std::max(m.h_top, a.y + 1.0);
+  // Upper envelope at 1000 evenly spaced x.
+  double sum = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const double x = (k + 0.5) * kWidth / 1000.0;
+    double top = 0;
+    for (const auto& a : d) {
+      double dx = std::fabs(a.x - x);
+      dx = std::min(dx, kWidth - dx);
+      if (dx < 1.0) top = std::max(top, a.y + std::sqrt(1.0 - dx * dx));
+    }
+    sum += top;
+  }
+  m.h_mean = sum / 1000.0;
+  auto phi = [&](double a, double b) -> double {
+    if (b <= a) return NAN;
+    double area = 0;
+    for (const auto& q : d) area += strip_area(q.y, a, b);
+    return area / (kWidth * (b - a));
+  };
+  m.phi_final = phi(10.0, m.h_mean - 10.0);
+  m.phi_aux = phi(2.0, m.h_mean - 5.0);
+  m.max_overlap = batch.max_overlap(0);
+  return m;
+}
+
+std::string num(double v) {
+  if (std::isnan(v)) return "null";
+  std::ostringstream o;
+  o.precision(10);
+  o << v;
+  return o.str();
+}
+
+SystemParams scene_params(int n_max, double dt) {
+  SystemParams p;
+  p.width = kWidth;
+  p.height = 4.0 * n_max / kWidth + 20.0;  // room for the loosest deposit
+  p.bond_number = 0.0;
+  p.friction = 0.3;
+  p.rolling_friction = 0.0;
+  p.time_step = dt;
+  return p;
+}
+
+RestSettings scene_rest(double dt) {
+  RestSettings r;
+  r.speed = 1e-3;
+  r.steps = std::max(10, static_cast<int>(std::ceil((1.0 / 6.0) / dt)));
+  return r;
+}
+
+void record(const char* scene, int n, double wall, long steps, const Measure& m, double phi_i,
+            double sim_time, int capped, double vmax, double dt) {
+  std::printf(
+      "{\"engine\": \"loosepack\", \"scene\": \"%s\", \"bc\": \"periodic\", \"N\": %d, "
+      "\"wall_s\": %s, \"steps\": %ld, \"per_particle_ms\": %s, \"phi_final\": %s, "
+      "\"phi_initial\": %s, \"phi_aux\": %s, \"h_top\": %s, \"h_mean\": %s, \"sim_time\": %s, "
+      "\"max_overlap\": %s, \"n_capped\": %d, \"vmax_peak\": %s, \"setting\": \"default\", "
+      "\"params\": {\"dt\": %s, \"solver\": \"sequential_gauss_seidel\", \"tolerance\": 1e-3}, "
+      "\"notes\": \"contact dynamics, Kokkos %s; rest also needs R|w| < 1e-3 and a converged "
+      "solve\"}\n",
+      scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(),
+      num(m.phi_final).c_str(), num(phi_i).c_str(), num(m.phi_aux).c_str(), num(m.h_top).c_str(),
+      num(m.h_mean).c_str(), num(sim_time).c_str(), num(m.max_overlap).c_str(), capped,
+      num(vmax).c_str(), num(dt).c_str(), Kokkos::DefaultExecutionSpace::name());
+  std::fflush(stdout);
+}
+
+void scene_s1(const std::vector<int>& ns, double dt) {
+  const int n_max = *std::max_element(ns.begin(), ns.end());
+  SystemSetup su;
+  su.params = scene_params(n_max, dt);
+  su.capacity = n_max;
+  SolverSettings solver;
+  Batch batch({su}, solver, scene_rest(dt));
+  SplitMix64 rng{1001};
+  const long cap = static_cast<long>(std::ceil(20.0 / dt));
+  long steps = 0;
+  int capped = 0;
+  double vmax = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int k = 1; k <= n_max; ++k) {
+    const double x = kWidth * rng.next();
+    if (!batch.deposit_at({1}, {x}, DropRule::Touch)[0].placed) {
+      std::fprintf(stderr, "S1: disk %d could not be placed below the box height\n", k);
+      return;
+    }
+    batch.set_active(0, true);
+    long n = 0;
+    for (; n < cap && !batch.status(0).at_rest; ++n) {
+      batch.step();
+      vmax = std::max(vmax, batch.status(0).max_speed);
+      if (batch.status(0).failure != Failure::None) {
+        std::fprintf(stderr, "S1: %s\n", failure_message(batch.status(0).failure).c_str());
+        return;
+      }
+    }
+    steps += n;
+    capped += batch.status(0).at_rest ? 0 : 1;
+    if (std::find(ns.begin(), ns.end(), k) != ns.end()) {
+      const double wall =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      record("S1", k, wall, steps, measure(batch), NAN, steps * dt, capped, vmax, dt);
+    }
+  }
+}
+
+void scene_s2(int n, double dt) {
+  SystemSetup su;
+  su.params = scene_params(n, dt);
+  su.params.gravity_on = false;
+  su.capacity = n;
+  Batch batch({su}, SolverSettings{}, scene_rest(dt));
+  SplitMix64 rng{2002};
+  for (int k = 0; k < n; ++k)
+    if (!batch.deposit_at({1}, {kWidth * rng.next()}, DropRule::Touch)[0].placed) {
+      std::fprintf(stderr, "S2: disk %d could not be placed\n", k + 1);
+      return;
+    }
+  const Measure before = measure(batch);
+  batch.set_gravity(0, true);
+  batch.set_active(0, true);
+  const long cap = static_cast<long>(std::ceil(3000.0 / dt));
+  double vmax = 0;
+  long steps = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (; steps < cap && !batch.status(0).at_rest; ++steps) {
+    batch.step();
+    vmax = std::max(vmax, batch.status(0).max_speed);
+    if (batch.status(0).failure != Failure::None) break;
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  record("S2", n, wall, steps, measure(batch), before.phi_final, steps * dt,
+         batch.status(0).at_rest ? 0 : 1, vmax, dt);
+}
+
+std::vector<int> parse_list(const char* s) {
+  std::vector<int> v;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) v.push_back(std::atoi(item.c_str()));
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Kokkos::ScopeGuard kokkos(argc, argv);
+  std::string scene = "both";
+  std::vector<int> ns = {250, 500, 1000, 2000};
+  double dt = 0.01;
+  for (int k = 1; k + 1 < argc; k += 2) {
+    if (!std::strcmp(argv[k], "--scene")) scene = argv[k + 1];
+    else if (!std::strcmp(argv[k], "--n")) ns = parse_list(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--dt")) dt = std::atof(argv[k + 1]);
+    else {
+      std::fprintf(stderr, "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H]\n");
+      return 2;
+    }
+  }
+  SplitMix64 check{1001};
+  const double x1 = kWidth * check.next(), x2 = kWidth * check.next(), x3 = kWidth * check.next();
+  if (std::fabs(x1 - 32.516485265275463) > 1e-12 || std::fabs(x2 - 22.957386292461301) > 1e-12 ||
+      std::fabs(x3 - 22.83426811397883) > 1e-12) {
+    std::fprintf(stderr, "bench_scenes: SplitMix64 check values differ from the scene's\n");
+    return 1;
+  }
+  if (scene == "S1" || scene == "both") scene_s1(ns, dt);
+  if (scene == "S2" || scene == "both")
+    for (int n : ns) scene_s2(n, dt);
+  return 0;
+}
