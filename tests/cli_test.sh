@@ -28,4 +28,15 @@ printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nh
 set +e
 "$exe" summary "$dir/bad.toml" >/dev/null 2>&1 && fail "summary of a non-HDF5 file succeeded"
 set -e
+# Figures from the result file (Debian's python3 with h5py and matplotlib).
+repo=$(cd "$(dirname "$0")/.." && pwd)
+/usr/bin/python3 "$repo/tools/plot.py" "$dir/good.h5" -o "$dir/fig" >/dev/null
+for f in density_profiles avalanche_profiles abs_dy_histograms; do
+  [ -s "$dir/fig/$f.png" ] || fail "plot.py did not write $f.png"
+done
+set +e
+msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)
+rc=$?
+set -e
+[ "$rc" -ne 0 ] || fail "plot.py accepted a non-HDF5 file"
 echo "cli: all checks passed"
