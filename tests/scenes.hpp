@@ -31,6 +31,22 @@ inline std::vector<Disk> column(int n, double x, double radius = 1.0) {
   return d;
 }
 
+// Three-disk pyramid on the floor around x = 10: two base disks, one on top. The base disks
+// stand a hair apart: touching, their contact could take any compression the friction leaves
+// free (a statically indeterminate family); apart, the forces are unique.
+inline std::vector<Disk> pyramid() {
+  constexpr double kBaseGap = 1e-9;
+  std::vector<Disk> d(3);
+  const double half = 1.0 + 0.5 * kBaseGap;
+  d[0].x = 10.0 - half;
+  d[0].y = 1.0;
+  d[1].x = 10.0 + half;
+  d[1].y = 1.0;
+  d[2].x = 10.0;
+  d[2].y = 1.0 + std::sqrt(4.0 - half * half);
+  return d;
+}
+
 inline SystemSetup setup(const SystemParams& p, std::vector<Disk> disks, int capacity = 0) {
   SystemSetup s;
   s.params = p;

@@ -73,23 +73,6 @@ TEST(Validation, ColumnJacobiMatchesWeights) {
 }
 
 // 2. Three-disk pyramid without rolling friction.
-namespace {
-// The base disks stand a hair apart: touching, their contact could take any compression the
-// friction leaves free (a statically indeterminate family); apart, the answer is unique.
-constexpr double kBaseGap = 1e-9;
-std::vector<Disk> pyramid() {
-  std::vector<Disk> d(3);
-  const double half = 1.0 + 0.5 * kBaseGap;
-  d[0].x = 10.0 - half;
-  d[0].y = 1.0;
-  d[1].x = 10.0 + half;
-  d[1].y = 1.0;
-  d[2].x = 10.0;
-  d[2].y = 1.0 + std::sqrt(4.0 - half * half);
-  return d;
-}
-}  // namespace
-
 TEST(Validation, PyramidForcesAndStability) {
   const double threshold = 2.0 - std::sqrt(3.0);  // 0.2679
   for (double mu : {0.3, 0.25}) {

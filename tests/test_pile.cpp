@@ -168,14 +168,7 @@ TEST(Solver, JacobiConvergesOnDenseHexagonalPacking) {
 
 TEST(Solver, JacobiAndGaussSeidelAgreeOnDeterminatePiles) {
   // The column and the pyramid have unique contact forces.
-  std::vector<Disk> pyr(3);
-  const double half = 1.0 + 0.5e-9;
-  pyr[0].x = 10.0 - half;
-  pyr[0].y = 1.0;
-  pyr[1].x = 10.0 + half;
-  pyr[1].y = 1.0;
-  pyr[2].x = 10.0;
-  pyr[2].y = 1.0 + std::sqrt(4.0 - half * half);
+  const auto pyr = pyramid();
   auto p = bare_params(20.0, 40.0);
   p.friction = 0.3;
   for (const auto& scene : {column(15, 10.0), pyr}) {
