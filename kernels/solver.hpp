@@ -54,7 +54,8 @@ KOKKOS_INLINE_FUNCTION double local_solve(const SystemViews& sys, const Particle
   const double lower = Fx::Cohesion ? con.lower(c) : 0.0;
   const double pn0 = con.pn(c), pt0 = con.pt(c), pm0 = con.pm(c);
   double pn = solve_normal(pn0, u.un, con.gap(c), h, con.wn(c), lower);
-  pn = pn0 + omega * (pn - pn0);
+  // Relaxation (omega < 1 under-, omega > 1 over-relaxation), projected back onto the bounds.
+  pn = kmath::max(lower, pn0 + omega * (pn - pn0));
   dn = pn - pn0;
   double change = kmath::fabs(dn);
   if (Fx::Friction) {
@@ -72,8 +73,8 @@ KOKKOS_INLINE_FUNCTION double local_solve(const SystemViews& sys, const Particle
       pt = solve_friction(pt0, u.ut - con.wc(c) * pm0, con.wa(c), bound_t);
       pm = 0.0;
     }
-    pt = pt0 + omega * (pt - pt0);
-    pm = pm0 + omega * (pm - pm0);
+    pt = kmath::clamp(pt0 + omega * (pt - pt0), -bound_t, bound_t);
+    pm = kmath::clamp(pm0 + omega * (pm - pm0), -bound_r, bound_r);
     dt = pt - pt0;
     dm = pm - pm0;
     change += kmath::fabs(dt) + kmath::fabs(dm) / con.rc(c);

@@ -319,7 +319,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         } else if (k == "max_sweeps") {
           scan.solver.max_sweeps = positive_int(v, key, 1, 100000000);
         } else if (k == "relaxation") {
-          scan.solver.relaxation = real(v, key, 0.01, 1.0);
+          scan.solver.relaxation = real(v, key, 0.01, 1.95);
         } else if (k == "mass_splitting") {
           scan.solver.mass_splitting = as_bool(file, v, key);
         } else {
