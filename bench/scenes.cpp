@@ -113,10 +113,10 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
       "\"params\": {\"dt\": %s, \"solver\": \"sequential_gauss_seidel\", \"tolerance\": 1e-3}, "
       "\"notes\": \"contact dynamics, Kokkos %s; rest also needs R|w| < 1e-3 and a converged "
       "solve\"}\n",
-      scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(),
-      num(m.phi_final).c_str(), num(phi_i).c_str(), num(m.phi_aux).c_str(), num(m.h_top).c_str(),
-      num(m.h_mean).c_str(), num(sim_time).c_str(), num(m.max_overlap).c_str(), capped,
-      num(vmax).c_str(), num(dt).c_str(), Kokkos::DefaultExecutionSpace::name());
+      scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(), num(m.phi_final).c_str(),
+      num(phi_i).c_str(), num(m.phi_aux).c_str(), num(m.h_top).c_str(), num(m.h_mean).c_str(),
+      num(sim_time).c_str(), num(m.max_overlap).c_str(), capped, num(vmax).c_str(), num(dt).c_str(),
+      Kokkos::DefaultExecutionSpace::name());
   std::fflush(stdout);
 }
 
@@ -204,9 +204,12 @@ int main(int argc, char** argv) {
   std::vector<int> ns = {250, 500, 1000, 2000};
   double dt = 0.01;
   for (int k = 1; k + 1 < argc; k += 2) {
-    if (!std::strcmp(argv[k], "--scene")) scene = argv[k + 1];
-    else if (!std::strcmp(argv[k], "--n")) ns = parse_list(argv[k + 1]);
-    else if (!std::strcmp(argv[k], "--dt")) dt = std::atof(argv[k + 1]);
+    if (!std::strcmp(argv[k], "--scene"))
+      scene = argv[k + 1];
+    else if (!std::strcmp(argv[k], "--n"))
+      ns = parse_list(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--dt"))
+      dt = std::atof(argv[k + 1]);
     else {
       std::fprintf(stderr, "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H]\n");
       return 2;

@@ -7,17 +7,17 @@
 namespace loosepack {
 namespace kmath {
 #if KOKKOS_VERSION >= 30700
-using Kokkos::sqrt;
+using Kokkos::asin;
 using Kokkos::fabs;
 using Kokkos::floor;
 using Kokkos::isfinite;
-using Kokkos::asin;
+using Kokkos::sqrt;
 #else
-using Kokkos::Experimental::sqrt;
+using Kokkos::Experimental::asin;
 using Kokkos::Experimental::fabs;
 using Kokkos::Experimental::floor;
 using Kokkos::Experimental::isfinite;
-using Kokkos::Experimental::asin;
+using Kokkos::Experimental::sqrt;
 #endif
 KOKKOS_INLINE_FUNCTION double min(double a, double b) { return a < b ? a : b; }
 KOKKOS_INLINE_FUNCTION double max(double a, double b) { return a > b ? a : b; }

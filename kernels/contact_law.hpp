@@ -106,7 +106,8 @@ KOKKOS_INLINE_FUNCTION double disk_segment_primitive(double t, double r) {
   return r * r * (t * kmath::sqrt(1.0 - t * t) + kmath::asin(t));
 }
 
-// Area of a disk of radius r (centre height yc) inside the strip [a, b): exact, not centre counting.
+// Area of a disk of radius r (centre height yc) inside the strip [a, b): exact, not centre
+// counting.
 KOKKOS_INLINE_FUNCTION double disk_strip_area(double yc, double r, double a, double b) {
   return disk_segment_primitive((b - yc) / r, r) - disk_segment_primitive((a - yc) / r, r);
 }

@@ -29,8 +29,9 @@ struct SystemViews {
   // [S] layout
   DView<int> offset, capacity, count;
   // [S] parameters (see SystemParams)
-  DView<double> width, height, radius, polydispersity, disk_density, capture_radius, gravity_x, gravity_y, cohesive_force, cohesion_range, friction,
-      rolling_friction, time_step, weight;  // weight: m g of a mean disk, the force unit of tolerances
+  DView<double> width, height, radius, polydispersity, disk_density, capture_radius, gravity_x,
+      gravity_y, cohesive_force, cohesion_range, friction, rolling_friction, time_step,
+      weight;  // weight: m g of a mean disk, the force unit of tolerances
   DView<int> floor_cohesion;
   // [S] counter-based random stream: key (seed, member) and the next draw index
   DView<std::uint64_t> seed, member, draws;
@@ -38,9 +39,9 @@ struct SystemViews {
   DView<double> cell_size;
   DView<int> grid_nx, grid_ny, cell_offset;
   // [S] status
-  DView<int> active;      // 1: stepped by step()
-  DView<int> unconverged; // 1: still iterating in the current step
-  DView<int> failure;     // SystemFailure
+  DView<int> active;           // 1: stepped by step()
+  DView<int> unconverged;      // 1: still iterating in the current step
+  DView<int> failure;          // SystemFailure
   DView<double> sweep_change;  // max impulse change of the last sweep [h m g]
   DView<double> max_speed;     // max(|v|, R|w|) after the last step
   DView<double> margin;        // contact detection margin of the current step
@@ -54,9 +55,9 @@ struct ParticleViews {
   DView<double> radius, inv_mass, inv_inertia;
   DView<double> y_deposit;  // y_i, the height at which the disk was deposited
   DView<double> y_mark;     // height at the start of the current avalanche event
-  DView<int> cell;      // grid cell (global index)
-  DView<int> n_incident;        // [P] number of incident contacts
-  DView<int> incident;          // [P*kIncident] contact slot ids
+  DView<int> cell;          // grid cell (global index)
+  DView<int> n_incident;    // [P] number of incident contacts
+  DView<int> incident;      // [P*kIncident] contact slot ids
 };
 
 struct ContactViews {
@@ -73,8 +74,8 @@ struct ContactViews {
 };
 
 struct GridViews {
-  DView<int> cell_start;  // [C+1]
-  DView<int> cell_fill;   // [C]
+  DView<int> cell_start;      // [C+1]
+  DView<int> cell_fill;       // [C]
   DView<int> cell_particles;  // [P]
 };
 

@@ -18,11 +18,14 @@ namespace loosepack {
 
 std::string failure_message(Failure f) {
   switch (f) {
-    case Failure::None: return "none";
-    case Failure::NonFinite: return "non-finite position or velocity (NaN or Inf)";
+    case Failure::None:
+      return "none";
+    case Failure::NonFinite:
+      return "non-finite position or velocity (NaN or Inf)";
     case Failure::ContactOverflow:
       return "a disk had more contacts than the fixed capacity (overlapping disks?)";
-    case Failure::ParticleOverflow: return "more disks than the system's capacity";
+    case Failure::ParticleOverflow:
+      return "more disks than the system's capacity";
   }
   return "unknown";
 }
@@ -236,15 +239,17 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   const SystemParams& pr = su.params;
   const int count = static_cast<int>(su.disks.size());
   if (std::max(su.capacity, count) > slot_capacity[k])
-    throw std::invalid_argument("Batch: system needs " + std::to_string(std::max(su.capacity, count)) +
-                                " disk slots, the batch slot has " +
-                                std::to_string(slot_capacity[k]));
+    throw std::invalid_argument(
+        "Batch: system needs " + std::to_string(std::max(su.capacity, count)) +
+        " disk slots, the batch slot has " + std::to_string(slot_capacity[k]));
   const GridShape g = grid_shape(su);
   if (g.nx * g.ny > slot_cells[k])
     throw std::invalid_argument("Batch: system needs " + std::to_string(g.nx * g.ny) +
                                 " grid cells, the batch slot has " + std::to_string(slot_cells[k]));
   params[k] = pr;
-  auto set = [s](const auto& view, auto value) { Kokkos::deep_copy(Kokkos::subview(view, s), value); };
+  auto set = [s](const auto& view, auto value) {
+    Kokkos::deep_copy(Kokkos::subview(view, s), value);
+  };
   set(sys.count, count);
   set(sys.width, pr.width);
   set(sys.height, pr.height);
@@ -361,9 +366,9 @@ void Batch::Impl::solve() {
       for (int k = 0; k < n_colours; ++k) {
         const int n = colour_begin[k + 1] - colour_begin[k];
         if (n == 0) continue;
-        Kokkos::parallel_for("gauss_seidel_colour", Kokkos::RangePolicy<ExecSpace>(0, n),
-                             GaussSeidelContacts<Fx>{sys, part, con, colour_list,
-                                                     colour_begin[k], omega});
+        Kokkos::parallel_for(
+            "gauss_seidel_colour", Kokkos::RangePolicy<ExecSpace>(0, n),
+            GaussSeidelContacts<Fx>{sys, part, con, colour_list, colour_begin[k], omega});
       }
     }
     int still = 0;
@@ -442,8 +447,8 @@ void Batch::Impl::step() {
         const double g = kmath::sqrt(sys_.gravity_x(s) * sys_.gravity_x(s) +
                                      sys_.gravity_y(s) * sys_.gravity_y(s));
         const double r = sys_.radius(s);
-        sys_.margin(s) = kmath::clamp(2.0 * h * (sys_.max_speed(s) + h * g),
-                                      kMinMarginFactor * r, kMaxMarginFactor * r);
+        sys_.margin(s) = kmath::clamp(2.0 * h * (sys_.max_speed(s) + h * g), kMinMarginFactor * r,
+                                      kMaxMarginFactor * r);
         sys_.unconverged(s) = sys_.active(s);
         sys_.sweep_change(s) = 0.0;
         sys_.max_speed(s) = sys_.active(s) ? 0.0 : sys_.max_speed(s);
@@ -465,8 +470,7 @@ void Batch::Impl::step() {
                        IncidentBuild{sys, part, con, grid});
   Kokkos::parallel_for(
       "mobility", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
-      ContactMobilityBuild{part, con,
-                           solver.kind == SolverKind::Jacobi && solver.mass_splitting});
+      ContactMobilityBuild{part, con, solver.kind == SolverKind::Jacobi && solver.mass_splitting});
   // Stage 4: velocities from the warm-start impulses, then the iterative solve.
   Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        BodyVelocity{sys, part, con, false});
@@ -624,9 +628,9 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
     return (mask[s] && I.status[s].failure == Failure::None) ? 1 : 0;
   });
   auto result = alloc<double>("deposit_result", 4 * S);
-  Kokkos::parallel_for("deposit", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
-                       DepositKernel{I.sys, I.part, request, result, given,
-                                     rule == DropRule::Capture});
+  Kokkos::parallel_for(
+      "deposit", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
+      DepositKernel{I.sys, I.part, request, result, given, rule == DropRule::Capture});
   auto hr = Kokkos::create_mirror_view(result);
   Kokkos::deep_copy(hr, result);
   auto h_fail = Kokkos::create_mirror_view(I.sys.failure);
@@ -656,8 +660,7 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
   return out;
 }
 
-std::vector<Batch::Avalanche> Batch::close_events(const std::vector<char>& mask,
-                                                 double threshold) {
+std::vector<Batch::Avalanche> Batch::close_events(const std::vector<char>& mask, double threshold) {
   auto& I = *impl_;
   const auto S = static_cast<std::size_t>(I.n_systems);
   if (mask.size() != S) throw std::invalid_argument("Batch::close_events: mask size");

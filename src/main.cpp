@@ -79,8 +79,7 @@ int run(const std::string& scan_path, const std::string& out_path, bool quiet, i
                    total > 0 ? 100.0 * sec / total : 0.0);
   }
   info.end_time = utc_now();
-  info.wall_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  info.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   int failed = 0;
   for (const auto& r : results) {
     if (r.ok()) continue;
@@ -121,7 +120,9 @@ int main(int argc, char** argv) {
   bool timing = false;
   run_cmd->add_flag("--timing", timing, "print the wall time per stage of the step at the end");
   auto* sum_cmd = app.add_subcommand("summary", "Print a table per scan point of a result file");
-  sum_cmd->add_option("file", summary_path, "result file (HDF5)")->required()->check(CLI::ExistingFile);
+  sum_cmd->add_option("file", summary_path, "result file (HDF5)")
+      ->required()
+      ->check(CLI::ExistingFile);
   CLI11_PARSE(app, argc, argv);
 
   Kokkos::ScopeGuard kokkos(argc, argv);

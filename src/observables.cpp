@@ -114,8 +114,9 @@ BinnedStat binned(const std::vector<const MemberResult*>& ok, bool by_initial, d
     }
     const double m = sum[u] / cnt[u];
     b.mean.push_back(m);
-    b.stddev.push_back(
-        cnt[u] > 1.0 ? std::sqrt(std::max(0.0, (sum2[u] - cnt[u] * m * m) / (cnt[u] - 1.0))) : kNaN);
+    b.stddev.push_back(cnt[u] > 1.0
+                           ? std::sqrt(std::max(0.0, (sum2[u] - cnt[u] * m * m) / (cnt[u] - 1.0)))
+                           : kNaN);
     b.sem.push_back(mean_sem(member_means[u]).sem);
   }
   return b;
@@ -158,7 +159,8 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
         continue;  // failed members are excluded from every aggregate
       }
       ok.push_back(&r);
-      nu_rows.push_back(volume_fraction_profile(r.y_e, r.radius, p.width, obs.strip_width, n_strips));
+      nu_rows.push_back(
+          volume_fraction_profile(r.y_e, r.radius, p.width, obs.strip_width, n_strips));
       // Deposition density: disk area by deposition height y_i (centre counting of y_i).
       std::vector<double> nud(static_cast<std::size_t>(n_strips), 0.0);
       double sum_abs = 0.0;

@@ -134,8 +134,9 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       attribute(file, "cxx_flags", std::string(LOOSEPACK_CXX_FLAGS));
       attribute(file, "kokkos_execution_space", std::string(Kokkos::DefaultExecutionSpace::name()));
       attribute(file, "kokkos_version", static_cast<double>(KOKKOS_VERSION));
-      attribute(file, "units", std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
-                                           "time sqrt(R/g); lengths in R"));
+      attribute(file, "units",
+                std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
+                            "time sqrt(R/g); lengths in R"));
       attribute(file, "start_time", info.start_time);
       attribute(file, "end_time", info.end_time);
       attribute(file, "wall_seconds", info.wall_seconds);
@@ -313,12 +314,12 @@ void print_summary(const std::string& path, std::ostream& out) {
     }
   }
   out << "# " << path << ": scan '" << read_attribute_string(path, "/", "scan_name") << "', "
-      << names.size() << " points, " << read_attribute_double(path, "/", "wall_seconds")
-      << " s\n";
-  out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10)
-      << "Bo" << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu"
-      << std::setw(8) << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20)
-      << "<|dy|> [R]" << std::setw(22) << "dnu/nu_i" << "members(failed)\n";
+      << names.size() << " points, " << read_attribute_double(path, "/", "wall_seconds") << " s\n";
+  out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
+      << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)
+      << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]"
+      << std::setw(22) << "dnu/nu_i"
+      << "members(failed)\n";
   for (const auto& n : names) {
     auto d = [&](const char* a) { return read_attribute_double(path, n, a); };
     auto pm = [](double m, double s) {

@@ -51,8 +51,8 @@ enum class Phase {
 struct Slot {
   Phase phase = Phase::Empty;
   std::size_t member = 0;
-  long steps = 0;      // steps of the current relaxation or collapse
-  long cap = 0;        // their cap
+  long steps = 0;  // steps of the current relaxation or collapse
+  long cap = 0;    // their cap
   long deposited = 0;
   Clock::time_point start;
   MemberResult result;

@@ -15,9 +15,12 @@ namespace loosepack {
 
 std::string protocol_name(Protocol p) {
   switch (p) {
-    case Protocol::A: return "A";
-    case Protocol::B: return "B";
-    case Protocol::C: return "C";
+    case Protocol::A:
+      return "A";
+    case Protocol::B:
+      return "B";
+    case Protocol::C:
+      return "C";
   }
   return "?";
 }
@@ -151,14 +154,12 @@ const std::vector<SystemKey>& system_keys() {
        }},
       {"time_step", [](SystemParams& p, double v) { p.time_step = v; },
        [](const SystemParams& p) {
-         return p.time_step > 0.0 && p.time_step <= 0.1 ? ""
-                                                        : "h must be in (0, 0.1] sqrt(R/g)";
+         return p.time_step > 0.0 && p.time_step <= 0.1 ? "" : "h must be in (0, 0.1] sqrt(R/g)";
        }},
       {"capture_radius", [](SystemParams& p, double v) { p.capture_radius = v; },
        [](const SystemParams& p) {
-         return p.capture_radius >= 1.0 && p.capture_radius <= 10.0
-                    ? ""
-                    : "r_capt must be in [1, 10]";
+         return p.capture_radius >= 1.0 && p.capture_radius <= 10.0 ? ""
+                                                                    : "r_capt must be in [1, 10]";
        }},
       {"floor_cohesion", [](SystemParams& p, double v) { p.floor_cohesion = v != 0.0; },
        [](const SystemParams&) { return std::string(); }},
@@ -293,7 +294,8 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         for (const auto& sk : system_keys()) known = known || k == sk.name;
         if (!known) {
           std::string allowed;
-          for (const auto& sk : system_keys()) allowed += std::string(allowed.empty() ? "" : ", ") + sk.name;
+          for (const auto& sk : system_keys())
+            allowed += std::string(allowed.empty() ? "" : ", ") + sk.name;
           fail(file, v, key, "unknown key (allowed: " + allowed + ")");
         }
         if (k == "floor_cohesion") {
@@ -384,7 +386,9 @@ Scan parse_scan(const std::string& text, const std::string& file) {
   });
 
   if (!explicit_points.empty()) {
-    if (protocols.size() > 1) fail(file, *protocol_node, "scan.protocol", "axes and [[point]] tables do not mix: list the points, or the axes");
+    if (protocols.size() > 1)
+      fail(file, *protocol_node, "scan.protocol",
+           "axes and [[point]] tables do not mix: list the points, or the axes");
     for (const auto& [k, ax] : axes)
       if (ax.first.size() > 1)
         fail(file, *ax.second, "system." + k,
@@ -422,7 +426,9 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           auto str = v->as_string();
           if (!str || (str->get() != "A" && str->get() != "B" && str->get() != "C"))
             fail(file, *v, "point.protocol", "expected \"A\", \"B\" or \"C\"");
-          sp.protocol = str->get() == "A" ? Protocol::A : str->get() == "B" ? Protocol::B : Protocol::C;
+          sp.protocol = str->get() == "A"   ? Protocol::A
+                        : str->get() == "B" ? Protocol::B
+                                            : Protocol::C;
         } else if (k == "floor_cohesion") {
           sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
         } else {

@@ -53,12 +53,24 @@ static void check_kkt(double ut, double om, double a, double b, double c, double
   const double eps = 1e-12;
   ASSERT_LE(std::fabs(pt), bt + eps);
   ASSERT_LE(std::fabs(m), br + eps);
-  if (std::fabs(pt) < bt - eps) { EXPECT_NEAR(ut_new, 0.0, 1e-10); }  // sticks
-  if (bt > eps && pt >= bt - eps) { EXPECT_LE(ut_new, 1e-10); }                   // slides against the impulse
-  if (bt > eps && pt <= -bt + eps) { EXPECT_GE(ut_new, -1e-10); }
-  if (std::fabs(m) < br - eps) { EXPECT_NEAR(om_new, 0.0, 1e-10); }
-  if (br > eps && m >= br - eps) { EXPECT_LE(om_new, 1e-10); }
-  if (br > eps && m <= -br + eps) { EXPECT_GE(om_new, -1e-10); }
+  if (std::fabs(pt) < bt - eps) {
+    EXPECT_NEAR(ut_new, 0.0, 1e-10);
+  }  // sticks
+  if (bt > eps && pt >= bt - eps) {
+    EXPECT_LE(ut_new, 1e-10);
+  }  // slides against the impulse
+  if (bt > eps && pt <= -bt + eps) {
+    EXPECT_GE(ut_new, -1e-10);
+  }
+  if (std::fabs(m) < br - eps) {
+    EXPECT_NEAR(om_new, 0.0, 1e-10);
+  }
+  if (br > eps && m >= br - eps) {
+    EXPECT_LE(om_new, 1e-10);
+  }
+  if (br > eps && m <= -br + eps) {
+    EXPECT_GE(om_new, -1e-10);
+  }
 }
 
 TEST(ContactLaw, CoupledFrictionRollingSatisfiesStickSlipLaws) {
@@ -72,7 +84,7 @@ TEST(ContactLaw, CoupledFrictionRollingSatisfiesStickSlipLaws) {
 
 TEST(ContactLaw, DiskStripAreaIsExact) {
   const double r = 1.3;
-  EXPECT_NEAR(disk_strip_area(5.0, r, 0.0, 10.0), M_PI * r * r, 1e-12);  // whole disk
+  EXPECT_NEAR(disk_strip_area(5.0, r, 0.0, 10.0), M_PI * r * r, 1e-12);        // whole disk
   EXPECT_NEAR(disk_strip_area(5.0, r, 5.0, 10.0), 0.5 * M_PI * r * r, 1e-12);  // upper half
   EXPECT_EQ(disk_strip_area(5.0, r, 7.0, 10.0), 0.0);  // strip misses the disk
   // Segment of height r/2: r^2 acos(1/2) - (r/2) sqrt(r^2 - r^2/4)

@@ -234,7 +234,7 @@ double escape_threshold(double h, double bo, double dc, double v_lo, double v_hi
 
 TEST(Validation, PullOffBarrier) {
   const double bo = 10.0, dc = 0.01, m_n = 0.5;
-  const double v_star = std::sqrt(2.0 * bo * dc / m_n);  // F_c = Bo m g with m = g = 1
+  const double v_star = std::sqrt(2.0 * bo * dc / m_n);   // F_c = Bo m g with m = g = 1
   const double h_scale = std::sqrt(2.0 * m_n * dc / bo);  // sqrt(2 m_n d_c / F_c) = 0.032
   const double h1 = h_scale / 10.0, h2 = h_scale / 100.0;
   EXPECT_FALSE(escapes(0.95 * v_star, h2, bo, dc));

@@ -1,6 +1,5 @@
 // Protocols end to end on small ensembles: physics trends, reproducibility, the output file.
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <cmath>
@@ -186,10 +185,10 @@ lower_half_from = 2.0
   write_results(fa, one, RunInfo{}, aggregate(one, a), a, true);
   write_results(fb, many, RunInfo{}, aggregate(many, b), b, true);
   for (const char* point : {"points/0000", "points/0001", "points/0002"})
-    for (const char* set : {"nu/mean", "nu/sem", "nu_deposition/mean", "avalanche_by_yi/mean",
-                            "avalanche_by_ye/sem", "abs_dy_histogram/counts", "members/steps",
-                            "members/sweeps", "members/disks", "members/snapshot_2/y_e",
-                            "members/snapshot_0/contact_normal"}) {
+    for (const char* set :
+         {"nu/mean", "nu/sem", "nu_deposition/mean", "avalanche_by_yi/mean", "avalanche_by_ye/sem",
+          "abs_dy_histogram/counts", "members/steps", "members/sweeps", "members/disks",
+          "members/snapshot_2/y_e", "members/snapshot_0/contact_normal"}) {
       const std::string name = std::string(point) + "/" + set;
       EXPECT_EQ(read_dataset(fa, name), read_dataset(fb, name)) << name;
     }
@@ -230,9 +229,9 @@ lower_half_from = 3.0
             points[0].nu_lower_half.mean);
   EXPECT_EQ(read_dataset(path, "points/0001/members/snapshot_1/y_e"), members[3].y_e);
   // Writing into a directory that does not exist fails and leaves the old file untouched.
-  EXPECT_THROW(write_results(std::string(dir) + "/missing/out.h5", scan, info, points, members,
-                             false),
-               std::runtime_error);
+  EXPECT_THROW(
+      write_results(std::string(dir) + "/missing/out.h5", scan, info, points, members, false),
+      std::runtime_error);
   EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "roundtrip");
   std::remove(path.c_str());
   rmdir(dir);

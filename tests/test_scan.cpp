@@ -53,7 +53,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
   const Case cases[] = {
       {"[system]\nbond_number = -1\n", "bad.toml:2:15: key 'system.bond_number': Bo must be"},
       {"[system]\nfriction = [0.3, -0.1]\n", "key 'system.friction': mu must be >= 0"},
-      {"[system]\ncapture_radius = 0.5\n", "key 'system.capture_radius': r_capt must be in [1, 10]"},
+      {"[system]\ncapture_radius = 0.5\n",
+       "key 'system.capture_radius': r_capt must be in [1, 10]"},
       {"[system]\nheight = 3\n", "key 'system.height': H must be >= 4 R"},
       {"[system]\nwidth = 2\n", "key 'system.width': L_x must be >= 4 R"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
@@ -74,7 +75,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
   for (const auto& c : cases) {
     const std::string msg = error_of(c.text);
     EXPECT_NE(msg.find(c.expect), std::string::npos)
-        << "input:\n" << c.text << "message: " << msg << "\nexpected to contain: " << c.expect;
+        << "input:\n"
+        << c.text << "message: " << msg << "\nexpected to contain: " << c.expect;
   }
 }
 
@@ -106,9 +108,12 @@ TEST(Scan, ExplicitPointErrors) {
   EXPECT_NE(error_of("[system]\nbond_number = [1, 2]\n[[point]]\nwidth = 30\n")
                 .find("key 'system.bond_number': axes and [[point]] tables do not mix"),
             std::string::npos);
-  EXPECT_NE(error_of("[[point]]\nwidth = [30, 40]\n").find("bad.toml:2:9: key 'point.width': a point takes single values"),
+  EXPECT_NE(error_of("[[point]]\nwidth = [30, 40]\n")
+                .find("bad.toml:2:9: key 'point.width': a point takes single values"),
             std::string::npos);
-  EXPECT_NE(error_of("[[point]]\nmu = 0.3\n").find("key 'point.mu': unknown key"), std::string::npos);
-  EXPECT_NE(error_of("[[point]]\nfriction = -1\n").find("bad.toml:2:12: key 'point.friction': mu must be >= 0"),
+  EXPECT_NE(error_of("[[point]]\nmu = 0.3\n").find("key 'point.mu': unknown key"),
+            std::string::npos);
+  EXPECT_NE(error_of("[[point]]\nfriction = -1\n")
+                .find("bad.toml:2:12: key 'point.friction': mu must be >= 0"),
             std::string::npos);
 }

@@ -50,7 +50,7 @@ struct SystemStatus {
   int last_sweeps = 0;    // sweeps of the last step
   bool converged = true;  // the last step's solve reached the tolerance
   double max_speed = 0.0;
-  int rest_steps = 0;     // consecutive steps below the rest speed with the solver converged
+  int rest_steps = 0;  // consecutive steps below the rest speed with the solver converged
   bool at_rest = false;
 };
 
@@ -62,7 +62,7 @@ enum class DropRule {
 
 // Result of one deposition attempt in one system.
 struct Deposit {
-  bool placed = false;   // false: the disk would stand above H; the system is full
+  bool placed = false;  // false: the disk would stand above H; the system is full
   double x = 0.0, y = 0.0, radius = 0.0;
 };
 

@@ -9,22 +9,22 @@ namespace loosepack {
 
 // The physical parameters of one system (one ensemble member).
 struct SystemParams {
-  double width = 200.0;            // L_x, periodic width [R]
-  double height = 150.0;           // H, target height: no disk is placed with its top above H [R]
-  double radius = 1.0;             // mean disk radius R
-  double polydispersity = 0.0;     // sigma_R / R; radii uniform with this relative std. deviation
+  double width = 200.0;              // L_x, periodic width [R]
+  double height = 150.0;             // H, target height: no disk is placed with its top above H [R]
+  double radius = 1.0;               // mean disk radius R
+  double polydispersity = 0.0;       // sigma_R / R; radii uniform with this relative std. deviation
   double disk_density = 1.0 / M_PI;  // areal density: m = density * pi r^2 (m = 1 at r = 1)
-  double gravity = 1.0;            // g, sets the weight m g and the cohesive force Bo m g
-  double gravity_dir_x = 0.0;      // unit vector of gravity
+  double gravity = 1.0;              // g, sets the weight m g and the cohesive force Bo m g
+  double gravity_dir_x = 0.0;        // unit vector of gravity
   double gravity_dir_y = -1.0;
-  bool gravity_on = true;          // false: no gravitational acceleration (Bo = inf, or before collapse)
-  double bond_number = 1e3;        // Bo = F_c / (m g), m the mass of a disk of the mean radius
-  double cohesion_range = 0.01;    // d_c [R]: cohesion acts while the gap is below d_c
-  bool floor_cohesion = true;      // the floor attracts disks like a disk does
-  double friction = 0.3;           // mu (disk-disk and disk-floor)
-  double rolling_friction = 0.1;   // mu_r: rolling lever arm mu_r * R_c
-  double time_step = 0.01;         // h [sqrt(R/g)]
-  double capture_radius = 1.0;     // r_capt >= 1 (protocol B)
+  bool gravity_on = true;    // false: no gravitational acceleration (Bo = inf, or before collapse)
+  double bond_number = 1e3;  // Bo = F_c / (m g), m the mass of a disk of the mean radius
+  double cohesion_range = 0.01;   // d_c [R]: cohesion acts while the gap is below d_c
+  bool floor_cohesion = true;     // the floor attracts disks like a disk does
+  double friction = 0.3;          // mu (disk-disk and disk-floor)
+  double rolling_friction = 0.1;  // mu_r: rolling lever arm mu_r * R_c
+  double time_step = 0.01;        // h [sqrt(R/g)]
+  double capture_radius = 1.0;    // r_capt >= 1 (protocol B)
 
   double reference_mass() const { return disk_density * M_PI * radius * radius; }
   // F_c; zero for Bo = 0; infinite Bond numbers never reach the dynamics (protocol B path).
@@ -34,24 +34,24 @@ struct SystemParams {
 };
 
 enum class SolverKind {
-  Jacobi,       // all contacts at once from the previous iterate (parallel over contacts)
-  GaussSeidel,  // graph-coloured Gauss-Seidel (parallel over the contacts of one colour)
+  Jacobi,                 // all contacts at once from the previous iterate (parallel over contacts)
+  GaussSeidel,            // graph-coloured Gauss-Seidel (parallel over the contacts of one colour)
   SequentialGaussSeidel,  // symmetric Gauss-Seidel in contact order, one thread per system
 };
 
 // How the contact problem is solved; shared by all systems of a batch.
 struct SolverSettings {
   SolverKind kind = SolverKind::SequentialGaussSeidel;
-  double tolerance = 1e-3;      // max impulse change per sweep, in units of h m g (per system)
-  int max_sweeps = 2000;        // iteration cap per step
-  double relaxation = 1.0;      // omega: P <- P + omega (P_local - P)
-  bool mass_splitting = true;   // Jacobi: each body's mass divided by its contact count
+  double tolerance = 1e-3;     // max impulse change per sweep, in units of h m g (per system)
+  int max_sweeps = 2000;       // iteration cap per step
+  double relaxation = 1.0;     // omega: P <- P + omega (P_local - P)
+  bool mass_splitting = true;  // Jacobi: each body's mass divided by its contact count
 };
 
 // When a system counts as at rest.
 struct RestSettings {
-  double speed = 1e-3;          // all |v| and R|w| below this [sqrt(g R)] ...
-  int steps = 10;               // ... on this many consecutive steps, with the solver converged
+  double speed = 1e-3;  // all |v| and R|w| below this [sqrt(g R)] ...
+  int steps = 10;       // ... on this many consecutive steps, with the solver converged
 };
 
 }  // namespace loosepack

@@ -39,7 +39,7 @@ struct MemberResult {
   // when (A: disks deposited so far; C: collapse step), which disk, where.
   std::vector<double> trajectory_time, trajectory_disk, trajectory_x, trajectory_y;
   long steps = 0, sweeps = 0;
-  int capped = 0;        // A: events that hit the cap; C: 1 if the collapse hit its cap
+  int capped = 0;          // A: events that hit the cap; C: 1 if the collapse hit its cap
   double wall_time = 0.0;  // seconds the member held its batch slot (shared with the others)
   bool ok() const { return failure == Failure::None; }
 };

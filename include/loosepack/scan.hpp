@@ -31,8 +31,8 @@ struct ObservableSettings {
 
 // Limits of the protocols' dynamics.
 struct ProtocolSettings {
-  double max_relax_time = 20.0;      // A: relaxation after one disk is capped here [sqrt(R/g)]
-  double max_collapse_time = 3000.0; // C: the collapse is capped here [sqrt(R/g)]
+  double max_relax_time = 20.0;       // A: relaxation after one disk is capped here [sqrt(R/g)]
+  double max_collapse_time = 3000.0;  // C: the collapse is capped here [sqrt(R/g)]
 };
 
 struct ScanPoint {
@@ -46,8 +46,8 @@ struct Scan {
   std::string text;  // the whole scan file
   std::string name = "scan";
   std::uint64_t seed = 1;
-  int seeds = 1;          // members per scan point
-  int batch_size = 16;    // systems advanced together
+  int seeds = 1;        // members per scan point
+  int batch_size = 16;  // systems advanced together
   SolverSettings solver;
   RestSettings rest;
   ObservableSettings observables;
