@@ -39,6 +39,7 @@ int run(const std::string& scan_path, const std::string& out_path, bool quiet, i
     return 2;
   }
   if (batch_size > 0) scan.batch_size = batch_size;
+  for (const auto& w : scan.warnings) std::cerr << "loosepack: warning: " << w << "\n";
   if (::access(directory_of(out_path).c_str(), W_OK) != 0) {
     std::cerr << "loosepack: cannot write into " << directory_of(out_path) << " (for " << out_path
               << ")\n";

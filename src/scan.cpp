@@ -472,6 +472,21 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       throw ScanError(o.str());
     }
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
+  // The discrete pull-off barrier matches F_c d_c only for h well below
+  // sqrt(2 m_n d_c / F_c), m_n = m/2 (docs/MODEL.md; the pull-off test shows it).
+  for (const auto& sp : points) {
+    const auto& p = sp.params;
+    const double fc = p.cohesive_force();
+    if (sp.protocol == Protocol::B || !(fc > 0.0)) continue;
+    const double scale = std::sqrt(2.0 * 0.5 * p.reference_mass() * p.cohesion_range / fc);
+    if (p.time_step > scale) {
+      std::ostringstream o;
+      o << file << ": point " << sp.index << " (Bo = " << p.bond_number << "): time_step "
+        << p.time_step << " exceeds sqrt(2 m_n d_c / F_c) = " << scale
+        << "; the cohesive barrier F_c d_c is not resolved (see docs/MODEL.md)";
+      scan.warnings.push_back(o.str());
+    }
+  }
   scan.points = std::move(points);
   return scan;
 }

@@ -117,3 +117,13 @@ TEST(Scan, ExplicitPointErrors) {
                 .find("bad.toml:2:12: key 'point.friction': mu must be >= 0"),
             std::string::npos);
 }
+
+TEST(Scan, WarnsWhenTheTimeStepDoesNotResolveTheCohesiveBarrier) {
+  // sqrt(2 m_n d_c / F_c) = sqrt(0.01 / Bo): 0.01 at Bo = 100, 0.001 at Bo = 1e4.
+  const auto scan =
+      parse_scan("[system]\ntime_step = 0.005\nbond_number = [0, 100, 1e4]\n", "w.toml");
+  ASSERT_EQ(scan.warnings.size(), 1u);
+  EXPECT_NE(scan.warnings[0].find("point 2 (Bo = 10000): time_step 0.005 exceeds"),
+            std::string::npos)
+      << scan.warnings[0];
+}

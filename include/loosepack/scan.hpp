@@ -53,6 +53,7 @@ struct Scan {
   ObservableSettings observables;
   ProtocolSettings protocol;
   std::vector<ScanPoint> points;
+  std::vector<std::string> warnings;  // valid but questionable choices, printed by the program
   int members() const { return static_cast<int>(points.size()) * seeds; }
 };
 
