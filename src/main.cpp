@@ -64,9 +64,9 @@ int run(const std::string& scan_path, const std::string& out_path, bool quiet, i
     std::fprintf(stderr, "  %d/%d members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
                  p.members_done, p.members_total, p.disks_deposited,
                  el > 0 ? p.disks_deposited / el : 0.0, el);
-    if (p.members_done > 0 && !final)
-      std::fprintf(stderr, ", ETA %.0f s",
-                   el * (p.members_total - p.members_done) / p.members_done);
+    if (p.fraction > 0.01 && !final)
+      std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction,
+                   el * (1.0 - p.fraction) / p.fraction);
     std::fprintf(stderr, "\n");
   };
   std::vector<std::pair<std::string, double>> stages;

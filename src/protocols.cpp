@@ -54,6 +54,7 @@ struct Slot {
   long steps = 0;  // steps of the current relaxation or collapse
   long cap = 0;    // their cap
   long deposited = 0;
+  double filled = 0.0;  // height of the last deposited disk over H
   Clock::time_point start;
   MemberResult result;
 };
@@ -91,6 +92,18 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   std::size_t next = 0;
   Progress prog;
   prog.members_total = static_cast<int>(members.size());
+  // Rough cost model for the progress estimate: slow deposition needs of order n^2 sweeps for
+  // a deposit n disks tall, so its cost up to a height y grows like y^3; ballistic deposition
+  // costs next to nothing; a collapse costs about one slow deposition and counts half until it
+  // is over.
+  constexpr double kBallisticWeight = 0.02;
+  auto weight = [&](const Member& m) {
+    return m.protocol == Protocol::A && !ballistic(m) ? 1.0
+           : m.protocol == Protocol::C                ? 1.0 + kBallisticWeight
+                                                      : kBallisticWeight;
+  };
+  double total_weight = 0.0, done_weight = 0.0;
+  for (const auto& m : members) total_weight += weight(m);
 
   auto begin = [&](std::size_t k) {
     Slot& sl = slots[k];
@@ -124,6 +137,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.radius.push_back(d.radius);
     }
     if (st.failure == Failure::None) r.contacts = batch.contacts(s);
+    done_weight += weight(members[sl.member]);
     results[sl.member] = std::move(r);
     ++prog.members_done;
     begin(k);
@@ -136,7 +150,20 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     return std::make_pair(m, any);
   };
   auto report = [&]() {
-    if (progress) progress(prog);
+    if (!progress) return;
+    double running = 0.0;
+    for (const auto& sl : slots) {
+      if (sl.phase == Phase::Empty) continue;
+      const Member& m = members[sl.member];
+      if (sl.phase == Phase::Collapse)
+        running += kBallisticWeight + 0.5;
+      else if (sl.phase == Phase::Ballistic)
+        running += kBallisticWeight * sl.filled;
+      else
+        running += sl.filled * sl.filled * sl.filled * weight(m);
+    }
+    prog.fraction = (done_weight + running) / total_weight;
+    progress(prog);
   };
   for (std::size_t k = 0; k < n_slots; ++k) begin(k);
 
@@ -164,6 +191,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         if (placed[k].placed) {
           ++slots[k].deposited;
           ++prog.disks_deposited;
+          slots[k].filled = std::min(1.0, placed[k].y / batch.params(s).height);
         } else if (batch.status(s).failure == Failure::None &&
                    members[slots[k].member].protocol == Protocol::C) {
           slots[k].phase = Phase::Collapse;  // full: switch gravity on
@@ -188,6 +216,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         if (placed[k].placed && batch.status(s).failure == Failure::None) {
           ++slots[k].deposited;
           ++prog.disks_deposited;
+          slots[k].filled = std::min(1.0, placed[k].y / batch.params(s).height);
           slots[k].phase = Phase::Relax;
           slots[k].steps = 0;
           slots[k].cap = static_cast<long>(

@@ -49,6 +49,9 @@ struct Progress {
   int members_done = 0;
   int members_total = 0;
   long disks_deposited = 0;
+  // Rough estimate of the fraction of the run's cost done (see the cost model in
+  // run_members): for the ETA only.
+  double fraction = 0.0;
 };
 using ProgressFn = std::function<void(const Progress&)>;
 
