@@ -59,6 +59,9 @@ struct Batch::Impl {
   GridViews grid;
   DView<int> colour_list, colour_start, colour_fill;
   DView<int> sweeps_this_step;  // [S]
+  DView<int> request;           // [S] per-system requests of deposit and close_events
+  DView<double> request_x;      // [S] given abscissae of deposit_at
+  DView<double> reply;          // [4 S] their results
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   // Batch steps taken, and the last one each system took part in: a system that sat out a step
@@ -168,6 +171,9 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.max_speed = alloc<double>("max_speed", S);
   sys.margin = alloc<double>("margin", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
+  request = alloc<int>("request", S);
+  request_x = alloc<double>("request_x", S);
+  reply = alloc<double>("reply", 4 * S);
   fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
   fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
   fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
@@ -621,18 +627,17 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
   const auto S = static_cast<std::size_t>(I.n_systems);
   if (mask.size() != S) throw std::invalid_argument("Batch::deposit: mask size");
   if (!x.empty() && x.size() != S) throw std::invalid_argument("Batch::deposit_at: x size");
-  DView<double> given("deposit_x", x.size());
+  // Persistent buffers: no allocation per deposition.
+  const DView<double> given = x.empty() ? DView<double>() : I.request_x;
   if (!x.empty()) fill_from(given, S, [&](std::size_t s) { return x[s]; });
-  auto request = alloc<int>("deposit_request", S);
-  fill_from(request, S, [&](std::size_t s) {
+  fill_from(I.request, S, [&](std::size_t s) {
     return (mask[s] && I.status[s].failure == Failure::None) ? 1 : 0;
   });
-  auto result = alloc<double>("deposit_result", 4 * S);
   Kokkos::parallel_for(
       "deposit", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
-      DepositKernel{I.sys, I.part, request, result, given, rule == DropRule::Capture});
-  auto hr = Kokkos::create_mirror_view(result);
-  Kokkos::deep_copy(hr, result);
+      DepositKernel{I.sys, I.part, I.request, I.reply, given, rule == DropRule::Capture});
+  auto hr = Kokkos::create_mirror_view(I.reply);
+  Kokkos::deep_copy(hr, I.reply);
   auto h_fail = Kokkos::create_mirror_view(I.sys.failure);
   Kokkos::deep_copy(h_fail, I.sys.failure);
   std::vector<Deposit> out(S);
@@ -664,12 +669,11 @@ std::vector<Batch::Avalanche> Batch::close_events(const std::vector<char>& mask,
   auto& I = *impl_;
   const auto S = static_cast<std::size_t>(I.n_systems);
   if (mask.size() != S) throw std::invalid_argument("Batch::close_events: mask size");
-  auto request = alloc<int>("event_request", S);
-  fill_from(request, S, [&](std::size_t s) { return mask[s] ? 1 : 0; });
-  auto result = alloc<double>("event_result", 2 * S);
+  fill_from(I.request, S, [&](std::size_t s) { return mask[s] ? 1 : 0; });
   Kokkos::parallel_for("event_measure", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
-                       EventMeasure{I.sys, I.part, request, result, threshold});
-  auto hr = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), result);
+                       EventMeasure{I.sys, I.part, I.request, I.reply, threshold});
+  auto hr = Kokkos::create_mirror_view(I.reply);
+  Kokkos::deep_copy(hr, I.reply);
   std::vector<Avalanche> out(S);
   for (std::size_t s = 0; s < S; ++s) {
     out[s].moved = static_cast<int>(hr(2 * s));
