@@ -59,9 +59,14 @@ struct Batch::Impl {
   GridViews grid;
   DView<int> colour_list, colour_start, colour_fill;
   DView<int> sweeps_this_step;  // [S]
-  DView<int> request;           // [S] per-system requests of deposit and close_events
-  DView<double> request_x;      // [S] given abscissae of deposit_at
-  DView<double> reply;          // [4 S] their results
+  // Host mirrors of the per-system status read after every step (allocated once).
+  struct HostStatus {
+    DView<int>::HostMirror failure, unconverged, sweeps, count;
+    DView<double>::HostMirror max_speed;
+  } host;
+  DView<int> request;       // [S] per-system requests of deposit and close_events
+  DView<double> request_x;  // [S] given abscissae of deposit_at
+  DView<double> reply;      // [4 S] their results
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   // Batch steps taken, and the last one each system took part in: a system that sat out a step
@@ -171,6 +176,11 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.max_speed = alloc<double>("max_speed", S);
   sys.margin = alloc<double>("margin", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
+  host.failure = Kokkos::create_mirror_view(sys.failure);
+  host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
+  host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
+  host.count = Kokkos::create_mirror_view(sys.count);
+  host.max_speed = Kokkos::create_mirror_view(sys.max_speed);
   request = alloc<int>("request", S);
   request_x = alloc<double>("request_x", S);
   reply = alloc<double>("reply", 4 * S);
@@ -501,11 +511,11 @@ void Batch::Impl::step() {
   stage_done("integrate");
 
   // Stage 6: per-system status on the host.
-  auto h_fail = Kokkos::create_mirror_view(sys.failure);
-  auto h_speed = Kokkos::create_mirror_view(sys.max_speed);
-  auto h_unconv = Kokkos::create_mirror_view(sys.unconverged);
-  auto h_sweeps = Kokkos::create_mirror_view(sweeps_this_step);
-  auto h_count = Kokkos::create_mirror_view(sys.count);
+  auto& h_fail = host.failure;
+  auto& h_speed = host.max_speed;
+  auto& h_unconv = host.unconverged;
+  auto& h_sweeps = host.sweeps;
+  auto& h_count = host.count;
   Kokkos::deep_copy(h_fail, sys.failure);
   Kokkos::deep_copy(h_speed, sys.max_speed);
   Kokkos::deep_copy(h_unconv, sys.unconverged);
