@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "loosepack/batch.hpp"
+#include "loosepack/observables.hpp"
 
 using namespace loosepack;
 
@@ -36,14 +37,6 @@ struct SplitMix64 {
   }
 };
 
-double strip_area(double yc, double a, double b) {
-  auto F = [](double t) {
-    t = std::clamp(t, -1.0, 1.0);
-    return t * std::sqrt(1.0 - t * t) + std::asin(t);
-  };
-  return F(b - yc) - F(a - yc);
-}
-
 struct Measure {
   double h_top = 0, h_mean = 0, phi_final = NAN, phi_aux = NAN, max_overlap = 0;
 };
@@ -51,7 +44,6 @@ struct Measure {
 Measure measure(const Batch& batch) {
   const auto d = batch.disks(0);
   Measure m;
-  for (const auto& a : d) m.h_top = std::max(m.h_top, a.y + 1.0);
   // Upper envelope at 1000 evenly spaced x.
   double sum = 0;
   for (int k = 0; k < 1000; ++k) {
@@ -65,14 +57,14 @@ Measure measure(const Batch& batch) {
     sum += top;
   }
   m.h_mean = sum / 1000.0;
-  auto phi = [&](double a, double b) -> double {
-    if (b <= a) return NAN;
-    double area = 0;
-    for (const auto& q : d) area += strip_area(q.y, a, b);
-    return area / (kWidth * (b - a));
-  };
-  m.phi_final = phi(10.0, m.h_mean - 10.0);
-  m.phi_aux = phi(2.0, m.h_mean - 5.0);
+  std::vector<double> y, r;
+  for (const auto& q : d) {
+    y.push_back(q.y);
+    r.push_back(q.radius);
+  }
+  m.h_top = deposit_top(y, r);
+  m.phi_final = band_volume_fraction(y, r, kWidth, 10.0, m.h_mean - 10.0);  // NaN: no band
+  m.phi_aux = band_volume_fraction(y, r, kWidth, 2.0, m.h_mean - 5.0);
   m.max_overlap = batch.max_overlap(0);
   return m;
 }

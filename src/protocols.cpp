@@ -180,6 +180,11 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.trajectory_y.push_back(disks[d].y);
     }
   };
+  auto count_disk = [&](std::size_t k, const Deposit& d) {
+    ++slots[k].deposited;
+    ++prog.disks_deposited;
+    slots[k].filled = std::min(1.0, d.y / batch.params(static_cast<int>(k)).height);
+  };
   for (;;) {
     // Ballistic deposition: one disk per slot and round.
     auto [mb, any_b] = mask_of(Phase::Ballistic);
@@ -189,9 +194,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         if (!mb[k]) continue;
         const int s = static_cast<int>(k);
         if (placed[k].placed) {
-          ++slots[k].deposited;
-          ++prog.disks_deposited;
-          slots[k].filled = std::min(1.0, placed[k].y / batch.params(s).height);
+          count_disk(k, placed[k]);
         } else if (batch.status(s).failure == Failure::None &&
                    members[slots[k].member].protocol == Protocol::C) {
           slots[k].phase = Phase::Collapse;  // full: switch gravity on
@@ -214,9 +217,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         if (!ma[k]) continue;
         const int s = static_cast<int>(k);
         if (placed[k].placed && batch.status(s).failure == Failure::None) {
-          ++slots[k].deposited;
-          ++prog.disks_deposited;
-          slots[k].filled = std::min(1.0, placed[k].y / batch.params(s).height);
+          count_disk(k, placed[k]);
           slots[k].phase = Phase::Relax;
           slots[k].steps = 0;
           slots[k].cap = static_cast<long>(

@@ -12,8 +12,8 @@ using namespace loosepack;
 using namespace loosepack::scenes;
 
 namespace {
-// Kinetic + gravitational + cohesive energy. A pair inside the cohesion range stores
-// F_c (min(gap, 0) ... ) : the potential of a constant force F_c over the range, F_c (gap - d_c).
+// Kinetic + gravitational + cohesive energy. A constant attraction F_c acting over the range d_c
+// is the potential F_c (gap - d_c) for a pair with gap < d_c, and 0 beyond.
 double total_energy(const std::vector<Disk>& d, const SystemParams& p) {
   double e = mechanical_energy(d, p);
   const double fc = p.cohesive_force();
@@ -122,7 +122,6 @@ namespace {
 // Sum of the vertical force components crossing from row r+1 onto row r must carry the weight
 // of all rows above r (equilibrium of the slab above, whatever the indeterminate split).
 void check_row_loads(const Batch& batch, int per_row, int n_rows) {
-  const auto disks = batch.disks(0);
   std::vector<double> load(static_cast<std::size_t>(n_rows), 0.0);
   for (const auto& c : batch.contacts(0)) {
     if (c.j < 0) {
@@ -139,7 +138,6 @@ void check_row_loads(const Batch& batch, int per_row, int n_rows) {
   for (int r = 0; r < n_rows; ++r)
     EXPECT_NEAR(load[static_cast<std::size_t>(r)], (n_rows - r) * per_row, 1e-5 * n_rows * per_row)
         << "row " << r;
-  (void)disks;
 }
 }  // namespace
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 
 #include "loosepack/observables.hpp"
@@ -14,6 +15,18 @@ using namespace loosepack;
 
 namespace {
 Scan scan_of(const std::string& text) { return parse_scan(text, "test.toml"); }
+
+// A fresh directory under /tmp, removed with everything in it.
+struct TempDir {
+  std::string path;
+  TempDir() {
+    char dir[] = "/tmp/loosepack-test-XXXXXX";
+    if (!mkdtemp(dir)) throw std::runtime_error("mkdtemp failed");
+    path = dir;
+  }
+  ~TempDir() { std::filesystem::remove_all(path); }
+  std::string operator/(const std::string& name) const { return path + "/" + name; }
+};
 
 std::vector<PointResult> run(const Scan& scan) {
   return aggregate(scan, run_members(scan, members_of(scan)));
@@ -179,9 +192,8 @@ lower_half_from = 2.0
     EXPECT_EQ(a[k].steps, b[k].steps);
   }
   // And in the files: every dataset but the wall times is identical.
-  char dir[] = "/tmp/loosepack-repro-XXXXXX";
-  ASSERT_NE(mkdtemp(dir), nullptr);
-  const std::string fa = std::string(dir) + "/a.h5", fb = std::string(dir) + "/b.h5";
+  const TempDir dir;
+  const std::string fa = dir / "a.h5", fb = dir / "b.h5";
   write_results(fa, one, RunInfo{}, aggregate(one, a), a, true);
   write_results(fb, many, RunInfo{}, aggregate(many, b), b, true);
   for (const char* point : {"points/0000", "points/0001", "points/0002"})
@@ -192,12 +204,11 @@ lower_half_from = 2.0
       const std::string name = std::string(point) + "/" + set;
       EXPECT_EQ(read_dataset(fa, name), read_dataset(fb, name)) << name;
     }
-  std::remove(fa.c_str());
-  std::remove(fb.c_str());
-  rmdir(dir);
 }
 
-// The output file holds what was computed and is replaced only by a complete file.
+// The output file holds what was computed; a rewrite replaces it whole, and a failed write
+// raises and leaves no temporary file behind. (That a refused run leaves an earlier file
+// untouched is checked on the command line, tests/cli_test.sh.)
 TEST(Output, RoundTripAndAtomicReplace) {
   const auto scan = scan_of(R"(
 [scan]
@@ -213,9 +224,8 @@ lower_half_from = 3.0
 )");
   const auto members = run_members(scan, members_of(scan));
   const auto points = aggregate(scan, members);
-  char dir[] = "/tmp/loosepack-test-XXXXXX";
-  ASSERT_NE(mkdtemp(dir), nullptr);
-  const std::string path = std::string(dir) + "/out.h5";
+  const TempDir dir;
+  const std::string path = dir / "out.h5";
   RunInfo info;
   info.start_time = "t0";
   info.end_time = "t1";
@@ -228,13 +238,21 @@ lower_half_from = 3.0
   EXPECT_EQ(read_attribute_double(path, "points/0000", "nu_lower_half_mean"),
             points[0].nu_lower_half.mean);
   EXPECT_EQ(read_dataset(path, "points/0001/members/snapshot_1/y_e"), members[3].y_e);
-  // Writing into a directory that does not exist fails and leaves the old file untouched.
-  EXPECT_THROW(
-      write_results(std::string(dir) + "/missing/out.h5", scan, info, points, members, false),
-      std::runtime_error);
-  EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "roundtrip");
-  std::remove(path.c_str());
-  rmdir(dir);
+  // Rewriting replaces the whole file: the snapshots written before are gone.
+  auto renamed = scan;
+  renamed.name = "second";
+  write_results(path, renamed, info, points, members, false);
+  EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "second");
+  EXPECT_THROW(read_dataset(path, "points/0001/members/snapshot_1/y_e"), std::runtime_error);
+  // A write that cannot happen raises; nothing but the result file is in the directory.
+  EXPECT_THROW(write_results(dir / "missing/out.h5", scan, info, points, members, false),
+               std::runtime_error);
+  int files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir.path)) {
+    EXPECT_EQ(e.path().filename(), "out.h5");
+    ++files;
+  }
+  EXPECT_EQ(files, 1);
 }
 
 // Final contact forces and trajectories: the floor carries the whole weight of a deposit at
