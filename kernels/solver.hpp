@@ -232,4 +232,94 @@ struct SequentialGaussSeidel {
   }
 };
 
+// Gauss-Seidel accelerated by the nonsmooth nonlinear conjugate gradient method (NNCG; Silcowitz,
+// Niebe & Erleben, "A nonsmooth nonlinear conjugate gradient method for interactive contact
+// force problems", 2010). One iteration is a symmetric pair of exact Gauss-Seidel sweeps (the
+// projected map x -> GS(x)); its change d = GS(x) - x plays the role of the negative gradient.
+// With beta = |d_k|^2 / |d_{k-1}|^2 the iterate takes the step x += beta p and the direction
+// becomes p = beta p + d; beta > 1 restarts (p = 0). Force propagates through a chain of n
+// grains in about n iterations instead of n^2. One thread per system, like
+// SequentialGaussSeidel; the convergence test is the same (largest local change of a sweep).
+template <class Fx>
+struct AcceleratedGaussSeidel {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  DView<int> sweeps;  // [S] sweeps of this step
+  double omega, tolerance;
+
+  KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
+    const int j = con.partner(c);
+    if (j == kNoContact) return;
+    const int i = c / kSlots;
+    double dn, dt, dm;
+    const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
+    if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
+    worst = kmath::max(worst, change);
+    con.pn(c) += dn;
+    con.pt(c) += dt;
+    con.pm(c) += dm;
+    apply_impulse_change(part, con, c, i, j, dn, dt, dm);
+  }
+
+  KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
+    if (!sys.active(s) || !sys.unconverged(s)) return;
+    const int first = sys.offset(s) * kSlots;
+    const int end = (sys.offset(s) + sys.count(s)) * kSlots;
+    if (sweeps(s) == 0) {  // first iteration of the step: no direction yet
+      sys.gradient2(s) = 0.0;
+      for (int c = first; c < end; ++c) {
+        con.dir_pn(c) = 0.0;
+        con.dir_pt(c) = 0.0;
+        con.dir_pm(c) = 0.0;
+      }
+    }
+    for (int c = first; c < end; ++c) {
+      if (con.partner(c) == kNoContact) continue;
+      con.start_pn(c) = con.pn(c);
+      con.start_pt(c) = con.pt(c);
+      con.start_pm(c) = con.pm(c);
+    }
+    double worst = 0.0;
+    for (int c = first; c < end; ++c) apply(c, worst);
+    for (int c = end - 1; c >= first; --c) apply(c, worst);
+    sweeps(s) += 2;
+    if (!(worst > tolerance)) {  // a NaN system stops iterating; the integrate guard fails it
+      sys.unconverged(s) = 0;
+      return;
+    }
+    ++still;
+    double g2 = 0.0;
+    for (int c = first; c < end; ++c) {
+      if (con.partner(c) == kNoContact) continue;
+      const double dn = con.pn(c) - con.start_pn(c), dt = con.pt(c) - con.start_pt(c);
+      const double dm = (con.pm(c) - con.start_pm(c)) / con.rc(c);
+      g2 += dn * dn + dt * dt + dm * dm;
+    }
+    const double previous = sys.gradient2(s);
+    sys.gradient2(s) = g2;
+    const double beta = previous > 0.0 ? g2 / previous : 2.0;
+    for (int c = first; c < end; ++c) {
+      const int j = con.partner(c);
+      if (j == kNoContact) continue;
+      const double dn = con.pn(c) - con.start_pn(c), dt = con.pt(c) - con.start_pt(c),
+                   dm = con.pm(c) - con.start_pm(c);
+      if (beta > 1.0) {  // restart
+        con.dir_pn(c) = dn;
+        con.dir_pt(c) = dt;
+        con.dir_pm(c) = dm;
+        continue;
+      }
+      const double sn = beta * con.dir_pn(c), st = beta * con.dir_pt(c), sm = beta * con.dir_pm(c);
+      con.pn(c) += sn;
+      con.pt(c) += st;
+      con.pm(c) += sm;
+      apply_impulse_change(part, con, c, c / kSlots, j, sn, st, sm);
+      con.dir_pn(c) = sn + dn;
+      con.dir_pt(c) = st + dt;
+      con.dir_pm(c) = sm + dm;
+    }
+  }
+};
+
 }  // namespace loosepack

@@ -45,6 +45,7 @@ struct SystemViews {
   DView<double> sweep_change;  // max impulse change of the last sweep [h m g]
   DView<double> max_speed;     // max(|v|, R|w|) after the last step
   DView<double> margin;        // contact detection margin of the current step
+  DView<double> gradient2;     // accelerated Gauss-Seidel: squared norm of the last iteration's change
 };
 
 struct ParticleViews {
@@ -71,6 +72,10 @@ struct ContactViews {
   // [P*kSlots] previous step, for warm starting
   DView<int> prev_partner;
   DView<double> prev_pn, prev_pt, prev_pm;
+  // [P*kSlots] accelerated Gauss-Seidel (NNCG): the impulses at the start of the iteration and
+  // the conjugate direction
+  DView<double> start_pn, start_pt, start_pm;
+  DView<double> dir_pn, dir_pt, dir_pm;
 };
 
 struct GridViews {

@@ -175,6 +175,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.sweep_change = alloc<double>("sweep_change", S);
   sys.max_speed = alloc<double>("max_speed", S);
   sys.margin = alloc<double>("margin", S);
+  sys.gradient2 = alloc<double>("gradient2", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   host.failure = Kokkos::create_mirror_view(sys.failure);
   host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
@@ -235,6 +236,14 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   con.prev_pt = alloc<double>("prev_pt", NC);
   con.prev_pm = alloc<double>("prev_pm", NC);
   con.colour = alloc<int>("colour", NC);
+  if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
+    con.start_pn = alloc<double>("start_pn", NC);
+    con.start_pt = alloc<double>("start_pt", NC);
+    con.start_pm = alloc<double>("start_pm", NC);
+    con.dir_pn = alloc<double>("dir_pn", NC);
+    con.dir_pt = alloc<double>("dir_pt", NC);
+    con.dir_pm = alloc<double>("dir_pm", NC);
+  }
   colour_list = alloc<int>("colour_list", NC);
   colour_start = alloc<int>("colour_start", 2);
   colour_fill = alloc<int>("colour_fill", 1);
@@ -352,6 +361,17 @@ void Batch::Impl::solve() {
   const double omega = solver.relaxation;
   const bool jacobi = solver.kind == SolverKind::Jacobi;
   const int n_contacts = n_particles * kSlots;
+  if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
+    Kokkos::deep_copy(sweeps, 0);
+    for (int sweep = 0; sweep < solver.max_sweeps; sweep += 2) {
+      int still = 0;
+      Kokkos::parallel_reduce("accelerated_gauss_seidel",
+                              Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+                              AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega, tol}, still);
+      if (still == 0) break;
+    }
+    return;
+  }
   if (solver.kind == SolverKind::SequentialGaussSeidel) {
     Kokkos::deep_copy(sweeps, 0);
     for (int sweep = 0; sweep < solver.max_sweeps; ++sweep) {

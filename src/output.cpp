@@ -150,7 +150,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       {
         H5 g = group(file, "settings");
         attribute(g, "solver_kind",
-                  std::string(scan.solver.kind == SolverKind::Jacobi ? "jacobi" : "gauss_seidel"));
+                  std::string(solver_kind_name(scan.solver.kind)));
         attribute(g, "solver_tolerance", scan.solver.tolerance);
         attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
         attribute(g, "solver_relaxation", scan.solver.relaxation);

@@ -309,13 +309,18 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         const std::string key = "solver." + k;
         if (k == "kind") {
           auto s = v.as_string();
-          if (!s || (s->get() != "jacobi" && s->get() != "gauss_seidel" &&
-                     s->get() != "sequential_gauss_seidel"))
+          bool known = false;
+          for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
+                                  SolverKind::SequentialGaussSeidel,
+                                  SolverKind::AcceleratedGaussSeidel})
+            if (s && s->get() == solver_kind_name(kind)) {
+              scan.solver.kind = kind;
+              known = true;
+            }
+          if (!known)
             fail(file, v, key,
-                 "expected \"jacobi\", \"gauss_seidel\" or \"sequential_gauss_seidel\"");
-          scan.solver.kind = s->get() == "jacobi"         ? SolverKind::Jacobi
-                             : s->get() == "gauss_seidel" ? SolverKind::GaussSeidel
-                                                          : SolverKind::SequentialGaussSeidel;
+                 "expected \"jacobi\", \"gauss_seidel\", \"sequential_gauss_seidel\" or "
+                 "\"accelerated_gauss_seidel\"");
         } else if (k == "tolerance") {
           scan.solver.tolerance = real(v, key, 1e-14, 1.0);
         } else if (k == "max_sweeps") {

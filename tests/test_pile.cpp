@@ -146,7 +146,8 @@ TEST(Solver, JacobiConvergesOnDenseHexagonalPacking) {
   auto p = bare_params(20.0, 40.0);
   p.friction = 0.3;
   p.rolling_friction = 0.1;
-  for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel}) {
+  for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
+                          SolverKind::AcceleratedGaussSeidel}) {
     SolverSettings s;
     s.kind = kind;
     s.tolerance = 1e-10;
@@ -159,19 +160,20 @@ TEST(Solver, JacobiConvergesOnDenseHexagonalPacking) {
     EXPECT_LT(batch.status(0).max_speed, 1e-6);
     check_row_loads(batch, per_row, n_rows);
     std::printf("hexagonal %dx%d, %s: %ld sweeps in the first step, %ld over 10 steps\n", per_row,
-                n_rows, kind == SolverKind::Jacobi ? "Jacobi" : "Gauss-Seidel", first,
-                batch.status(0).sweeps);
+                n_rows, solver_kind_name(kind), first, batch.status(0).sweeps);
   }
 }
 
-TEST(Solver, JacobiAndGaussSeidelAgreeOnDeterminatePiles) {
+TEST(Solver, AllSolversAgreeOnDeterminatePiles) {
   // The column and the pyramid have unique contact forces.
   const auto pyr = pyramid();
   auto p = bare_params(20.0, 40.0);
   p.friction = 0.3;
   for (const auto& scene : {column(15, 10.0), pyr}) {
     std::vector<std::vector<ContactForce>> forces;
-    for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel}) {
+    for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
+                            SolverKind::SequentialGaussSeidel,
+                            SolverKind::AcceleratedGaussSeidel}) {
       SolverSettings s;
       s.kind = kind;
       s.tolerance = 1e-10;
@@ -179,15 +181,50 @@ TEST(Solver, JacobiAndGaussSeidelAgreeOnDeterminatePiles) {
       Batch batch({setup(p, scene)}, s);
       for (int k = 0; k < 5; ++k) batch.step();
       forces.push_back(batch.contacts(0));
-      std::printf("%zu disks, %s: %ld sweeps\n", scene.size(),
-                  kind == SolverKind::Jacobi ? "Jacobi" : "Gauss-Seidel", batch.status(0).sweeps);
+      std::printf("%zu disks, %s: %ld sweeps\n", scene.size(), solver_kind_name(kind),
+                  batch.status(0).sweeps);
     }
-    ASSERT_EQ(forces[0].size(), forces[1].size());
-    for (std::size_t k = 0; k < forces[0].size(); ++k) {
-      EXPECT_EQ(forces[0][k].i, forces[1][k].i);
-      EXPECT_EQ(forces[0][k].j, forces[1][k].j);
-      EXPECT_NEAR(forces[0][k].normal, forces[1][k].normal, 1e-6);
-      EXPECT_NEAR(forces[0][k].tangential, forces[1][k].tangential, 1e-6);
+    for (std::size_t f = 1; f < forces.size(); ++f) {
+      ASSERT_EQ(forces[0].size(), forces[f].size());
+      for (std::size_t k = 0; k < forces[0].size(); ++k) {
+        EXPECT_EQ(forces[0][k].i, forces[f][k].i);
+        EXPECT_EQ(forces[0][k].j, forces[f][k].j);
+        EXPECT_NEAR(forces[0][k].normal, forces[f][k].normal, 1e-6);
+        EXPECT_NEAR(forces[0][k].tangential, forces[f][k].tangential, 1e-6);
+      }
     }
   }
+}
+
+// Force propagation: plain Gauss-Seidel needs of order n^2 sweeps to load a column of n disks
+// from zero impulses (diffusion), the accelerated (NNCG) solver of order n. Doubling the column
+// must roughly quadruple the one and double the other; both reach the exact weights.
+TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
+  auto sweeps_for = [](SolverKind kind, int n) {
+    auto p = bare_params(20.0, 2.0 * n + 10.0);
+    p.friction = 0.3;
+    p.rolling_friction = 0.1;
+    SolverSettings s;
+    s.kind = kind;
+    s.tolerance = 1e-8;
+    s.max_sweeps = 2000000;
+    Batch batch({setup(p, column(n, 10.0))}, s);
+    batch.step();
+    EXPECT_TRUE(batch.status(0).converged);
+    const double mg = p.reference_mass() * p.gravity;
+    for (const auto& c : batch.contacts(0)) {
+      if (c.j >= 0) continue;
+      EXPECT_NEAR(c.normal, n * mg, 1e-4 * n * mg);
+    }
+    return static_cast<double>(batch.status(0).sweeps);
+  };
+  const double gs40 = sweeps_for(SolverKind::SequentialGaussSeidel, 40);
+  const double gs80 = sweeps_for(SolverKind::SequentialGaussSeidel, 80);
+  const double acc40 = sweeps_for(SolverKind::AcceleratedGaussSeidel, 40);
+  const double acc80 = sweeps_for(SolverKind::AcceleratedGaussSeidel, 80);
+  std::printf("column 40 / 80: Gauss-Seidel %.0f / %.0f sweeps, accelerated %.0f / %.0f\n", gs40,
+              gs80, acc40, acc80);
+  EXPECT_GT(gs80 / gs40, 3.0);   // ~ n^2
+  EXPECT_LT(acc80 / acc40, 2.6);  // ~ n
+  EXPECT_LT(acc80, gs80 / 10.0);
 }

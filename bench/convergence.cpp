@@ -1,0 +1,124 @@
+// Convergence of the contact solvers on tall structures (issue 5, "Convergence on tall
+// structures"): sweeps to a fixed tolerance against the height n of a loaded column, for each
+// solver, cold started (first step, all impulses zero) and warm started (one disk added on top of
+// a column at rest). Also the error of the bottom contact force against n m g, so a solver that
+// stops early cannot look fast. Prints one JSON record per solver, n and start.
+//
+//   bench_convergence [--n 25,50,100,200] [--tolerance 1e-4] [--max-sweeps 400000]
+#include <Kokkos_Core.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "loosepack/batch.hpp"
+
+using namespace loosepack;
+
+namespace {
+
+const SolverKind kSolvers[] = {SolverKind::Jacobi, SolverKind::GaussSeidel,
+                               SolverKind::SequentialGaussSeidel,
+                               SolverKind::AcceleratedGaussSeidel};
+
+SystemParams column_params(int n) {
+  SystemParams p;
+  p.width = 20.0;
+  p.height = 2.0 * n + 10.0;
+  p.bond_number = 0.0;
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  p.time_step = 0.01;
+  return p;
+}
+
+std::vector<Disk> column(int n) {
+  std::vector<Disk> d(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    d[static_cast<std::size_t>(k)].x = 10.0;
+    d[static_cast<std::size_t>(k)].y = 1.0 + 2.0 * k;
+  }
+  return d;
+}
+
+// Force on the floor contact over the weight of the column above it, minus one.
+double bottom_error(const Batch& batch, int n_total) {
+  for (const auto& c : batch.contacts(0))
+    if (c.j < 0) return c.normal / n_total - 1.0;
+  return NAN;
+}
+
+struct Record {
+  long sweeps;
+  double error, seconds;
+};
+
+Record run(SolverKind kind, int n, bool warm, double tolerance, int max_sweeps) {
+  SolverSettings solver;
+  solver.kind = kind;
+  solver.tolerance = tolerance;
+  solver.max_sweeps = max_sweeps;
+  SystemSetup su;
+  su.params = column_params(n);
+  su.disks = column(n);
+  su.capacity = n + 1;
+  Batch batch({su}, solver);
+  if (warm) {
+    // Converge the column, then put one disk on top: the step after it is the warm solve.
+    for (int k = 0; k < 3; ++k) batch.step();
+    batch.deposit_at({1}, {10.0}, DropRule::Touch);
+  }
+  const long before = batch.status(0).sweeps;
+  const auto t0 = std::chrono::steady_clock::now();
+  batch.step();
+  const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return {batch.status(0).sweeps - before, bottom_error(batch, warm ? n + 1 : n), sec};
+}
+
+std::vector<int> parse_list(const char* s) {
+  std::vector<int> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(std::atoi(item.c_str()));
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Kokkos::ScopeGuard kokkos(argc, argv);
+  std::vector<int> sizes = {25, 50, 100, 200};
+  double tolerance = 1e-4;
+  int max_sweeps = 400000;
+  for (int a = 1; a < argc; ++a) {
+    if (!std::strcmp(argv[a], "--n") && a + 1 < argc) {
+      sizes = parse_list(argv[++a]);
+    } else if (!std::strcmp(argv[a], "--tolerance") && a + 1 < argc) {
+      tolerance = std::atof(argv[++a]);
+    } else if (!std::strcmp(argv[a], "--max-sweeps") && a + 1 < argc) {
+      max_sweeps = std::atoi(argv[++a]);
+    } else {
+      std::fprintf(stderr,
+                   "usage: bench_convergence [--n 25,50,100,200] [--tolerance 1e-4] "
+                   "[--max-sweeps 400000]\n");
+      return 2;
+    }
+  }
+  for (SolverKind kind : kSolvers)
+    for (bool warm : {false, true})
+      for (int n : sizes) {
+        const Record r = run(kind, n, warm, tolerance, max_sweeps);
+        std::printf(
+            "{\"study\": \"column_convergence\", \"solver\": \"%s\", \"start\": \"%s\", \"n\": %d, "
+            "\"tolerance\": %g, \"sweeps\": %ld, \"capped\": %s, \"bottom_force_rel_error\": %.3e, "
+            "\"wall_s\": %.4f}\n",
+            solver_kind_name(kind), warm ? "warm" : "cold", n, tolerance, r.sweeps,
+            r.sweeps >= max_sweeps ? "true" : "false", r.error, r.seconds);
+        std::fflush(stdout);
+      }
+  return 0;
+}
