@@ -102,12 +102,13 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
       "\"wall_s\": %s, \"steps\": %ld, \"per_particle_ms\": %s, \"phi_final\": %s, "
       "\"phi_initial\": %s, \"phi_aux\": %s, \"h_top\": %s, \"h_mean\": %s, \"sim_time\": %s, "
       "\"max_overlap\": %s, \"n_capped\": %d, \"vmax_peak\": %s, \"setting\": \"default\", "
-      "\"params\": {\"dt\": %s, \"solver\": \"sequential_gauss_seidel\", \"tolerance\": 1e-3}, "
+      "\"params\": {\"dt\": %s, \"solver\": \"%s\", \"tolerance\": %g}, "
       "\"notes\": \"contact dynamics, Kokkos %s; rest also needs R|w| < 1e-3 and a converged "
       "solve\"}\n",
       scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(), num(m.phi_final).c_str(),
       num(phi_i).c_str(), num(m.phi_aux).c_str(), num(m.h_top).c_str(), num(m.h_mean).c_str(),
       num(sim_time).c_str(), num(m.max_overlap).c_str(), capped, num(vmax).c_str(), num(dt).c_str(),
+      solver_kind_name(SolverSettings{}.kind), SolverSettings{}.tolerance,
       Kokkos::DefaultExecutionSpace::name());
   std::fflush(stdout);
 }

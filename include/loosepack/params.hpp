@@ -59,7 +59,7 @@ inline const char* solver_kind_name(SolverKind k) {
 
 // How the contact problem is solved; shared by all systems of a batch.
 struct SolverSettings {
-  SolverKind kind = SolverKind::SequentialGaussSeidel;
+  SolverKind kind = SolverKind::AcceleratedGaussSeidel;
   double tolerance = 1e-3;     // max impulse change per sweep, in units of h m g (per system)
   int max_sweeps = 2000;       // iteration cap per step
   double relaxation = 1.0;     // omega: P <- P + omega (P_local - P)
