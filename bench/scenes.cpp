@@ -2,7 +2,7 @@
 // deposit) of shared/design/BENCH-SCENES.md, run through loosepack's engine with periodic x;
 // prints one JSON record per scene and N, to set beside other engines' records.
 //
-//   bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H]
+//   bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] [--solver KIND]
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
@@ -95,6 +95,8 @@ RestSettings scene_rest(double dt) {
   return r;
 }
 
+SolverSettings g_solver;  // --solver; the scan default otherwise
+
 void record(const char* scene, int n, double wall, long steps, const Measure& m, double phi_i,
             double sim_time, int capped, double vmax, double dt) {
   std::printf(
@@ -108,7 +110,7 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
       scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(), num(m.phi_final).c_str(),
       num(phi_i).c_str(), num(m.phi_aux).c_str(), num(m.h_top).c_str(), num(m.h_mean).c_str(),
       num(sim_time).c_str(), num(m.max_overlap).c_str(), capped, num(vmax).c_str(), num(dt).c_str(),
-      solver_kind_name(SolverSettings{}.kind), SolverSettings{}.tolerance,
+      solver_kind_name(g_solver.kind), g_solver.tolerance,
       Kokkos::DefaultExecutionSpace::name());
   std::fflush(stdout);
 }
@@ -118,8 +120,7 @@ void scene_s1(const std::vector<int>& ns, double dt) {
   SystemSetup su;
   su.params = scene_params(n_max, dt);
   su.capacity = n_max;
-  SolverSettings solver;
-  Batch batch({su}, solver, scene_rest(dt));
+  Batch batch({su}, g_solver, scene_rest(dt));
   SplitMix64 rng{1001};
   const long cap = static_cast<long>(std::ceil(20.0 / dt));
   long steps = 0;
@@ -157,7 +158,7 @@ void scene_s2(int n, double dt) {
   su.params = scene_params(n, dt);
   su.params.gravity_on = false;
   su.capacity = n;
-  Batch batch({su}, SolverSettings{}, scene_rest(dt));
+  Batch batch({su}, g_solver, scene_rest(dt));
   SplitMix64 rng{2002};
   for (int k = 0; k < n; ++k)
     if (!batch.deposit_at({1}, {kWidth * rng.next()}, DropRule::Touch)[0].placed) {
@@ -203,8 +204,13 @@ int main(int argc, char** argv) {
       ns = parse_list(argv[k + 1]);
     else if (!std::strcmp(argv[k], "--dt"))
       dt = std::atof(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--solver") && solver_kind_from_name(argv[k + 1], g_solver.kind))
+      continue;
     else {
-      std::fprintf(stderr, "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H]\n");
+      std::fprintf(stderr,
+                   "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] "
+                   "[--solver jacobi|gauss_seidel|sequential_gauss_seidel|"
+                   "accelerated_gauss_seidel]\n");
       return 2;
     }
   }

@@ -91,7 +91,7 @@ int run(const std::string& scan_path, const std::string& out_path, bool quiet, i
   }
   const auto points = aggregate(scan, results);
   try {
-    write_results(out_path, scan, info, points, results, snapshots);
+    write_results(out_path, scan, info, points, analyse(scan, points), results, snapshots);
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return 1;

@@ -84,7 +84,7 @@ BinnedStat binned(const std::vector<const MemberResult*>& ok, bool by_initial, d
                   int n_bins) {
   BinnedStat b;
   const auto N = static_cast<std::size_t>(n_bins);
-  std::vector<double> sum(N, 0.0), sum2(N, 0.0), cnt(N, 0.0);
+  std::vector<double> sum(N, 0.0), sum2(N, 0.0), cnt(N, 0.0), keys(N, 0.0);
   std::vector<std::vector<double>> member_means(N);
   for (const auto* r : ok) {
     std::vector<double> ms(N, 0.0), mc(N, 0.0);
@@ -96,6 +96,7 @@ BinnedStat binned(const std::vector<const MemberResult*>& ok, bool by_initial, d
       const auto u = static_cast<std::size_t>(j);
       sum[u] += dy;
       sum2[u] += dy * dy;
+      keys[u] += key;
       cnt[u] += 1.0;
       ms[u] += dy;
       mc[u] += 1.0;
@@ -106,6 +107,7 @@ BinnedStat binned(const std::vector<const MemberResult*>& ok, bool by_initial, d
   for (std::size_t u = 0; u < N; ++u) {
     b.centre.push_back((static_cast<double>(u) + 0.5) * bin);
     b.count.push_back(cnt[u]);
+    b.position.push_back(cnt[u] > 0.0 ? keys[u] / cnt[u] : kNaN);
     if (cnt[u] == 0.0) {
       b.mean.push_back(kNaN);
       b.stddev.push_back(kNaN);

@@ -87,6 +87,7 @@ void profile(hid_t parent, const std::string& name, const EnsembleProfile& e) {
 void binned(hid_t parent, const std::string& name, const BinnedStat& b) {
   H5 g = group(parent, name);
   dataset(g, "centre", b.centre);
+  dataset(g, "position", b.position);
   dataset(g, "mean", b.mean);
   dataset(g, "stddev", b.stddev);
   dataset(g, "count", b.count);
@@ -110,6 +111,29 @@ void params(hid_t g, const SystemParams& p) {
   attribute(g, "capture_radius", p.capture_radius);
 }
 
+// A fit: datasets coef and error (parameter k and its standard error), attributes valid,
+// chi2, dof, points, reduced_chi2.
+void fit(hid_t parent, const std::string& name, const Fit& f) {
+  H5 g = group(parent, name);
+  attribute(g, "valid", f.valid() ? 1.0 : 0.0);
+  dataset(g, "coef", f.valid() ? f.coef : std::vector<double>{});
+  dataset(g, "error", f.valid() ? f.error : std::vector<double>{});
+  attribute(g, "chi2", f.valid() ? f.chi2 : NAN);
+  attribute(g, "dof", static_cast<double>(f.dof));
+  attribute(g, "points", static_cast<double>(f.points));
+  attribute(g, "reduced_chi2", f.valid() ? f.reduced_chi2() : NAN);
+}
+
+void histogram_shape(hid_t parent, const std::string& name, const HistogramShape& h) {
+  H5 g = group(parent, name);
+  attribute(g, "preferred", h.preferred);
+  attribute(g, "decay_length", h.decay_length);
+  attribute(g, "gaussian_mean", h.gaussian_mean);
+  attribute(g, "gaussian_width", h.gaussian_width);
+  fit(g, "exponential", h.exponential);
+  fit(g, "gaussian", h.gaussian);
+}
+
 std::string point_name(int k) {
   std::ostringstream o;
   o << "points/" << std::setw(4) << std::setfill('0') << k;
@@ -119,8 +143,8 @@ std::string point_name(int k) {
 }  // namespace
 
 void write_results(const std::string& path, const Scan& scan, const RunInfo& info,
-                   const std::vector<PointResult>& points, const std::vector<MemberResult>& members,
-                   bool snapshots) {
+                   const std::vector<PointResult>& points, const Analysis& analysis,
+                   const std::vector<MemberResult>& members, bool snapshots) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
   try {
@@ -170,8 +194,16 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         attribute(g, "trajectory_every", static_cast<double>(o.trajectory_every));
         attribute(g, "trajectory_interval", static_cast<double>(o.trajectory_interval));
       }
+      {
+        H5 g = group(file, "analysis");
+        fit(g, "increase_vs_log_height", analysis.scan.increase_vs_log_height);
+        fit(g, "increase_vs_nu_initial", analysis.scan.increase_vs_nu_initial);
+        fit(g, "quadratic_vs_height", analysis.scan.quadratic_vs_height);
+      }
       H5 all = group(file, "points");
-      for (const auto& pr : points) {
+      for (std::size_t pk = 0; pk < points.size(); ++pk) {
+        const PointResult& pr = points[pk];
+        const PointAnalysis& an = analysis.points.at(pk);
         H5 g = group(file, point_name(pr.point.index));
         attribute(g, "protocol", protocol_name(pr.point.protocol));
         params(g, pr.point.params);
@@ -183,19 +215,50 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         std::vector<double> depth;
         for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
         dataset(g, "nu/depth", depth);
+        {
+          H5 nu = H5(H5Gopen2(g, "nu", H5P_DEFAULT), H5Gclose, "open group nu");
+          dataset(nu, "predicted", an.nu_predicted);
+          dataset(nu, "deviation", an.nu_deviation);
+          attribute(nu, "rms_deviation", an.nu_rms_deviation);
+        }
         profile(g, "nu_deposition", pr.nu_deposition);
+        {
+          H5 nud = H5(H5Gopen2(g, "nu_deposition", H5P_DEFAULT), H5Gclose,
+                      "open group nu_deposition");
+          fit(nud, "power_law", an.deposition_power_law);
+        }
         binned(g, "avalanche_by_yi", pr.dy_by_yi);
         binned(g, "avalanche_by_ye", pr.dy_by_ye);
+        {
+          H5 yi = H5(H5Gopen2(g, "avalanche_by_yi", H5P_DEFAULT), H5Gclose, "open group");
+          fit(yi, "fit", an.dy_by_yi);
+          H5 ye = H5(H5Gopen2(g, "avalanche_by_ye", H5P_DEFAULT), H5Gclose, "open group");
+          fit(ye, "fit", an.dy_by_ye);
+          if (pr.point.protocol == Protocol::A) fit(ye, "slice_parabola", an.slice_parabola);
+        }
         {
           H5 h = group(g, "abs_dy_histogram");
           dataset(h, "edges", pr.abs_dy_edges);
           dataset(h, "counts", pr.abs_dy_counts);
           dataset(h, "counts_cut", pr.abs_dy_counts_cut);
+          histogram_shape(h, "shape", an.abs_dy);
+          histogram_shape(h, "shape_cut", an.abs_dy_cut);
         }
         if (pr.point.protocol == Protocol::C) {
           scalar(g, "nu_initial", pr.nu_initial);
           scalar(g, "nu_final", pr.nu_final);
           scalar(g, "relative_increase", pr.relative_increase);
+          H5 c = group(g, "collapse_identity");
+          attribute(c, "b_prime", an.b_prime);
+          attribute(c, "b_prime_error", an.b_prime_error);
+          attribute(c, "b_prime_predicted", an.b_prime_predicted);
+          attribute(c, "b_prime_predicted_error", an.b_prime_predicted_error);
+          attribute(c, "a_prime", an.a_prime);
+          attribute(c, "a_prime_error", an.a_prime_error);
+          attribute(c, "a_prime_predicted", an.a_prime_predicted);
+          attribute(c, "a_prime_predicted_error", an.a_prime_predicted_error);
+          attribute(c, "slope_increase", an.slope_increase);
+          attribute(c, "slope_increase_error", an.slope_increase_error);
         }
         if (pr.point.protocol == Protocol::A) {
           H5 e = group(g, "events");

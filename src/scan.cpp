@@ -309,15 +309,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         const std::string key = "solver." + k;
         if (k == "kind") {
           auto s = v.as_string();
-          bool known = false;
-          for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
-                                  SolverKind::SequentialGaussSeidel,
-                                  SolverKind::AcceleratedGaussSeidel})
-            if (s && s->get() == solver_kind_name(kind)) {
-              scan.solver.kind = kind;
-              known = true;
-            }
-          if (!known)
+          if (!s || !solver_kind_from_name(s->get(), scan.solver.kind))
             fail(file, v, key,
                  "expected \"jacobi\", \"gauss_seidel\", \"sequential_gauss_seidel\" or "
                  "\"accelerated_gauss_seidel\"");

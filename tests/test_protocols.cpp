@@ -194,8 +194,9 @@ lower_half_from = 2.0
   // And in the files: every dataset but the wall times is identical.
   const TempDir dir;
   const std::string fa = dir / "a.h5", fb = dir / "b.h5";
-  write_results(fa, one, RunInfo{}, aggregate(one, a), a, true);
-  write_results(fb, many, RunInfo{}, aggregate(many, b), b, true);
+  const auto pa = aggregate(one, a), pb = aggregate(many, b);
+  write_results(fa, one, RunInfo{}, pa, analyse(one, pa), a, true);
+  write_results(fb, many, RunInfo{}, pb, analyse(many, pb), b, true);
   for (const char* point : {"points/0000", "points/0001", "points/0002"})
     for (const char* set :
          {"nu/mean", "nu/sem", "nu_deposition/mean", "avalanche_by_yi/mean", "avalanche_by_ye/sem",
@@ -229,7 +230,7 @@ lower_half_from = 3.0
   RunInfo info;
   info.start_time = "t0";
   info.end_time = "t1";
-  write_results(path, scan, info, points, members, true);
+  write_results(path, scan, info, points, analyse(scan, points), members, true);
   EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "roundtrip");
   EXPECT_EQ(read_attribute_string(path, "/", "scan_text"), scan.text);
   EXPECT_EQ(read_attribute_string(path, "points/0001", "protocol"), "B");
@@ -241,11 +242,12 @@ lower_half_from = 3.0
   // Rewriting replaces the whole file: the snapshots written before are gone.
   auto renamed = scan;
   renamed.name = "second";
-  write_results(path, renamed, info, points, members, false);
+  write_results(path, renamed, info, points, analyse(renamed, points), members, false);
   EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "second");
   EXPECT_THROW(read_dataset(path, "points/0001/members/snapshot_1/y_e"), std::runtime_error);
   // A write that cannot happen raises; nothing but the result file is in the directory.
-  EXPECT_THROW(write_results(dir / "missing/out.h5", scan, info, points, members, false),
+  EXPECT_THROW(write_results(dir / "missing/out.h5", scan, info, points, analyse(scan, points),
+                             members, false),
                std::runtime_error);
   int files = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir.path)) {

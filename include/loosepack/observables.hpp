@@ -20,6 +20,7 @@ double deposit_top(const std::vector<double>& y, const std::vector<double>& r);
 // Mean, standard error (across members) and count of a binned quantity.
 struct BinnedStat {
   std::vector<double> centre;
+  std::vector<double> position;  // mean key (y_i or y_e) of the samples in the bin: fits use it
   std::vector<double> mean;    // pooled over all samples of all members
   std::vector<double> stddev;  // pooled standard deviation of the samples
   std::vector<double> count;   // samples

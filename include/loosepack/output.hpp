@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "loosepack/analysis.hpp"
 #include "loosepack/observables.hpp"
 
 namespace loosepack {
@@ -17,8 +18,8 @@ struct RunInfo {
 // Writes `path` via a temporary file in the same directory and a rename, so an existing file
 // is replaced only by a complete one. Throws std::runtime_error on failure.
 void write_results(const std::string& path, const Scan& scan, const RunInfo& info,
-                   const std::vector<PointResult>& points, const std::vector<MemberResult>& members,
-                   bool snapshots);
+                   const std::vector<PointResult>& points, const Analysis& analysis,
+                   const std::vector<MemberResult>& members, bool snapshots);
 
 // One line per scan point: parameters and headline observables.
 void print_summary(const std::string& path, std::ostream& out);

@@ -57,6 +57,17 @@ inline const char* solver_kind_name(SolverKind k) {
   return "unknown";
 }
 
+// The solver kind of a scan-file spelling; false if there is none.
+inline bool solver_kind_from_name(const std::string& name, SolverKind& kind) {
+  for (SolverKind k : {SolverKind::Jacobi, SolverKind::GaussSeidel,
+                       SolverKind::SequentialGaussSeidel, SolverKind::AcceleratedGaussSeidel})
+    if (name == solver_kind_name(k)) {
+      kind = k;
+      return true;
+    }
+  return false;
+}
+
 // How the contact problem is solved; shared by all systems of a batch.
 struct SolverSettings {
   SolverKind kind = SolverKind::AcceleratedGaussSeidel;

@@ -1,0 +1,88 @@
+// The theory of the paper evaluated on a scan's aggregates (MODEL.md, "Theory the software
+// evaluates on its own results"): least-squares fits with ensemble errors, the final density
+// predicted from the deposition density, the |Delta y| histogram shapes, and fits across scan
+// points. Stored in the result file next to the data they fit (docs/OUTPUT.md).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "loosepack/observables.hpp"
+
+namespace loosepack {
+
+// A least-squares fit. coef[k] and error[k]: the k-th parameter and its standard error. With
+// per-point standard errors (weighted fit) the errors come from them and are scaled up by
+// sqrt(chi2 / dof) where that exceeds one (the data scatter more than their errors say);
+// without them, from the residual scatter.
+struct Fit {
+  std::vector<double> coef, error;
+  double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
+  int points = 0;     // data points used
+  int dof = 0;        // points - parameters
+  bool valid() const { return dof >= 0 && points > 0 && !coef.empty(); }
+  double reduced_chi2() const;
+};
+
+// y = sum_k coef[k] x^k up to `degree`. Points with a non-finite x or y, or (when sigma is
+// given) a non-finite or non-positive sigma, are skipped. Returns an invalid fit (no
+// coefficients) when fewer points than parameters remain.
+Fit polynomial_fit(const std::vector<double>& x, const std::vector<double>& y,
+                   const std::vector<double>& sigma, int degree);
+double polynomial(const Fit& f, double x);
+
+// The slice model's parabola Delta y(y_e) = -a y_e (1 - y_e / H): one parameter a.
+Fit slice_parabola_fit(const std::vector<double>& ye, const std::vector<double>& dy,
+                       const std::vector<double>& sigma, double H);
+
+// Power law y = A x^p, fitted as ln y = ln A + p ln x (sigma_ln = sigma / y); coef = {ln A, p}.
+Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
+                  const std::vector<double>& sigma);
+
+// |Delta y| histogram shapes, fitted to the counts of bins with at least `min_count` samples
+// as ln n = alpha + beta x (exponential, decay length -1/beta) and ln n = alpha + beta x +
+// gamma x^2 (Gaussian: mean -beta / (2 gamma), width sqrt(-1 / (2 gamma))), weights n (the
+// variance of ln n is 1/n). The goodness of fit is Pearson's chi2 of the counts against each
+// model; the preferred shape has the lower Akaike criterion chi2 + 2 k (k parameters).
+struct HistogramShape {
+  Fit exponential, gaussian;
+  double decay_length = 0.0, gaussian_mean = 0.0, gaussian_width = 0.0;
+  std::string preferred;  // "gaussian", "exponential", or "none" (too few bins)
+};
+HistogramShape histogram_shape(const std::vector<double>& edges,
+                               const std::vector<double>& counts, double min_count = 5.0);
+
+struct PointAnalysis {
+  // Avalanche profiles: parabolas (protocol A) or lines (C): Delta y = c0 + c1 y (+ c2 y^2).
+  Fit dy_by_yi, dy_by_ye;
+  Fit slice_parabola;  // A: -a y_e (1 - y_e/H)
+  // C: the lines' coefficient identity (paper: Delta y(y_e) = a - b y_e, Delta y(y_i) = a' - b'
+  // y_i, then b' = b/(1+b), a' = a/(1+b)): the fitted b', a' and the ones predicted from b, a.
+  double b_prime = 0.0, b_prime_error = 0.0, b_prime_predicted = 0.0, b_prime_predicted_error = 0.0;
+  double a_prime = 0.0, a_prime_error = 0.0, a_prime_predicted = 0.0, a_prime_predicted_error = 0.0;
+  // C: -d(Delta y)/dy_e (= b) beside the measured relative density increase.
+  double slope_increase = 0.0, slope_increase_error = 0.0;
+  // Final density from the deposition density, rho_f(y_e) = rho_d(y_i(y_e)) (1 - dDelta y/dy_e),
+  // with the fitted avalanche profile against y_e and a power law fitted to nu_d(y_i):
+  // predicted nu per strip of the nu profile (NaN outside the fitted range) and the deviation
+  // predicted - measured; rms over the strips above lower_half_from and below H - strip.
+  Fit deposition_power_law;
+  std::vector<double> nu_predicted, nu_deviation;
+  double nu_rms_deviation = 0.0;
+  HistogramShape abs_dy, abs_dy_cut;
+};
+
+// Fits across the scan points (each needs at least three points that differ in the variable).
+struct ScanAnalysis {
+  Fit increase_vs_log_height;  // C: dnu/nu_i = c0 + c1 ln H (points differing in H)
+  Fit increase_vs_nu_initial;  // C: dnu/nu_i = A nu_i^p (points differing in nu_i)
+  Fit quadratic_vs_height;     // A: |c| of the Delta y(y_e) parabola = A H^p (paper: p = -1)
+};
+
+struct Analysis {
+  std::vector<PointAnalysis> points;  // one per scan point, in order
+  ScanAnalysis scan;
+};
+
+Analysis analyse(const Scan& scan, const std::vector<PointResult>& points);
+
+}  // namespace loosepack

@@ -1,0 +1,324 @@
+// Fits and theory checks on the aggregates of a scan (include/loosepack/analysis.hpp).
+#include "loosepack/analysis.hpp"
+
+#include <Eigen/Dense>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+namespace loosepack {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// A bin of an avalanche profile enters the fits with at least this many disks (and a finite,
+// positive standard error, which needs at least two members).
+constexpr double kMinBinCount = 10.0;
+
+// Weighted linear least squares y ~ A c with standard errors sigma (empty: unit weights and
+// errors from the residual scatter).
+Fit linear_least_squares(const Eigen::MatrixXd& A, const Eigen::VectorXd& y,
+                         const Eigen::VectorXd& sigma, bool weighted) {
+  Fit f;
+  const auto n = A.rows(), k = A.cols();
+  f.points = static_cast<int>(n);
+  f.dof = static_cast<int>(n - k);
+  if (n < k || k == 0) {
+    f.dof = -1;
+    return f;
+  }
+  Eigen::VectorXd w = weighted ? Eigen::VectorXd(sigma.array().inverse())
+                               : Eigen::VectorXd::Ones(n);
+  const Eigen::MatrixXd Aw = w.asDiagonal() * A;
+  const Eigen::VectorXd yw = w.asDiagonal() * y;
+  const Eigen::MatrixXd normal = Aw.transpose() * Aw;
+  Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
+  if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-14)) {
+    f.dof = -1;
+    return f;
+  }
+  const Eigen::VectorXd c = ldlt.solve(Aw.transpose() * yw);
+  const Eigen::VectorXd r = yw - Aw * c;
+  f.chi2 = r.squaredNorm();
+  Eigen::MatrixXd cov = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
+  if (!weighted) {
+    cov *= f.dof > 0 ? f.chi2 / f.dof : kNaN;
+  } else if (f.dof > 0 && f.chi2 / f.dof > 1.0) {
+    cov *= f.chi2 / f.dof;
+  }
+  for (Eigen::Index j = 0; j < k; ++j) {
+    f.coef.push_back(c(j));
+    f.error.push_back(std::sqrt(std::max(0.0, cov(j, j))));
+  }
+  return f;
+}
+
+// Collects the usable points and fits y ~ sum_j basis_j(x) c_j.
+Fit basis_fit(const std::vector<double>& x, const std::vector<double>& y,
+              const std::vector<double>& sigma, int k,
+              const std::function<double(double, int)>& basis) {
+  const bool weighted = !sigma.empty();
+  std::vector<std::size_t> use;
+  for (std::size_t i = 0; i < x.size() && i < y.size(); ++i) {
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i])) continue;
+    if (weighted && !(std::isfinite(sigma[i]) && sigma[i] > 0.0)) continue;
+    use.push_back(i);
+  }
+  const auto n = static_cast<Eigen::Index>(use.size());
+  Eigen::MatrixXd A(n, k);
+  Eigen::VectorXd b(n), s(n);
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const std::size_t i = use[static_cast<std::size_t>(r)];
+    for (int j = 0; j < k; ++j) A(r, j) = basis(x[i], j);
+    b(r) = y[i];
+    s(r) = weighted ? sigma[i] : 1.0;
+  }
+  return linear_least_squares(A, b, s, weighted);
+}
+
+// Usable bins of an avalanche profile.
+void profile_points(const BinnedStat& b, std::vector<double>& x, std::vector<double>& y,
+                    std::vector<double>& s) {
+  for (std::size_t k = 0; k < b.centre.size(); ++k) {
+    if (!(b.count[k] >= kMinBinCount) || !(b.sem[k] > 0.0) || !std::isfinite(b.mean[k])) continue;
+    x.push_back(b.position[k]);
+    y.push_back(b.mean[k]);
+    s.push_back(b.sem[k]);
+  }
+}
+
+Fit profile_fit(const BinnedStat& b, int degree) {
+  std::vector<double> x, y, s;
+  profile_points(b, x, y, s);
+  return polynomial_fit(x, y, s, degree);
+}
+
+double coef(const Fit& f, std::size_t k) { return k < f.coef.size() ? f.coef[k] : 0.0; }
+double err(const Fit& f, std::size_t k) { return k < f.error.size() ? f.error[k] : kNaN; }
+
+// The scan parameter a fit across points varies.
+enum class Varying { Height, CaptureRadius };
+
+double value_of(const SystemParams& p, Varying v) {
+  return v == Varying::Height ? p.height : p.capture_radius;
+}
+
+// Points of `protocol` that agree with the first such point in every parameter but the varying
+// one; empty unless the varying one takes at least three distinct values among them.
+std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, Protocol protocol,
+                                       Varying varying) {
+  auto eq = [](double u, double v) { return u == v || (std::isinf(u) && std::isinf(v)); };
+  auto same_except = [&](SystemParams a, SystemParams b) {
+    if (varying == Varying::Height) b.height = a.height;
+    if (varying == Varying::CaptureRadius) b.capture_radius = a.capture_radius;
+    return eq(a.bond_number, b.bond_number) && eq(a.friction, b.friction) &&
+           eq(a.rolling_friction, b.rolling_friction) && eq(a.cohesion_range, b.cohesion_range) &&
+           eq(a.polydispersity, b.polydispersity) && eq(a.width, b.width) &&
+           eq(a.height, b.height) && eq(a.capture_radius, b.capture_radius) &&
+           eq(a.time_step, b.time_step);
+  };
+  std::vector<std::size_t> out;
+  const SystemParams* ref = nullptr;
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    if (points[k].point.protocol != protocol) continue;
+    if (!ref) ref = &points[k].point.params;
+    if (same_except(*ref, points[k].point.params)) out.push_back(k);
+  }
+  std::vector<double> distinct;
+  for (std::size_t k : out) {
+    const double v = value_of(points[k].point.params, varying);
+    bool seen = false;
+    for (double d : distinct) seen = seen || d == v;
+    if (!seen) distinct.push_back(v);
+  }
+  if (distinct.size() < 3) out.clear();
+  return out;
+}
+
+}  // namespace
+
+double Fit::reduced_chi2() const { return dof > 0 ? chi2 / dof : kNaN; }
+
+Fit polynomial_fit(const std::vector<double>& x, const std::vector<double>& y,
+                   const std::vector<double>& sigma, int degree) {
+  return basis_fit(x, y, sigma, degree + 1, [](double v, int j) { return std::pow(v, j); });
+}
+
+double polynomial(const Fit& f, double x) {
+  double v = 0.0, p = 1.0;
+  for (double c : f.coef) {
+    v += c * p;
+    p *= x;
+  }
+  return v;
+}
+
+Fit slice_parabola_fit(const std::vector<double>& ye, const std::vector<double>& dy,
+                       const std::vector<double>& sigma, double H) {
+  return basis_fit(ye, dy, sigma, 1, [H](double y, int) { return -y * (1.0 - y / H); });
+}
+
+Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
+                  const std::vector<double>& sigma) {
+  std::vector<double> lx, ly, ls;
+  for (std::size_t i = 0; i < x.size() && i < y.size(); ++i) {
+    if (!(x[i] > 0.0) || !(y[i] > 0.0)) continue;
+    lx.push_back(std::log(x[i]));
+    ly.push_back(std::log(y[i]));
+    if (!sigma.empty()) ls.push_back(sigma[i] / y[i]);
+  }
+  return polynomial_fit(lx, ly, ls, 1);
+}
+
+HistogramShape histogram_shape(const std::vector<double>& edges,
+                               const std::vector<double>& counts, double min_count) {
+  HistogramShape h;
+  h.preferred = "none";
+  std::vector<double> x, n, lx, ln, ls;
+  for (std::size_t k = 0; k < counts.size() && k + 1 < edges.size(); ++k) {
+    if (!(counts[k] >= min_count)) continue;
+    x.push_back(0.5 * (edges[k] + edges[k + 1]));
+    n.push_back(counts[k]);
+    ln.push_back(std::log(counts[k]));
+    ls.push_back(1.0 / std::sqrt(counts[k]));
+  }
+  h.exponential = polynomial_fit(x, ln, ls, 1);
+  h.gaussian = polynomial_fit(x, ln, ls, 2);
+  // Pearson chi2 of the counts against each fitted model.
+  auto pearson = [&](Fit& f) {
+    if (!f.valid()) return;
+    double chi2 = 0.0;
+    for (std::size_t k = 0; k < x.size(); ++k) {
+      const double model = std::exp(polynomial(f, x[k]));
+      chi2 += (n[k] - model) * (n[k] - model) / model;
+    }
+    f.chi2 = chi2;
+  };
+  pearson(h.exponential);
+  pearson(h.gaussian);
+  const double beta = coef(h.exponential, 1);
+  h.decay_length = beta < 0.0 ? -1.0 / beta : kNaN;
+  const double g = coef(h.gaussian, 2);
+  h.gaussian_mean = g < 0.0 ? -coef(h.gaussian, 1) / (2.0 * g) : kNaN;
+  h.gaussian_width = g < 0.0 ? std::sqrt(-1.0 / (2.0 * g)) : kNaN;
+  if (h.exponential.valid() && h.gaussian.valid() && h.gaussian.dof > 0) {
+    const double aic_exp = h.exponential.chi2 + 2.0 * 2.0;
+    const double aic_gauss = h.gaussian.chi2 + 2.0 * 3.0;
+    // A Gaussian needs a maximum (gamma < 0); otherwise it is no Gaussian at all.
+    h.preferred = (g < 0.0 && aic_gauss < aic_exp) ? "gaussian" : "exponential";
+  }
+  return h;
+}
+
+Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
+  Analysis out;
+  const auto& obs = scan.observables;
+  for (const auto& pr : points) {
+    PointAnalysis a;
+    const Protocol prot = pr.point.protocol;
+    const double H = pr.point.params.height;
+    const bool moves = prot == Protocol::C ||
+                       (prot == Protocol::A && std::isfinite(pr.point.params.bond_number));
+    a.abs_dy = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts);
+    a.abs_dy_cut = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut);
+    a.nu_predicted.assign(pr.nu.centre.size(), kNaN);
+    a.nu_deviation.assign(pr.nu.centre.size(), kNaN);
+    a.nu_rms_deviation = kNaN;
+    if (!moves || pr.members - pr.failed < 2) {
+      out.points.push_back(std::move(a));
+      continue;
+    }
+    const int degree = prot == Protocol::A ? 2 : 1;
+    a.dy_by_yi = profile_fit(pr.dy_by_yi, degree);
+    a.dy_by_ye = profile_fit(pr.dy_by_ye, degree);
+    if (prot == Protocol::A) {
+      std::vector<double> x, y, s;
+      profile_points(pr.dy_by_ye, x, y, s);
+      a.slice_parabola = slice_parabola_fit(x, y, s, H);
+    } else if (a.dy_by_ye.valid() && a.dy_by_yi.valid()) {
+      const double b = -coef(a.dy_by_ye, 1), sb = err(a.dy_by_ye, 1);
+      const double ae = coef(a.dy_by_ye, 0), sa = err(a.dy_by_ye, 0);
+      a.b_prime = -coef(a.dy_by_yi, 1);
+      a.b_prime_error = err(a.dy_by_yi, 1);
+      a.a_prime = coef(a.dy_by_yi, 0);
+      a.a_prime_error = err(a.dy_by_yi, 0);
+      a.b_prime_predicted = b / (1.0 + b);
+      a.b_prime_predicted_error = sb / ((1.0 + b) * (1.0 + b));
+      a.a_prime_predicted = ae / (1.0 + b);
+      a.a_prime_predicted_error =
+          std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
+      a.slope_increase = b;
+      a.slope_increase_error = sb;
+    }
+    // Final density from the deposition density.
+    {
+      std::vector<double> x, y, s;
+      for (std::size_t k = 0; k < pr.nu_deposition.centre.size(); ++k) {
+        const double c = pr.nu_deposition.centre[k];
+        if (c < obs.lower_half_from || c + 1.5 * obs.strip_width > H) continue;
+        x.push_back(c);
+        y.push_back(pr.nu_deposition.mean[k]);
+        s.push_back(pr.nu_deposition.sem[k]);
+      }
+      a.deposition_power_law = power_law_fit(x, y, s);
+      std::vector<double> bx, by, bs;
+      profile_points(pr.dy_by_ye, bx, by, bs);
+      if (a.deposition_power_law.valid() && a.dy_by_ye.valid() && !x.empty() && !bx.empty()) {
+        const double lnA = coef(a.deposition_power_law, 0), p = coef(a.deposition_power_law, 1);
+        double sum2 = 0.0;
+        int n = 0;
+        for (std::size_t k = 0; k < pr.nu.centre.size(); ++k) {
+          const double ye = pr.nu.centre[k];
+          if (ye < bx.front() || ye > bx.back()) continue;
+          const double yi = ye - polynomial(a.dy_by_ye, ye);
+          if (yi < x.front() || yi > x.back()) continue;
+          const double slope = coef(a.dy_by_ye, 1) + 2.0 * coef(a.dy_by_ye, 2) * ye;
+          a.nu_predicted[k] = std::exp(lnA) * std::pow(yi, p) * (1.0 - slope);
+          a.nu_deviation[k] = a.nu_predicted[k] - pr.nu.mean[k];
+          if (ye >= obs.lower_half_from && std::isfinite(a.nu_deviation[k])) {
+            sum2 += a.nu_deviation[k] * a.nu_deviation[k];
+            ++n;
+          }
+        }
+        a.nu_rms_deviation = n > 0 ? std::sqrt(sum2 / n) : kNaN;
+      }
+    }
+    out.points.push_back(std::move(a));
+  }
+
+  // Across scan points.
+  {
+    std::vector<double> x, y, s;
+    for (std::size_t k : group_varying(points, Protocol::C, Varying::Height)) {
+      if (!std::isfinite(points[k].relative_increase.mean)) continue;
+      x.push_back(std::log(points[k].point.params.height));
+      y.push_back(points[k].relative_increase.mean);
+      s.push_back(points[k].relative_increase.sem);
+    }
+    out.scan.increase_vs_log_height = polynomial_fit(x, y, s, 1);
+  }
+  {  // The initial density varies with the capture radius; fit against the measured nu_i.
+    std::vector<double> x, y, s;
+    for (std::size_t k : group_varying(points, Protocol::C, Varying::CaptureRadius)) {
+      if (!std::isfinite(points[k].relative_increase.mean)) continue;
+      x.push_back(points[k].nu_initial.mean);
+      y.push_back(points[k].relative_increase.mean);
+      s.push_back(points[k].relative_increase.sem);
+    }
+    out.scan.increase_vs_nu_initial = power_law_fit(x, y, s);
+  }
+  {
+    std::vector<double> x, y, s;
+    for (std::size_t k : group_varying(points, Protocol::A, Varying::Height)) {
+      const Fit& f = out.points[k].dy_by_ye;
+      if (!f.valid() || f.coef.size() < 3 || f.coef[2] == 0.0) continue;
+      x.push_back(points[k].point.params.height);
+      y.push_back(std::fabs(f.coef[2]));
+      s.push_back(f.error[2]);
+    }
+    out.scan.quadratic_vs_height = power_law_fit(x, y, s);
+  }
+  return out;
+}
+
+}  // namespace loosepack

@@ -1,0 +1,170 @@
+// The fits and theory checks of the analysis, on data whose answers are known in closed form.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+
+#include "loosepack/analysis.hpp"
+#include "loosepack/protocols.hpp"
+
+using namespace loosepack;
+
+// Noise-free data: the fit returns the generating coefficients.
+TEST(Analysis, PolynomialFitRecoversAParabola) {
+  std::vector<double> x, y;
+  for (int k = 0; k < 20; ++k) {
+    x.push_back(2.0 + 4.0 * k);
+    y.push_back(-1.8 - 0.31 * x.back() + 0.00035 * x.back() * x.back());
+  }
+  const Fit f = polynomial_fit(x, y, {}, 2);
+  ASSERT_TRUE(f.valid());
+  EXPECT_EQ(f.dof, 17);
+  EXPECT_NEAR(f.coef[0], -1.8, 1e-9);
+  EXPECT_NEAR(f.coef[1], -0.31, 1e-11);
+  EXPECT_NEAR(f.coef[2], 0.00035, 1e-13);
+  EXPECT_NEAR(polynomial(f, 100.0), -1.8 - 31.0 + 3.5, 1e-9);
+}
+
+// Weighted straight line with equal sigma: the slope's standard error is
+// sigma / sqrt(sum (x - mean x)^2) when chi2/dof <= 1 (no rescaling).
+TEST(Analysis, WeightedLineErrorsFollowTheTextbookFormula) {
+  const double sigma = 0.1;
+  std::vector<double> x, y, s;
+  // Residuals +-0.05 alternate: chi2/dof < 1, so the errors are the sigma-based ones.
+  for (int k = 0; k < 10; ++k) {
+    x.push_back(k);
+    y.push_back(1.0 + 2.0 * k + (k % 2 ? 0.05 : -0.05));
+    s.push_back(sigma);
+  }
+  const Fit f = polynomial_fit(x, y, s, 1);
+  ASSERT_TRUE(f.valid());
+  double sxx = 0.0;
+  for (double v : x) sxx += (v - 4.5) * (v - 4.5);
+  EXPECT_LT(f.reduced_chi2(), 1.0);
+  EXPECT_NEAR(f.error[1], sigma / std::sqrt(sxx), 1e-12);
+  EXPECT_NEAR(f.error[0], sigma * std::sqrt(1.0 / 10.0 + 4.5 * 4.5 / sxx), 1e-12);
+  // Too few points for a parabola through 2 points: invalid.
+  EXPECT_FALSE(polynomial_fit({1.0, 2.0}, {1.0, 2.0}, {}, 2).valid());
+}
+
+TEST(Analysis, SliceParabolaAndPowerLaw) {
+  const double H = 147.0, a = 0.39;
+  std::vector<double> ye, dy;
+  for (double y = 2.0; y < H; y += 4.0) {
+    ye.push_back(y);
+    dy.push_back(-a * y * (1.0 - y / H));
+  }
+  const Fit slice = slice_parabola_fit(ye, dy, {}, H);
+  ASSERT_TRUE(slice.valid());
+  EXPECT_NEAR(slice.coef[0], a, 1e-12);
+
+  std::vector<double> x, nu;
+  for (double v = 10.0; v < 400.0; v += 8.0) {
+    x.push_back(v);
+    nu.push_back(0.2 * std::pow(v, 0.15));
+  }
+  const Fit p = power_law_fit(x, nu, {});
+  ASSERT_TRUE(p.valid());
+  EXPECT_NEAR(std::exp(p.coef[0]), 0.2, 1e-10);
+  EXPECT_NEAR(p.coef[1], 0.15, 1e-12);
+}
+
+// Histograms drawn from an exponential and from a Gaussian: each is recognised, and the fitted
+// decay length, mean and width are those of the distribution within sampling error.
+TEST(Analysis, HistogramShapeTellsGaussianFromExponential) {
+  std::mt19937_64 rng(12345);
+  const int n = 20000;
+  const double bin = 0.5;
+  std::vector<double> edges;
+  for (int k = 0; k <= 80; ++k) edges.push_back(k * bin);
+  auto histogram = [&](auto draw) {
+    std::vector<double> counts(80, 0.0);
+    for (int k = 0; k < n; ++k) {
+      const double v = std::fabs(draw());
+      const int b = static_cast<int>(v / bin);
+      if (b < 80) counts[static_cast<std::size_t>(b)] += 1.0;
+    }
+    return counts;
+  };
+  std::exponential_distribution<double> expo(1.0 / 1.5);  // decay length 1.5 R
+  std::normal_distribution<double> gauss(12.0, 3.0);
+  const auto he = histogram([&] { return expo(rng); });
+  const auto hg = histogram([&] { return gauss(rng); });
+  const HistogramShape se = histogram_shape(edges, he);
+  const HistogramShape sg = histogram_shape(edges, hg);
+  EXPECT_EQ(se.preferred, "exponential");
+  EXPECT_NEAR(se.decay_length, 1.5, 0.1);
+  EXPECT_EQ(sg.preferred, "gaussian");
+  EXPECT_NEAR(sg.gaussian_mean, 12.0, 0.2);
+  EXPECT_NEAR(sg.gaussian_width, 3.0, 0.2);
+  // The exponential fit of Gaussian data is far worse than the Gaussian fit.
+  EXPECT_GT(sg.exponential.reduced_chi2(), 10.0 * sg.gaussian.reduced_chi2());
+}
+
+// A synthetic protocol-C ensemble: disks of a uniform deposit (volume fraction nu_i) collapse
+// along the exact line y_e = y_i + a' - b' y_i. Then Delta y(y_e) = a - b y_e with b = b'/(1-b')
+// and a = a'/(1-b') (the paper's identity read backwards), the final density is nu_i (1 + b),
+// so dnu/nu_i = b = -dDelta y/dy_e, and the predicted final profile equals the measured one.
+TEST(Analysis, CollapseIdentityAndFinalDensityFromInitialDensity) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "C"
+seeds = 8
+[system]
+width = 200.0
+height = 120.0
+bond_number = 1000
+[observables]
+lower_half_from = 8.0
+)",
+                               "synthetic.toml");
+  const double a_prime = 1.9, b_prime = 0.39;
+  const double b = b_prime / (1.0 - b_prime), a = a_prime / (1.0 - b_prime);
+  std::vector<MemberResult> results;
+  std::mt19937_64 rng(7);
+  for (const auto& m : members_of(scan)) {
+    MemberResult r;
+    r.member = m;
+    // Uniform random centres at volume fraction 0.35 (overlaps do not matter to the analysis).
+    const int n = static_cast<int>(0.35 * 200.0 * 118.0 / M_PI);
+    std::uniform_real_distribution<double> ux(0.0, 200.0), uy(1.0, 119.0);
+    for (int k = 0; k < n; ++k) {
+      const double yi = uy(rng);
+      r.x.push_back(ux(rng));
+      r.y_i.push_back(yi);
+      r.y_e.push_back(yi + a_prime - b_prime * yi);
+      r.radius.push_back(1.0);
+    }
+    results.push_back(std::move(r));
+  }
+  const auto points = aggregate(scan, results);
+  const Analysis an = analyse(scan, points);
+  const PointAnalysis& p = an.points.at(0);
+  ASSERT_TRUE(p.dy_by_ye.valid());
+  ASSERT_TRUE(p.dy_by_yi.valid());
+  // Exact lines: the fits use each bin's mean position, so exact data give exact bin means.
+  EXPECT_NEAR(-p.dy_by_ye.coef[1], b, 1e-9);
+  EXPECT_NEAR(p.dy_by_ye.coef[0], a, 1e-7);
+  EXPECT_NEAR(p.b_prime, b_prime, 1e-9);
+  EXPECT_NEAR(p.b_prime_predicted, b_prime, 1e-9);
+  EXPECT_NEAR(p.a_prime_predicted, a_prime, 1e-7);
+  // The relative increase of the measured bulk densities equals the slope, within the
+  // ensemble's error (the densities are random).
+  const double tol = 4.0 * points[0].relative_increase.sem;
+  EXPECT_NEAR(points[0].relative_increase.mean, p.slope_increase, tol);
+  // Final density from the initial density (the deposition density of C): within a few
+  // percent of the measured profile over the bulk.
+  int compared = 0;
+  for (std::size_t k = 0; k < points[0].nu.centre.size(); ++k) {
+    if (!std::isfinite(p.nu_predicted[k])) continue;
+    const double y = points[0].nu.centre[k];
+    if (y < 10.0 || y > 60.0) continue;
+    // Within four standard errors of the measured mean, and of the exact nu_i (1 + b) within
+    // the scatter of the fitted power law (a few percent).
+    EXPECT_NEAR(p.nu_predicted[k], points[0].nu.mean[k], 4.0 * points[0].nu.sem[k]) << "y " << y;
+    EXPECT_NEAR(p.nu_predicted[k], 0.35 * (1.0 + b), 0.05 * 0.35 * (1.0 + b)) << "y " << y;
+    ++compared;
+  }
+  EXPECT_GE(compared, 8);
+}
