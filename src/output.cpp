@@ -403,6 +403,62 @@ void print_summary(const std::string& path, std::ostream& out) {
         << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel
         << static_cast<int>(d("members")) << "(" << static_cast<int>(d("failed")) << ")\n";
   }
+  // The fits of the analysis, where the file has them.
+  auto exists = [&](const std::string& object) {
+    H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+    return H5Lexists(file, object.c_str(), H5P_DEFAULT) > 0 &&
+           H5Oexists_by_name(file, object.c_str(), H5P_DEFAULT) > 0;
+  };
+  auto fit_text = [&](const std::string& object, const char* var) {
+    if (!exists(object) || read_attribute_double(path, object, "valid") == 0.0) return std::string();
+    const auto c = read_dataset(path, object + "/coef"), e = read_dataset(path, object + "/error");
+    std::ostringstream o;
+    o << std::setprecision(3);
+    for (std::size_t k = 0; k < c.size(); ++k) {
+      o << (k ? " + " : "") << "(" << c[k] << " +- " << e[k] << ")";
+      if (k == 1) o << " " << var;
+      if (k > 1) o << " " << var << "^" << k;
+    }
+    o << "  [chi2/dof " << read_attribute_double(path, object, "reduced_chi2") << "]";
+    return o.str();
+  };
+  bool header = false;
+  for (const auto& n : names) {
+    const std::string yi = fit_text(n + "/avalanche_by_yi/fit", "y_i");
+    const std::string ye = fit_text(n + "/avalanche_by_ye/fit", "y_e");
+    const std::string shape = exists(n + "/abs_dy_histogram/shape_cut")
+                                  ? read_attribute_string(path, n + "/abs_dy_histogram/shape_cut",
+                                                          "preferred")
+                                  : std::string("none");
+    if (yi.empty() && ye.empty() && shape == "none") continue;
+    if (!header) out << "# fits (docs/OUTPUT.md, analysis)\n";
+    header = true;
+    out << n.substr(7) << ":\n";
+    if (!yi.empty()) out << "  Delta y(y_i) = " << yi << "\n";
+    if (!ye.empty()) out << "  Delta y(y_e) = " << ye << "\n";
+    const std::string slice = n + "/avalanche_by_ye/slice_parabola";
+    if (exists(slice) && read_attribute_double(path, slice, "valid") != 0.0) {
+      const auto c = read_dataset(path, slice + "/coef"), e = read_dataset(path, slice + "/error");
+      out << "  slice model Delta y(y_e) = -a y_e (1 - y_e/H): a = " << c[0] << " +- " << e[0]
+          << "\n";
+    }
+    if (exists(n + "/collapse_identity")) {
+      auto c = [&](const char* a) { return read_attribute_double(path, n + "/collapse_identity", a); };
+      out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error") << ", from b/(1+b): "
+          << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
+          << "; -dDelta y/dy_e = " << c("slope_increase") << " +- " << c("slope_increase_error")
+          << " vs dnu/nu_i = " << read_attribute_double(path, n, "relative_increase_mean")
+          << " +- " << read_attribute_double(path, n, "relative_increase_sem") << "\n";
+    }
+    const double rms = read_attribute_double(path, n + "/nu", "rms_deviation");
+    if (std::isfinite(rms)) out << "  nu predicted from the deposition density: rms deviation " << rms << "\n";
+    if (shape != "none") {
+      const std::string h = n + "/abs_dy_histogram/shape_cut";
+      out << "  |Delta y| histogram (top and bottom cut): " << shape << " (chi2/dof gaussian "
+          << read_attribute_double(path, h + "/gaussian", "reduced_chi2") << ", exponential "
+          << read_attribute_double(path, h + "/exponential", "reduced_chi2") << ")\n";
+    }
+  }
 }
 
 }  // namespace loosepack
