@@ -22,7 +22,7 @@ echo "$msg" | grep -q "bad.toml:3:12: key 'system.friction': mu must be >= 0" ||
 ls "$dir" | grep -q tmp && fail "a temporary file was left behind"
 
 printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nheight = 20\n[observables]\nlower_half_from = 2\n' > "$dir/good.toml"
-"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q
+"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots
 "$exe" summary "$dir/good.h5" | grep -q "scan 'cli'" || fail "summary header"
 "$exe" summary "$dir/good.h5" | grep -qE "^0000 +B " || fail "summary row"
 set +e
@@ -31,7 +31,8 @@ set -e
 # Figures from the result file (Debian's python3 with h5py and matplotlib).
 repo=$(cd "$(dirname "$0")/.." && pwd)
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/good.h5" -o "$dir/fig" >/dev/null
-for f in density_profiles avalanche_profiles abs_dy_histograms; do
+for f in density_profiles avalanche_profiles abs_dy_histograms deposition_density \
+  structure_0000_snapshot_0; do
   [ -s "$dir/fig/$f.png" ] || fail "plot.py did not write $f.png"
 done
 set +e

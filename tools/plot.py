@@ -1,8 +1,15 @@
 #!/usr/bin/env python3
-"""Figures from a loosepack result file: density profiles, nu_lower_half against Bo, avalanche
-profiles, |Delta y| histograms.
+"""Figures from a loosepack result file (PNG), with the fits the program stored.
 
     python3 tools/plot.py out/default.h5 [-o figures/]
+
+Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
+histograms with the Gaussian and exponential fits, deposition density with the final density
+predicted from it. When the file has them: nu_lower_half against the Bond number (several
+points), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
+distributions (protocol A), a picture of each snapshot with its compressive contact forces
+(run with --snapshots; the paper's fig. 1) and the trajectories of every k-th disk
+(observables.trajectory_every; the paper's fig. 4).
 
 Uses Debian's python3-h5py and python3-matplotlib (scripts/install-deps.sh installs them).
 """
@@ -14,35 +21,288 @@ import sys
 try:
     import h5py
     import matplotlib
+    import numpy as np
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.collections import LineCollection, PatchCollection
+    from matplotlib.patches import Circle
 except ImportError as e:  # pragma: no cover
     sys.exit(f"plot.py: {e}; install python3-h5py and python3-matplotlib (scripts/install-deps.sh)")
 
+PATH = ""
 
-def need(group, name, path):
+
+def need(group, name):
+    """A dataset (or group) that must be there; a clear message and exit otherwise."""
     if name not in group:
-        sys.exit(f"plot.py: {path}: dataset '{group.name}/{name}' is missing "
+        sys.exit(f"plot.py: {PATH}: '{group.name}/{name}' is missing "
                  "(was the file written by an older loosepack?)")
-    return group[name][()]
+    obj = group[name]
+    return obj[()] if isinstance(obj, h5py.Dataset) else obj
+
+
+def text(v):
+    return v.decode() if isinstance(v, bytes) else str(v)
 
 
 def label(g):
     a = g.attrs
     bo = a["bond_number"]
     bo_s = "inf" if math.isinf(bo) else f"{bo:g}"
-    s = f"{a['protocol'].decode() if isinstance(a['protocol'], bytes) else a['protocol']}, Bo={bo_s}"
+    s = f"{text(a['protocol'])}, Bo={bo_s}"
     if a["capture_radius"] != 1.0:
         s += f", r_capt={a['capture_radius']:g}"
+    s += f", H={a['height']:g}"
     return s
 
 
+def fit_of(group, name):
+    """(coef, error) of a stored fit, or None when absent or invalid."""
+    if name not in group:
+        return None
+    f = group[name]
+    if f.attrs.get("valid", 0) == 0:
+        return None
+    return f["coef"][()], f["error"][()]
+
+
+def poly(coef, x):
+    return sum(c * x ** k for k, c in enumerate(coef))
+
+
+def save(fig, out, name, written):
+    fig.tight_layout()
+    written.append(os.path.join(out, name))
+    fig.savefig(written[-1], dpi=120)
+    plt.close(fig)
+
+
+def density_profiles(points, out, written):
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
+    for g in points:
+        nu = need(g, "nu")
+        for ax, x in ((axes[0], need(nu, "centre")), (axes[1], need(nu, "depth"))):
+            ax.errorbar(x, need(nu, "mean"), yerr=need(nu, "sem"), label=label(g), capsize=2)
+    axes[0].set_xlabel("y [R]")
+    axes[1].set_xlabel("depth H - y [R]")
+    axes[0].set_ylabel("volume fraction nu")
+    axes[1].legend(fontsize=7)
+    save(fig, out, "density_profiles.png", written)
+
+
+def nu_lower_half(points, out, written):
+    if len(points) < 2:
+        return
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    xs = [g.attrs["bond_number"] for g in points]
+    ys = [g.attrs["nu_lower_half_mean"] for g in points]
+    es = [g.attrs["nu_lower_half_sem"] for g in points]
+    finite = [b for b in xs if b > 0 and not math.isinf(b)]
+    lo = min(finite) / 10 if finite else 0.1
+    hi = max(finite) * 10 if finite else 10
+    pos = [lo if b == 0 else hi if math.isinf(b) else b for b in xs]
+    ax.errorbar(pos, ys, yerr=es, fmt="o", capsize=3)
+    ax.set_xscale("log")
+    ax.set_xlabel("Bond number (Bo = 0 at the left end, inf at the right)")
+    ax.set_ylabel("nu_lower_half")
+    save(fig, out, "nu_lower_half.png", written)
+
+
+def avalanche_profiles(points, out, written):
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
+    for ax, key, xl in ((axes[0], "avalanche_by_yi", "y_i [R]"),
+                        (axes[1], "avalanche_by_ye", "y_e [R]")):
+        for g in points:
+            a = need(g, key)
+            # Each bin at the mean position of its disks, where the fits put it.
+            x = need(a, "position") if "position" in a else need(a, "centre")
+            line = ax.errorbar(x, need(a, "mean"), yerr=need(a, "sem"),
+                               fmt="o", ms=3, label=label(g), capsize=2)
+            f = fit_of(a, "fit")
+            if f is not None:
+                x = np.linspace(0, g.attrs["height"], 200)
+                ax.plot(x, poly(f[0], x), "-", color=line[0].get_color(), lw=1)
+            s = fit_of(a, "slice_parabola")
+            if s is not None:
+                H = g.attrs["height"]
+                x = np.linspace(0, H, 200)
+                ax.plot(x, -s[0][0] * x * (1 - x / H), ":", color=line[0].get_color(), lw=1)
+        ax.set_xlabel(xl)
+    axes[0].set_ylabel("Delta y = y_e - y_i [R]  (lines: fits; dotted: slice model)")
+    axes[1].legend(fontsize=7)
+    save(fig, out, "avalanche_profiles.png", written)
+
+
+def abs_dy_histograms(points, out, written):
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for g in points:
+        h = need(g, "abs_dy_histogram")
+        edges = need(h, "edges")
+        counts = need(h, "counts_cut")
+        if counts.sum() == 0:
+            continue
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        norm = counts.sum()
+        line = ax.semilogy(centres, counts / norm, "o", ms=3, label=label(g))[0]
+        if "shape_cut" in h:
+            shape = h["shape_cut"]
+            pref = text(shape.attrs["preferred"])
+            for model, style in (("gaussian", "-"), ("exponential", "--")):
+                f = fit_of(shape, model)
+                if f is None:
+                    continue
+                x = np.linspace(0, edges[-1], 200)
+                lw = 1.5 if model == pref else 0.7
+                ax.semilogy(x, np.exp(poly(f[0], x)) / norm, style, color=line.get_color(), lw=lw)
+    ax.set_xlabel("|Delta y| [R] (bottom and top cut)")
+    ax.set_ylabel("fraction of disks (solid: Gaussian fit, dashed: exponential; bold: preferred)")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7)
+        ax.set_ylim(bottom=1e-5)
+    else:
+        ax.set_title("no disks left after the cuts (observables.cut_bottom, cut_top)", fontsize=9)
+    save(fig, out, "abs_dy_histograms.png", written)
+
+
+def deposition_density(points, out, written):
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for g in points:
+        nu, nud = need(g, "nu"), need(g, "nu_deposition")
+        line = ax.plot(need(nud, "centre"), need(nud, "mean"), ":", label=f"nu_d(y_i), {label(g)}")[0]
+        ax.errorbar(need(nu, "centre"), need(nu, "mean"), yerr=need(nu, "sem"), fmt="o", ms=3,
+                    color=line.get_color(), capsize=2)
+        if "predicted" in nu:
+            ax.plot(need(nu, "centre"), need(nu, "predicted"), "-", color=line.get_color(), lw=1.5)
+    ax.set_xlabel("y [R]")
+    ax.set_ylabel("volume fraction (dots: nu_d; points: nu; line: nu from nu_d)")
+    ax.legend(fontsize=6)
+    save(fig, out, "deposition_density.png", written)
+
+
+def collapse_increase(f, points, out, written):
+    c = [g for g in points if text(g.attrs["protocol"]) == "C"]
+    if len(c) < 2:
+        return
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    H = [g.attrs["height"] for g in c]
+    ni = [g.attrs["nu_initial_mean"] for g in c]
+    inc = [g.attrs["relative_increase_mean"] for g in c]
+    err = [g.attrs["relative_increase_sem"] for g in c]
+    axes[0].errorbar(H, inc, yerr=err, fmt="o", capsize=3)
+    axes[0].set_xscale("log")
+    axes[0].set_xlabel("H [R]")
+    axes[1].errorbar(ni, inc, yerr=err, fmt="o", capsize=3)
+    axes[1].set_xscale("log")
+    axes[1].set_yscale("log")
+    axes[1].set_xlabel("nu_i")
+    for ax in axes:
+        ax.set_ylabel("dnu / nu_i")
+    an = f["analysis"] if "analysis" in f else None
+    if an is not None:
+        fh = fit_of(an, "increase_vs_log_height")
+        if fh is not None:
+            x = np.linspace(min(H), max(H), 100)
+            axes[0].plot(x, fh[0][0] + fh[0][1] * np.log(x), "-",
+                         label=f"{fh[0][0]:.3f} + {fh[0][1]:.3f} ln H")
+            axes[0].legend(fontsize=8)
+        fn = fit_of(an, "increase_vs_nu_initial")
+        if fn is not None:
+            x = np.linspace(min(ni), max(ni), 100)
+            axes[1].plot(x, np.exp(fn[0][0]) * x ** fn[0][1], "-",
+                         label=f"{math.exp(fn[0][0]):.3f} nu_i^{fn[0][1]:.2f}")
+            axes[1].legend(fontsize=8)
+    save(fig, out, "collapse_increase.png", written)
+
+
+def event_sizes(points, out, written):
+    a = [g for g in points if "events" in g]
+    if not a:
+        return
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    for g in a:
+        e = g["events"]
+        edges = need(e, "edges")
+        centres = np.sqrt(edges[1:] * edges[:-1])
+        widths = edges[1:] - edges[:-1]
+        for ax, key in ((axes[0], "moved_counts"), (axes[1], "downward_counts")):
+            c = need(e, key)
+            total = c.sum()
+            if total == 0:
+                continue
+            keep = c > 0
+            ax.loglog(centres[keep], (c / total / widths)[keep], "o-", ms=3, label=label(g))
+    axes[0].set_xlabel("disks moved in one event")
+    axes[1].set_xlabel("summed downward displacement of one event [R]")
+    for ax in axes:
+        ax.set_ylabel("probability density")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
+    save(fig, out, "event_sizes.png", written)
+
+
+def snapshots(points, out, written):
+    """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force."""
+    for g in points:
+        m = need(g, "members")
+        for name in sorted(k for k in m if k.startswith("snapshot_")):
+            s = m[name]
+            x, y, r = need(s, "x"), need(s, "y_e"), need(s, "radius")
+            W, H = g.attrs["width"], g.attrs["height"]
+            fig, ax = plt.subplots(figsize=(6, 6 * min(3.0, max(y.max() + 2, 1) / W)))
+            ax.add_collection(PatchCollection([Circle((a, b), c) for a, b, c in zip(x, y, r)],
+                                              facecolor="0.85", edgecolor="0.5", lw=0.2))
+            ci, cj, fn = need(s, "contact_i"), need(s, "contact_j"), need(s, "contact_normal")
+            segs, widths = [], []
+            fmax = fn.max() if len(fn) and fn.max() > 0 else 1.0
+            for i, j, f in zip(ci.astype(int), cj.astype(int), fn):
+                if f <= 0 or j < 0:
+                    continue
+                dx = x[j] - x[i]
+                dx -= W * round(dx / W)  # minimum image across the periodic boundary
+                segs.append([(x[i], y[i]), (x[i] + dx, y[j])])
+                widths.append(3.0 * f / fmax)
+            ax.add_collection(LineCollection(segs, linewidths=widths, colors="tab:red"))
+            ax.set_xlim(0, W)
+            ax.set_ylim(0, max(y.max() + 2, 1))
+            ax.set_aspect("equal")
+            ax.set_title(f"{label(g)}, {name}: compressive forces (width ~ force)", fontsize=8)
+            save(fig, out, f"structure_{g.name.split('/')[-1]}_{name}.png", written)
+
+
+def trajectories(points, out, written):
+    for g in points:
+        m = need(g, "members")
+        for name in sorted(k for k in m if k.startswith("trajectory_")):
+            t = m[name]
+            disk, x, y = need(t, "disk"), need(t, "x"), need(t, "y")
+            if len(disk) == 0:
+                continue
+            W = g.attrs["width"]
+            fig, ax = plt.subplots(figsize=(6, 6))
+            for d in np.unique(disk):
+                sel = disk == d
+                xs, ys = x[sel], y[sel]
+                # Break the line where it wraps around the periodic boundary.
+                jump = np.abs(np.diff(xs)) > 0.5 * W
+                xs = np.insert(xs, np.where(jump)[0] + 1, np.nan)
+                ys = np.insert(ys, np.where(jump)[0] + 1, np.nan)
+                ax.plot(xs, ys, "-", lw=0.5)
+            ax.set_xlim(0, W)
+            ax.set_xlabel("x [R]")
+            ax.set_ylabel("y [R]")
+            ax.set_title(f"{label(g)}, {name}: trajectories", fontsize=8)
+            save(fig, out, f"trajectories_{g.name.split('/')[-1]}_{name}.png", written)
+
+
 def main():
+    global PATH
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("file")
-    ap.add_argument("-o", "--outdir", default=None, help="folder for the PNGs (default: beside the file)")
+    ap.add_argument("-o", "--outdir", default=None,
+                    help="folder for the PNGs (default: beside the file)")
     args = ap.parse_args()
+    PATH = args.file
     if not os.path.exists(args.file):
         sys.exit(f"plot.py: {args.file}: no such file")
     out = args.outdir or os.path.splitext(args.file)[0] + "_figures"
@@ -56,75 +316,15 @@ def main():
             sys.exit(f"plot.py: {args.file}: no 'points' group: not a loosepack result file")
         points = [f["points"][k] for k in sorted(f["points"])]
         written = []
-
-        fig, ax = plt.subplots(figsize=(6, 4.5))
-        for g in points:
-            nu = g["nu"] if "nu" in g else sys.exit(f"plot.py: {g.name}/nu missing")
-            ax.errorbar(need(nu, "centre", args.file), need(nu, "mean", args.file),
-                        yerr=need(nu, "sem", args.file), label=label(g), capsize=2)
-        ax.set_xlabel("y [R]")
-        ax.set_ylabel("volume fraction nu")
-        ax.legend(fontsize=8)
-        fig.tight_layout()
-        written.append(os.path.join(out, "density_profiles.png"))
-        fig.savefig(written[-1], dpi=120)
-        plt.close(fig)
-
-        if len(points) > 1:
-            fig, ax = plt.subplots(figsize=(6, 4.5))
-            xs, ys, es = [], [], []
-            for g in points:
-                bo = g.attrs["bond_number"]
-                xs.append(bo)
-                ys.append(g.attrs["nu_lower_half_mean"])
-                es.append(g.attrs["nu_lower_half_sem"])
-            # Bo = 0 and inf drawn at the ends of the finite range
-            finite_bo = [b for b in xs if b > 0 and not math.isinf(b)]
-            lo = min(finite_bo) / 10 if finite_bo else 0.1
-            hi = max(finite_bo) * 10 if finite_bo else 10
-            pos = [lo if b == 0 else hi if math.isinf(b) else b for b in xs]
-            ax.errorbar(pos, ys, yerr=es, fmt="o", capsize=3)
-            ax.set_xscale("log")
-            ax.set_xlabel("Bond number (Bo = 0 at the left end, inf at the right)")
-            ax.set_ylabel("nu_lower_half")
-            fig.tight_layout()
-            written.append(os.path.join(out, "nu_lower_half.png"))
-            fig.savefig(written[-1], dpi=120)
-            plt.close(fig)
-
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4.5), sharey=True)
-        for ax, key, xl in ((axes[0], "avalanche_by_yi", "y_i [R]"), (axes[1], "avalanche_by_ye", "y_e [R]")):
-            for g in points:
-                a = g[key] if key in g else sys.exit(f"plot.py: {g.name}/{key} missing")
-                ax.errorbar(need(a, "centre", args.file), need(a, "mean", args.file),
-                            yerr=need(a, "sem", args.file), label=label(g), capsize=2)
-            ax.set_xlabel(xl)
-        axes[0].set_ylabel("Delta y = y_e - y_i [R]")
-        axes[1].legend(fontsize=8)
-        fig.tight_layout()
-        written.append(os.path.join(out, "avalanche_profiles.png"))
-        fig.savefig(written[-1], dpi=120)
-        plt.close(fig)
-
-        fig, ax = plt.subplots(figsize=(6, 4.5))
-        for g in points:
-            h = g["abs_dy_histogram"]
-            edges = need(h, "edges", args.file)
-            counts = need(h, "counts_cut", args.file)
-            if counts.sum() == 0:
-                continue
-            centres = 0.5 * (edges[1:] + edges[:-1])
-            ax.semilogy(centres, counts / counts.sum(), "o-", ms=3, label=label(g))
-        ax.set_xlabel("|Delta y| [R] (bottom and top cut)")
-        ax.set_ylabel("fraction of disks")
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8)
-        else:
-            ax.set_title("no disks left after the cuts (observables.cut_bottom, cut_top)", fontsize=9)
-        fig.tight_layout()
-        written.append(os.path.join(out, "abs_dy_histograms.png"))
-        fig.savefig(written[-1], dpi=120)
-        plt.close(fig)
+        density_profiles(points, out, written)
+        nu_lower_half(points, out, written)
+        avalanche_profiles(points, out, written)
+        abs_dy_histograms(points, out, written)
+        deposition_density(points, out, written)
+        collapse_increase(f, points, out, written)
+        event_sizes(points, out, written)
+        snapshots(points, out, written)
+        trajectories(points, out, written)
     for w in written:
         print(w)
 
