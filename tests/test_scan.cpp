@@ -1,6 +1,8 @@
 // Scan files: expansion of axes, and every rejected case with its message.
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include <cmath>
 
 #include "loosepack/scan.hpp"
@@ -126,4 +128,20 @@ TEST(Scan, WarnsWhenTheTimeStepDoesNotResolveTheCohesiveBarrier) {
   EXPECT_NE(scan.warnings[0].find("point 2 (Bo = 10000): time_step 0.005 exceeds"),
             std::string::npos)
       << scan.warnings[0];
+}
+
+// Every scan file shipped in examples/ (the default job, the paper's figures) is valid.
+TEST(Scan, EveryExampleScanFileIsValid) {
+  namespace fs = std::filesystem;
+  const fs::path root = fs::path(LOOSEPACK_SOURCE_DIR) / "examples";
+  int checked = 0;
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    if (e.path().extension() != ".toml") continue;
+    SCOPED_TRACE(e.path().string());
+    Scan scan;
+    EXPECT_NO_THROW(scan = load_scan(e.path().string()));
+    EXPECT_GT(scan.members(), 0);
+    ++checked;
+  }
+  EXPECT_GE(checked, 20);
 }
