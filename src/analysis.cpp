@@ -204,8 +204,12 @@ HistogramShape histogram_shape(const std::vector<double>& edges,
   if (h.exponential.valid() && h.gaussian.valid() && h.gaussian.dof > 0) {
     const double aic_exp = h.exponential.chi2 + 2.0 * 2.0;
     const double aic_gauss = h.gaussian.chi2 + 2.0 * 3.0;
-    // A Gaussian needs a maximum (gamma < 0); otherwise it is no Gaussian at all.
-    h.preferred = (g < 0.0 && aic_gauss < aic_exp) ? "gaussian" : "exponential";
+    // The quadratic is a Gaussian only with a maximum (gamma < 0); when it fits better without
+    // one (a tail heavier than exponential), neither shape describes the histogram.
+    if (aic_exp <= aic_gauss)
+      h.preferred = "exponential";
+    else
+      h.preferred = g < 0.0 ? "gaussian" : "neither";
   }
   return h;
 }

@@ -42,11 +42,12 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
 // as ln n = alpha + beta x (exponential, decay length -1/beta) and ln n = alpha + beta x +
 // gamma x^2 (Gaussian: mean -beta / (2 gamma), width sqrt(-1 / (2 gamma))), weights n (the
 // variance of ln n is 1/n). The goodness of fit is Pearson's chi2 of the counts against each
-// model; the preferred shape has the lower Akaike criterion chi2 + 2 k (k parameters).
+// model; the preferred shape has the lower Akaike criterion chi2 + 2 k (k parameters), and
+// "neither" when the quadratic wins without a maximum (no Gaussian).
 struct HistogramShape {
   Fit exponential, gaussian;
   double decay_length = 0.0, gaussian_mean = 0.0, gaussian_width = 0.0;
-  std::string preferred;  // "gaussian", "exponential", or "none" (too few bins)
+  std::string preferred;  // "gaussian", "exponential", "neither", or "none" (too few bins)
 };
 HistogramShape histogram_shape(const std::vector<double>& edges,
                                const std::vector<double>& counts, double min_count = 5.0);
