@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/options.hpp"
 #include "loosepack/batch.hpp"
 
 using namespace loosepack;
@@ -79,14 +80,6 @@ Record run(SolverKind kind, int n, bool warm, double tolerance, int max_sweeps) 
   return {batch.status(0).sweeps - before, bottom_error(batch, warm ? n + 1 : n), sec};
 }
 
-std::vector<int> parse_list(const char* s) {
-  std::vector<int> out;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) out.push_back(std::atoi(item.c_str()));
-  return out;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -96,7 +89,7 @@ int main(int argc, char** argv) {
   int max_sweeps = 400000;
   for (int a = 1; a < argc; ++a) {
     if (!std::strcmp(argv[a], "--n") && a + 1 < argc) {
-      sizes = parse_list(argv[++a]);
+      sizes = bench::parse_list(argv[++a]);
     } else if (!std::strcmp(argv[a], "--tolerance") && a + 1 < argc) {
       tolerance = std::atof(argv[++a]);
     } else if (!std::strcmp(argv[a], "--max-sweeps") && a + 1 < argc) {

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/options.hpp"
 #include "loosepack/batch.hpp"
 #include "loosepack/observables.hpp"
 
@@ -182,14 +183,6 @@ void scene_s2(int n, double dt) {
          batch.status(0).at_rest ? 0 : 1, vmax, dt);
 }
 
-std::vector<int> parse_list(const char* s) {
-  std::vector<int> v;
-  std::stringstream ss(s);
-  std::string item;
-  while (std::getline(ss, item, ',')) v.push_back(std::atoi(item.c_str()));
-  return v;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -201,7 +194,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[k], "--scene"))
       scene = argv[k + 1];
     else if (!std::strcmp(argv[k], "--n"))
-      ns = parse_list(argv[k + 1]);
+      ns = bench::parse_list(argv[k + 1]);
     else if (!std::strcmp(argv[k], "--dt"))
       dt = std::atof(argv[k + 1]);
     else if (!std::strcmp(argv[k], "--solver") && solver_kind_from_name(argv[k + 1], g_solver.kind))

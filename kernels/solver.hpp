@@ -134,6 +134,25 @@ struct BodyVelocity {
   }
 };
 
+// One Gauss-Seidel update of contact slot c in place: the exact local solve, then its impulse
+// change applied to the two bodies at once; `worst` keeps the largest change [h m g].
+template <class Fx>
+KOKKOS_INLINE_FUNCTION void gauss_seidel_update(const SystemViews& sys, const ParticleViews& part,
+                                                const ContactViews& con, int c, double omega,
+                                                double& worst) {
+  const int j = con.partner(c);
+  if (j == kNoContact) return;
+  const int i = c / kSlots;
+  double dn, dt, dm;
+  const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
+  if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
+  worst = kmath::max(worst, change);
+  con.pn(c) += dn;
+  con.pt(c) += dt;
+  con.pm(c) += dm;
+  apply_impulse_change(part, con, c, i, j, dn, dt, dm);
+}
+
 // Jacobi: every contact reads the velocities of the previous iterate. Writing the impulses in
 // place is safe: a contact's update reads only its own impulses and the (unchanged) velocities.
 template <class Fx>
@@ -200,17 +219,7 @@ struct SequentialGaussSeidel {
   bool backward;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
-    const int j = con.partner(c);
-    if (j == kNoContact) return;
-    const int i = c / kSlots;
-    double dn, dt, dm;
-    const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
-    if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
-    worst = kmath::max(worst, change);
-    con.pn(c) += dn;
-    con.pt(c) += dt;
-    con.pm(c) += dm;
-    apply_impulse_change(part, con, c, i, j, dn, dt, dm);
+    gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
@@ -249,17 +258,7 @@ struct AcceleratedGaussSeidel {
   double omega, tolerance;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
-    const int j = con.partner(c);
-    if (j == kNoContact) return;
-    const int i = c / kSlots;
-    double dn, dt, dm;
-    const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
-    if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
-    worst = kmath::max(worst, change);
-    con.pn(c) += dn;
-    con.pt(c) += dt;
-    con.pm(c) += dm;
-    apply_impulse_change(part, con, c, i, j, dn, dt, dm);
+    gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
