@@ -246,7 +246,8 @@ struct SequentialGaussSeidel {
 // force problems", 2010). One iteration is a symmetric pair of exact Gauss-Seidel sweeps (the
 // projected map x -> GS(x)); its change d = GS(x) - x plays the role of the negative gradient.
 // With beta = |d_k|^2 / |d_{k-1}|^2 the iterate takes the step x += beta p and the direction
-// becomes p = beta p + d; beta > 1 restarts (p = 0). Force propagates through a chain of n
+// becomes p = beta p + d; beta > 1 restarts (no step; the direction becomes d). Force
+// propagates through a chain of n
 // grains in about n iterations instead of n^2. One thread per system, like
 // SequentialGaussSeidel; the convergence test is the same (largest local change of a sweep).
 template <class Fx>
