@@ -225,12 +225,14 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
       const auto nb = static_cast<std::size_t>(per_decade * decades);
       pr.event_downward_counts.assign(nb, 0.0);
       pr.event_moved_counts.assign(nb, 0.0);
+      pr.event_steps_counts.assign(nb, 0.0);
       auto bin_of = [&](double v) {
         const int j = static_cast<int>(std::floor((std::log10(v) + 3.0) * per_decade));
         return static_cast<std::size_t>(std::clamp(j, 0, per_decade * decades - 1));
       };
       for (const auto* r : ok)
         for (const auto& ev : r->events) {
+          if (ev.steps > 0) pr.event_steps_counts[bin_of(static_cast<double>(ev.steps))] += 1.0;
           if (ev.moved == 0) {
             pr.events_without_motion += 1.0;
             continue;

@@ -265,6 +265,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
           dataset(e, "edges", pr.event_edges);
           dataset(e, "downward_counts", pr.event_downward_counts);
           dataset(e, "moved_counts", pr.event_moved_counts);
+          dataset(e, "steps_counts", pr.event_steps_counts);
           attribute(e, "without_motion", pr.events_without_motion);
         }
         H5 m = group(g, "members");

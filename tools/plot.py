@@ -219,13 +219,16 @@ def event_sizes(points, out, written):
     a = [g for g in points if "events" in g]
     if not a:
         return
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
     for g in a:
         e = g["events"]
         edges = need(e, "edges")
         centres = np.sqrt(edges[1:] * edges[:-1])
         widths = edges[1:] - edges[:-1]
-        for ax, key in ((axes[0], "moved_counts"), (axes[1], "downward_counts")):
+        for ax, key in ((axes[0], "moved_counts"), (axes[1], "downward_counts"),
+                        (axes[2], "steps_counts")):
+            if key not in e:  # files of earlier versions
+                continue
             c = need(e, key)
             total = c.sum()
             if total == 0:
@@ -234,6 +237,7 @@ def event_sizes(points, out, written):
             ax.loglog(centres[keep], (c / total / widths)[keep], "o-", ms=3, label=label(g))
     axes[0].set_xlabel("disks moved in one event")
     axes[1].set_xlabel("summed downward displacement of one event [R]")
+    axes[2].set_xlabel("steps to rest of one event")
     for ax in axes:
         ax.set_ylabel("probability density")
         if ax.get_legend_handles_labels()[0]:

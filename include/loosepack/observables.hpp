@@ -51,6 +51,7 @@ struct PointResult {
   Scalar nu_initial, nu_final, relative_increase;
   // Protocol A: avalanche-event size distributions on logarithmic bins.
   std::vector<double> event_edges, event_downward_counts, event_moved_counts;
+  std::vector<double> event_steps_counts;  // all events by the steps they took to rest
   double events_without_motion = 0.0;
   // Per member scalars (member order).
   std::vector<double> m_disks, m_top, m_nu_lower_half, m_steps, m_sweeps, m_wall_time, m_failure,
