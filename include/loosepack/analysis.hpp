@@ -65,7 +65,7 @@ struct PointAnalysis {
   // Final density from the deposition density, rho_f(y_e) = rho_d(y_i(y_e)) (1 - dDelta y/dy_e),
   // with the fitted avalanche profile against y_e and a power law fitted to nu_d(y_i):
   // predicted nu per strip of the nu profile (NaN outside the fitted range) and the deviation
-  // predicted - measured; rms over the strips above lower_half_from and below H - strip.
+  // predicted - measured; rms over the strips above lower_half_from that have a prediction.
   Fit deposition_power_law;
   std::vector<double> nu_predicted, nu_deviation;
   double nu_rms_deviation = 0.0;
