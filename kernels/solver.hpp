@@ -134,6 +134,14 @@ struct BodyVelocity {
   }
 };
 
+// The contact slots of system s: [first, end).
+struct SlotRange {
+  int first, end;
+};
+KOKKOS_INLINE_FUNCTION SlotRange system_slots(const SystemViews& sys, int s) {
+  return {sys.offset(s) * kSlots, (sys.offset(s) + sys.count(s)) * kSlots};
+}
+
 // One Gauss-Seidel update of contact slot c in place: the exact local solve, then its impulse
 // change applied to the two bodies at once; `worst` keeps the largest change [h m g].
 template <class Fx>
@@ -224,8 +232,8 @@ struct SequentialGaussSeidel {
 
   KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
-    const int first = sys.offset(s) * kSlots;
-    const int end = (sys.offset(s) + sys.count(s)) * kSlots;
+    const SlotRange range = system_slots(sys, s);
+    const int first = range.first, end = range.end;
     double worst = 0.0;
     if (backward) {
       for (int c = end - 1; c >= first; --c) apply(c, worst);
@@ -246,10 +254,10 @@ struct SequentialGaussSeidel {
 // force problems", 2010). One iteration is a symmetric pair of exact Gauss-Seidel sweeps (the
 // projected map x -> GS(x)); its change d = GS(x) - x plays the role of the negative gradient.
 // With beta = |d_k|^2 / |d_{k-1}|^2 the iterate takes the step x += beta p and the direction
-// becomes p = beta p + d; beta > 1 restarts (no step; the direction becomes d). Force
-// propagates through a chain of n
-// grains in about n iterations instead of n^2. One thread per system, like
-// SequentialGaussSeidel; the convergence test is the same (largest local change of a sweep).
+// becomes p = beta p + d; beta > 1 restarts (no step; the direction becomes d), and so does
+// the first iteration of a step. Force propagates through a chain of n grains in about n
+// iterations instead of n^2. One thread per system, like SequentialGaussSeidel; the
+// convergence test is the same (largest local change of a sweep).
 template <class Fx>
 struct AcceleratedGaussSeidel {
   SystemViews sys;
@@ -264,21 +272,11 @@ struct AcceleratedGaussSeidel {
 
   KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
-    const int first = sys.offset(s) * kSlots;
-    const int end = (sys.offset(s) + sys.count(s)) * kSlots;
-    if (sweeps(s) == 0) {  // first iteration of the step: no direction yet
+    const SlotRange range = system_slots(sys, s);
+    const int first = range.first, end = range.end;
+    if (sweeps(s) == 0) {  // first iteration of the step: it restarts, so no direction is read
       sys.gradient2(s) = 0.0;
-      for (int c = first; c < end; ++c) {
-        con.dir_pn(c) = 0.0;
-        con.dir_pt(c) = 0.0;
-        con.dir_pm(c) = 0.0;
-      }
-    }
-    for (int c = first; c < end; ++c) {
-      if (con.partner(c) == kNoContact) continue;
-      con.start_pn(c) = con.pn(c);
-      con.start_pt(c) = con.pt(c);
-      con.start_pm(c) = con.pm(c);
+      for (int c = first; c < end; ++c) keep_start(c);
     }
     double worst = 0.0;
     for (int c = first; c < end; ++c) apply(c, worst);
@@ -308,17 +306,26 @@ struct AcceleratedGaussSeidel {
         con.dir_pn(c) = dn;
         con.dir_pt(c) = dt;
         con.dir_pm(c) = dm;
-        continue;
+      } else {
+        const double sn = beta * con.dir_pn(c), st = beta * con.dir_pt(c),
+                     sm = beta * con.dir_pm(c);
+        con.pn(c) += sn;
+        con.pt(c) += st;
+        con.pm(c) += sm;
+        apply_impulse_change(part, con, c, c / kSlots, j, sn, st, sm);
+        con.dir_pn(c) = sn + dn;
+        con.dir_pt(c) = st + dt;
+        con.dir_pm(c) = sm + dm;
       }
-      const double sn = beta * con.dir_pn(c), st = beta * con.dir_pt(c), sm = beta * con.dir_pm(c);
-      con.pn(c) += sn;
-      con.pt(c) += st;
-      con.pm(c) += sm;
-      apply_impulse_change(part, con, c, c / kSlots, j, sn, st, sm);
-      con.dir_pn(c) = sn + dn;
-      con.dir_pt(c) = st + dt;
-      con.dir_pm(c) = sm + dm;
+      keep_start(c);  // the next iteration starts from here
     }
+  }
+
+  KOKKOS_INLINE_FUNCTION void keep_start(int c) const {
+    if (con.partner(c) == kNoContact) return;
+    con.start_pn(c) = con.pn(c);
+    con.start_pt(c) = con.pt(c);
+    con.start_pm(c) = con.pm(c);
   }
 };
 
