@@ -35,6 +35,11 @@ for f in density_profiles avalanche_profiles abs_dy_histograms deposition_densit
   structure_0000_snapshot_0; do
   [ -s "$dir/fig/$f.png" ] || fail "plot.py did not write $f.png"
 done
+# Trajectories of a tiny collapse (protocol C) are drawn too.
+printf '[scan]\nprotocol = "C"\n[system]\nwidth = 12\nheight = 12\nbond_number = 30\n[observables]\nlower_half_from = 2\ntrajectory_every = 3\ntrajectory_interval = 20\n' > "$dir/traj.toml"
+"$exe" run "$dir/traj.toml" -o "$dir/traj.h5" -q
+/usr/bin/python3 "$repo/tools/plot.py" "$dir/traj.h5" -o "$dir/fig" >/dev/null
+[ -s "$dir/fig/trajectories_0000_trajectory_0.png" ] || fail "plot.py did not draw trajectories"
 set +e
 msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)
 rc=$?

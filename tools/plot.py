@@ -245,58 +245,60 @@ def event_sizes(points, out, written):
     save(fig, out, "event_sizes.png", written)
 
 
-def snapshots(points, out, written):
-    """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force."""
+def member_groups(points, prefix):
+    """(point group, member subgroup name, subgroup) for every members/<prefix>K of every point."""
     for g in points:
         m = need(g, "members")
-        for name in sorted(k for k in m if k.startswith("snapshot_")):
-            s = m[name]
-            x, y, r = need(s, "x"), need(s, "y_e"), need(s, "radius")
-            W, H = g.attrs["width"], g.attrs["height"]
-            fig, ax = plt.subplots(figsize=(6, 6 * min(3.0, max(y.max() + 2, 1) / W)))
-            ax.add_collection(PatchCollection([Circle((a, b), c) for a, b, c in zip(x, y, r)],
-                                              facecolor="0.85", edgecolor="0.5", lw=0.2))
-            ci, cj, fn = need(s, "contact_i"), need(s, "contact_j"), need(s, "contact_normal")
-            segs, widths = [], []
-            fmax = fn.max() if len(fn) and fn.max() > 0 else 1.0
-            for i, j, f in zip(ci.astype(int), cj.astype(int), fn):
-                if f <= 0 or j < 0:
-                    continue
-                dx = x[j] - x[i]
-                dx -= W * round(dx / W)  # minimum image across the periodic boundary
-                segs.append([(x[i], y[i]), (x[i] + dx, y[j])])
-                widths.append(3.0 * f / fmax)
-            ax.add_collection(LineCollection(segs, linewidths=widths, colors="tab:red"))
-            ax.set_xlim(0, W)
-            ax.set_ylim(0, max(y.max() + 2, 1))
-            ax.set_aspect("equal")
-            ax.set_title(f"{label(g)}, {name}: compressive forces (width ~ force)", fontsize=8)
-            save(fig, out, f"structure_{g.name.split('/')[-1]}_{name}.png", written)
+        for name in sorted(k for k in m if k.startswith(prefix)):
+            yield g, name, m[name]
+
+
+def snapshots(points, out, written):
+    """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force."""
+    for g, name, s in member_groups(points, "snapshot_"):
+        x, y, r = need(s, "x"), need(s, "y_e"), need(s, "radius")
+        W, H = g.attrs["width"], g.attrs["height"]
+        fig, ax = plt.subplots(figsize=(6, 6 * min(3.0, max(y.max() + 2, 1) / W)))
+        ax.add_collection(PatchCollection([Circle((a, b), c) for a, b, c in zip(x, y, r)],
+                                          facecolor="0.85", edgecolor="0.5", lw=0.2))
+        ci, cj, fn = need(s, "contact_i"), need(s, "contact_j"), need(s, "contact_normal")
+        segs, widths = [], []
+        fmax = fn.max() if len(fn) and fn.max() > 0 else 1.0
+        for i, j, f in zip(ci.astype(int), cj.astype(int), fn):
+            if f <= 0 or j < 0:
+                continue
+            dx = x[j] - x[i]
+            dx -= W * round(dx / W)  # minimum image across the periodic boundary
+            segs.append([(x[i], y[i]), (x[i] + dx, y[j])])
+            widths.append(3.0 * f / fmax)
+        ax.add_collection(LineCollection(segs, linewidths=widths, colors="tab:red"))
+        ax.set_xlim(0, W)
+        ax.set_ylim(0, max(y.max() + 2, 1))
+        ax.set_aspect("equal")
+        ax.set_title(f"{label(g)}, {name}: compressive forces (width ~ force)", fontsize=8)
+        save(fig, out, f"structure_{g.name.split('/')[-1]}_{name}.png", written)
 
 
 def trajectories(points, out, written):
-    for g in points:
-        m = need(g, "members")
-        for name in sorted(k for k in m if k.startswith("trajectory_")):
-            t = m[name]
-            disk, x, y = need(t, "disk"), need(t, "x"), need(t, "y")
-            if len(disk) == 0:
-                continue
-            W = g.attrs["width"]
-            fig, ax = plt.subplots(figsize=(6, 6))
-            for d in np.unique(disk):
-                sel = disk == d
-                xs, ys = x[sel], y[sel]
-                # Break the line where it wraps around the periodic boundary.
-                jump = np.abs(np.diff(xs)) > 0.5 * W
-                xs = np.insert(xs, np.where(jump)[0] + 1, np.nan)
-                ys = np.insert(ys, np.where(jump)[0] + 1, np.nan)
-                ax.plot(xs, ys, "-", lw=0.5)
-            ax.set_xlim(0, W)
-            ax.set_xlabel("x [R]")
-            ax.set_ylabel("y [R]")
-            ax.set_title(f"{label(g)}, {name}: trajectories", fontsize=8)
-            save(fig, out, f"trajectories_{g.name.split('/')[-1]}_{name}.png", written)
+    for g, name, t in member_groups(points, "trajectory_"):
+        disk, x, y = need(t, "disk"), need(t, "x"), need(t, "y")
+        if len(disk) == 0:
+            continue
+        W = g.attrs["width"]
+        fig, ax = plt.subplots(figsize=(6, 6))
+        for d in np.unique(disk):
+            sel = disk == d
+            xs, ys = x[sel].astype(float), y[sel].astype(float)
+            # Break the line where it wraps around the periodic boundary.
+            jump = np.abs(np.diff(xs)) > 0.5 * W
+            xs = np.insert(xs, np.where(jump)[0] + 1, np.nan)
+            ys = np.insert(ys, np.where(jump)[0] + 1, np.nan)
+            ax.plot(xs, ys, "-", lw=0.5)
+        ax.set_xlim(0, W)
+        ax.set_xlabel("x [R]")
+        ax.set_ylabel("y [R]")
+        ax.set_title(f"{label(g)}, {name}: trajectories", fontsize=8)
+        save(fig, out, f"trajectories_{g.name.split('/')[-1]}_{name}.png", written)
 
 
 def main():
