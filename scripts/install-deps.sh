@@ -6,6 +6,7 @@ packages=(
   libtrilinos-kokkos-dev libeigen3-dev libhdf5-dev
   libtomlplusplus-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libopenmpi-dev openmpi-bin
   python3-h5py python3-matplotlib python3-numpy
 )
 missing=()

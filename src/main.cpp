@@ -3,13 +3,19 @@
 
 #include <CLI/CLI.hpp>
 #include <Kokkos_Core.hpp>
+#include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <iostream>
+#include <set>
 
+#include "loosepack/checkpoint.hpp"
 #include "loosepack/observables.hpp"
 #include "loosepack/output.hpp"
+#include "loosepack/parallel.hpp"
 #include "loosepack/protocols.hpp"
 #include "loosepack/scan.hpp"
 
@@ -29,75 +35,255 @@ std::string directory_of(const std::string& path) {
   return k == std::string::npos ? "." : (k == 0 ? "/" : path.substr(0, k));
 }
 
-int run(const std::string& scan_path, const std::string& out_path, bool quiet, int batch_size,
-        bool snapshots, bool timing) {
+// Set by SIGINT and SIGTERM: the run stops at the end of the step, checkpoints and exits. A
+// second signal ends the program at once.
+volatile std::sig_atomic_t g_signal = 0;
+extern "C" void on_signal(int s) {
+  if (g_signal != 0) {
+    std::signal(s, SIG_DFL);
+    std::raise(s);
+    return;
+  }
+  g_signal = s;
+}
+
+struct RunOptions {
+  std::string scan_path, out_path = "out.h5";
+  bool quiet = false, snapshots = false, timing = false, resume = false;
+  int batch_size = 0;
+  double checkpoint_every = 300.0;  // seconds between checkpoints; 0: after every member
+  long member = -1;                 // run only this member (re-running a failed one)
+};
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+int run(const RunOptions& o, Ranks& ranks) {
+  const bool talk = ranks.root();  // only rank 0 talks to the user
+  auto say = [&](const std::string& s) {
+    if (talk) std::cerr << "loosepack: " << s << "\n";
+  };
   Scan scan;
   try {
-    scan = load_scan(scan_path);
+    scan = load_scan(o.scan_path);
   } catch (const ScanError& e) {
-    std::cerr << "loosepack: invalid scan: " << e.what() << "\n";
+    say(std::string("invalid scan: ") + e.what());
     return 2;
   }
-  if (batch_size > 0) scan.batch_size = batch_size;
-  for (const auto& w : scan.warnings) std::cerr << "loosepack: warning: " << w << "\n";
-  if (::access(directory_of(out_path).c_str(), W_OK) != 0) {
-    std::cerr << "loosepack: cannot write into " << directory_of(out_path) << " (for " << out_path
-              << ")\n";
+  if (o.batch_size > 0) scan.batch_size = o.batch_size;
+  for (const auto& w : scan.warnings) say("warning: " + w);
+  if (::access(directory_of(o.out_path).c_str(), W_OK) != 0) {
+    say("cannot write into " + directory_of(o.out_path) + " (for " + o.out_path + ")");
     return 2;
   }
-  const auto members = members_of(scan);
-  if (!quiet)
+  std::vector<Member> members = members_of(scan);
+  if (o.member >= 0) {
+    if (o.member >= static_cast<long>(members.size())) {
+      say("--member " + std::to_string(o.member) + ": the scan has members 0 to " +
+          std::to_string(members.size() - 1));
+      return 2;
+    }
+    members = {members[static_cast<std::size_t>(o.member)]};
+  }
+
+  // Checkpoint: finished members of an interrupted run, read by every rank before any rank
+  // writes a part of its own.
+  const std::string ck_dir = checkpoint_directory(o.out_path);
+  const bool ck_exists = std::filesystem::exists(ck_dir);
+  if (ck_exists && !o.resume) {
+    say("a checkpoint of an interrupted run exists: " + ck_dir +
+        "; add --resume to continue it, or delete it to start afresh");
+    return 2;
+  }
+  if (!ck_exists && o.resume) {
+    say("--resume: no checkpoint " + ck_dir + " (written next to the output file given by -o)");
+    return 2;
+  }
+  CheckpointContents ck;
+  try {
+    ck = read_checkpoint(ck_dir, scan);
+  } catch (const CheckpointError& e) {
+    say(e.what());
+    return 2;
+  }
+  ranks.barrier();
+  std::set<std::uint64_t> selected, resumed;
+  for (const auto& m : members) selected.insert(m.id);
+  std::vector<MemberResult> results;
+  for (auto& r : ck.members)
+    if (selected.count(r.member.id)) {
+      resumed.insert(r.member.id);
+      results.push_back(std::move(r));
+    }
+  std::vector<Member> todo;
+  for (const auto& m : members)
+    if (!resumed.count(m.id)) todo.push_back(m);
+  const auto shards = shard_members(todo, ranks.size());
+  std::vector<Member> mine;
+  for (std::size_t k : shards[static_cast<std::size_t>(ranks.rank())]) mine.push_back(todo[k]);
+  std::vector<double> shard_cost(shards.size(), 0.0);
+  for (std::size_t r = 0; r < shards.size(); ++r)
+    for (std::size_t k : shards[r]) shard_cost[r] += expected_cost(todo[k]);
+
+  if (!o.quiet && talk) {
     std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
-              << scan.seeds << " seeds = " << members.size() << " members, batches of "
-              << scan.batch_size << " on " << Kokkos::DefaultExecutionSpace::name() << "\n";
+              << scan.seeds << " seeds = " << members_of(scan).size() << " members";
+    if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
+    std::cerr << ", batches of " << scan.batch_size << " on "
+              << Kokkos::DefaultExecutionSpace::name();
+    if (ranks.size() > 1) std::cerr << ", " << ranks.size() << " MPI ranks";
+    std::cerr << "\n";
+    if (o.resume)
+      std::cerr << "loosepack: resuming from " << ck_dir << ": " << resumed.size() << " of "
+                << members.size() << " members finished, computing the other " << todo.size()
+                << "\n";
+  }
+
+  // Checkpoint parts of this run: this rank's members finished so far.
+  const std::string part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
+  const auto fingerprint = scan_fingerprint(scan);
+  std::vector<MemberResult> fresh;
+  auto checkpoint = [&]() {
+    if (fresh.empty()) return;
+    std::filesystem::create_directories(ck_dir);
+    write_checkpoint_part(part, fingerprint, fresh);
+  };
+
   RunInfo info;
   info.start_time = utc_now();
-  const auto t0 = std::chrono::steady_clock::now();
-  auto last = t0;
-  auto progress = [&](const Progress& p) {
-    if (quiet) return;
-    const auto now = std::chrono::steady_clock::now();
-    const bool final = p.members_done == p.members_total;
-    if (!final && std::chrono::duration<double>(now - last).count() < 2.0) return;
-    last = now;
-    const double el = std::chrono::duration<double>(now - t0).count();
-    std::fprintf(stderr, "  %d/%d members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
-                 p.members_done, p.members_total, p.disks_deposited,
-                 el > 0 ? p.disks_deposited / el : 0.0, el);
-    if (p.fraction > 0.01 && !final)
+  info.ranks = ranks.size();
+  const auto t0 = Clock::now();
+  auto last_shown = t0, last_sent = t0, last_checkpoint = t0;
+  std::vector<Progress> latest(static_cast<std::size_t>(ranks.size()));
+  std::vector<char> final(static_cast<std::size_t>(ranks.size()), 0);
+  double total_cost = 0.0;
+  for (double c : shard_cost) total_cost += c;
+  auto show = [&](bool force) {
+    if (o.quiet || !talk) return;
+    if (!force && seconds_since(last_shown) < 2.0) return;
+    last_shown = Clock::now();
+    Progress p;
+    double done_cost = 0.0;
+    for (std::size_t r = 0; r < latest.size(); ++r) {
+      p.members_done += latest[r].members_done;
+      p.disks_deposited += latest[r].disks_deposited;
+      done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
+    }
+    p.fraction = total_cost > 0.0 ? done_cost / total_cost : 1.0;
+    const double el = seconds_since(t0);
+    const bool finished = p.members_done == static_cast<int>(todo.size());
+    std::fprintf(stderr, "  %d/%zu members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
+                 p.members_done + static_cast<int>(resumed.size()), members.size(),
+                 p.disks_deposited, el > 0 ? p.disks_deposited / el : 0.0, el);
+    if (p.fraction > 0.01 && !finished)
       std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction,
                    el * (1.0 - p.fraction) / p.fraction);
     std::fprintf(stderr, "\n");
   };
+  RunHooks hooks;
+  hooks.stop = &g_signal;
   std::vector<std::pair<std::string, double>> stages;
-  const auto results = run_members(scan, members, progress, timing ? &stages : nullptr);
-  if (timing) {
+  if (o.timing) hooks.stage_seconds = &stages;
+  Progress own;  // this rank's latest
+  hooks.progress = [&](const Progress& p) {
+    own = p;
+    if (talk) {
+      latest[0] = p;
+      ranks.receive_progress(latest, final, false);
+      show(false);
+    } else if (seconds_since(last_sent) >= 1.0) {
+      last_sent = Clock::now();
+      ranks.send_progress(p, false);
+    }
+  };
+  hooks.finished = [&](const MemberResult& r) {
+    fresh.push_back(r);
+    if (seconds_since(last_checkpoint) >= o.checkpoint_every) {
+      checkpoint();
+      last_checkpoint = Clock::now();
+    }
+  };
+  std::vector<MemberResult> computed;
+  try {
+    computed = run_members(scan, mine, hooks);
+    // With several ranks the gather below may wait long for the others: save this share now.
+    if (g_signal || ranks.size() > 1) checkpoint();
+  } catch (const std::exception& e) {
+    std::cerr << "loosepack: rank " << ranks.rank() << ": " << e.what() << "\n";
+    return 1;
+  }
+  fresh.clear();
+  if (o.timing && talk) {
     double total = 0.0;
     for (const auto& st : stages) total += st.second;
-    std::fprintf(stderr, "loosepack: time per stage of the step (fenced)\n");
+    std::fprintf(stderr, "loosepack: time per stage of the step (fenced, rank 0)\n");
     for (const auto& [name, sec] : stages)
       std::fprintf(stderr, "  %-10s %10.3f s  %5.1f %%\n", name.c_str(), sec,
                    total > 0 ? 100.0 * sec / total : 0.0);
   }
+  if (talk) {
+    final[0] = 1;
+    while (!g_signal && std::find(final.begin(), final.end(), 0) != final.end()) {
+      ranks.receive_progress(latest, final, true);
+      show(false);
+    }
+    if (!g_signal) show(true);
+  } else if (!g_signal) {
+    ranks.send_progress(own, true);
+  }
+  if (g_signal) {
+    say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
+        ": finished members are saved in " + ck_dir + "; continue with: loosepack run " +
+        o.scan_path + " -o " + o.out_path + " --resume");
+    return 128 + static_cast<int>(g_signal);
+  }
+
+  // Rank 0 collects every rank's members and writes the file.
+  const auto shares = ranks.gather(encode_members(computed));
+  if (!talk) return 0;
+  try {
+    for (std::size_t r = 0; r < shares.size(); ++r) {
+      auto got = r == 0 ? std::move(computed)
+                        : decode_members(shares[r], scan, "results of rank " + std::to_string(r));
+      for (auto& m : got) results.push_back(std::move(m));
+    }
+  } catch (const CheckpointError& e) {
+    say(e.what());
+    return 1;
+  }
+  std::sort(results.begin(), results.end(), [](const MemberResult& a, const MemberResult& b) {
+    return a.member.id < b.member.id;
+  });
   info.end_time = utc_now();
-  info.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  info.wall_seconds = seconds_since(t0);
   int failed = 0;
   for (const auto& r : results) {
     if (r.ok()) continue;
     ++failed;
     std::cerr << "loosepack: member " << r.member.id << " (point " << r.member.point << ", seed "
               << r.member.seed_index << ", Bo " << r.member.params.bond_number
-              << ") failed: " << failure_message(r.failure) << "\n";
+              << ") failed: " << failure_message(r.failure)
+              << "; excluded from the aggregates, its state at the failure is in the output; "
+                 "re-run it alone with: loosepack run "
+              << o.scan_path << " --member " << r.member.id << " -o member-" << r.member.id
+              << ".h5\n";
   }
-  const auto points = aggregate(scan, results);
+  auto points = aggregate(scan, results);
+  if (o.member >= 0)  // only the point of the member re-run
+    points.erase(std::remove_if(points.begin(), points.end(),
+                                [](const PointResult& p) { return p.members == 0; }),
+                 points.end());
   try {
-    write_results(out_path, scan, info, points, analyse(scan, points), results, snapshots);
+    write_results(o.out_path, scan, info, points, analyse(scan, points), results, o.snapshots);
   } catch (const std::exception& e) {
-    std::cerr << "loosepack: " << e.what() << "\n";
+    say(e.what());
     return 1;
   }
-  if (!quiet)
-    std::cerr << "loosepack: wrote " << out_path << " (" << info.wall_seconds << " s, " << failed
+  remove_checkpoint(ck_dir);
+  if (!o.quiet)
+    std::cerr << "loosepack: wrote " << o.out_path << " (" << info.wall_seconds << " s, " << failed
               << " failed members)\n";
   return 0;
 }
@@ -105,29 +291,50 @@ int run(const std::string& scan_path, const std::string& out_path, bool quiet, i
 }  // namespace
 
 int main(int argc, char** argv) {
+  Ranks ranks(argc, argv);
   CLI::App app{"loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)"};
   app.require_subcommand(1);
-  std::string scan_path, out_path = "out.h5", summary_path;
-  bool quiet = false, snapshots = false;
-  int batch_size = 0;
-  auto* run_cmd = app.add_subcommand("run", "Run a scan file and write one HDF5 result file");
-  run_cmd->add_option("scan", scan_path, "scan file (TOML)")->required()->check(CLI::ExistingFile);
-  run_cmd->add_option("-o,--output", out_path, "result file (HDF5), written atomically");
-  run_cmd->add_flag("-q,--quiet", quiet, "no progress on stderr");
-  run_cmd->add_option("--batch-size", batch_size, "systems per batch (overrides scan.batch_size)")
+  RunOptions o;
+  std::string summary_path;
+  auto* run_cmd = app.add_subcommand(
+      "run", "Run a scan file and write one HDF5 result file (under mpirun: members sharded over "
+             "the ranks, rank 0 writes)");
+  run_cmd->add_option("scan", o.scan_path, "scan file (TOML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  run_cmd->add_option("-o,--output", o.out_path, "result file (HDF5), written atomically");
+  run_cmd->add_flag("-q,--quiet", o.quiet, "no progress on stderr");
+  run_cmd->add_option("--batch-size", o.batch_size, "systems per batch (overrides scan.batch_size)")
       ->check(CLI::Range(1, 1000000));
-  run_cmd->add_flag("--snapshots", snapshots,
+  run_cmd->add_flag("--snapshots", o.snapshots,
                     "store every member's final disks (x, y_i, y_e, r) and contact forces");
-  bool timing = false;
-  run_cmd->add_flag("--timing", timing, "print the wall time per stage of the step at the end");
+  run_cmd->add_flag("--timing", o.timing, "print the wall time per stage of the step at the end");
+  run_cmd->add_flag("--resume", o.resume,
+                    "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/)");
+  run_cmd
+      ->add_option("--checkpoint-every", o.checkpoint_every,
+                   "seconds between checkpoints of finished members (0: after every member)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 1e9));
+  run_cmd->add_option("--member", o.member, "run only this member (id as printed for a failure)")
+      ->check(CLI::Range(0L, 1000000000L));
   auto* sum_cmd = app.add_subcommand("summary", "Print a table per scan point of a result file");
   sum_cmd->add_option("file", summary_path, "result file (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return ranks.root() ? app.exit(e) : (e.get_exit_code());
+  }
 
   Kokkos::ScopeGuard kokkos(argc, argv);
-  if (*run_cmd) return run(scan_path, out_path, quiet, batch_size, snapshots, timing);
+  if (*run_cmd) {
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    return run(o, ranks);
+  }
+  if (!ranks.root()) return 0;
   try {
     print_summary(summary_path, std::cout);
   } catch (const std::exception& e) {

@@ -140,6 +140,27 @@ std::string point_name(int k) {
   return o.str();
 }
 
+// A member's disks (x, y_i, y_e, r) and contact forces.
+void snapshot(hid_t g, const MemberResult& r) {
+  dataset(g, "x", r.x);
+  dataset(g, "y_i", r.y_i);
+  dataset(g, "y_e", r.y_e);
+  dataset(g, "radius", r.radius);
+  std::vector<double> ci, cj, cn, ct, cm;
+  for (const auto& c : r.contacts) {
+    ci.push_back(c.i);
+    cj.push_back(c.j);
+    cn.push_back(c.normal);
+    ct.push_back(c.tangential);
+    cm.push_back(c.moment);
+  }
+  dataset(g, "contact_i", ci);
+  dataset(g, "contact_j", cj);
+  dataset(g, "contact_normal", cn);
+  dataset(g, "contact_tangential", ct);
+  dataset(g, "contact_moment", cm);
+}
+
 }  // namespace
 
 void write_results(const std::string& path, const Scan& scan, const RunInfo& info,
@@ -288,28 +309,18 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
             dataset(t, "y", r.trajectory_y);
           }
         }
-        if (snapshots) {
-          for (const auto& r : members) {
-            if (r.member.point != pr.point.index) continue;
-            H5 s = group(m, "snapshot_" + std::to_string(r.member.seed_index));
-            dataset(s, "x", r.x);
-            dataset(s, "y_i", r.y_i);
-            dataset(s, "y_e", r.y_e);
-            dataset(s, "radius", r.radius);
-            std::vector<double> ci, cj, cn, ct, cm;
-            for (const auto& c : r.contacts) {
-              ci.push_back(c.i);
-              cj.push_back(c.j);
-              cn.push_back(c.normal);
-              ct.push_back(c.tangential);
-              cm.push_back(c.moment);
-            }
-            dataset(s, "contact_i", ci);
-            dataset(s, "contact_j", cj);
-            dataset(s, "contact_normal", cn);
-            dataset(s, "contact_tangential", ct);
-            dataset(s, "contact_moment", cm);
-          }
+        for (const auto& r : members) {
+          if (r.member.point != pr.point.index) continue;
+          if (snapshots) snapshot(group(m, "snapshot_" + std::to_string(r.member.seed_index)), r);
+          if (r.ok()) continue;
+          // A failed member's state at the failure, always: its diagnostic snapshot.
+          H5 f = group(m, "failure_" + std::to_string(r.member.seed_index));
+          snapshot(f, r);
+          attribute(f, "member", static_cast<double>(r.member.id));
+          attribute(f, "failure", failure_message(r.failure));
+          dataset(f, "vx", r.vx);
+          dataset(f, "vy", r.vy);
+          dataset(f, "w", r.w);
         }
       }
       check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);

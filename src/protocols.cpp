@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <string>
 
 namespace loosepack {
 
@@ -39,6 +41,44 @@ bool ballistic(const Member& m) {
   return m.protocol != Protocol::A || std::isinf(m.params.bond_number);
 }
 
+// The parts of expected_cost.
+double ballistic_cost(const SystemParams& p) { return 2e4 * p.width * p.height; }
+double slow_cost(const SystemParams& p) {
+  return p.width * p.height * p.height * p.height / p.time_step;
+}
+double collapse_cost(const SystemParams& p) {
+  return 100.0 * p.width * p.height * p.height / p.time_step;
+}
+
+}  // namespace
+
+double expected_cost(const Member& m) {
+  if (ballistic(m))
+    return ballistic_cost(m.params) + (m.protocol == Protocol::C ? collapse_cost(m.params) : 0.0);
+  return slow_cost(m.params);
+}
+
+std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members,
+                                                    int ranks) {
+  std::vector<std::vector<std::size_t>> out(static_cast<std::size_t>(std::max(1, ranks)));
+  std::vector<std::size_t> order(members.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return expected_cost(members[a]) > expected_cost(members[b]);
+  });
+  std::vector<double> load(out.size(), 0.0);
+  for (std::size_t k : order) {
+    const auto r = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) -
+                                            load.begin());
+    load[r] += expected_cost(members[k]);
+    out[r].push_back(k);
+  }
+  for (auto& v : out) std::sort(v.begin(), v.end());
+  return out;
+}
+
+namespace {
+
 // What a batch slot is doing.
 enum class Phase {
   Empty,      // no member left for it
@@ -62,14 +102,25 @@ struct Slot {
 }  // namespace
 
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
-                                      const ProgressFn& progress,
-                                      std::vector<std::pair<std::string, double>>* stage_seconds) {
+                                      const RunHooks& hooks) {
   std::vector<MemberResult> results(members.size());
+  std::vector<char> done(members.size(), 0);
   if (members.empty()) return results;
   // Every slot can hold every member: capacity and grid of the largest.
   int capacity = 0, cells = 0;
+  // Fault injection for the failure-handling tests: LOOSEPACK_INJECT_NAN=<member id> starts
+  // that member with one disk of NaN velocity, which fails it at its first dynamic step.
+  const char* inject = std::getenv("LOOSEPACK_INJECT_NAN");
   auto setup_of = [&](const Member& m) {
     SystemSetup su;
+    if (inject && std::to_string(m.id) == inject) {
+      Disk d;
+      d.x = 0.5 * m.params.width;
+      d.y = m.params.radius;
+      d.radius = m.params.radius;
+      d.vy = std::nan("");
+      su.disks.push_back(d);
+    }
     su.params = m.params;
     su.params.gravity_on = !ballistic(m);  // B and C deposit without gravity
     if (m.protocol == Protocol::A) su.params.capture_radius = 1.0;  // Bo = inf: plain BD
@@ -87,23 +138,13 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   std::vector<SystemSetup> setups;
   for (std::size_t k = 0; k < n_slots; ++k) setups.push_back(setup_of(members[k]));
   Batch batch(setups, scan.solver, scan.rest);
-  batch.set_timing(stage_seconds != nullptr);
+  batch.set_timing(hooks.stage_seconds != nullptr);
   std::vector<Slot> slots(n_slots);
   std::size_t next = 0;
   Progress prog;
   prog.members_total = static_cast<int>(members.size());
-  // Rough cost model for the progress estimate: slow deposition needs of order n^2 sweeps for
-  // a deposit n disks tall, so its cost up to a height y grows like y^3; ballistic deposition
-  // costs next to nothing; a collapse costs about one slow deposition and counts half until it
-  // is over.
-  constexpr double kBallisticWeight = 0.02;
-  auto weight = [&](const Member& m) {
-    return m.protocol == Protocol::A && !ballistic(m) ? 1.0
-           : m.protocol == Protocol::C                ? 1.0 + kBallisticWeight
-                                                      : kBallisticWeight;
-  };
   double total_weight = 0.0, done_weight = 0.0;
-  for (const auto& m : members) total_weight += weight(m);
+  for (const auto& m : members) total_weight += expected_cost(m);
 
   auto begin = [&](std::size_t k) {
     Slot& sl = slots[k];
@@ -136,9 +177,17 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.y_e.push_back(d.y);
       r.radius.push_back(d.radius);
     }
-    if (st.failure == Failure::None) r.contacts = batch.contacts(s);
-    done_weight += weight(members[sl.member]);
+    r.contacts = batch.contacts(s);
+    if (st.failure != Failure::None)
+      for (const auto& d : batch.disks(s)) {
+        r.vx.push_back(d.vx);
+        r.vy.push_back(d.vy);
+        r.w.push_back(d.w);
+      }
+    done_weight += expected_cost(members[sl.member]);
+    if (hooks.finished) hooks.finished(r);
     results[sl.member] = std::move(r);
+    done[sl.member] = 1;
     ++prog.members_done;
     begin(k);
   };
@@ -150,20 +199,20 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     return std::make_pair(m, any);
   };
   auto report = [&]() {
-    if (!progress) return;
+    if (!hooks.progress) return;
     double running = 0.0;
     for (const auto& sl : slots) {
       if (sl.phase == Phase::Empty) continue;
-      const Member& m = members[sl.member];
+      const SystemParams& p = members[sl.member].params;
       if (sl.phase == Phase::Collapse)
-        running += kBallisticWeight + 0.5;
+        running += ballistic_cost(p) + 0.5 * collapse_cost(p);
       else if (sl.phase == Phase::Ballistic)
-        running += kBallisticWeight * sl.filled;
+        running += ballistic_cost(p) * sl.filled;
       else
-        running += sl.filled * sl.filled * sl.filled * weight(m);
+        running += sl.filled * sl.filled * sl.filled * slow_cost(p);
     }
     prog.fraction = (done_weight + running) / total_weight;
-    progress(prog);
+    hooks.progress(prog);
   };
   for (std::size_t k = 0; k < n_slots; ++k) begin(k);
 
@@ -235,6 +284,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     }
     report();
     if (!busy) break;
+    if (hooks.stop && *hooks.stop) break;
     if (!dynamic) continue;
     batch.step();
     std::vector<char> closing(n_slots, 0);
@@ -278,8 +328,11 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       batch.set_active(static_cast<int>(k), false);
     }
   }
-  if (stage_seconds) *stage_seconds = batch.stage_seconds();
-  return results;
+  if (hooks.stage_seconds) *hooks.stage_seconds = batch.stage_seconds();
+  std::vector<MemberResult> finished;
+  for (std::size_t k = 0; k < results.size(); ++k)
+    if (done[k]) finished.push_back(std::move(results[k]));
+  return finished;
 }
 
 }  // namespace loosepack

@@ -254,29 +254,52 @@ def member_groups(points, prefix):
 
 
 def snapshots(points, out, written):
-    """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force."""
-    for g, name, s in member_groups(points, "snapshot_"):
-        x, y, r = need(s, "x"), need(s, "y_e"), need(s, "radius")
-        W, H = g.attrs["width"], g.attrs["height"]
-        fig, ax = plt.subplots(figsize=(6, 6 * min(3.0, max(y.max() + 2, 1) / W)))
-        ax.add_collection(PatchCollection([Circle((a, b), c) for a, b, c in zip(x, y, r)],
-                                          facecolor="0.85", edgecolor="0.5", lw=0.2))
-        ci, cj, fn = need(s, "contact_i"), need(s, "contact_j"), need(s, "contact_normal")
-        segs, widths = [], []
-        fmax = fn.max() if len(fn) and fn.max() > 0 else 1.0
-        for i, j, f in zip(ci.astype(int), cj.astype(int), fn):
-            if f <= 0 or j < 0:
-                continue
-            dx = x[j] - x[i]
-            dx -= W * round(dx / W)  # minimum image across the periodic boundary
-            segs.append([(x[i], y[i]), (x[i] + dx, y[j])])
-            widths.append(3.0 * f / fmax)
-        ax.add_collection(LineCollection(segs, linewidths=widths, colors="tab:red"))
-        ax.set_xlim(0, W)
-        ax.set_ylim(0, max(y.max() + 2, 1))
-        ax.set_aspect("equal")
-        ax.set_title(f"{label(g)}, {name}: compressive forces (width ~ force)", fontsize=8)
-        save(fig, out, f"structure_{g.name.split('/')[-1]}_{name}.png", written)
+    """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force; and
+    the state of every failed member at its failure (velocities as arrows; disks with a
+    non-finite state are named in the title)."""
+    for prefix in ("snapshot_", "failure_"):
+        for g, name, s in member_groups(points, prefix):
+            structure(g, name, s, out, written)
+
+
+def structure(g, name, s, out, written):
+    x, y, r = need(s, "x"), need(s, "y_e"), need(s, "radius")
+    W = g.attrs["width"]
+    failed = "failure" in s.attrs
+    finite = np.isfinite(x) & np.isfinite(y)
+    if failed:
+        vx, vy = need(s, "vx"), need(s, "vy")
+        finite &= np.isfinite(vx) & np.isfinite(vy)
+    top = max(y[finite].max() + 2 if finite.any() else 1.0, 1.0)
+    fig, ax = plt.subplots(figsize=(6, 6 * min(3.0, top / W)))
+    ax.add_collection(PatchCollection([Circle((a, b), c) for a, b, c in
+                                       zip(x[finite], y[finite], r[finite])],
+                                      facecolor="0.85", edgecolor="0.5", lw=0.2))
+    ci, cj, fn = need(s, "contact_i"), need(s, "contact_j"), need(s, "contact_normal")
+    segs, widths = [], []
+    good = fn[np.isfinite(fn)]
+    fmax = good.max() if len(good) and good.max() > 0 else 1.0
+    for i, j, f in zip(ci.astype(int), cj.astype(int), fn):
+        if not f > 0 or j < 0 or not (finite[i] and finite[j]):
+            continue
+        dx = x[j] - x[i]
+        dx -= W * round(dx / W)  # minimum image across the periodic boundary
+        segs.append([(x[i], y[i]), (x[i] + dx, y[j])])
+        widths.append(3.0 * f / fmax)
+    ax.add_collection(LineCollection(segs, linewidths=widths, colors="tab:red"))
+    title = f"{label(g)}, {name}: compressive forces (width ~ force)"
+    if failed:
+        ax.quiver(x[finite], y[finite], vx[finite], vy[finite], color="tab:blue", width=0.003)
+        bad = np.where(~finite)[0]  # their place is lost: named in the title
+        why = s.attrs["failure"]
+        why = why.decode() if isinstance(why, bytes) else str(why)
+        title = (f"{label(g)}, {name} (member {int(s.attrs['member'])}): "
+                 f"{why}; disks with a non-finite state: {list(bad)[:10]}")
+    ax.set_xlim(0, W)
+    ax.set_ylim(0, top)
+    ax.set_aspect("equal")
+    ax.set_title(title, fontsize=7, wrap=True)
+    save(fig, out, f"structure_{g.name.split('/')[-1]}_{name}.png", written)
 
 
 def trajectories(points, out, written):

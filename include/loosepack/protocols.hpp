@@ -1,5 +1,6 @@
 // The protocols of MODEL.md run on batches of ensemble members.
 #pragma once
+#include <csignal>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -35,6 +36,9 @@ struct MemberResult {
   std::vector<double> x, y_i, y_e, radius;  // per disk, in deposition order
   std::vector<AvalancheEvent> events;       // protocol A
   std::vector<ContactForce> contacts;       // final contact forces (force chains, paper fig. 1)
+  // A failed member only: velocities at the failure, for its diagnostic snapshot (the contacts
+  // above are then those of the failing step).
+  std::vector<double> vx, vy, w;
   // Trajectories of every k-th disk (observables.trajectory_every = k > 0), one row per sample:
   // when (A: disks deposited so far; C: collapse step), which disk, where.
   std::vector<double> trajectory_time, trajectory_disk, trajectory_x, trajectory_y;
@@ -44,23 +48,46 @@ struct MemberResult {
   bool ok() const { return failure == Failure::None; }
 };
 
-// Called after each finished member (and periodically with done == false for progress).
+// Reported periodically during a run (and after the last member) for progress messages.
 struct Progress {
   int members_done = 0;
   int members_total = 0;
   long disks_deposited = 0;
-  // Rough estimate of the fraction of the run's cost done (see the cost model in
-  // run_members): for the ETA only.
+  // Fraction of the run's expected cost (expected_cost) done, counting running members by how
+  // far they got: for the ETA only.
   double fraction = 0.0;
 };
 using ProgressFn = std::function<void(const Progress&)>;
 
+// What a caller may attach to a run.
+struct RunHooks {
+  ProgressFn progress;
+  // Called with each member as it finishes (in finishing order), e.g. to checkpoint it.
+  std::function<void(const MemberResult&)> finished;
+  // When this becomes nonzero (a signal handler sets it), the run returns at the end of the
+  // current step with the members finished so far; the others are dropped.
+  const volatile std::sig_atomic_t* stop = nullptr;
+  // Receives the wall time per named stage of the batch step.
+  std::vector<std::pair<std::string, double>>* stage_seconds = nullptr;
+};
+
 // Run the members on one batch of scan.batch_size slots: members of any protocol advance
-// together, and a finished member's slot takes the next member. Results in member order.
-// stage_seconds, when given, receives the wall time per named stage of the batch step.
-std::vector<MemberResult> run_members(
-    const Scan& scan, const std::vector<Member>& members, const ProgressFn& progress = {},
-    std::vector<std::pair<std::string, double>>* stage_seconds = nullptr);
+// together, and a finished member's slot takes the next member. Returns the finished members
+// in the order given (all of them unless stopped).
+std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
+                                      const RunHooks& hooks = {});
+
+// Rough cost of a member in arbitrary units, for progress estimates and for sharding members
+// over MPI ranks: slow deposition needs of order n^2 sweeps for a deposit n disks tall, so a
+// protocol-A member costs ~ width * height^3 / time step; a collapse ~ width * height^2 / time
+// step (about one slow deposition at H = 100); ballistic deposition ~ width * height (2 % of a
+// slow deposition at H = 100).
+double expected_cost(const Member& m);
+
+// Splits members over `ranks` so that the expected costs balance (largest first, each to the
+// least loaded rank; ties to the lower rank). Deterministic: every rank computes the same.
+// Returns, per rank, indices into `members` in increasing order.
+std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members, int ranks);
 
 // Grid capacity for one member: enough slots for the densest packing below H.
 int member_capacity(const SystemParams& p);

@@ -1,0 +1,55 @@
+// Finished members as bytes: the checkpoint files of an interrupted run and the messages that
+// carry results between MPI ranks use the same encoding (layout in docs/OUTPUT.md).
+#pragma once
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "loosepack/protocols.hpp"
+
+namespace loosepack {
+
+// Thrown for a checkpoint that cannot be used: written for another scan or program, corrupt or
+// truncated. The message names the file and says what to do.
+class CheckpointError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// Identifies what a checkpoint belongs to: the scan file's text and the program (version and
+// commit), since another build may give other bits.
+std::uint64_t scan_fingerprint(const Scan& scan);
+
+// Member results as bytes and back. Doubles travel bit for bit. Decoding takes each member's
+// parameters from the scan (by member id) and throws CheckpointError naming `what` when the
+// bytes are short, too long or name a member the scan does not have.
+std::string encode_members(const std::vector<MemberResult>& results);
+std::vector<MemberResult> decode_members(const std::string& bytes, const Scan& scan,
+                                         const std::string& what);
+
+// A checkpoint is a directory (next to the output file, `<output>.checkpoint/`) of part files,
+// one per rank and run: `part-<generation>-<rank>.bin`. A resumed run reads every part and
+// writes new ones under the next generation, so no part is ever rewritten by another run.
+std::string checkpoint_directory(const std::string& output_path);
+std::string checkpoint_part(const std::string& directory, int generation, int rank);
+
+// Writes one part atomically (temporary file, then rename): header with the fingerprint,
+// the encoded members, and a checksum of all of it.
+void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
+                           const std::vector<MemberResult>& results);
+
+// Every finished member in the directory's parts (each member once, in member order) and the
+// highest generation found (0 when the directory has no parts). Throws CheckpointError for a
+// part of another scan or program, or a corrupt or truncated part.
+struct CheckpointContents {
+  std::vector<MemberResult> members;
+  int generation = 0;
+  int parts = 0;
+};
+CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan);
+
+// Removes the directory's part files and the directory (after a complete result was written).
+void remove_checkpoint(const std::string& directory);
+
+}  // namespace loosepack

@@ -1,0 +1,45 @@
+// MPI ranks of one run (OpenMPI; without MPI a run is one rank). Members are sharded over the
+// ranks (shard_members), each rank runs its share, and rank 0 gathers the results and writes
+// the output file; progress from every rank reaches rank 0, which alone talks to the user.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "loosepack/protocols.hpp"
+
+namespace loosepack {
+
+class Ranks {
+ public:
+  // Initialises MPI (when built with it) for the lifetime of the object.
+  Ranks(int& argc, char**& argv);
+  ~Ranks();
+  Ranks(const Ranks&) = delete;
+  Ranks& operator=(const Ranks&) = delete;
+
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+  bool root() const { return rank_ == 0; }
+  static bool with_mpi();
+
+  // Rank 0 receives every rank's bytes, in rank order (its own first); the others get nothing
+  // back. Sent point to point in chunks, so shares beyond 2 GiB travel too.
+  std::vector<std::string> gather(const std::string& mine) const;
+  // Logical AND over all ranks (a collective: every rank must call it).
+  bool all(bool mine) const;
+  void barrier() const;
+
+  // Not rank 0: tells rank 0 how far this rank got. A progress message still in flight makes
+  // this one be dropped, except the final one, which is always delivered.
+  void send_progress(const Progress& p, bool final);
+  // Rank 0: takes the progress messages that have arrived (waiting for one when `wait`);
+  // latest[r] holds rank r's latest, final[r] whether rank r finished its share.
+  void receive_progress(std::vector<Progress>& latest, std::vector<char>& final, bool wait) const;
+
+ private:
+  int rank_ = 0, size_ = 1;
+  struct Pending;
+  Pending* pending_ = nullptr;
+};
+
+}  // namespace loosepack

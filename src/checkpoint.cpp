@@ -1,0 +1,267 @@
+// Encoding of finished members, and checkpoint part files built on it.
+#include "loosepack/checkpoint.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <type_traits>
+
+namespace loosepack {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr char kMagic[8] = {'L', 'P', 'C', 'K', 'P', 'T', '0', '1'};
+constexpr std::uint32_t kByteOrder = 0x01020304u;  // refuses a file from the other endianness
+
+std::uint64_t fnv1a(const char* data, std::size_t n, std::uint64_t h = 14695981039346656037ull) {
+  for (std::size_t k = 0; k < n; ++k) {
+    h ^= static_cast<unsigned char>(data[k]);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+class Writer {
+ public:
+  explicit Writer(std::string& out) : out_(out) {}
+  template <class T>
+  void put(T v) {
+    static_assert(std::is_trivially_copyable<T>::value, "plain values only");
+    const auto* p = reinterpret_cast<const char*>(&v);
+    out_.append(p, sizeof(T));
+  }
+  void put(const std::vector<double>& v) {
+    put<std::uint64_t>(v.size());
+    out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+  }
+
+ private:
+  std::string& out_;
+};
+
+class Reader {
+ public:
+  Reader(const std::string& in, std::size_t at, const std::string& what)
+      : in_(in), at_(at), what_(what) {}
+  template <class T>
+  T get() {
+    need(sizeof(T));
+    T v;
+    std::memcpy(&v, in_.data() + at_, sizeof(T));
+    at_ += sizeof(T);
+    return v;
+  }
+  std::vector<double> doubles() {
+    const auto n = get<std::uint64_t>();
+    if (n > (in_.size() - at_) / sizeof(double)) fail("a vector runs past the end");
+    std::vector<double> v(n);
+    std::memcpy(v.data(), in_.data() + at_, n * sizeof(double));
+    at_ += n * sizeof(double);
+    return v;
+  }
+  std::size_t at() const { return at_; }
+  [[noreturn]] void fail(const std::string& why) const {
+    throw CheckpointError(what_ + ": " + why + " at byte " + std::to_string(at_));
+  }
+
+ private:
+  void need(std::size_t n) const {
+    if (in_.size() - at_ < n) fail("truncated");
+  }
+  const std::string& in_;
+  std::size_t at_;
+  std::string what_;
+};
+
+void encode(Writer& w, const MemberResult& r) {
+  w.put<std::uint64_t>(r.member.id);
+  w.put<std::int32_t>(static_cast<std::int32_t>(r.failure));
+  w.put<std::int64_t>(r.steps);
+  w.put<std::int64_t>(r.sweeps);
+  w.put<std::int32_t>(r.capped);
+  w.put<double>(r.wall_time);
+  for (const auto* v : {&r.x, &r.y_i, &r.y_e, &r.radius, &r.vx, &r.vy, &r.w, &r.trajectory_time,
+                        &r.trajectory_disk, &r.trajectory_x, &r.trajectory_y})
+    w.put(*v);
+  w.put<std::uint64_t>(r.events.size());
+  for (const auto& e : r.events) {
+    w.put<std::int32_t>(e.moved);
+    w.put<double>(e.downward);
+    w.put<std::int64_t>(e.steps);
+    w.put<std::uint8_t>(e.capped ? 1 : 0);
+  }
+  w.put<std::uint64_t>(r.contacts.size());
+  for (const auto& c : r.contacts) {
+    w.put<std::int32_t>(c.i);
+    w.put<std::int32_t>(c.j);
+    for (double v : {c.nx, c.ny, c.gap, c.normal, c.tangential, c.moment}) w.put<double>(v);
+  }
+}
+
+MemberResult decode(Reader& in, const std::vector<Member>& members) {
+  MemberResult r;
+  const auto id = in.get<std::uint64_t>();
+  if (id >= members.size())
+    in.fail("member " + std::to_string(id) + " is not in the scan (it has " +
+            std::to_string(members.size()) + ")");
+  r.member = members[id];
+  const auto failure = in.get<std::int32_t>();
+  if (failure < 0 || failure > static_cast<std::int32_t>(Failure::ParticleOverflow))
+    in.fail("unknown failure code " + std::to_string(failure));
+  r.failure = static_cast<Failure>(failure);
+  r.steps = in.get<std::int64_t>();
+  r.sweeps = in.get<std::int64_t>();
+  r.capped = in.get<std::int32_t>();
+  r.wall_time = in.get<double>();
+  for (auto* v : {&r.x, &r.y_i, &r.y_e, &r.radius, &r.vx, &r.vy, &r.w, &r.trajectory_time,
+                  &r.trajectory_disk, &r.trajectory_x, &r.trajectory_y})
+    *v = in.doubles();
+  const auto n_events = in.get<std::uint64_t>();
+  for (std::uint64_t k = 0; k < n_events; ++k) {
+    AvalancheEvent e;
+    e.moved = in.get<std::int32_t>();
+    e.downward = in.get<double>();
+    e.steps = in.get<std::int64_t>();
+    e.capped = in.get<std::uint8_t>() != 0;
+    r.events.push_back(e);
+  }
+  const auto n_contacts = in.get<std::uint64_t>();
+  for (std::uint64_t k = 0; k < n_contacts; ++k) {
+    ContactForce c;
+    c.i = in.get<std::int32_t>();
+    c.j = in.get<std::int32_t>();
+    for (double* v : {&c.nx, &c.ny, &c.gap, &c.normal, &c.tangential, &c.moment})
+      *v = in.get<double>();
+    r.contacts.push_back(c);
+  }
+  return r;
+}
+
+std::vector<MemberResult> decode_from(Reader& in, const std::vector<Member>& members,
+                                      std::size_t end) {
+  const auto n = in.get<std::uint64_t>();
+  std::vector<MemberResult> out;
+  for (std::uint64_t k = 0; k < n; ++k) out.push_back(decode(in, members));
+  if (in.at() != end) in.fail("unexpected bytes after the last member");
+  return out;
+}
+
+}  // namespace
+
+std::uint64_t scan_fingerprint(const Scan& scan) {
+  const std::string program = std::string(LOOSEPACK_VERSION) + " " + LOOSEPACK_GIT_COMMIT;
+  return fnv1a(scan.text.data(), scan.text.size(), fnv1a(program.data(), program.size()));
+}
+
+std::string encode_members(const std::vector<MemberResult>& results) {
+  std::string out;
+  Writer w(out);
+  w.put<std::uint64_t>(results.size());
+  for (const auto& r : results) encode(w, r);
+  return out;
+}
+
+std::vector<MemberResult> decode_members(const std::string& bytes, const Scan& scan,
+                                         const std::string& what) {
+  Reader in(bytes, 0, what);
+  return decode_from(in, members_of(scan), bytes.size());
+}
+
+std::string checkpoint_directory(const std::string& output_path) {
+  return output_path + ".checkpoint";
+}
+
+std::string checkpoint_part(const std::string& directory, int generation, int rank) {
+  return directory + "/part-" + std::to_string(generation) + "-" + std::to_string(rank) + ".bin";
+}
+
+void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
+                           const std::vector<MemberResult>& results) {
+  std::string bytes(kMagic, sizeof kMagic);
+  Writer w(bytes);
+  w.put<std::uint32_t>(kByteOrder);
+  w.put<std::uint64_t>(fingerprint);
+  bytes += encode_members(results);
+  w.put<std::uint64_t>(fnv1a(bytes.data(), bytes.size()));
+  const std::string tmp = file + ".tmp." + std::to_string(::getpid());
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    f.flush();
+    if (!f) {
+      std::remove(tmp.c_str());
+      throw std::runtime_error("cannot write checkpoint " + tmp);
+    }
+  }
+  if (std::rename(tmp.c_str(), file.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw std::runtime_error("cannot rename " + tmp + " to " + file);
+  }
+}
+
+CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan) {
+  CheckpointContents out;
+  std::error_code ec;
+  if (!fs::is_directory(directory, ec)) return out;
+  std::vector<std::string> files;
+  for (const auto& entry : fs::directory_iterator(directory)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("part-", 0) == 0 && name.size() > 4 &&
+        name.compare(name.size() - 4, 4, ".bin") == 0)
+      files.push_back(entry.path().string());
+  }
+  std::sort(files.begin(), files.end());
+  const auto members = members_of(scan);
+  const auto fingerprint = scan_fingerprint(scan);
+  std::map<std::uint64_t, MemberResult> finished;
+  for (const auto& file : files) {
+    const std::string what = "checkpoint " + file;
+    std::ifstream f(file, std::ios::binary);
+    std::ostringstream ss;
+    ss << f.rdbuf();
+    const std::string bytes = ss.str();
+    constexpr std::size_t kHeader = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
+    if (bytes.size() < kHeader + 2 * sizeof(std::uint64_t) ||
+        std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+      throw CheckpointError(what + " is not a loosepack checkpoint or is truncated: delete " +
+                            directory + " to start the run again");
+    const std::size_t body = bytes.size() - sizeof(std::uint64_t);
+    std::uint64_t stored;
+    std::memcpy(&stored, bytes.data() + body, sizeof stored);
+    if (stored != fnv1a(bytes.data(), body))
+      throw CheckpointError(what + " is corrupt or truncated (checksum mismatch): delete " +
+                            directory + " to start the run again");
+    Reader in(bytes, sizeof kMagic, what);
+    if (in.get<std::uint32_t>() != kByteOrder)
+      throw CheckpointError(what + " was written on a machine of another byte order");
+    if (in.get<std::uint64_t>() != fingerprint)
+      throw CheckpointError(what + " belongs to another scan file or another loosepack build "
+                            "(the scan was edited, or the program rebuilt, since): restore them, "
+                            "or delete " + directory + " to start the run again");
+    for (auto& r : decode_from(in, members, body)) {
+      const auto id = r.member.id;
+      finished.emplace(id, std::move(r));
+    }
+    int generation = 0;
+    std::sscanf(fs::path(file).filename().string().c_str(), "part-%d-", &generation);
+    out.generation = std::max(out.generation, generation);
+    ++out.parts;
+  }
+  for (auto& [id, r] : finished) out.members.push_back(std::move(r));
+  return out;
+}
+
+void remove_checkpoint(const std::string& directory) {
+  std::error_code ec;
+  fs::remove_all(directory, ec);
+}
+
+}  // namespace loosepack

@@ -1,0 +1,127 @@
+// MPI ranks: start-up, result gathering and progress messages (or one rank without MPI).
+#include "loosepack/parallel.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <thread>
+
+#ifdef LOOSEPACK_WITH_MPI
+#include <mpi.h>
+#endif
+
+namespace loosepack {
+
+#ifdef LOOSEPACK_WITH_MPI
+
+namespace {
+constexpr int kTagProgress = 1, kTagSize = 2, kTagChunk = 3;
+constexpr std::uint64_t kChunk = 1ull << 30;
+
+struct ProgressMessage {
+  Progress progress;
+  int final = 0;
+};
+}  // namespace
+
+struct Ranks::Pending {
+  MPI_Request request = MPI_REQUEST_NULL;
+  ProgressMessage message;
+};
+
+Ranks::Ranks(int& argc, char**& argv) {
+  MPI_Init(&argc, &argv);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+  MPI_Comm_size(MPI_COMM_WORLD, &size_);
+  pending_ = new Pending;
+}
+
+Ranks::~Ranks() {
+  if (pending_->request != MPI_REQUEST_NULL) MPI_Wait(&pending_->request, MPI_STATUS_IGNORE);
+  delete pending_;
+  MPI_Finalize();
+}
+
+bool Ranks::with_mpi() { return true; }
+
+std::vector<std::string> Ranks::gather(const std::string& mine) const {
+  std::vector<std::string> out;
+  if (!root()) {
+    std::uint64_t n = mine.size();
+    MPI_Send(&n, 1, MPI_UINT64_T, 0, kTagSize, MPI_COMM_WORLD);
+    for (std::uint64_t at = 0; at < n; at += kChunk)
+      MPI_Send(mine.data() + at, static_cast<int>(std::min(kChunk, n - at)), MPI_BYTE, 0,
+               kTagChunk, MPI_COMM_WORLD);
+    return out;
+  }
+  out.push_back(mine);
+  for (int r = 1; r < size_; ++r) {
+    std::uint64_t n = 0;
+    MPI_Recv(&n, 1, MPI_UINT64_T, r, kTagSize, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    std::string bytes(n, '\0');
+    for (std::uint64_t at = 0; at < n; at += kChunk)
+      MPI_Recv(&bytes[at], static_cast<int>(std::min(kChunk, n - at)), MPI_BYTE, r, kTagChunk,
+               MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    out.push_back(std::move(bytes));
+  }
+  return out;
+}
+
+bool Ranks::all(bool mine) const {
+  int in = mine ? 1 : 0, out = 0;
+  MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
+  return out != 0;
+}
+
+void Ranks::barrier() const { MPI_Barrier(MPI_COMM_WORLD); }
+
+void Ranks::send_progress(const Progress& p, bool final) {
+  if (root()) return;
+  if (pending_->request != MPI_REQUEST_NULL) {
+    int done = 0;
+    MPI_Test(&pending_->request, &done, MPI_STATUS_IGNORE);
+    if (!done && !final) return;
+    if (!done) MPI_Wait(&pending_->request, MPI_STATUS_IGNORE);
+  }
+  pending_->message.progress = p;
+  pending_->message.final = final ? 1 : 0;
+  MPI_Isend(&pending_->message, sizeof(ProgressMessage), MPI_BYTE, 0, kTagProgress,
+            MPI_COMM_WORLD, &pending_->request);
+}
+
+void Ranks::receive_progress(std::vector<Progress>& latest, std::vector<char>& final,
+                             bool wait) const {
+  for (;;) {
+    int flag = 0;
+    MPI_Status st;
+    MPI_Iprobe(MPI_ANY_SOURCE, kTagProgress, MPI_COMM_WORLD, &flag, &st);
+    if (!flag) {
+      if (!wait) return;
+      // Poll rather than block, so that the caller's timer and stop flag stay live.
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      return;
+    }
+    ProgressMessage m;
+    MPI_Recv(&m, sizeof m, MPI_BYTE, st.MPI_SOURCE, kTagProgress, MPI_COMM_WORLD,
+             MPI_STATUS_IGNORE);
+    latest.at(static_cast<std::size_t>(st.MPI_SOURCE)) = m.progress;
+    if (m.final) final.at(static_cast<std::size_t>(st.MPI_SOURCE)) = 1;
+    wait = false;  // something arrived: drain the rest without waiting
+  }
+}
+
+#else  // one rank
+
+struct Ranks::Pending {};
+Ranks::Ranks(int&, char**&) {}
+Ranks::~Ranks() = default;
+bool Ranks::with_mpi() { return false; }
+std::vector<std::string> Ranks::gather(const std::string& mine) const { return {mine}; }
+bool Ranks::all(bool mine) const { return mine; }
+void Ranks::barrier() const {}
+void Ranks::send_progress(const Progress&, bool) {}
+void Ranks::receive_progress(std::vector<Progress>&, std::vector<char>&, bool) const {}
+
+#endif
+
+}  // namespace loosepack

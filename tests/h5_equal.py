@@ -1,0 +1,44 @@
+#!/usr/bin/env python3
+"""Compares two loosepack result files bit for bit: every dataset and every attribute, except
+what records the run rather than the results (times, the number of MPI ranks, the batch size,
+and members/wall_time, the seconds each member took). Exit 0 when equal, 1 with the first
+differences listed."""
+import sys
+
+import h5py
+import numpy as np
+
+RUN_ATTRIBUTES = {"start_time", "end_time", "wall_seconds", "mpi_ranks", "batch_size"}
+RUN_DATASETS = {"wall_time"}
+
+
+def items(path):
+    out = {}
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and name.split("/")[-1] not in RUN_DATASETS:
+                out["D " + name] = np.asarray(obj[()]).tobytes()
+            for key, val in obj.attrs.items():
+                if key not in RUN_ATTRIBUTES:
+                    out["A " + name + "@" + key] = np.asarray(val).tobytes()
+        for key, val in f.attrs.items():
+            if key not in RUN_ATTRIBUTES:
+                out["A /@" + key] = np.asarray(val).tobytes()
+        f.visititems(visit)
+    return out
+
+
+def main():
+    a, b = items(sys.argv[1]), items(sys.argv[2])
+    diff = sorted(k for k in a.keys() | b.keys() if a.get(k) != b.get(k))
+    if diff:
+        print(f"{sys.argv[1]} and {sys.argv[2]} differ in {len(diff)} items, e.g.:")
+        for k in diff[:10]:
+            print("  " + k)
+        return 1
+    print(f"equal: {len(a)} datasets and attributes")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

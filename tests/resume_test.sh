@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Checkpoint and resume: a run killed with SIGKILL and resumed, and one stopped with SIGTERM and
+# resumed, both give output identical to an uninterrupted run (tests/h5_equal.py), members
+# finished before the interruption are not computed again, and a checkpoint that does not
+# belong to the scan, or is corrupt, is refused.
+set -euo pipefail
+exe=$(realpath "$1")
+here=$(cd "$(dirname "$0")" && pwd)
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+cd "$dir"
+fail() { echo "FAIL: $*" >&2; exit 1; }
+same() { /usr/bin/python3 "$here/h5_equal.py" "$1" "$2" >/dev/null || fail "$1 and $2 differ"; }
+
+# 8 protocol-C members, one at a time, about half a second each.
+printf '[scan]\nname = "resume"\nprotocol = "C"\nseeds = 4\n[system]\nwidth = 24\nheight = 24\nbond_number = [10, 100]\n[observables]\nlower_half_from = 2\n' > s.toml
+"$exe" run s.toml -o full.h5 --batch-size 1 -q
+total=$("$exe" run s.toml -o again.h5 --batch-size 1 2>&1 | sed -n 's/.* 8\/8 members, \([0-9]*\) disks deposited.*/\1/p')
+[ -n "$total" ] || fail "no final progress line"
+same full.h5 again.h5
+
+# Wait until the checkpoint holds a member or two, then interrupt with signal $1.
+interrupt() {
+  local sig=$1 out=$2 log=$3
+  "$exe" run s.toml -o "$out" --batch-size 1 --checkpoint-every 0 >"$log" 2>&1 &
+  local pid=$!
+  for _ in $(seq 1 600); do
+    ls "$out.checkpoint/"*.bin >/dev/null 2>&1 && break
+    sleep 0.02
+  done
+  ls "$out.checkpoint/"*.bin >/dev/null 2>&1 || fail "no checkpoint appeared"
+  sleep 0.5
+  kill "-$sig" "$pid"
+  set +e
+  wait "$pid"
+  rc=$?
+  set -e
+}
+
+interrupt KILL k.h5 k.log
+[ "$rc" -eq 137 ] || fail "SIGKILL exit code $rc"
+[ ! -e k.h5 ] || fail "a killed run left an output file"
+msg=$("$exe" run s.toml -o k.h5 --batch-size 1 2>&1) && fail "a run over a checkpoint did not refuse"
+echo "$msg" | grep -q "add --resume" || fail "message: $msg"
+"$exe" run s.toml -o k.h5 --batch-size 1 --resume >resume.log 2>&1
+grep -q "resuming from k.h5.checkpoint" resume.log || fail "no resume message: $(cat resume.log)"
+done_before=$(sed -n 's/.*: \([0-9]*\) of 8 members finished.*/\1/p' resume.log)
+[ "$done_before" -ge 1 ] && [ "$done_before" -lt 8 ] || fail "checkpoint held $done_before members"
+# Members in the checkpoint are not computed again: fewer disks deposited than a whole run.
+again=$(sed -n 's/.* 8\/8 members, \([0-9]*\) disks deposited.*/\1/p' resume.log)
+[ "$again" -lt "$total" ] || fail "resumed run deposited $again disks, a whole run $total"
+same full.h5 k.h5
+[ ! -e k.h5.checkpoint ] || fail "checkpoint left behind after a complete run"
+
+interrupt TERM t.h5 t.log
+[ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat t.log)"
+grep -q "continue with: loosepack run s.toml -o t.h5 --resume" t.log || fail "message: $(cat t.log)"
+[ ! -e t.h5 ] || fail "an interrupted run wrote an output file"
+# A checkpoint of another scan file is refused, and so is a corrupt one.
+cp s.toml edited.toml
+sed -i 's/seeds = 4/seeds = 4 # edited/' edited.toml
+cp -r t.h5.checkpoint e.h5.checkpoint
+msg=$("$exe" run edited.toml -o e.h5 --resume 2>&1) && fail "a checkpoint of another scan was used"
+echo "$msg" | grep -q "belongs to another scan file" || fail "message: $msg"
+cp -r t.h5.checkpoint c.h5.checkpoint
+part=$(ls c.h5.checkpoint/*.bin | head -1)
+truncate -s -9 "$part"
+msg=$("$exe" run s.toml -o c.h5 --resume 2>&1) && fail "a truncated checkpoint was used"
+echo "$msg" | grep -q "corrupt or truncated" || fail "message: $msg"
+"$exe" run s.toml -o t.h5 --batch-size 2 --resume -q
+same full.h5 t.h5
+echo "resume: all checks passed"
