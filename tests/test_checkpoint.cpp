@@ -1,0 +1,159 @@
+// Checkpoint encoding and sharding: bit-exact round trips, damage always detected, balance.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <unistd.h>
+
+#include "loosepack/checkpoint.hpp"
+
+using namespace loosepack;
+
+namespace {
+
+Scan small_scan() {
+  return parse_scan(
+      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 12\nheight = 12\n"
+      "bond_number = [10, 100]\n[observables]\nlower_half_from = 2\n",
+      "test.toml");
+}
+
+// A member result with every field set, including a NaN with a payload and signed zeros.
+MemberResult filled(const Scan& scan, std::size_t id) {
+  MemberResult r;
+  r.member = members_of(scan).at(id);
+  r.failure = Failure::NonFinite;
+  r.steps = 123456789012;
+  r.sweeps = 42;
+  r.capped = 3;
+  r.wall_time = 0.125;
+  r.x = {1.0, -0.0, std::numeric_limits<double>::denorm_min()};
+  r.y_i = {2.0, 3.0, 4.0};
+  r.y_e = {1.5, std::nan("0x7ff"), 3.5};
+  r.radius = {1.0, 0.9, 1.1};
+  r.vx = {0.1, 0.2, std::numeric_limits<double>::infinity()};
+  r.vy = {0.0, 0.0, 0.0};
+  r.w = {1e-300, 0.0, -1e300};
+  r.trajectory_time = {0.0, 20.0};
+  r.trajectory_disk = {0.0, 0.0};
+  r.trajectory_x = {1.0, 1.1};
+  r.trajectory_y = {2.0, 1.9};
+  r.events = {{3, 0.75, 1000, true}, {0, 0.0, 5, false}};
+  ContactForce c;
+  c.i = 2;
+  c.j = -1;
+  c.nx = 0.0;
+  c.ny = 1.0;
+  c.gap = -1e-5;
+  c.normal = 3.25;
+  c.tangential = -0.5;
+  c.moment = 0.01;
+  r.contacts = {c};
+  return r;
+}
+
+// Bitwise equality of two vectors of doubles (NaN payloads included).
+bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
+  return a.size() == b.size() &&
+         (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+}
+
+}  // namespace
+
+TEST(Checkpoint, MembersRoundTripBitForBit) {
+  const Scan scan = small_scan();
+  const std::vector<MemberResult> in = {filled(scan, 3), filled(scan, 0)};
+  const auto out = decode_members(encode_members(in), scan, "test bytes");
+  ASSERT_EQ(out.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const auto &a = in[k], &b = out[k];
+    EXPECT_EQ(a.member.id, b.member.id);
+    EXPECT_EQ(a.member.point, b.member.point);
+    EXPECT_EQ(a.member.params.bond_number, b.member.params.bond_number);
+    EXPECT_EQ(a.failure, b.failure);
+    EXPECT_EQ(a.steps, b.steps);
+    EXPECT_EQ(a.sweeps, b.sweeps);
+    EXPECT_EQ(a.capped, b.capped);
+    EXPECT_EQ(a.wall_time, b.wall_time);
+    for (auto f : {&MemberResult::x, &MemberResult::y_i, &MemberResult::y_e,
+                   &MemberResult::radius, &MemberResult::vx, &MemberResult::vy, &MemberResult::w,
+                   &MemberResult::trajectory_time, &MemberResult::trajectory_disk,
+                   &MemberResult::trajectory_x, &MemberResult::trajectory_y})
+      EXPECT_TRUE(same_bits(a.*f, b.*f));
+    ASSERT_EQ(b.events.size(), 2u);
+    EXPECT_EQ(b.events[0].moved, 3);
+    EXPECT_EQ(b.events[0].downward, 0.75);
+    EXPECT_EQ(b.events[0].steps, 1000);
+    EXPECT_TRUE(b.events[0].capped);
+    EXPECT_FALSE(b.events[1].capped);
+    ASSERT_EQ(b.contacts.size(), 1u);
+    EXPECT_EQ(b.contacts[0].j, -1);
+    EXPECT_EQ(b.contacts[0].gap, -1e-5);
+    EXPECT_EQ(b.contacts[0].moment, 0.01);
+  }
+}
+
+// Every truncation and every single flipped byte of a checkpoint part is refused with a
+// CheckpointError naming the file: never a crash, never silently used.
+TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
+  const Scan scan = small_scan();
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("loosepack-ckpt-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string part = checkpoint_part(dir.string(), 1, 0);
+  write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)});
+  ASSERT_EQ(read_checkpoint(dir.string(), scan).members.size(), 1u);
+  std::ifstream f(part, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  auto refused = [&](const std::string& damaged) {
+    std::ofstream(part, std::ios::binary | std::ios::trunc) << damaged;
+    try {
+      read_checkpoint(dir.string(), scan);
+    } catch (const CheckpointError& e) {
+      return std::string(e.what()).find(part) != std::string::npos;
+    }
+    return false;
+  };
+  for (std::size_t n = 0; n < bytes.size(); ++n)
+    ASSERT_TRUE(refused(bytes.substr(0, n))) << "truncated to " << n << " bytes";
+  for (std::size_t k = 0; k < bytes.size(); ++k) {
+    std::string d = bytes;
+    d[k] = static_cast<char>(d[k] ^ 0x10);
+    ASSERT_TRUE(refused(d)) << "byte " << k << " flipped";
+  }
+  // Another scan (one character edited) is refused too.
+  write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)});
+  Scan edited = small_scan();
+  edited.text += " ";
+  EXPECT_THROW(read_checkpoint(dir.string(), edited), CheckpointError);
+  std::filesystem::remove_all(dir);
+}
+
+// Largest expected cost first, each to the least loaded rank: one protocol-A member as costly
+// as all the others together gets a rank of its own; the shards are disjoint and complete.
+TEST(Checkpoint, ShardsBalanceExpectedCost) {
+  Scan scan = parse_scan(
+      "[scan]\nseeds = 1\n[[point]]\nprotocol = \"A\"\nwidth = 40\nheight = 40\n"
+      "[[point]]\nprotocol = \"C\"\nwidth = 20\nheight = 20\n[[point]]\nprotocol = \"C\"\n"
+      "width = 20\nheight = 20\n[[point]]\nprotocol = \"B\"\nwidth = 20\nheight = 20\n"
+      "[observables]\nlower_half_from = 2\n",
+      "test.toml");
+  const auto members = members_of(scan);
+  const auto shards = shard_members(members, 2);
+  ASSERT_EQ(shards.size(), 2u);
+  // A: 40 * 40^3 / h against C: 100 * 20 * 20^2 / h each: A alone outweighs the rest.
+  EXPECT_GT(expected_cost(members[0]),
+            expected_cost(members[1]) + expected_cost(members[2]) + expected_cost(members[3]));
+  EXPECT_EQ(shards[0], std::vector<std::size_t>({0}));
+  EXPECT_EQ(shards[1], std::vector<std::size_t>({1, 2, 3}));
+  const auto three = shard_members(members, 3);
+  std::vector<int> seen(members.size(), 0);
+  for (const auto& s : three)
+    for (auto k : s) ++seen[k];
+  EXPECT_EQ(seen, std::vector<int>(members.size(), 1));
+  EXPECT_EQ(shard_members({}, 4).size(), 4u);
+}
