@@ -3,6 +3,7 @@
 #include "loosepack/scan.hpp"
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -26,6 +27,12 @@ std::string protocol_name(Protocol p) {
 }
 
 namespace {
+
+// Bounds that keep a valid scan's first consumers (members_of, member_capacity, the batch
+// allocation) within int and memory; far beyond any useful scan (fuzz/, docs/SCAN.md).
+constexpr long kMaxPoints = 100000;    // scan points of a scan (grid or [[point]] tables)
+constexpr long kMaxMembers = 1000000;  // scan points x seeds
+constexpr double kMaxArea = 1e7;       // L_x H / R^2 of one system (about 3e6 disks)
 
 std::string where(const std::string& file, const toml::source_region& src) {
   std::ostringstream o;
@@ -74,7 +81,9 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node,
         to = as_number(file, v, key + ".to");
       } else if (kk == "points") {
         auto i = v.as_integer();
-        if (!i || i->get() < 1) fail(file, v, key + ".points", "expected an integer >= 1");
+        if (!i || i->get() < 1 || i->get() > kMaxPoints)
+          fail(file, v, key + ".points",
+               "expected an integer in [1, " + std::to_string(kMaxPoints) + "]");
         points = static_cast<int>(i->get());
       } else if (kk == "log") {
         log = as_bool(file, v, key + ".log");
@@ -121,7 +130,7 @@ const std::vector<SystemKey>& system_keys() {
        }},
       {"radius", [](SystemParams& p, double v) { p.radius = v; },
        [](const SystemParams& p) {
-         return p.radius > 0.0 && std::isfinite(p.radius) ? "" : "R must be > 0";
+         return p.radius >= 1e-6 && p.radius <= 1e6 ? "" : "R must be in [1e-6, 1e6]";
        }},
       {"polydispersity", [](SystemParams& p, double v) { p.polydispersity = v; },
        [](const SystemParams& p) {
@@ -172,6 +181,86 @@ void for_each_key(const toml::table& tbl, F f) {
   for (const auto& [k, v] : tbl) f(std::string(k.str()), v);
 }
 
+// toml++ 3.3.0 (Debian's) reaches TOML_UNREACHABLE, undefined behaviour, when it asks whether
+// U+00A1..U+0499 or U+FC06..U+FEFE is whitespace (marzer/tomlplusplus#190, #295), which it does
+// for such a character anywhere outside a comment or a string value: in keys, after values,
+// between tokens, after a line-ending backslash. Refuse them there before parsing. Comments and
+// strings are tracked as TOML lexes them; a string counts as a value only when it follows '='
+// and is not a multi-line basic string (whose line-ending backslash is one of those places).
+// Where this lexer and toml++ could disagree (invalid TOML) it errs towards refusing, and UTF-8
+// is decoded leniently (overlong forms too), again refusing a superset.
+void refuse_unsafe_characters(const std::string& text, const std::string& file) {
+  enum { Outside, Comment, Basic, Literal, MultiBasic, MultiLiteral } state = Outside;
+  bool escaped = false;  // the previous character was a backslash in a basic string
+  bool value = false;    // the string being read follows '='
+  char last = '\n';      // the last character outside strings and comments, not space or tab
+  long line = 1, column = 0;
+  for (std::size_t i = 0; i < text.size();) {
+    const auto b = static_cast<unsigned char>(text[i]);
+    std::size_t n = b < 0x80 ? 1 : b >= 0xF0 ? 4 : b >= 0xE0 ? 3 : b >= 0xC0 ? 2 : 1;
+    char32_t c = n == 1 ? b : n == 2 ? b & 0x1F : n == 3 ? b & 0x0F : b & 0x07;
+    for (std::size_t k = 1; k < n; ++k) {
+      if (i + k >= text.size() || (static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80) {
+        n = k;  // malformed: toml++ rejects it when it gets there
+        break;
+      }
+      c = (c << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
+    }
+    ++column;
+    const bool safe = state == Comment || (value && state != Outside && state != MultiBasic);
+    if (n > 1 && !safe && ((c >= 0xA1 && c <= 0x499) || (c >= 0xFC06 && c <= 0xFEFE))) {
+      std::ostringstream o;
+      o << file << ":" << line << ":" << column << ": character U+" << std::hex << std::uppercase
+        << static_cast<unsigned long>(c)
+        << " is only allowed in comments and string values (toml++ 3.3.0 mishandles "
+           "U+00A1..U+0499 and U+FC06..U+FEFE elsewhere)";
+      throw ScanError(o.str());
+    }
+    auto at = [&](const char* s) { return text.compare(i, std::strlen(s), s) == 0; };
+    std::size_t advance = n;
+    const bool was_escaped = escaped;
+    escaped = false;
+    if (c == '\n') {
+      ++line;
+      column = 0;
+      if (state == Comment || state == Basic || state == Literal) state = Outside;
+      if (state == Outside) last = '\n';
+    } else if (state == Outside) {
+      value = last == '=';
+      if (c != ' ' && c != '\t') last = static_cast<char>(c < 0x80 ? c : 0x7F);
+      if (c == '#') {
+        state = Comment;
+      } else if (at("\"\"\"")) {
+        state = MultiBasic;
+        advance = 3;
+      } else if (c == '"') {
+        state = Basic;
+      } else if (at("\'\'\'")) {
+        state = MultiLiteral;
+        advance = 3;
+      } else if (c == '\'') {
+        state = Literal;
+      }
+    } else if ((state == Basic || state == MultiBasic) && !was_escaped) {
+      if (c == '\\') {
+        escaped = true;
+      } else if (state == MultiBasic && at("\"\"\"")) {
+        state = Outside;
+        advance = 3;
+      } else if (state == Basic && c == '"') {
+        state = Outside;
+      }
+    } else if (state == Literal && c == '\'') {
+      state = Outside;
+    } else if (state == MultiLiteral && at("\'\'\'")) {
+      state = Outside;
+      advance = 3;
+    }
+    if (advance == 3) column += 2;  // the two further quotes of a """ or '''
+    i += advance;
+  }
+}
+
 }  // namespace
 
 Scan load_scan(const std::string& path) {
@@ -186,6 +275,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
   Scan scan;
   scan.file = file;
   scan.text = text;
+  refuse_unsafe_characters(text, file);
   toml::table root;
   try {
     root = toml::parse(text, file);
@@ -225,6 +315,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
   };
   std::vector<Explicit> explicit_points;
   const toml::node* protocol_node = nullptr;
+  const toml::node* seeds_node = nullptr;
 
   for_each_key(root, [&](const std::string& section, const toml::node& node) {
     if (section == "point") {
@@ -264,6 +355,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.seed = static_cast<std::uint64_t>(i->get());
         } else if (k == "seeds") {
           scan.seeds = positive_int(v, key, 1, 1000000);
+          seeds_node = &v;
         } else if (k == "batch_size") {
           scan.batch_size = positive_int(v, key, 1, 1000000);
         } else if (k == "protocol") {
@@ -344,8 +436,11 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.protocol.max_relax_time = real(v, key, 1e-3, 1e9);
         } else if (k == "max_collapse_time") {
           scan.protocol.max_collapse_time = real(v, key, 1e-3, 1e9);
+        } else if (k == "max_unconverged_time") {
+          scan.protocol.max_unconverged_time = real(v, key, 1e-3, 1e9);
         } else {
-          fail(file, v, key, "unknown key (allowed: max_relax_time, max_collapse_time)");
+          fail(file, v, key,
+               "unknown key (allowed: max_relax_time, max_collapse_time, max_unconverged_time)");
         }
       });
     } else if (section == "observables") {
@@ -403,6 +498,11 @@ Scan parse_scan(const std::string& text, const std::string& file) {
   for (const auto& sk : system_keys()) {
     auto it = axes.find(sk.name);
     if (it == axes.end()) continue;
+    const std::size_t n = points.size() * it->second.first.size();
+    if (n > static_cast<std::size_t>(kMaxPoints))
+      fail(file, *it->second.second, std::string("system.") + sk.name,
+           "this axis makes the grid " + std::to_string(n) + " scan points; at most " +
+               std::to_string(kMaxPoints));
     std::vector<ScanPoint> next;
     for (const auto& base : points)
       for (double v : it->second.first) {
@@ -453,6 +553,21 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + sk.name, why);
       throw ScanError(file + ": default of key 'system." + sk.name + "' invalid here: " + why);
     }
+    // The system size: member_capacity and the neighbour grid scale with it.
+    const double area =
+        (sp.params.width / sp.params.radius) * (sp.params.height / sp.params.radius);
+    if (!(area <= kMaxArea)) {
+      std::ostringstream why;
+      why << "the system is L_x H / R^2 = " << area << " > " << kMaxArea
+          << " (about 3e6 disks per member at most)";
+      auto w = axes.find("width"), h = axes.find("height");
+      if (w != axes.end() && (h == axes.end() || sp.params.width >= sp.params.height))
+        fail(file, *w->second.second, "system.width", why.str());
+      if (h != axes.end()) fail(file, *h->second.second, "system.height", why.str());
+      auto r = axes.find("radius");
+      if (r != axes.end()) fail(file, *r->second.second, "system.radius", why.str());
+      throw ScanError(file + ": " + why.str());
+    }
     if (sp.protocol == Protocol::C && std::isinf(sp.params.bond_number)) {
       auto it = axes.find("bond_number");
       const std::string why = "protocol C with Bo = inf has no collapse; use protocol B";
@@ -468,6 +583,13 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         << " of every point (nu_lower_half is the band from it to H/2)";
       throw ScanError(o.str());
     }
+  if (points.size() > static_cast<std::size_t>(kMaxPoints))
+    fail(file, *explicit_points[kMaxPoints].node, "point",
+         "more than " + std::to_string(kMaxPoints) + " [[point]] tables");
+  if (points.size() * static_cast<std::size_t>(scan.seeds) > static_cast<std::size_t>(kMaxMembers))
+    fail(file, *seeds_node, "scan.seeds",
+         std::to_string(points.size()) + " scan points x " + std::to_string(scan.seeds) +
+             " seeds make more than " + std::to_string(kMaxMembers) + " members");
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   // The discrete pull-off barrier matches F_c d_c only for h well below
   // sqrt(2 m_n d_c / F_c), m_n = m/2 (docs/MODEL.md; the pull-off test shows it).

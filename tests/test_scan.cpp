@@ -120,6 +120,58 @@ TEST(Scan, ExplicitPointErrors) {
             std::string::npos);
 }
 
+// What the fuzzer (fuzz/fuzz_scan.cpp, scripts/fuzz.sh) found: each input made parse_scan or
+// the first consumers of its scan allocate without bound, overflow or hit undefined
+// behaviour; each is now a clear error. The inputs are in fuzz/corpus/ too.
+TEST(Scan, RejectsWhatTheFuzzerFound) {
+  struct Case {
+    std::string text;
+    const char* expect;
+  };
+  const Case cases[] = {
+      // a range of 2^31 - 1 points: an allocation of 16 GiB
+      {"[system]\nbond_number = { from = 1, to = 2, points = 2147483647 }\n",
+       "bad.toml:2:44: key 'system.bond_number.points': expected an integer in [1, 100000]"},
+      // axes whose grid has 10^6 points
+      {"[system]\nfriction = { from = 0, to = 1, points = 1000 }\n"
+       "rolling_friction = { from = 0, to = 1, points = 1000 }\n",
+       "bad.toml:3:20: key 'system.rolling_friction': this axis makes the grid 1000000 scan "
+       "points; at most 100000"},
+      // 2 x 10^6 members
+      {"[scan]\nseeds = 1000000\n[system]\nbond_number = [0, 1]\n",
+       "bad.toml:2:9: key 'scan.seeds': 2 scan points x 1000000 seeds make more than 1000000 "
+       "members"},
+      // member_capacity overflowed int (undefined behaviour)
+      {"[system]\nwidth =922337203685477\n", "bad.toml:2:8: key 'system.width': the system is L_x"},
+      {"[system]\nwidth = 1e4\nheight = 2e4\n",
+       "bad.toml:3:10: key 'system.height': the system is L_x H / R^2 = 2e+08 > 1e+07"},
+      {"[system]\nradius = 1e-200\n",
+       "bad.toml:2:10: key 'system.radius': R must be in [1e-6, 1e6]"},
+      {"[system]\nradius = 1e200\nwidth = 4e200\nheight = 4e200\n",
+       "key 'system.radius': R must be in [1e-6, 1e6]"},
+      // toml++ 3.3.0 reached TOML_UNREACHABLE on U+0262 after a number (marzer/tomlplusplus#190)
+      {"[system]\nwidth = [[[[[[[9220\xc9\xa2system]\n",
+       "bad.toml:2:20: character U+262 is only allowed in comments and string values"},
+      {"s = \"\"\"\\\n\xc2\xa7\"\"\"\n",
+       "bad.toml:2:1: character U+A7 is only allowed in comments and string values"},
+      {"[system]\n\"\xce\xbc\" = 0.3\n",
+       "bad.toml:2:2: character U+3BC is only allowed in comments and string values"},
+  };
+  for (const auto& c : cases) {
+    const std::string msg = error_of(c.text);
+    EXPECT_NE(msg.find(c.expect), std::string::npos)
+        << "input:\n"
+        << c.text << "message: " << msg << "\nexpected to contain: " << c.expect;
+  }
+  // Those characters stay fine in comments and string values.
+  const auto scan = parse_scan(
+      "# \xce\xbc = 0.3, \xc2\xa7 2\n[scan]\nname = \"d\xc3\xa9p\xc3\xb4t \xe2\x80\x94 t\" "
+      "# \xce\xbc\n[system]\nwidth = 30 # \xc2\xb5\n",
+      "ok.toml");
+  EXPECT_EQ(scan.name, "d\xc3\xa9p\xc3\xb4t \xe2\x80\x94 t");
+  EXPECT_EQ(scan.points[0].params.width, 30.0);
+}
+
 TEST(Scan, WarnsWhenTheTimeStepDoesNotResolveTheCohesiveBarrier) {
   // sqrt(2 m_n d_c / F_c) = sqrt(0.01 / Bo): 0.01 at Bo = 100, 0.001 at Bo = 1e4.
   const auto scan =
