@@ -26,6 +26,8 @@ std::string failure_message(Failure f) {
       return "a disk had more contacts than the fixed capacity (overlapping disks?)";
     case Failure::ParticleOverflow:
       return "more disks than the system's capacity";
+    case Failure::Unconverged:
+      return "the solver hit its sweep cap on every step for protocol.max_unconverged_time";
   }
   return "unknown";
 }

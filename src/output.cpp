@@ -204,6 +204,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         attribute(g, "rest_steps", static_cast<double>(scan.rest.steps));
         attribute(g, "max_relax_time", scan.protocol.max_relax_time);
         attribute(g, "max_collapse_time", scan.protocol.max_collapse_time);
+        attribute(g, "max_unconverged_time", scan.protocol.max_unconverged_time);
         const auto& o = scan.observables;
         attribute(g, "strip_width", o.strip_width);
         attribute(g, "lower_half_from", o.lower_half_from);

@@ -93,6 +93,8 @@ struct Slot {
   std::size_t member = 0;
   long steps = 0;  // steps of the current relaxation or collapse
   long cap = 0;    // their cap
+  long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
+  bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
   long deposited = 0;
   double filled = 0.0;  // height of the last deposited disk over H
   Clock::time_point start;
@@ -167,7 +169,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     const int s = static_cast<int>(k);
     MemberResult& r = sl.result;
     const auto& st = batch.status(s);
-    r.failure = st.failure;
+    r.failure = sl.gave_up ? Failure::Unconverged : st.failure;
     r.steps = st.steps;
     r.sweeps = st.sweeps;
     r.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
@@ -178,7 +180,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.radius.push_back(d.radius);
     }
     r.contacts = batch.contacts(s);
-    if (st.failure != Failure::None)
+    if (r.failure != Failure::None)
       for (const auto& d : batch.disks(s)) {
         r.vx.push_back(d.vx);
         r.vy.push_back(d.vy);
@@ -293,7 +295,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       Slot& sl = slots[k];
       if (sl.phase != Phase::Relax && sl.phase != Phase::Collapse) continue;
       const auto& st = batch.status(static_cast<int>(k));
-      if (st.failure != Failure::None) {
+      sl.unconverged = st.converged ? 0 : sl.unconverged + 1;
+      sl.gave_up = static_cast<double>(sl.unconverged) * batch.params(static_cast<int>(k)).time_step >
+                   scan.protocol.max_unconverged_time;
+      if (st.failure != Failure::None || sl.gave_up) {
         finish(k);
         continue;
       }

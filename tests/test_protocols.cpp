@@ -376,3 +376,36 @@ lower_half_from = 1.0
     EXPECT_GE(first_t, static_cast<double>(d + 1));  // sampled only once deposited
   }
 }
+
+// A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
+// member fails as unconverged once the cap has been hit on every step for longer than
+// protocol.max_unconverged_time (0.505 / h = 0.01: on step 51), keeps its state for the
+// diagnostic snapshot, and its point counts it as failed and aggregates nothing from it.
+TEST(Failure, UnconvergedForTooLongFailsTheMember) {
+  const Scan scan = scan_of(R"(
+[scan]
+protocol = "C"
+[system]
+width = 12.0
+height = 12.0
+bond_number = 30
+time_step = 0.01
+[solver]
+max_sweeps = 1
+[protocol]
+max_unconverged_time = 0.505
+[observables]
+lower_half_from = 2.0
+)");
+  const auto results = run_members(scan, members_of(scan));
+  ASSERT_EQ(results.size(), 1u);
+  const auto& r = results[0];
+  EXPECT_EQ(r.failure, Failure::Unconverged);
+  EXPECT_EQ(r.steps, 51);
+  EXPECT_EQ(r.vx.size(), r.x.size());
+  EXPECT_FALSE(r.x.empty());
+  const auto points = aggregate(scan, results);
+  EXPECT_EQ(points.at(0).members, 1);
+  EXPECT_EQ(points.at(0).failed, 1);
+  EXPECT_EQ(points.at(0).nu_lower_half.n, 0);
+}

@@ -37,7 +37,13 @@ struct ContactForce {
   double normal = 0.0, tangential = 0.0, moment = 0.0;
 };
 
-enum class Failure { None = 0, NonFinite = 1, ContactOverflow = 2, ParticleOverflow = 3 };
+enum class Failure {
+  None = 0,
+  NonFinite = 1,
+  ContactOverflow = 2,
+  ParticleOverflow = 3,
+  Unconverged = 4,  // set by the protocols: protocol.max_unconverged_time exceeded
+};
 std::string failure_message(Failure f);
 
 // Host copy of the per-system status after a step.

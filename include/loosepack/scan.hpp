@@ -33,6 +33,9 @@ struct ObservableSettings {
 struct ProtocolSettings {
   double max_relax_time = 20.0;       // A: relaxation after one disk is capped here [sqrt(R/g)]
   double max_collapse_time = 3000.0;  // C: the collapse is capped here [sqrt(R/g)]
+  // A member fails (Failure::Unconverged) when its solver hits the sweep cap on every step
+  // for this long in a row [sqrt(R/g)].
+  double max_unconverged_time = 1000.0;
 };
 
 struct ScanPoint {
