@@ -143,7 +143,9 @@ const std::vector<SystemKey>& system_keys() {
        [](const SystemParams& p) {
          return (p.bond_number >= 0.0 && p.bond_number <= 1e8) || std::isinf(p.bond_number)
                     ? ""
-                    : "Bo must be 0, in (0, 1e8], or \"inf\"";
+                    : "Bo must be 0, in (0, 1e8], or \"inf\" (the solver's tolerance, in units of "
+                      "the weight m g, must stay far above the rounding of cohesive impulses, "
+                      "Bo x 2.2e-16; docs/MODEL.md, supported ranges)";
        }},
       {"cohesion_range", [](SystemParams& p, double v) { p.cohesion_range = v; },
        [](const SystemParams& p) {
@@ -163,7 +165,10 @@ const std::vector<SystemKey>& system_keys() {
        }},
       {"time_step", [](SystemParams& p, double v) { p.time_step = v; },
        [](const SystemParams& p) {
-         return p.time_step > 0.0 && p.time_step <= 0.1 ? "" : "h must be in (0, 0.1] sqrt(R/g)";
+         return p.time_step > 0.0 && p.time_step <= 0.1
+                    ? ""
+                    : "h must be in (0, 0.1] sqrt(R/g) (contacts are detected at most R/2 ahead: "
+                      "2 h v must stay below R/2; docs/MODEL.md, supported ranges)";
        }},
       {"capture_radius", [](SystemParams& p, double v) { p.capture_radius = v; },
        [](const SystemParams& p) {

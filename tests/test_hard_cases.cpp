@@ -427,3 +427,129 @@ TEST(HardCase, OneDiskEmptyAndFullSystems) {
   EXPECT_EQ(static_cast<int>(batch.disks(4).size()), box_count);
   EXPECT_LT(batch.max_overlap(4), p.cohesion_range);
 }
+
+// ---------------------------------------------------------------------------------------------
+// 4. Extreme parameters: a correct result, or a refusal by the scan validator before running.
+
+namespace {
+// A random drop of n disks in a 24 R box, run to rest (MODEL.md's criterion) within `cap`
+// steps. Checked: at rest, no failure or NaN, count preserved, every disk in the domain,
+// max overlap below d_c (the model's contact resolution, see the toppling column), contact
+// forces within the contact law.
+void expect_pile_at_rest(const SystemParams& p, const SolverSettings& solver, int n, long cap,
+                         const std::string& what) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Batch batch({setup(p, random_drop(n, p.width, 5))}, solver);
+  const long steps = batch.run_to_rest(cap);
+  const auto& st = batch.status(0);
+  ASSERT_EQ(st.failure, Failure::None) << what;
+  const auto d = batch.disks(0);
+  ASSERT_EQ(static_cast<int>(d.size()), n) << what;
+  const double overlap = batch.max_overlap(0);
+  std::printf("%-28s at rest %d after %6ld steps, %7.1f sweeps/step, overlap %.2g R, %.2f s\n",
+              what.c_str(), st.at_rest ? 1 : 0, steps,
+              static_cast<double>(st.sweeps) / std::max(1L, st.steps), overlap,
+              seconds_since(t0));
+  EXPECT_TRUE(st.at_rest) << what << ": not at rest after " << steps << " steps";
+  EXPECT_LT(overlap, p.cohesion_range) << what;
+  expect_in_domain(d, p, p.cohesion_range, what);
+  expect_within_contact_law(batch.contacts(0), d, p, what);
+}
+
+SystemParams pile_params() {
+  SystemParams p = bare_params(24.0, 40.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  return p;
+}
+}  // namespace
+
+TEST(HardCase, ExtremeFrictionAndBondNumbers) {
+  const SolverSettings solver;
+  {
+    auto p = pile_params();
+    p.friction = 0.0;
+    expect_pile_at_rest(p, solver, 60, 20000, "mu = 0");
+  }
+  {
+    auto p = pile_params();
+    p.rolling_friction = 0.0;
+    expect_pile_at_rest(p, solver, 60, 20000, "mu_r = 0");
+  }
+  {
+    auto p = pile_params();
+    p.friction = 1e6;
+    expect_pile_at_rest(p, solver, 60, 20000, "mu = 1e6");
+  }
+  for (double bo : {1e-3, 1.0, 1e3, 1e6, 1e8}) {
+    auto p = pile_params();
+    p.bond_number = bo;
+    char name[64];
+    std::snprintf(name, sizeof name, "Bo = %g", bo);
+    expect_pile_at_rest(p, solver, 60, 20000, name);
+  }
+}
+
+// Time steps: the largest the scan allows (h = 0.1) on a pile, and a small one (1e-4) on a disk
+// falling 0.01 R onto the floor (4.5e3 steps) and a 5-disk column: statics (forces k m g within
+// 1e-6, impulses are in units of h m g so the tolerance scales with h), the disk at rest on the
+// floor (y = R to 1e-9, the tolerance-limited overlap tau h^2 g per step).
+TEST(HardCase, ExtremeTimeSteps) {
+  {
+    auto p = pile_params();
+    p.time_step = 0.1;
+    expect_pile_at_rest(p, SolverSettings{}, 60, 20000, "h = 0.1");
+  }
+  auto p = pile_params();
+  p.time_step = 1e-4;
+  std::vector<Disk> falling(1);
+  falling[0].x = 3.0;
+  falling[0].y = 1.01;
+  auto col = column(5, 12.0);
+  SolverSettings s;
+  s.tolerance = 1e-10;
+  s.max_sweeps = 100000;
+  Batch batch({setup(p, falling), setup(p, col)}, s);
+  for (int k = 0; k < 6000; ++k) batch.step();
+  for (int sys = 0; sys < 2; ++sys) {
+    ASSERT_EQ(batch.status(sys).failure, Failure::None);
+    expect_in_domain(batch.disks(sys), p, 1e-9, "h = 1e-4");
+  }
+  EXPECT_NEAR(batch.disks(0)[0].y, 1.0, 1e-9);
+  EXPECT_LT(batch.status(0).max_speed, 1e-9);
+  for (const auto& c : batch.contacts(1)) {
+    if (c.j >= 0 && c.j != c.i + 1) continue;
+    const int upper = c.j < 0 ? c.i : c.j;
+    EXPECT_NEAR(c.normal, 5 - upper, 1e-6);
+  }
+}
+
+// Beyond the supported ranges the scan validator refuses before anything runs, naming
+// file:line:column, the key, and why (docs/MODEL.md, "Supported ranges").
+TEST(HardCase, ValidatorRefusesUnsupportedParameters) {
+  struct Case {
+    const char* text;
+    const char* expect;
+  };
+  const Case cases[] = {
+      {"[system]\nbond_number = 1e9\n", "hard.toml:2:15: key 'system.bond_number': Bo must be"},
+      {"[system]\ntime_step = 0.2\n", "hard.toml:2:13: key 'system.time_step': h must be"},
+      {"[system]\ntime_step = 0\n", "hard.toml:2:13: key 'system.time_step': h must be"},
+      {"[system]\nfriction = \"inf\"\n", "hard.toml:2:12: key 'system.friction': mu must be"},
+      {"[system]\nrolling_friction = -0.1\n",
+       "hard.toml:2:20: key 'system.rolling_friction': mu_r must be"},
+  };
+  for (const auto& c : cases) {
+    std::string msg;
+    try {
+      parse_scan(c.text, "hard.toml");
+    } catch (const ScanError& e) {
+      msg = e.what();
+    }
+    EXPECT_NE(msg.find(c.expect), std::string::npos) << c.text << " gave: " << msg;
+  }
+  // The edges of the ranges are accepted.
+  EXPECT_NO_THROW(parse_scan("[system]\nbond_number = [0, 1e-3, 1e8, \"inf\"]\ntime_step = 0.1\n"
+                             "friction = [0, 1e6]\nrolling_friction = 0\n",
+                             "ok.toml"));
+}
