@@ -2,7 +2,7 @@
 # Installs the Debian bookworm packages loosepack needs. Idempotent; quiet when all are present.
 set -euo pipefail
 packages=(
-  build-essential cmake git pkg-config
+  build-essential cmake git pkg-config clang libclang-rt-dev
   libtrilinos-kokkos-dev libeigen3-dev libhdf5-dev
   libtomlplusplus-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -187,13 +187,16 @@ void for_each_key(const toml::table& tbl, F f) {
 }
 
 // toml++ 3.3.0 (Debian's) reaches TOML_UNREACHABLE, undefined behaviour, when it asks whether
-// U+00A1..U+0499 or U+FC06..U+FEFE is whitespace (marzer/tomlplusplus#190, #295), which it does
-// for such a character anywhere outside a comment or a string value: in keys, after values,
-// between tokens, after a line-ending backslash. Refuse them there before parsing. Comments and
+// a character of kUnsafe is whitespace (marzer/tomlplusplus#190, #295; the ranges are the blocks
+// of its is_non_ascii_horizontal_whitespace() without a case, less U+00A0, U+3000, U+FEFF),
+// which it does anywhere outside a comment or a string value: in keys, after values, between
+// tokens, after a line-ending backslash. Refuse them there before parsing. Comments and
 // strings are tracked as TOML lexes them; a string counts as a value only when it follows '='
 // and is not a multi-line basic string (whose line-ending backslash is one of those places).
 // Where this lexer and toml++ could disagree (invalid TOML) it errs towards refusing, and UTF-8
 // is decoded leniently (overlong forms too), again refusing a superset.
+constexpr char32_t kUnsafe[][2] = {
+    {0xA1, 0x499}, {0x2C5E, 0x2FFF}, {0x3001, 0x3057}, {0xFB26, 0xFEFE}};
 void refuse_unsafe_characters(const std::string& text, const std::string& file) {
   enum { Outside, Comment, Basic, Literal, MultiBasic, MultiLiteral } state = Outside;
   bool escaped = false;  // the previous character was a backslash in a basic string
@@ -213,12 +216,14 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
     }
     ++column;
     const bool safe = state == Comment || (value && state != Outside && state != MultiBasic);
-    if (n > 1 && !safe && ((c >= 0xA1 && c <= 0x499) || (c >= 0xFC06 && c <= 0xFEFE))) {
+    bool unsafe = false;
+    for (const auto& r : kUnsafe) unsafe = unsafe || (c >= r[0] && c <= r[1]);
+    if (n > 1 && !safe && unsafe) {
       std::ostringstream o;
       o << file << ":" << line << ":" << column << ": character U+" << std::hex << std::uppercase
         << static_cast<unsigned long>(c)
         << " is only allowed in comments and string values (toml++ 3.3.0 mishandles "
-           "U+00A1..U+0499 and U+FC06..U+FEFE elsewhere)";
+           "U+00A1..U+0499, U+2C5E..U+3057 and U+FB26..U+FEFE elsewhere)";
       throw ScanError(o.str());
     }
     auto at = [&](const char* s) { return text.compare(i, std::strlen(s), s) == 0; };

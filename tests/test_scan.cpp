@@ -156,6 +156,9 @@ TEST(Scan, RejectsWhatTheFuzzerFound) {
        "bad.toml:2:1: character U+A7 is only allowed in comments and string values"},
       {"[system]\n\"\xce\xbc\" = 0.3\n",
        "bad.toml:2:2: character U+3BC is only allowed in comments and string values"},
+      // the first guard missed U+2C5E..U+3057 and U+FB26..U+FC05; the fuzzer found U+FBBB
+      {"\xef\xae\xbb@", "bad.toml:1:1: character U+FBBB is only allowed in comments"},
+      {"x = 1 \xe3\x81\x82\n", "bad.toml:1:7: character U+3042 is only allowed in comments"},
   };
   for (const auto& c : cases) {
     const std::string msg = error_of(c.text);
