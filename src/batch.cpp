@@ -33,9 +33,11 @@ std::string failure_message(Failure f) {
 }
 
 namespace {
-// Largest contact detection margin; sets the grid cell size together with radius and d_c.
-constexpr double kMaxMarginFactor = 0.5;   // times the mean radius
-constexpr double kMinMarginFactor = 0.05;  // times the mean radius
+// Contact detection margin: 2 h (v_max + h g), between these bounds (times the mean radius).
+// The upper bound grows for tall systems, where a disk falling the height of the box moves more
+// than half a radius in two steps (see grid_shape).
+constexpr double kMaxMarginFactor = 0.5;
+constexpr double kMinMarginFactor = 0.05;
 
 template <class T>
 DView<T> alloc(const char* name, std::size_t n) {
@@ -107,6 +109,7 @@ struct Batch::Impl {
 namespace {
 struct GridShape {
   double cell;
+  double max_margin;
   int nx, ny;
 };
 GridShape grid_shape(const SystemSetup& su) {
@@ -114,7 +117,13 @@ GridShape grid_shape(const SystemSetup& su) {
   double rmax = pr.radius * (1.0 + std::sqrt(3.0) * pr.polydispersity);
   for (const auto& d : su.disks) rmax = std::max(rmax, d.radius);
   GridShape g;
-  g.cell = 2.0 * rmax + pr.cohesion_range + kMaxMarginFactor * pr.radius;
+  // No disk moves faster than a fall through the whole box (contacts dissipate), so a margin of
+  // 2 h (v_fall + h g) catches every contact of the next step.
+  const double v_fall = std::sqrt(2.0 * std::abs(pr.gravity) * (pr.height + 2.0 * rmax));
+  const double h = pr.time_step;
+  g.max_margin = std::max(kMaxMarginFactor * pr.radius,
+                          2.0 * h * (v_fall + h * std::abs(pr.gravity)));
+  g.cell = 2.0 * rmax + pr.cohesion_range + g.max_margin;
   g.nx = std::max(1, static_cast<int>(std::floor(pr.width / g.cell)));
   g.ny = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / g.cell)));
   return g;
@@ -177,6 +186,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.sweep_change = alloc<double>("sweep_change", S);
   sys.max_speed = alloc<double>("max_speed", S);
   sys.margin = alloc<double>("margin", S);
+  sys.max_margin = alloc<double>("max_margin", S);
   sys.gradient2 = alloc<double>("gradient2", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   host.failure = Kokkos::create_mirror_view(sys.failure);
@@ -298,6 +308,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   set(sys.member, su.member);
   set(sys.draws, std::uint64_t(0));
   set(sys.cell_size, g.cell);
+  set(sys.max_margin, g.max_margin);
   set(sys.grid_nx, g.nx);
   set(sys.grid_ny, g.ny);
   set(sys.active, 1);
@@ -486,7 +497,7 @@ void Batch::Impl::step() {
                                      sys_.gravity_y(s) * sys_.gravity_y(s));
         const double r = sys_.radius(s);
         sys_.margin(s) = kmath::clamp(2.0 * h * (sys_.max_speed(s) + h * g), kMinMarginFactor * r,
-                                      kMaxMarginFactor * r);
+                                      sys_.max_margin(s));
         sys_.unconverged(s) = sys_.active(s);
         sys_.sweep_change(s) = 0.0;
         sys_.max_speed(s) = sys_.active(s) ? 0.0 : sys_.max_speed(s);

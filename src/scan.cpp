@@ -32,6 +32,9 @@ namespace {
 // allocation) within int and memory; far beyond any useful scan (fuzz/, docs/SCAN.md).
 constexpr long kMaxPoints = 100000;    // scan points of a scan (grid or [[point]] tables)
 constexpr long kMaxMembers = 1000000;  // scan points x seeds
+// Largest contact detection margin [R]: with 2 R + d_c + margin below the second neighbour
+// shell of a hexagonal packing (2 sqrt(3) R), kSlots contact slots per disk suffice.
+constexpr double kMaxDetectionMargin = 1.4;
 constexpr double kMaxArea = 1e7;       // L_x H / R^2 of one system (about 3e6 disks)
 
 std::string where(const std::string& file, const toml::source_region& src) {
@@ -167,8 +170,8 @@ const std::vector<SystemKey>& system_keys() {
        [](const SystemParams& p) {
          return p.time_step > 0.0 && p.time_step <= 0.1
                     ? ""
-                    : "h must be in (0, 0.1] sqrt(R/g) (contacts are detected at most R/2 ahead: "
-                      "2 h v must stay below R/2; docs/MODEL.md, supported ranges)";
+                    : "h must be in (0, 0.1] sqrt(R/g) (and small enough for the height: "
+                      "docs/MODEL.md, supported ranges)";
        }},
       {"capture_radius", [](SystemParams& p, double v) { p.capture_radius = v; },
        [](const SystemParams& p) {
@@ -577,6 +580,31 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       auto r = axes.find("radius");
       if (r != axes.end()) fail(file, *r->second.second, "system.radius", why.str());
       throw ScanError(file + ": " + why.str());
+    }
+    // Contacts are detected up to 2 h (v + h g) ahead (src/batch.cpp); a disk falling through
+    // the whole box must stay within the bound the contact capacity allows.
+    {
+      const auto& p = sp.params;
+      const double g = std::abs(p.gravity), h = p.time_step;
+      const double rmax = p.radius * (1.0 + std::sqrt(3.0) * p.polydispersity);
+      const double v = std::sqrt(2.0 * g * (p.height + 2.0 * rmax));
+      const double reach = 2.0 * h * (v + h * g);
+      if (reach > kMaxDetectionMargin * p.radius) {
+        const double h_max =
+            g > 0.0 ? (-2.0 * v + std::sqrt(4.0 * v * v + 8.0 * g * kMaxDetectionMargin * p.radius)) /
+                          (4.0 * g)
+                    : h;
+        std::ostringstream why;
+        why << "h = " << h << " is too large for H = " << p.height << ": a disk falling through "
+            << "the box moves 2 h v = " << reach << " R in two steps, beyond the "
+            << kMaxDetectionMargin << " R the contact detection covers; use h <= " << h_max
+            << " (docs/MODEL.md, supported ranges)";
+        for (const char* k : {"time_step", "height"}) {
+          auto it = axes.find(k);
+          if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + k, why.str());
+        }
+        throw ScanError(file + ": key 'system.time_step': " + why.str());
+      }
     }
     if (sp.protocol == Protocol::C && std::isinf(sp.params.bond_number)) {
       auto it = axes.find("bond_number");

@@ -535,6 +535,9 @@ TEST(HardCase, ValidatorRefusesUnsupportedParameters) {
       {"[system]\nbond_number = 1e9\n", "hard.toml:2:15: key 'system.bond_number': Bo must be"},
       {"[system]\ntime_step = 0.2\n", "hard.toml:2:13: key 'system.time_step': h must be"},
       {"[system]\ntime_step = 0\n", "hard.toml:2:13: key 'system.time_step': h must be"},
+      // H = 150: a fall through the box reaches v = sqrt(2 g 152) = 17.4, 2 h v = 1.75 R.
+      {"[system]\ntime_step = 0.05\n",
+       "hard.toml:2:13: key 'system.time_step': h = 0.05 is too large for H = 150"},
       {"[system]\nfriction = \"inf\"\n", "hard.toml:2:12: key 'system.friction': mu must be"},
       {"[system]\nrolling_friction = -0.1\n",
        "hard.toml:2:20: key 'system.rolling_friction': mu_r must be"},
@@ -549,7 +552,43 @@ TEST(HardCase, ValidatorRefusesUnsupportedParameters) {
     EXPECT_NE(msg.find(c.expect), std::string::npos) << c.text << " gave: " << msg;
   }
   // The edges of the ranges are accepted.
+  // (h = 0.1 with H = 20: 2 h (sqrt(2 g 22) + h g) = 1.35 R, within the 1.4 R of detection.)
   EXPECT_NO_THROW(parse_scan("[system]\nbond_number = [0, 1e-3, 1e8, \"inf\"]\ntime_step = 0.1\n"
-                             "friction = [0, 1e6]\nrolling_friction = 0\n",
+                             "height = 20\nfriction = [0, 1e6]\nrolling_friction = 0\n"
+                             "[observables]\nlower_half_from = 2\n",
                              "ok.toml"));
+}
+
+// A disk falling through a tall box lands without a missed impact: at h = 0.045 a fall of 98 R
+// ends at v = sqrt(2 g 98) = 14 sqrt(gR), so a disk moves h v = 0.63 R in one step, more than
+// the old fixed detection margin of R/2 (it then overlapped by up to that); the margin now grows
+// to cover a fall through the whole box (src/batch.cpp, grid_shape; 2 h (v + h g) = 1.27 R, in
+// the supported range). Checked: the falling disk comes to rest on the one below it with an
+// overlap below d_c (the solver never pushes an overlap apart), and on the floor beside it.
+TEST(HardCase, FallThroughATallBoxIsCaught) {
+  auto p = scenes::bare_params(20.0, 100.0);
+  p.time_step = 0.045;
+  p.friction = 0.5;  // a stack of two frictionless disks topples at the slightest residual
+  p.rolling_friction = 0.1;
+  // Disk 0 rests on the floor, disk 1 falls onto it; disks 2-9 fall onto the floor from
+  // heights spread over one step's travel, so that some reach the contact between two checks.
+  std::vector<Disk> d(10);
+  d[0].x = 1.0;
+  d[0].y = 1.0;
+  d[1].x = 1.0;
+  d[1].y = 99.0;
+  for (int k = 2; k < 10; ++k) {
+    d[static_cast<std::size_t>(k)].x = 2.0 * k + 0.5;
+    d[static_cast<std::size_t>(k)].y = 99.0 - 0.08 * k;
+  }
+  SolverSettings s;
+  s.tolerance = 1e-8;
+  Batch batch({setup(p, d)}, s);
+  for (int k = 0; k < 1500; ++k) batch.step();
+  ASSERT_EQ(batch.status(0).failure, Failure::None);
+  const auto out = batch.disks(0);
+  EXPECT_LT(batch.max_overlap(0), p.cohesion_range);
+  EXPECT_NEAR(out[1].y, 3.0, p.cohesion_range);
+  for (int k = 2; k < 10; ++k) EXPECT_NEAR(out[static_cast<std::size_t>(k)].y, 1.0, p.cohesion_range);
+  expect_in_domain(out, p, p.cohesion_range, "fall through a tall box");
 }
