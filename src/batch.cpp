@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <utility>
 
@@ -143,6 +144,19 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   slot_capacity.resize(S);
   slot_cells.resize(S);
   std::vector<int> cell_offset(S);
+  // Disk, contact and cell indices of the whole batch are ints: refuse a batch beyond them.
+  const long long kMaxIndex = std::numeric_limits<int>::max() / kIncident;
+  long long particles = 0, cells = 0;
+  for (const auto& su : setups) {
+    particles += std::max<long long>({su.capacity, static_cast<long long>(su.disks.size()), 1});
+    cells += std::max(su.grid_cells, grid_cells_needed(su));
+  }
+  if (particles > kMaxIndex || cells > kMaxIndex)
+    throw std::invalid_argument("Batch: " + std::to_string(S) + " systems need " +
+                                std::to_string(particles) + " disk slots and " +
+                                std::to_string(cells) + " grid cells, more than one batch " +
+                                "indexes (" + std::to_string(kMaxIndex) +
+                                "): use a smaller batch size");
   for (std::size_t s = 0; s < S; ++s) {
     const auto& su = setups[s];
     slot_capacity[s] = std::max({su.capacity, static_cast<int>(su.disks.size()), 1});

@@ -211,7 +211,9 @@ int run(const RunOptions& o, Ranks& ranks) {
     // With several ranks the gather below may wait long for the others: save this share now.
     if (g_signal || ranks.size() > 1) checkpoint();
   } catch (const std::exception& e) {
-    std::cerr << "loosepack: rank " << ranks.rank() << ": " << e.what() << "\n";
+    std::cerr << "loosepack: "
+              << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "")
+              << e.what() << "\n";
     return 1;
   }
   fresh.clear();

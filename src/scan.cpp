@@ -582,8 +582,10 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       throw ScanError(file + ": " + why.str());
     }
     // Contacts are detected up to 2 h (v + h g) ahead (src/batch.cpp); a disk falling through
-    // the whole box must stay within the bound the contact capacity allows.
-    {
+    // the whole box must stay within the bound the contact capacity allows. (Ballistic
+    // deposition, B and A at Bo = inf, has no dynamics.)
+    if (sp.protocol == Protocol::C ||
+        (sp.protocol == Protocol::A && !std::isinf(sp.params.bond_number))) {
       const auto& p = sp.params;
       const double g = std::abs(p.gravity), h = p.time_step;
       const double rmax = p.radius * (1.0 + std::sqrt(3.0) * p.polydispersity);
