@@ -214,6 +214,7 @@ int run(const RunOptions& o, Ranks& ranks) {
     std::cerr << "loosepack: "
               << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "")
               << e.what() << "\n";
+    ranks.abort(1);  // the other ranks would wait for this one forever
     return 1;
   }
   fresh.clear();
@@ -234,6 +235,11 @@ int run(const RunOptions& o, Ranks& ranks) {
     if (!g_signal) show(true);
   } else if (!g_signal) {
     ranks.send_progress(own, true);
+  }
+  if (g_signal && ranks.size() == 1 && !std::filesystem::exists(ck_dir)) {
+    say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
+        " before any member finished: nothing to save; start the run again");
+    return 128 + static_cast<int>(g_signal);
   }
   if (g_signal) {
     say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +

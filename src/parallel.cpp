@@ -75,6 +75,10 @@ bool Ranks::all(bool mine) const {
 
 void Ranks::barrier() const { MPI_Barrier(MPI_COMM_WORLD); }
 
+void Ranks::abort(int code) const {
+  if (size_ > 1) MPI_Abort(MPI_COMM_WORLD, code);
+}
+
 void Ranks::send_progress(const Progress& p, bool final) {
   if (root()) return;
   if (pending_->request != MPI_REQUEST_NULL) {
@@ -119,6 +123,7 @@ bool Ranks::with_mpi() { return false; }
 std::vector<std::string> Ranks::gather(const std::string& mine) const { return {mine}; }
 bool Ranks::all(bool mine) const { return mine; }
 void Ranks::barrier() const {}
+void Ranks::abort(int) const {}
 void Ranks::send_progress(const Progress&, bool) {}
 void Ranks::receive_progress(std::vector<Progress>&, std::vector<char>&, bool) const {}
 

@@ -28,6 +28,8 @@ class Ranks {
   // Logical AND over all ranks (a collective: every rank must call it).
   bool all(bool mine) const;
   void barrier() const;
+  // Ends every rank at once (MPI_Abort) when there are several; nothing with one rank.
+  void abort(int code) const;
 
   // Not rank 0: tells rank 0 how far this rank got. A progress message still in flight makes
   // this one be dropped, except the final one, which is always delivered.
