@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "bench/options.hpp"
+#include "bench/record.hpp"
 #include "loosepack/batch.hpp"
 
 using namespace loosepack;
@@ -108,9 +109,10 @@ int main(int argc, char** argv) {
         std::printf(
             "{\"study\": \"column_convergence\", \"solver\": \"%s\", \"start\": \"%s\", \"n\": %d, "
             "\"tolerance\": %g, \"sweeps\": %ld, \"capped\": %s, \"bottom_force_rel_error\": %.3e, "
-            "\"wall_s\": %.4f}\n",
+            "\"wall_s\": %.4f, %s}\n",
             solver_kind_name(kind), warm ? "warm" : "cold", n, tolerance, r.sweeps,
-            r.sweeps >= max_sweeps ? "true" : "false", r.error, r.seconds);
+            r.sweeps >= max_sweeps ? "true" : "false", r.error, r.seconds,
+            bench::Environment().json().c_str());
         std::fflush(stdout);
       }
   return 0;

@@ -15,9 +15,9 @@
 #ifndef LOOSEPACK_COMPILER
 #define LOOSEPACK_COMPILER "unknown"
 #endif
-// All compile flags of the build (set in bench/CMakeLists.txt).
-#ifndef LOOSEPACK_BENCH_FLAGS
-#define LOOSEPACK_BENCH_FLAGS "unknown"
+// All compile flags of the build (LOOSEPACK_CXX_FLAGS, set in the top CMakeLists.txt).
+#ifndef LOOSEPACK_CXX_FLAGS
+#define LOOSEPACK_CXX_FLAGS "unknown"
 #endif
 #ifndef LOOSEPACK_GIT_COMMIT
 #define LOOSEPACK_GIT_COMMIT "unknown"
@@ -85,7 +85,7 @@ inline std::string utc_now() {
   return buf;
 }
 
-inline std::string compile_flags() { return LOOSEPACK_BENCH_FLAGS; }
+inline std::string compile_flags() { return LOOSEPACK_CXX_FLAGS; }
 
 // The environment of one measurement, read when constructed.
 struct Environment {

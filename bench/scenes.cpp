@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "bench/options.hpp"
+#include "bench/record.hpp"
 #include "loosepack/batch.hpp"
 #include "loosepack/observables.hpp"
 
@@ -107,12 +108,12 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
       "\"max_overlap\": %s, \"n_capped\": %d, \"vmax_peak\": %s, \"setting\": \"default\", "
       "\"params\": {\"dt\": %s, \"solver\": \"%s\", \"tolerance\": %g}, "
       "\"notes\": \"contact dynamics, Kokkos %s; rest also needs R|w| < 1e-3 and a converged "
-      "solve\"}\n",
+      "solve\", %s}\n",
       scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(), num(m.phi_final).c_str(),
       num(phi_i).c_str(), num(m.phi_aux).c_str(), num(m.h_top).c_str(), num(m.h_mean).c_str(),
       num(sim_time).c_str(), num(m.max_overlap).c_str(), capped, num(vmax).c_str(), num(dt).c_str(),
       solver_kind_name(g_solver.kind), g_solver.tolerance,
-      Kokkos::DefaultExecutionSpace::name());
+      Kokkos::DefaultExecutionSpace::name(), bench::Environment().json().c_str());
   std::fflush(stdout);
 }
 
