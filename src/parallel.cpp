@@ -42,8 +42,6 @@ Ranks::~Ranks() {
   MPI_Finalize();
 }
 
-bool Ranks::with_mpi() { return true; }
-
 std::vector<std::string> Ranks::gather(const std::string& mine) const {
   std::vector<std::string> out;
   if (!root()) {
@@ -65,12 +63,6 @@ std::vector<std::string> Ranks::gather(const std::string& mine) const {
     out.push_back(std::move(bytes));
   }
   return out;
-}
-
-bool Ranks::all(bool mine) const {
-  int in = mine ? 1 : 0, out = 0;
-  MPI_Allreduce(&in, &out, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
-  return out != 0;
 }
 
 void Ranks::barrier() const { MPI_Barrier(MPI_COMM_WORLD); }
@@ -119,9 +111,7 @@ void Ranks::receive_progress(std::vector<Progress>& latest, std::vector<char>& f
 struct Ranks::Pending {};
 Ranks::Ranks(int&, char**&) {}
 Ranks::~Ranks() = default;
-bool Ranks::with_mpi() { return false; }
 std::vector<std::string> Ranks::gather(const std::string& mine) const { return {mine}; }
-bool Ranks::all(bool mine) const { return mine; }
 void Ranks::barrier() const {}
 void Ranks::abort(int) const {}
 void Ranks::send_progress(const Progress&, bool) {}

@@ -20,13 +20,10 @@ class Ranks {
   int rank() const { return rank_; }
   int size() const { return size_; }
   bool root() const { return rank_ == 0; }
-  static bool with_mpi();
 
   // Rank 0 receives every rank's bytes, in rank order (its own first); the others get nothing
   // back. Sent point to point in chunks, so shares beyond 2 GiB travel too.
   std::vector<std::string> gather(const std::string& mine) const;
-  // Logical AND over all ranks (a collective: every rank must call it).
-  bool all(bool mine) const;
   void barrier() const;
   // Ends every rank at once (MPI_Abort) when there are several; nothing with one rank.
   void abort(int code) const;
