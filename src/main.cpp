@@ -78,14 +78,15 @@ int run(const RunOptions& o, Ranks& ranks) {
     say("cannot write into " + directory_of(o.out_path) + " (for " + o.out_path + ")");
     return 2;
   }
-  std::vector<Member> members = members_of(scan);
+  const std::vector<Member> all_members = members_of(scan);
+  std::vector<Member> members = all_members;
   if (o.member >= 0) {
-    if (o.member >= static_cast<long>(members.size())) {
+    if (o.member >= static_cast<long>(all_members.size())) {
       say("--member " + std::to_string(o.member) + ": the scan has members 0 to " +
-          std::to_string(members.size() - 1));
+          std::to_string(all_members.size() - 1));
       return 2;
     }
-    members = {members[static_cast<std::size_t>(o.member)]};
+    members = {all_members[static_cast<std::size_t>(o.member)]};
   }
 
   // Checkpoint: finished members of an interrupted run, read by every rank before any rank
@@ -129,7 +130,7 @@ int run(const RunOptions& o, Ranks& ranks) {
 
   if (!o.quiet && talk) {
     std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
-              << scan.seeds << " seeds = " << members_of(scan).size() << " members";
+              << scan.seeds << " seeds = " << all_members.size() << " members";
     if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
     std::cerr << ", batches of " << scan.batch_size << " on "
               << Kokkos::DefaultExecutionSpace::name();

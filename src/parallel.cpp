@@ -33,12 +33,11 @@ Ranks::Ranks(int& argc, char**& argv) {
   MPI_Init(&argc, &argv);
   MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
   MPI_Comm_size(MPI_COMM_WORLD, &size_);
-  pending_ = new Pending;
+  pending_ = std::make_unique<Pending>();
 }
 
 Ranks::~Ranks() {
   if (pending_->request != MPI_REQUEST_NULL) MPI_Wait(&pending_->request, MPI_STATUS_IGNORE);
-  delete pending_;
   MPI_Finalize();
 }
 

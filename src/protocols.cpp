@@ -178,14 +178,12 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.y_i.push_back(d.y_deposit);
       r.y_e.push_back(d.y);
       r.radius.push_back(d.radius);
+      if (r.failure == Failure::None) continue;
+      r.vx.push_back(d.vx);
+      r.vy.push_back(d.vy);
+      r.w.push_back(d.w);
     }
     r.contacts = batch.contacts(s);
-    if (r.failure != Failure::None)
-      for (const auto& d : batch.disks(s)) {
-        r.vx.push_back(d.vx);
-        r.vy.push_back(d.vy);
-        r.w.push_back(d.w);
-      }
     done_weight += expected_cost(members[sl.member]);
     if (hooks.finished) hooks.finished(r);
     results[sl.member] = std::move(r);

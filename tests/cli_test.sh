@@ -1,11 +1,7 @@
 #!/usr/bin/env bash
 # Command-line behaviour: help, a bad scan refused before any work with file:line and key, an
 # existing result file left untouched, and a small good run with its summary.
-set -euo pipefail
-exe="$1"
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
-fail() { echo "FAIL: $*" >&2; exit 1; }
+source "$(dirname "$0")/common.sh"
 
 "$exe" --help | grep -q "run" || fail "--help does not list run"
 "$exe" run --help | grep -q -- "--output" || fail "run --help does not list --output"
@@ -29,7 +25,7 @@ set +e
 "$exe" summary "$dir/bad.toml" >/dev/null 2>&1 && fail "summary of a non-HDF5 file succeeded"
 set -e
 # Figures from the result file (Debian's python3 with h5py and matplotlib).
-repo=$(cd "$(dirname "$0")/.." && pwd)
+repo=$(cd "$here/.." && pwd)
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/good.h5" -o "$dir/fig" >/dev/null
 for f in density_profiles avalanche_profiles abs_dy_histograms deposition_density \
   structure_0000_snapshot_0; do

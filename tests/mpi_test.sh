@@ -3,14 +3,8 @@
 # to a run without mpirun (tests/h5_equal.py: every dataset and attribute but the run's times
 # and rank count), progress and failures are printed once, and a failed member (injected NaN)
 # is reported, excluded, kept as a diagnostic snapshot and can be re-run alone.
-set -euo pipefail
-exe=$(realpath "$1")
-here=$(cd "$(dirname "$0")" && pwd)
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
+source "$(dirname "$0")/common.sh"
 cd "$dir"
-fail() { echo "FAIL: $*" >&2; exit 1; }
-same() { /usr/bin/python3 "$here/h5_equal.py" "$1" "$2" >/dev/null || fail "$1 and $2 differ"; }
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 # Members of two protocols and two sizes, so the shards differ in cost and in count.
 cat > s.toml <<'TOML'

@@ -3,14 +3,8 @@
 # resumed, both give output identical to an uninterrupted run (tests/h5_equal.py), members
 # finished before the interruption are not computed again, and a checkpoint that does not
 # belong to the scan, or is corrupt, is refused.
-set -euo pipefail
-exe=$(realpath "$1")
-here=$(cd "$(dirname "$0")" && pwd)
-dir=$(mktemp -d)
-trap 'rm -rf "$dir"' EXIT
+source "$(dirname "$0")/common.sh"
 cd "$dir"
-fail() { echo "FAIL: $*" >&2; exit 1; }
-same() { /usr/bin/python3 "$here/h5_equal.py" "$1" "$2" >/dev/null || fail "$1 and $2 differ"; }
 
 # 8 protocol-C members, one at a time, about half a second each.
 printf '[scan]\nname = "resume"\nprotocol = "C"\nseeds = 4\n[system]\nwidth = 24\nheight = 24\nbond_number = [10, 100]\n[observables]\nlower_half_from = 2\n' > s.toml

@@ -13,6 +13,7 @@
 
 #include "loosepack/batch.hpp"
 #include "loosepack/scan.hpp"
+#include "tests/scan_errors.hpp"
 #include "tests/scenes.hpp"
 
 using namespace loosepack;
@@ -527,30 +528,18 @@ TEST(HardCase, ExtremeTimeSteps) {
 // Beyond the supported ranges the scan validator refuses before anything runs, naming
 // file:line:column, the key, and why (docs/MODEL.md, "Supported ranges").
 TEST(HardCase, ValidatorRefusesUnsupportedParameters) {
-  struct Case {
-    const char* text;
-    const char* expect;
-  };
-  const Case cases[] = {
-      {"[system]\nbond_number = 1e9\n", "hard.toml:2:15: key 'system.bond_number': Bo must be"},
-      {"[system]\ntime_step = 0.2\n", "hard.toml:2:13: key 'system.time_step': h must be"},
-      {"[system]\ntime_step = 0\n", "hard.toml:2:13: key 'system.time_step': h must be"},
+  const std::vector<scan_errors::Case> cases = {
+      {"[system]\nbond_number = 1e9\n", "bad.toml:2:15: key 'system.bond_number': Bo must be"},
+      {"[system]\ntime_step = 0.2\n", "bad.toml:2:13: key 'system.time_step': h must be"},
+      {"[system]\ntime_step = 0\n", "bad.toml:2:13: key 'system.time_step': h must be"},
       // H = 150: a fall through the box reaches v = sqrt(2 g 152) = 17.4, 2 h v = 1.75 R.
       {"[system]\ntime_step = 0.05\n",
-       "hard.toml:2:13: key 'system.time_step': h = 0.05 is too large for H = 150"},
-      {"[system]\nfriction = \"inf\"\n", "hard.toml:2:12: key 'system.friction': mu must be"},
+       "bad.toml:2:13: key 'system.time_step': h = 0.05 is too large for H = 150"},
+      {"[system]\nfriction = \"inf\"\n", "bad.toml:2:12: key 'system.friction': mu must be"},
       {"[system]\nrolling_friction = -0.1\n",
-       "hard.toml:2:20: key 'system.rolling_friction': mu_r must be"},
+       "bad.toml:2:20: key 'system.rolling_friction': mu_r must be"},
   };
-  for (const auto& c : cases) {
-    std::string msg;
-    try {
-      parse_scan(c.text, "hard.toml");
-    } catch (const ScanError& e) {
-      msg = e.what();
-    }
-    EXPECT_NE(msg.find(c.expect), std::string::npos) << c.text << " gave: " << msg;
-  }
+  scan_errors::expect_refused(cases);
   // The edges of the ranges are accepted.
   // (h = 0.1 with H = 20: 2 h (sqrt(2 g 22) + h g) = 1.35 R, within the 1.4 R of detection.)
   EXPECT_NO_THROW(parse_scan("[system]\nbond_number = [0, 1e-3, 1e8, \"inf\"]\ntime_step = 0.1\n"

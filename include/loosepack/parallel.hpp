@@ -2,6 +2,7 @@
 // ranks (shard_members), each rank runs its share, and rank 0 gathers the results and writes
 // the output file; progress from every rank reaches rank 0, which alone talks to the user.
 #pragma once
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -37,8 +38,8 @@ class Ranks {
 
  private:
   int rank_ = 0, size_ = 1;
-  struct Pending;
-  Pending* pending_ = nullptr;
+  struct Pending;  // the progress message in flight (MPI only)
+  std::unique_ptr<Pending> pending_;
 };
 
 }  // namespace loosepack
