@@ -60,14 +60,6 @@ struct Workload {
   }
 };
 
-// CPU time of this process; over a run, cpu / wall is the share of a core it got (below 1 when
-// other processes compete for the cores; the Serial backend uses one core).
-double cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
 struct Run {
   double wall = 0.0, core_share = 0.0;
   long disks = 0, steps = 0, sweeps = 0;
@@ -79,12 +71,12 @@ struct Run {
 Run run(const Scan& base, int batch_size, const std::vector<Member>& members) {
   Scan scan = base;
   scan.batch_size = batch_size;
-  const double cpu0 = cpu_seconds();
+  const double cpu0 = bench::process_cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   const auto results = run_members(scan, members);
   Run r;
   r.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  r.core_share = (cpu_seconds() - cpu0) / r.wall;
+  r.core_share = (bench::process_cpu_seconds() - cpu0) / r.wall;
   for (const auto& m : results) {
     r.disks += static_cast<long>(m.x.size());
     r.steps += m.steps;

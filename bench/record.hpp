@@ -85,6 +85,14 @@ inline std::string utc_now() {
   return buf;
 }
 
+// CPU time of this process; over a run, cpu / wall is the share of a core it got (below 1 when
+// other processes compete for the cores; the Serial backend uses one core).
+inline double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 inline std::string compile_flags() { return LOOSEPACK_CXX_FLAGS; }
 
 // The environment of one measurement, read when constructed.

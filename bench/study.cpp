@@ -1,0 +1,397 @@
+// Whole-run studies of issue 5 ("Performance"), one JSON record per ensemble run on stdout:
+//
+//   --study effects   the default scene (protocol A, 24 R x 24 R, Bo = 1e2, mu_r = 0.1) and the
+//                     collapse scene (protocol C, Bo = 1e3) with and without cohesion (Bo = 0),
+//                     rolling friction (mu_r = 0) and gravity (protocol B: ballistic deposition,
+//                     no dynamics): the time each effect costs.
+//   --study size      time to build one system against its disk count N, four sizes over a
+//                     factor of ~8 in N: protocol A in square boxes, protocol C in boxes 48 R tall
+//                     of growing width; the fitted exponent of t ~ N^p (least squares on ln t
+//                     against ln N).
+//   --study accuracy  a reference ensemble (protocol A at Bo = 1e2, protocol C at Bo = 1e3) run
+//                     tightly converged, then once per setting of the solver tolerance, sweep
+//                     cap, time step, relaxation factor and solver kind: wall time and the error
+//                     against the reference in nu_lower_half, in the nu(y) profile (rms), in the
+//                     avalanche profile Delta y(y_e) (rms) and the largest overlap of the final
+//                     packings. tools/pareto.py draws the Pareto plot from these records.
+//
+// Every member of an ensemble is keyed by (scan seed, member id), so all settings deposit the
+// same sequence of drop abscissae; the deposits still differ once the dynamics differ (the
+// packing is chaotic), so an error is only resolved where it exceeds the statistical noise
+// that each record states (`*_noise`: the standard errors of both ensembles combined).
+//
+//   bench_study --study effects|size|accuracy [--tiny] [--seeds N] [--budget S]
+//               [--protocol A|C]
+#include <Kokkos_Core.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench/options.hpp"
+#include "bench/record.hpp"
+#include "loosepack/analysis.hpp"
+#include "loosepack/observables.hpp"
+#include "loosepack/protocols.hpp"
+
+using namespace loosepack;
+
+namespace {
+
+// One ensemble: protocol, geometry, physics and solver.
+struct Setup {
+  std::string label = "default";
+  std::string protocol = "A";
+  double width = 24.0, height = 24.0, bond_number = 1e2, capture_radius = 1.0;
+  // The program's defaults (params.hpp).
+  double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
+  double tolerance = SolverSettings{}.tolerance, relaxation = SolverSettings{}.relaxation;
+  int max_sweeps = SolverSettings{}.max_sweeps;
+  std::string solver = solver_kind_name(SolverSettings{}.kind);
+  int seeds = 16;
+
+  // Protocol C at Bo = 1e3 with the time step of the documented rule h = 0.9 sqrt(2 m_n d_c /
+  // F_c) (docs/MODEL.md; the examples' 0.0028). A deposit this small collapses visibly only
+  // when loose: capture radius 2 (dnu/nu_i ~ 0.17; at r_capt = 1 and H = 24 nothing moves).
+  static Setup collapse() {
+    Setup s;
+    s.protocol = "C";
+    s.height = 40.0;
+    s.bond_number = 1e3;
+    s.capture_radius = 2.0;
+    s.time_step = 0.0028;
+    s.seeds = 8;
+    return s;
+  }
+  std::string toml() const {
+    std::ostringstream o;
+    o.precision(17);
+    o << "[scan]\nname = \"bench_study\"\nseed = 2026\nseeds = " << seeds << "\nprotocol = \""
+      << protocol << "\"\nbatch_size = " << seeds << "\n[system]\nwidth = " << width
+      << "\nheight = " << height << "\nbond_number = " << bond_number
+      << "\ncapture_radius = " << capture_radius
+      << "\nfriction = 0.3\nrolling_friction = " << rolling_friction
+      << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
+      << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << max_sweeps
+      << "\nrelaxation = " << relaxation
+      << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
+      << "\nstrip_width = 3.97\nbin_width = 4.0\n";
+    return o.str();
+  }
+  std::string json() const {
+    std::ostringstream o;
+    o << "\"setup\": {\"label\": " << bench::json_string(label)
+      << ", \"protocol\": " << bench::json_string(protocol)
+      << ", \"width\": " << bench::json_number(width)
+      << ", \"height\": " << bench::json_number(height)
+      << ", \"bond_number\": " << bench::json_number(bond_number)
+      << ", \"capture_radius\": " << bench::json_number(capture_radius)
+      << ", \"friction\": 0.3, \"rolling_friction\": " << bench::json_number(rolling_friction)
+      << ", \"time_step\": " << bench::json_number(time_step)
+      << ", \"solver\": " << bench::json_string(solver)
+      << ", \"tolerance\": " << bench::json_number(tolerance) << ", \"max_sweeps\": " << max_sweeps
+      << ", \"relaxation\": " << bench::json_number(relaxation) << ", \"seeds\": " << seeds << "}";
+    return o.str();
+  }
+};
+
+// What one ensemble run gave.
+struct Outcome {
+  double wall = 0.0, core_share = 0.0, max_overlap = 0.0;
+  long disks = 0, steps = 0, sweeps = 0;
+  int members = 0, failed = 0, capped = 0;
+  bool over_budget = false;  // stopped at the time budget: the figures are incomplete
+  PointResult point;
+};
+
+volatile std::sig_atomic_t stop_flag = 0;
+
+// Largest overlap of a final packing [R]: disk pairs (periodic in x) and the floor.
+double max_overlap(const MemberResult& m, double width) {
+  double worst = 0.0;
+  const std::size_t n = m.x.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    worst = std::max(worst, m.radius[i] - m.y_e[i]);
+    for (std::size_t j = i + 1; j < n; ++j) {
+      double dx = m.x[j] - m.x[i];
+      dx -= width * std::round(dx / width);
+      const double dy = m.y_e[j] - m.y_e[i];
+      const double reach = m.radius[i] + m.radius[j];
+      if (std::abs(dy) >= reach || std::abs(dx) >= reach) continue;
+      worst = std::max(worst, reach - std::sqrt(dx * dx + dy * dy));
+    }
+  }
+  return worst;
+}
+
+Outcome run(const Setup& s, double budget_s) {
+  const Scan scan = parse_scan(s.toml(), "bench_study.toml");
+  const std::vector<Member> members = members_of(scan);
+  stop_flag = 0;
+  RunHooks hooks;
+  const auto t0 = std::chrono::steady_clock::now();
+  hooks.progress = [&](const Progress&) {
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() > budget_s)
+      stop_flag = 1;
+  };
+  hooks.stop = &stop_flag;
+  const double cpu0 = bench::process_cpu_seconds();
+  const std::vector<MemberResult> results = run_members(scan, members, hooks);
+  Outcome o;
+  o.wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  o.core_share = (bench::process_cpu_seconds() - cpu0) / o.wall;
+  o.over_budget = results.size() < members.size();
+  for (const auto& m : results) {
+    ++o.members;
+    o.disks += static_cast<long>(m.x.size());
+    o.steps += m.steps;
+    o.sweeps += m.sweeps;
+    o.failed += m.ok() ? 0 : 1;
+    o.capped += m.capped;
+    if (m.ok()) o.max_overlap = std::max(o.max_overlap, max_overlap(m, m.member.params.width));
+  }
+  if (!results.empty()) o.point = aggregate(scan, results).front();
+  return o;
+}
+
+std::string outcome_json(const Outcome& o) {
+  std::ostringstream f;
+  f << "\"wall_s\": " << bench::json_number(o.wall)
+    << ", \"core_share\": " << bench::json_number(o.core_share)
+    << ", \"over_budget\": " << (o.over_budget ? "true" : "false")
+    << ", \"members\": " << o.members << ", \"failed\": " << o.failed
+    << ", \"capped\": " << o.capped << ", \"disks\": " << o.disks << ", \"steps\": " << o.steps
+    << ", \"sweeps\": " << o.sweeps
+    << ", \"wall_per_member_s\": " << bench::json_number(o.wall / std::max(1, o.members))
+    << ", \"disks_per_member\": "
+    << bench::json_number(static_cast<double>(o.disks) / std::max(1, o.members))
+    << ", \"disks_per_s\": " << bench::json_number(static_cast<double>(o.disks) / o.wall)
+    << ", \"nu_lower_half\": " << bench::json_number(o.point.nu_lower_half.mean)
+    << ", \"nu_lower_half_sem\": " << bench::json_number(o.point.nu_lower_half.sem)
+    << ", \"max_overlap\": " << bench::json_number(o.max_overlap);
+  if (o.point.point.protocol == Protocol::C)
+    f << ", \"relative_increase\": " << bench::json_number(o.point.relative_increase.mean)
+      << ", \"relative_increase_sem\": " << bench::json_number(o.point.relative_increase.sem);
+  return f.str();
+}
+
+void print(const std::string& study, const Setup& s, const std::string& fields) {
+  std::printf("{\"study\": \"%s\", %s, %s, %s}\n", study.c_str(),
+              bench::Environment().json().c_str(), s.json().c_str(), fields.c_str());
+  std::fflush(stdout);
+}
+
+// Root mean square of a - b over the entries where both are finite and keep(k) holds, and of
+// the combined standard errors there (the noise level of that difference).
+template <class Keep>
+std::pair<double, double> rms_difference(const std::vector<double>& a,
+                                         const std::vector<double>& a_sem,
+                                         const std::vector<double>& b,
+                                         const std::vector<double>& b_sem, Keep keep) {
+  double s = 0.0, noise = 0.0;
+  int n = 0;
+  for (std::size_t k = 0; k < a.size() && k < b.size(); ++k) {
+    if (!keep(k) || !std::isfinite(a[k]) || !std::isfinite(b[k])) continue;
+    s += (a[k] - b[k]) * (a[k] - b[k]);
+    const double ea = k < a_sem.size() && std::isfinite(a_sem[k]) ? a_sem[k] : 0.0;
+    const double eb = k < b_sem.size() && std::isfinite(b_sem[k]) ? b_sem[k] : 0.0;
+    noise += ea * ea + eb * eb;
+    ++n;
+  }
+  if (n == 0) return {NAN, NAN};
+  return {std::sqrt(s / n), std::sqrt(noise / n)};
+}
+
+// The errors of a run against the reference (see the header).
+std::string error_json(const Setup& s, const Outcome& o, const Outcome& ref) {
+  const PointResult &p = o.point, &r = ref.point;
+  const double lower = std::min(4.0, s.height / 4.0);
+  // nu(y): strips between lower_half_from and 4 R below H (the rough top excluded).
+  auto in_bulk = [&](std::size_t k) {
+    return k < r.nu.centre.size() && r.nu.centre[k] > lower && r.nu.centre[k] < s.height - 4.0;
+  };
+  const auto nu = rms_difference(p.nu.mean, p.nu.sem, r.nu.mean, r.nu.sem, in_bulk);
+  // Delta y(y_e): every bin holding samples in both runs.
+  auto has_samples = [&](std::size_t k) {
+    return k < p.dy_by_ye.count.size() && k < r.dy_by_ye.count.size() &&
+           p.dy_by_ye.count[k] > 0 && r.dy_by_ye.count[k] > 0;
+  };
+  const auto dy =
+      rms_difference(p.dy_by_ye.mean, p.dy_by_ye.sem, r.dy_by_ye.mean, r.dy_by_ye.sem, has_samples);
+  std::ostringstream f;
+  f << "\"reference_wall_s\": " << bench::json_number(ref.wall)
+    << ", \"error_nu_lower_half\": "
+    << bench::json_number(std::abs(p.nu_lower_half.mean - r.nu_lower_half.mean))
+    << ", \"error_nu_lower_half_noise\": "
+    << bench::json_number(std::hypot(p.nu_lower_half.sem, r.nu_lower_half.sem))
+    << ", \"error_nu_profile_rms\": " << bench::json_number(nu.first)
+    << ", \"error_nu_profile_noise\": " << bench::json_number(nu.second)
+    << ", \"error_avalanche_rms\": " << bench::json_number(dy.first)
+    << ", \"error_avalanche_noise\": " << bench::json_number(dy.second);
+  return f.str();
+}
+
+// The settings of the accuracy study around a protocol's defaults.
+std::vector<Setup> accuracy_settings(const Setup& base) {
+  std::vector<Setup> v;
+  auto add = [&](const std::string& label, auto change) {
+    Setup s = base;
+    s.label = label;
+    change(s);
+    v.push_back(s);
+  };
+  add("default", [](Setup&) {});
+  for (double t : {1e-2, 3e-3, 3e-4, 1e-4})
+    add("tolerance=" + bench::json_number(t), [t](Setup& s) { s.tolerance = t; });
+  for (int c : {100, 300, 1000, 5000})
+    add("max_sweeps=" + std::to_string(c), [c](Setup& s) { s.max_sweeps = c; });
+  for (double f : {2.0, 0.5})
+    add("time_step=" + bench::json_number(base.time_step * f),
+        [f](Setup& s) { s.time_step *= f; });
+  for (double w : {0.8, 1.2, 1.5})
+    add("relaxation=" + bench::json_number(w), [w](Setup& s) { s.relaxation = w; });
+  for (const char* k : {"sequential_gauss_seidel", "gauss_seidel", "jacobi"})
+    add(std::string("solver=") + k, [k](Setup& s) { s.solver = k; });
+  // The default again, last: its two wall times give the run-to-run timing noise.
+  add("default (repeat)", [](Setup&) {});
+  return v;
+}
+
+void accuracy(const Setup& base, double budget_s) {
+  Setup ref = base;
+  ref.label = "reference";
+  ref.tolerance = 1e-5;
+  ref.max_sweeps = 20000;
+  ref.time_step = base.time_step / 2.0;
+  const Outcome r = run(ref, 1e30);
+  print("accuracy_reference", ref, outcome_json(r));
+  for (const Setup& s : accuracy_settings(base)) {
+    const Outcome o = run(s, budget_s);
+    print("accuracy", s, outcome_json(o) + ", " + error_json(s, o, r));
+  }
+}
+
+void effects(Setup base, double budget_s) {
+  std::vector<Setup> v;
+  auto add = [&](const std::string& label, auto change) {
+    Setup s = base;
+    s.label = label;
+    change(s);
+    v.push_back(s);
+  };
+  add("all effects", [](Setup&) {});
+  add("no cohesion", [](Setup& s) { s.bond_number = 0.0; });
+  add("no rolling friction", [](Setup& s) { s.rolling_friction = 0.0; });
+  add("no gravity (ballistic deposition)", [](Setup& s) { s.protocol = "B"; });
+  double t_all = NAN;
+  for (const Setup& s : v) {
+    const Outcome o = run(s, budget_s);
+    if (s.label == "all effects") t_all = o.wall;
+    print("effects", s,
+          outcome_json(o) + ", \"time_saved_fraction\": " + bench::json_number(1.0 - o.wall / t_all));
+  }
+}
+
+// Protocol A: square systems of side L. Protocol C: widths L at the base height, because a
+// small deposit does not collapse at all (below H ~ 40 R nothing moves: the cost would jump
+// from nothing to a collapse rather than scale).
+void size(Setup base, const std::vector<double>& sides, double budget_s) {
+  std::vector<double> n, t;
+  for (double side : sides) {
+    Setup s = base;
+    s.width = side;
+    if (s.protocol == "A") s.height = side;
+    s.label = (s.protocol == "A" ? "side=" : "width=") + bench::json_number(side);
+    const Outcome o = run(s, budget_s);
+    const double disks = static_cast<double>(o.disks) / std::max(1, o.members);
+    const double per = o.wall / std::max(1, o.members);
+    print("size", s,
+          outcome_json(o) + ", \"time_per_system_s\": " + bench::json_number(per));
+    if (!o.over_budget && o.members > 0) {
+      n.push_back(disks);
+      t.push_back(per);
+    }
+  }
+  const Fit f = power_law_fit(n, t, {});
+  std::ostringstream o;
+  o << "\"points\": " << n.size() << ", \"exponent\": "
+    << bench::json_number(f.valid() ? f.coef[1] : NAN)
+    << ", \"exponent_error\": " << bench::json_number(f.valid() ? f.error[1] : NAN)
+    << ", \"prefactor_s\": " << bench::json_number(f.valid() ? std::exp(f.coef[0]) : NAN)
+    << ", \"n_min\": " << bench::json_number(n.empty() ? NAN : n.front())
+    << ", \"n_max\": " << bench::json_number(n.empty() ? NAN : n.back());
+  base.label = "fit";
+  print("size_fit", base, o.str());
+}
+
+int usage() {
+  std::fprintf(stderr,
+               "usage: bench_study --study effects|size|accuracy [--tiny] [--seeds N] "
+               "[--budget S] [--protocol A|C]\n");
+  return 2;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Kokkos::ScopeGuard kokkos(argc, argv);
+  std::string study, protocol;
+  bool tiny = false;
+  int seeds = 0;
+  double budget_s = 600.0;  // per ensemble run of a setting
+  for (int a = 1; a < argc; ++a) {
+    const std::string f = argv[a];
+    const bool has_value = a + 1 < argc;
+    if (f == "--study" && has_value) {
+      study = argv[++a];
+    } else if (f == "--tiny") {
+      tiny = true;
+    } else if (f == "--seeds" && has_value) {
+      seeds = std::atoi(argv[++a]);
+    } else if (f == "--budget" && has_value) {
+      budget_s = std::atof(argv[++a]);
+    } else if (f == "--protocol" && has_value) {
+      protocol = argv[++a];
+    } else {
+      return usage();
+    }
+  }
+  if (study != "effects" && study != "size" && study != "accuracy") return usage();
+  if (!protocol.empty() && protocol != "A" && protocol != "C") return usage();
+  auto bases = [&]() {
+    std::vector<Setup> b;
+    if (protocol != "C") b.push_back(Setup());
+    if (protocol != "A") b.push_back(Setup::collapse());
+    for (Setup& s : b) {
+      if (tiny) s.width = s.height = 8.0;
+      s.seeds = seeds > 0 ? seeds : (tiny ? 2 : s.seeds);
+    }
+    return b;
+  };
+  try {
+    for (Setup base : bases()) {
+      if (study == "effects") {
+        effects(base, budget_s);
+      } else if (study == "accuracy") {
+        accuracy(base, budget_s);
+      } else {
+        if (seeds <= 0) base.seeds = base.protocol == "A" ? 2 : 4;
+        if (base.protocol == "C" && !tiny) base.height = 48.0;
+        const std::vector<double> sides =
+            tiny ? std::vector<double>{6.0, 8.0}
+                 : (base.protocol == "A" ? std::vector<double>{16.0, 23.0, 32.0, 46.0}
+                                         : std::vector<double>{12.0, 24.0, 48.0, 96.0});
+        size(base, sides, budget_s);
+      }
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_study: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
