@@ -95,14 +95,14 @@ def fmt(v, digits=3):
 def table(protocol, rs):
     noise = timing_noise(rs)
     print(f"\n### Protocol {protocol}\n")
-    print("| setting | wall [s] | sweeps | nu_lower_half | err nu_lh (noise) "
+    print("| setting | wall [s] | core share | sweeps | nu_lower_half | err nu_lh (noise) "
           "| rms err nu(y) (noise) | rms err Delta y [R] (noise) | max overlap [R] | front | dominated by |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rs:
         by = [o["setup"]["label"] for o in rs if o is not r and dominates(o, r, noise)]
         front = usable(r) and not by
         note = " (over budget)" if r["over_budget"] else (f" ({r['failed']} failed)" if r["failed"] else "")
-        print(f"| {r['setup']['label']}{note} | {fmt(r['wall_s'])} | {r['sweeps']} "
+        print(f"| {r['setup']['label']}{note} | {fmt(r['wall_s'])} | {fmt(r['core_share'], 2)} | {r['sweeps']} "
               f"| {fmt(r['nu_lower_half'])} +- {fmt(r['nu_lower_half_sem'], 2)} "
               f"| {fmt(r['error_nu_lower_half'], 2)} ({fmt(r['error_nu_lower_half_noise'], 2)}) "
               f"| {fmt(r['error_nu_profile_rms'], 2)} ({fmt(r['error_nu_profile_noise'], 2)}) "
