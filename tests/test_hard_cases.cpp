@@ -419,7 +419,12 @@ TEST(HardCase, OneDiskEmptyAndFullSystems) {
     expect_in_domain(batch.disks(s), batch.params(s), p.cohesion_range, "system " + std::to_string(s));
   }
   EXPECT_EQ(batch.disks(0).size(), 1u);
-  EXPECT_NEAR(batch.disks(0)[0].y, 1.0, 1e-12);
+  // Resting on the floor: with relaxation omega < 1 one contact is solved to the tolerance, not
+  // exactly; an impulse error below tol h m g per step moves the disk by at most tol h^2 g per
+  // step, and the floor contact's gap closing pulls it back, so the position error stays below
+  // that (1e-7 at tol 1e-3, h = 0.01).
+  const double h = batch.params(0).time_step;
+  EXPECT_NEAR(batch.disks(0)[0].y, 1.0, SolverSettings{}.tolerance * h * h * p.gravity);
   EXPECT_EQ(batch.disks(0)[0].vx, 0.0);
   EXPECT_NEAR(batch.disks(1)[0].y, 1.0, 1e-9);  // fell 2 R and rests on the floor
   EXPECT_LT(batch.status(1).max_speed, 1e-9);
