@@ -68,6 +68,14 @@ struct Setup {
     s.seeds = 8;
     return s;
   }
+  // A copy with another label and one change.
+  template <class Change>
+  Setup variant(const std::string& new_label, Change change) const {
+    Setup s = *this;
+    s.label = new_label;
+    change(s);
+    return s;
+  }
   std::string toml() const {
     std::ostringstream o;
     o.precision(17);
@@ -239,12 +247,7 @@ std::string error_json(const Setup& s, const Outcome& o, const Outcome& ref) {
 // The settings of the accuracy study around a protocol's defaults.
 std::vector<Setup> accuracy_settings(const Setup& base) {
   std::vector<Setup> v;
-  auto add = [&](const std::string& label, auto change) {
-    Setup s = base;
-    s.label = label;
-    change(s);
-    v.push_back(s);
-  };
+  auto add = [&](const std::string& label, auto change) { v.push_back(base.variant(label, change)); };
   add("default", [](Setup&) {});
   for (double t : {1e-2, 3e-3, 3e-4, 1e-4})
     add("tolerance=" + bench::json_number(t), [t](Setup& s) { s.tolerance = t; });
@@ -277,18 +280,12 @@ void accuracy(const Setup& base, double budget_s) {
   }
 }
 
-void effects(Setup base, double budget_s) {
-  std::vector<Setup> v;
-  auto add = [&](const std::string& label, auto change) {
-    Setup s = base;
-    s.label = label;
-    change(s);
-    v.push_back(s);
-  };
-  add("all effects", [](Setup&) {});
-  add("no cohesion", [](Setup& s) { s.bond_number = 0.0; });
-  add("no rolling friction", [](Setup& s) { s.rolling_friction = 0.0; });
-  add("no gravity (ballistic deposition)", [](Setup& s) { s.protocol = "B"; });
+void effects(const Setup& base, double budget_s) {
+  const std::vector<Setup> v = {
+      base.variant("all effects", [](Setup&) {}),
+      base.variant("no cohesion", [](Setup& s) { s.bond_number = 0.0; }),
+      base.variant("no rolling friction", [](Setup& s) { s.rolling_friction = 0.0; }),
+      base.variant("no gravity (ballistic deposition)", [](Setup& s) { s.protocol = "B"; })};
   double t_all = NAN;
   for (const Setup& s : v) {
     const Outcome o = run(s, budget_s);
@@ -304,10 +301,12 @@ void effects(Setup base, double budget_s) {
 void size(Setup base, const std::vector<double>& sides, double budget_s) {
   std::vector<double> n, t;
   for (double side : sides) {
-    Setup s = base;
-    s.width = side;
-    if (s.protocol == "A") s.height = side;
-    s.label = (s.protocol == "A" ? "side=" : "width=") + bench::json_number(side);
+    const bool square = base.protocol == "A";
+    const Setup s = base.variant((square ? "side=" : "width=") + bench::json_number(side),
+                                 [&](Setup& v) {
+                                   v.width = side;
+                                   if (square) v.height = side;
+                                 });
     const Outcome o = run(s, budget_s);
     const double disks = static_cast<double>(o.disks) / std::max(1, o.members);
     const double per = o.wall / std::max(1, o.members);
