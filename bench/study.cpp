@@ -50,7 +50,7 @@ struct Setup {
   double width = 24.0, height = 24.0, bond_number = 1e2, capture_radius = 1.0;
   // The program's defaults (params.hpp).
   double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
-  double tolerance = SolverSettings{}.tolerance, relaxation = SolverSettings{}.relaxation;
+  double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
   int max_sweeps = SolverSettings{}.max_sweeps;
   std::string solver = solver_kind_name(SolverSettings{}.kind);
   int seeds = 16;
@@ -65,6 +65,7 @@ struct Setup {
     s.bond_number = 1e3;
     s.capture_radius = 2.0;
     s.time_step = 0.0028;
+    s.tolerance = default_tolerance(Protocol::C);
     s.seeds = 8;
     return s;
   }
@@ -249,8 +250,16 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
   std::vector<Setup> v;
   auto add = [&](const std::string& label, auto change) { v.push_back(base.variant(label, change)); };
   add("default", [](Setup&) {});
-  for (double t : {1e-2, 3e-3, 3e-4, 1e-4})
-    add("tolerance=" + bench::json_number(t), [t](Setup& s) { s.tolerance = t; });
+  // Two half-decade steps either side of the protocol's default tolerance.
+  const std::vector<double> grid = {3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
+  std::size_t at = 0;
+  for (std::size_t k = 1; k < grid.size(); ++k)
+    if (std::abs(std::log(grid[k] / base.tolerance)) < std::abs(std::log(grid[at] / base.tolerance)))
+      at = k;
+  for (std::size_t k = at >= 2 ? at - 2 : 0; k <= std::min(at + 2, grid.size() - 1); ++k) {
+    const double t = grid[k];
+    if (k != at) add("tolerance=" + bench::json_number(t), [t](Setup& s) { s.tolerance = t; });
+  }
   for (int c : {100, 300, 1000, 5000})
     add("max_sweeps=" + std::to_string(c), [c](Setup& s) { s.max_sweeps = c; });
   for (double f : {2.0, 0.5})

@@ -223,7 +223,7 @@ struct SequentialGaussSeidel {
   ParticleViews part;
   ContactViews con;
   DView<int> sweeps;  // [S] sweeps of this step
-  double omega, tolerance;
+  double omega;
   bool backward;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
@@ -241,7 +241,7 @@ struct SequentialGaussSeidel {
       for (int c = first; c < end; ++c) apply(c, worst);
     }
     sweeps(s) += 1;
-    if (!(worst > tolerance)) {  // a NaN system stops iterating; the integrate guard fails it
+    if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
       sys.unconverged(s) = 0;
     } else {
       ++still;
@@ -264,7 +264,7 @@ struct AcceleratedGaussSeidel {
   ParticleViews part;
   ContactViews con;
   DView<int> sweeps;  // [S] sweeps of this step
-  double omega, tolerance;
+  double omega;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
@@ -282,7 +282,7 @@ struct AcceleratedGaussSeidel {
     for (int c = first; c < end; ++c) apply(c, worst);
     for (int c = end - 1; c >= first; --c) apply(c, worst);
     sweeps(s) += 2;
-    if (!(worst > tolerance)) {  // a NaN system stops iterating; the integrate guard fails it
+    if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
       sys.unconverged(s) = 0;
       return;
     }

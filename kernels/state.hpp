@@ -31,7 +31,8 @@ struct SystemViews {
   // [S] parameters (see SystemParams)
   DView<double> width, height, radius, polydispersity, disk_density, capture_radius, gravity_x,
       gravity_y, cohesive_force, cohesion_range, friction, rolling_friction, time_step,
-      weight;  // weight: m g of a mean disk, the force unit of tolerances
+      weight,     // weight: m g of a mean disk, the force unit of tolerances
+      tolerance;  // solver tolerance [h m g]: a sweep whose largest impulse change is below it ends
   DView<int> floor_cohesion;
   // [S] counter-based random stream: key (seed, member) and the next draw index
   DView<std::uint64_t> seed, member, draws;

@@ -186,6 +186,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.rolling_friction = alloc<double>("rolling_friction", S);
   sys.time_step = alloc<double>("time_step", S);
   sys.weight = alloc<double>("weight", S);
+  sys.tolerance = alloc<double>("tolerance", S);
   sys.floor_cohesion = alloc<int>("floor_cohesion", S);
   sys.seed = alloc<std::uint64_t>("seed", S);
   sys.member = alloc<std::uint64_t>("member", S);
@@ -317,6 +318,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   set(sys.time_step, pr.time_step);
   const double weight = pr.reference_mass() * pr.gravity;
   set(sys.weight, weight > 0.0 ? weight : 1.0);
+  set(sys.tolerance, su.tolerance > 0.0 ? su.tolerance : solver.tolerance);
   set(sys.floor_cohesion, pr.floor_cohesion ? 1 : 0);
   set(sys.seed, su.seed);
   set(sys.member, su.member);
@@ -384,7 +386,6 @@ template <class Fx>
 void Batch::Impl::solve() {
   const SystemViews sys_ = sys;
   const auto sweeps = sweeps_this_step;
-  const double tol = solver.tolerance;
   const double omega = solver.relaxation;
   const bool jacobi = solver.kind == SolverKind::Jacobi;
   const int n_contacts = n_particles * kSlots;
@@ -394,7 +395,7 @@ void Batch::Impl::solve() {
       int still = 0;
       Kokkos::parallel_reduce("accelerated_gauss_seidel",
                               Kokkos::RangePolicy<ExecSpace>(0, n_systems),
-                              AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega, tol}, still);
+                              AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega}, still);
       if (still == 0) break;
     }
     return;
@@ -405,7 +406,7 @@ void Batch::Impl::solve() {
       int still = 0;
       Kokkos::parallel_reduce(
           "sequential_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
-          SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, tol, sweep % 2 == 1}, still);
+          SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, sweep % 2 == 1}, still);
       if (still == 0) break;
     }
     return;
@@ -440,7 +441,7 @@ void Batch::Impl::solve() {
         KOKKOS_LAMBDA(int s, int& n) {
           if (!sys_.active(s) || !sys_.unconverged(s)) return;
           sweeps(s) += 1;
-          if (!(sys_.sweep_change(s) > tol)) {
+          if (!(sys_.sweep_change(s) > sys_.tolerance(s))) {
             sys_.unconverged(s) = 0;
           } else {
             ++n;

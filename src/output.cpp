@@ -196,7 +196,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         H5 g = group(file, "settings");
         attribute(g, "solver_kind",
                   std::string(solver_kind_name(scan.solver.kind)));
-        attribute(g, "solver_tolerance", scan.solver.tolerance);
+        if (scan.tolerance_given) attribute(g, "solver_tolerance", scan.solver.tolerance);
         attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
         attribute(g, "solver_relaxation", scan.solver.relaxation);
         attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
@@ -228,6 +228,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         const PointAnalysis& an = analysis.points.at(pk);
         H5 g = group(file, point_name(pr.point.index));
         attribute(g, "protocol", protocol_name(pr.point.protocol));
+        attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
         params(g, pr.point.params);
         attribute(g, "members", static_cast<double>(pr.members));
         attribute(g, "failed", static_cast<double>(pr.failed));

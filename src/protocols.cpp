@@ -130,6 +130,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     su.grid_cells = cells;
     su.seed = scan.seed;
     su.member = m.id;
+    su.tolerance = scan.tolerance(m.protocol);
     return su;
   };
   for (const auto& m : members) {

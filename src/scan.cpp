@@ -420,6 +420,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
                  "\"accelerated_gauss_seidel\"");
         } else if (k == "tolerance") {
           scan.solver.tolerance = real(v, key, 1e-14, 1.0);
+          scan.tolerance_given = true;
         } else if (k == "max_sweeps") {
           scan.solver.max_sweeps = positive_int(v, key, 1, 100000000);
         } else if (k == "relaxation") {

@@ -28,6 +28,8 @@ struct SystemSetup {
   // Key of the counter-based random stream of this system: (scan seed, member id).
   std::uint64_t seed = 0;
   std::uint64_t member = 0;
+  // Solver tolerance of this system [h m g]; 0: the batch's SolverSettings::tolerance.
+  double tolerance = 0.0;
 };
 
 // Contact force of one contact, in force units (impulse / h).
@@ -126,8 +128,11 @@ class Batch {
   // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s.
   double max_overlap(int s) const;
 
- private:
+ // Public only because CUDA's extended lambdas (in the kernels of batch.cpp) may not be defined
+  // inside a class of private access; nothing outside batch.cpp can use it.
   struct Impl;
+
+ private:
   std::unique_ptr<Impl> impl_;
 };
 

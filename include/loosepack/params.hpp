@@ -71,7 +71,10 @@ inline bool solver_kind_from_name(const std::string& name, SolverKind& kind) {
 // How the contact problem is solved; shared by all systems of a batch.
 struct SolverSettings {
   SolverKind kind = SolverKind::AcceleratedGaussSeidel;
-  double tolerance = 1e-3;     // max impulse change per sweep, in units of h m g (per system)
+  // Max impulse change per sweep [h m g], per system: this is the batch's value for systems
+  // whose SystemSetup sets none; a scan gives each member its protocol's default_tolerance
+  // (scan.hpp) unless the file sets [solver] tolerance.
+  double tolerance = 1e-3;
   int max_sweeps = 2000;       // iteration cap per step
   // omega: P <- P + omega (P_local - P). 0.8 since the accuracy/time study (docs/PERFORMANCE.md):
   // fewer sweeps than 1.0 at the same accuracy for protocols A and C.

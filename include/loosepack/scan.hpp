@@ -16,6 +16,12 @@ enum class Protocol {
 };
 std::string protocol_name(Protocol p);
 
+// The solver tolerance [h m g] a protocol runs with when the scan file sets none. From the
+// accuracy/time study (docs/PERFORMANCE.md, "Accuracy against time"): 1e-3 for the slow
+// deposition A; 3e-4 for the collapse C, where it is faster than 1e-3 (a loosely solved collapse
+// creeps longer before rest) and follows the tightly converged reference. B has no dynamics.
+inline double default_tolerance(Protocol p) { return p == Protocol::A ? 1e-3 : 3e-4; }
+
 // How the observables are measured (MODEL.md, "Observables").
 struct ObservableSettings {
   double strip_width = 3.97;      // w of the volume fraction profile nu(y) [R]
@@ -51,13 +57,18 @@ struct Scan {
   std::uint64_t seed = 1;
   int seeds = 1;        // members per scan point
   int batch_size = 16;  // systems advanced together
-  SolverSettings solver;
+  SolverSettings solver;  // solver.tolerance only counts where tolerance_given
+  bool tolerance_given = false;  // [solver] tolerance set in the file, for every protocol
   RestSettings rest;
   ObservableSettings observables;
   ProtocolSettings protocol;
   std::vector<ScanPoint> points;
   std::vector<std::string> warnings;  // valid but questionable choices, printed by the program
   int members() const { return static_cast<int>(points.size()) * seeds; }
+  // The solver tolerance of a member of protocol p: the file's, else the protocol's default.
+  double tolerance(Protocol p) const {
+    return tolerance_given ? solver.tolerance : default_tolerance(p);
+  }
 };
 
 // Thrown for any invalid scan file; the message names file:line:column and the key.
