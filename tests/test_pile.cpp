@@ -228,3 +228,39 @@ TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
   EXPECT_LT(acc80 / acc40, 2.6);  // ~ n
   EXPECT_LT(acc80, gs80 / 10.0);
 }
+
+// The tolerance is per system (scans give protocols different defaults, scan.hpp): two equal
+// columns in one batch, one solved loosely and one tightly, each take exactly the sweeps they
+// take alone in a batch whose solver setting is their tolerance, for the per-system solver (its
+// convergence test inside the kernel) and for Jacobi (a separate convergence kernel).
+TEST(Solver, ToleranceIsPerSystem) {
+  auto p = bare_params(20.0, 50.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  const int n = 20;
+  for (SolverKind kind : {SolverKind::AcceleratedGaussSeidel, SolverKind::Jacobi}) {
+    SCOPED_TRACE(solver_kind_name(kind));
+    SolverSettings s;
+    s.kind = kind;
+    s.max_sweeps = 2000000;
+    auto alone = [&](double tolerance) {
+      SolverSettings t = s;
+      t.tolerance = tolerance;
+      Batch batch({setup(p, column(n, 10.0))}, t);
+      batch.step();
+      return batch.status(0).sweeps;
+    };
+    SystemSetup loose = setup(p, column(n, 10.0)), tight = loose;
+    loose.tolerance = 1e-2;
+    tight.tolerance = 1e-8;
+    Batch batch({loose, tight}, s);
+    batch.step();
+    EXPECT_EQ(batch.status(0).sweeps, alone(1e-2));
+    EXPECT_EQ(batch.status(1).sweeps, alone(1e-8));
+    EXPECT_GT(batch.status(1).sweeps, batch.status(0).sweeps);
+    const double mg = p.reference_mass() * p.gravity;
+    for (const auto& c : batch.contacts(1)) {
+      if (c.j < 0) EXPECT_NEAR(c.normal, n * mg, 1e-5 * n * mg);
+    }
+  }
+}

@@ -42,6 +42,21 @@ TEST(Scan, InfiniteBondNumberIsAccepted) {
   EXPECT_TRUE(std::isinf(scan.points[1].params.bond_number));
 }
 
+// Without [solver] tolerance each protocol runs with its own default; with it, every protocol
+// runs with the file's.
+TEST(Scan, ToleranceIsTheProtocolDefaultUnlessSet) {
+  const auto plain = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n", "plain.toml");
+  EXPECT_FALSE(plain.tolerance_given);
+  EXPECT_EQ(plain.tolerance(Protocol::A), default_tolerance(Protocol::A));
+  EXPECT_EQ(plain.tolerance(Protocol::C), default_tolerance(Protocol::C));
+  EXPECT_LT(default_tolerance(Protocol::C), default_tolerance(Protocol::A));
+  const auto set = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n[solver]\ntolerance = 2e-4\n",
+                              "set.toml");
+  EXPECT_TRUE(set.tolerance_given);
+  EXPECT_EQ(set.tolerance(Protocol::A), 2e-4);
+  EXPECT_EQ(set.tolerance(Protocol::C), 2e-4);
+}
+
 TEST(Scan, RejectsBadInputWithFileLineAndKey) {
   const std::vector<scan_errors::Case> cases = {
       {"[system]\nbond_number = -1\n", "bad.toml:2:15: key 'system.bond_number': Bo must be"},
