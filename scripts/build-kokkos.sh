@@ -57,8 +57,9 @@ if [ "$backend" = cuda ]; then
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
       nvidia-cuda-toolkit g++-11 >/dev/null
   fi
-  # Debian's CUDA first (a machine may have another toolkit in /usr/local/cuda on the PATH).
-  export PATH="/usr/lib/nvidia-cuda-toolkit/bin:$PATH" NVCC_WRAPPER_DEFAULT_COMPILER=g++-11
+  # Debian's CUDA first, and its ptxas in /usr/bin (a machine may have another toolkit, whose
+  # ptxas knows other GPUs, in /usr/local/cuda on the PATH).
+  export PATH="/usr/lib/nvidia-cuda-toolkit/bin:/usr/bin:$PATH" NVCC_WRAPPER_DEFAULT_COMPILER=g++-11
   kokkos_options+=(-DKokkos_ENABLE_CUDA=ON -DKokkos_ENABLE_CUDA_LAMBDA=ON
     "-DKokkos_ARCH_${kokkos_arch}=ON" -DCUDAToolkit_INCLUDE_DIR=/usr/include)
   loosepack_options+=(-DCMAKE_CXX_COMPILER="$prefix/bin/nvcc_wrapper" -DLOOSEPACK_MPI=OFF)

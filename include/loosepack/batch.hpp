@@ -128,7 +128,7 @@ class Batch {
   // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s.
   double max_overlap(int s) const;
 
- // Public only because CUDA's extended lambdas (in the kernels of batch.cpp) may not be defined
+  // Public only because CUDA's extended lambdas (in the kernels of batch.cpp) may not be defined
   // inside a class of private access; nothing outside batch.cpp can use it.
   struct Impl;
 

@@ -68,7 +68,8 @@ inline bool solver_kind_from_name(const std::string& name, SolverKind& kind) {
   return false;
 }
 
-// How the contact problem is solved; shared by all systems of a batch.
+// How the contact problem is solved; shared by all systems of a batch except the tolerance,
+// which a system's SystemSetup may set.
 struct SolverSettings {
   SolverKind kind = SolverKind::AcceleratedGaussSeidel;
   // Max impulse change per sweep [h m g], per system: this is the batch's value for systems
