@@ -81,11 +81,9 @@ def timing_noise(rs):
     return max(0.05, abs(t[0] - t[1]) / (0.5 * (t[0] + t[1])))
 
 
-COST = "wall"  # or "sweeps" (--cost)
-
-
-def dominates(a, b, noise):
-    if COST == "sweeps":
+def dominates(a, b, noise, cost):
+    """Does a dominate b? cost: "wall" (with the timing noise) or "sweeps"."""
+    if cost == "sweeps":
         cheaper = (a["setup"]["solver"] == b["setup"]["solver"] and a["sweeps"] < b["sweeps"])
     else:
         cheaper = a["wall_s"] < b["wall_s"] * (1.0 - noise)
@@ -104,14 +102,14 @@ def fmt(v, digits=3):
     return f"{v:.{digits}g}"
 
 
-def table(protocol, rs):
+def table(protocol, rs, cost):
     noise = timing_noise(rs)
     print(f"\n### Protocol {protocol}\n")
     print("| setting | wall [s] | core share | sweeps | nu_lower_half | err nu_lh (noise) "
           "| rms err nu(y) (noise) | rms err Delta y [R] (noise) | max overlap [R] | front | dominated by |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rs:
-        by = [o["setup"]["label"] for o in rs if o is not r and dominates(o, r, noise)]
+        by = [o["setup"]["label"] for o in rs if o is not r and dominates(o, r, noise, cost)]
         front = usable(r) and not by
         note = " (over budget)" if r["over_budget"] else (f" ({r['failed']} failed)" if r["failed"] else "")
         print(f"| {r['setup']['label']}{note} | {fmt(r['wall_s'])} | {fmt(r['core_share'], 2)} | {r['sweeps']} "
@@ -177,24 +175,22 @@ def main():
     ap.add_argument("--cost", choices=("wall", "sweeps"), default="wall",
                     help="what 'faster' compares (default: wall time with its noise)")
     a = ap.parse_args()
-    global COST
-    COST = a.cost
     try:
         runs = load(a.records)
     except OSError as e:
         sys.exit(f"pareto.py: {e}")
     dominated = False
     for p in sorted(runs):
-        table(p, runs[p])
+        table(p, runs[p], a.cost)
         d = [r for r in runs[p] if r["setup"]["label"].startswith("default")]
         by = [o["setup"]["label"] for o in runs[p] for r in d
-              if o is not r and dominates(o, r, timing_noise(runs[p]))]
+              if o is not r and dominates(o, r, timing_noise(runs[p]), a.cost)]
         if d and by:
             dominated = True
             print(f"\nProtocol {p}: the default is dominated by {', '.join(sorted(set(by)))} "
-                  f"(cost: {COST})")
+                  f"(cost: {a.cost})")
         elif d:
-            print(f"\nProtocol {p}: the default is on the Pareto front (cost: {COST})")
+            print(f"\nProtocol {p}: the default is on the Pareto front (cost: {a.cost})")
     if a.output:
         plot(runs, a.output)
     sys.exit(1 if dominated else 0)
