@@ -215,8 +215,9 @@ struct GaussSeidelContacts {
 
 // Gauss-Seidel in contact order within each system, one thread per system, alternating the
 // direction every sweep (symmetric Gauss-Seidel). Systems share nothing, so this is parallel
-// across the batch; within a system it needs no colouring. Also runs the convergence test:
-// returns the number of systems still iterating.
+// across the batch; within a system it needs no colouring. Each thread iterates its system to
+// convergence (or max_sweeps) in one launch: the system's contacts stay in cache, and nothing
+// is read back to the host between sweeps.
 template <class Fx>
 struct SequentialGaussSeidel {
   SystemViews sys;
@@ -224,27 +225,28 @@ struct SequentialGaussSeidel {
   ContactViews con;
   DView<int> sweeps;  // [S] sweeps of this step
   double omega;
-  bool backward;
+  int max_sweeps;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
   }
 
-  KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
+  KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
     const int first = range.first, end = range.end;
-    double worst = 0.0;
-    if (backward) {
-      for (int c = end - 1; c >= first; --c) apply(c, worst);
-    } else {
-      for (int c = first; c < end; ++c) apply(c, worst);
-    }
-    sweeps(s) += 1;
-    if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
-      sys.unconverged(s) = 0;
-    } else {
-      ++still;
+    for (int sweep = 0; sweep < max_sweeps; ++sweep) {
+      double worst = 0.0;
+      if (sweep % 2 == 1) {
+        for (int c = end - 1; c >= first; --c) apply(c, worst);
+      } else {
+        for (int c = first; c < end; ++c) apply(c, worst);
+      }
+      sweeps(s) += 1;
+      if (!(worst > sys.tolerance(s))) {  // a NaN system stops; the integrate guard fails it
+        sys.unconverged(s) = 0;
+        return;
+      }
     }
   }
 };
@@ -256,8 +258,9 @@ struct SequentialGaussSeidel {
 // With beta = |d_k|^2 / |d_{k-1}|^2 the iterate takes the step x += beta p and the direction
 // becomes p = beta p + d; beta > 1 restarts (no step; the direction becomes d), and so does
 // the first iteration of a step. Force propagates through a chain of n grains in about n
-// iterations instead of n^2. One thread per system, like SequentialGaussSeidel; the
-// convergence test is the same (largest local change of a sweep).
+// iterations instead of n^2. One thread per system iterating to convergence in one launch,
+// like SequentialGaussSeidel; the convergence test is the same (largest local change of a
+// sweep).
 template <class Fx>
 struct AcceleratedGaussSeidel {
   SystemViews sys;
@@ -265,28 +268,32 @@ struct AcceleratedGaussSeidel {
   ContactViews con;
   DView<int> sweeps;  // [S] sweeps of this step
   double omega;
+  int max_sweeps;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
   }
 
-  KOKKOS_INLINE_FUNCTION void operator()(int s, int& still) const {
+  KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
-    const int first = range.first, end = range.end;
-    if (sweeps(s) == 0) {  // first iteration of the step: it restarts, so no direction is read
-      sys.gradient2(s) = 0.0;
-      for (int c = first; c < end; ++c) keep_start(c);
-    }
+    // The first iteration of a step restarts, so no direction is read.
+    sys.gradient2(s) = 0.0;
+    for (int c = range.first; c < range.end; ++c) keep_start(c);
+    for (int sweep = 0; sweep < max_sweeps; sweep += 2)
+      if (iterate(s, range.first, range.end)) return;
+  }
+
+  // One iteration (a symmetric pair of sweeps and the NNCG step); true once converged.
+  KOKKOS_INLINE_FUNCTION bool iterate(int s, int first, int end) const {
     double worst = 0.0;
     for (int c = first; c < end; ++c) apply(c, worst);
     for (int c = end - 1; c >= first; --c) apply(c, worst);
     sweeps(s) += 2;
     if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
       sys.unconverged(s) = 0;
-      return;
+      return true;
     }
-    ++still;
     double g2 = 0.0;
     for (int c = first; c < end; ++c) {
       if (con.partner(c) == kNoContact) continue;
@@ -319,6 +326,7 @@ struct AcceleratedGaussSeidel {
       }
       keep_start(c);  // the next iteration starts from here
     }
+    return false;
   }
 
   KOKKOS_INLINE_FUNCTION void keep_start(int c) const {

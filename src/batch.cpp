@@ -389,26 +389,19 @@ void Batch::Impl::solve() {
   const double omega = solver.relaxation;
   const bool jacobi = solver.kind == SolverKind::Jacobi;
   const int n_contacts = n_particles * kSlots;
+  // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
     Kokkos::deep_copy(sweeps, 0);
-    for (int sweep = 0; sweep < solver.max_sweeps; sweep += 2) {
-      int still = 0;
-      Kokkos::parallel_reduce("accelerated_gauss_seidel",
-                              Kokkos::RangePolicy<ExecSpace>(0, n_systems),
-                              AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega}, still);
-      if (still == 0) break;
-    }
+    Kokkos::parallel_for(
+        "accelerated_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+        AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
     return;
   }
   if (solver.kind == SolverKind::SequentialGaussSeidel) {
     Kokkos::deep_copy(sweeps, 0);
-    for (int sweep = 0; sweep < solver.max_sweeps; ++sweep) {
-      int still = 0;
-      Kokkos::parallel_reduce(
-          "sequential_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
-          SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, sweep % 2 == 1}, still);
-      if (still == 0) break;
-    }
+    Kokkos::parallel_for(
+        "sequential_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+        SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
     return;
   }
   int n_colours = 0;
