@@ -34,6 +34,9 @@ std::string failure_message(Failure f) {
 }
 
 namespace {
+// Particle slots per chunk of the contact stage on the host: ~1.3 kB of contact and particle
+// state each, so a chunk is ~1 MB, half this machine's L2 (docs/PERFORMANCE.md, batch scaling).
+constexpr int kChunkSlots = 768;
 // Contact detection margin: 2 h (v_max + h g), between these bounds (times the mean radius).
 // The upper bound grows for tall systems, where a disk falling the height of the box moves more
 // than half a radius in two steps (see grid_shape).
@@ -74,6 +77,8 @@ struct Batch::Impl {
   DView<double> reply;      // [4 S] their results
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
+  std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks
+  void chunk_active();
   // Batch steps taken, and the last one each system took part in: a system that sat out a step
   // has stale contact arrays (they are swapped every step) and resumes with a cold start, so
   // its results never depend on what the rest of the batch did meanwhile.
@@ -487,6 +492,28 @@ int Batch::Impl::colour() {
   return n_colours;
 }
 
+// The particle ranges of the contact stage: on the host, runs of active systems of about
+// kChunkSlots particle slots each, so that inactive systems (at rest, or finished while the rest
+// of the batch runs) cost nothing and one chunk's contact arrays stay in cache from one kernel
+// to the next; on a device, which hides latency by width, the whole batch in one launch.
+void Batch::Impl::chunk_active() {
+  chunks.clear();
+  constexpr bool host_memory = Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemSpace>::accessible;
+  if (!host_memory) {
+    chunks.emplace_back(0, n_particles);
+    return;
+  }
+  for (std::size_t s = 0; s < status.size(); ++s) {
+    if (!status[s].active) continue;
+    const int begin = offsets[s], end = begin + slot_capacity[s];
+    if (!chunks.empty() && chunks.back().second == begin &&
+        chunks.back().second - chunks.back().first < kChunkSlots)
+      chunks.back().second = end;
+    else
+      chunks.emplace_back(begin, end);
+  }
+}
+
 void Batch::Impl::step() {
   bool any = false;
   for (const auto& st : status) any = any || st.active;
@@ -521,17 +548,22 @@ void Batch::Impl::step() {
   std::swap(con.pn, con.prev_pn);
   std::swap(con.pt, con.prev_pt);
   std::swap(con.pm, con.prev_pm);
-  Kokkos::parallel_for("contacts", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
-                       ContactBuild{sys, part, con, grid});
-  Kokkos::parallel_for("incident", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
-                       IncidentBuild{sys, part, con, grid});
-  Kokkos::parallel_for(
-      "mobility", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
-      ContactMobilityBuild{part, con, solver.kind == SolverKind::Jacobi && solver.mass_splitting});
-  // Stage 4: velocities from the warm-start impulses, then the iterative solve.
-  Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
-                       BodyVelocity{sys, part, con, false});
+  // Chunk by chunk of active systems (they share nothing; see chunk_active). Then the
+  // velocities from the warm-start impulses (stage 4 starts here).
+  chunk_active();
+  const bool split_mass = solver.kind == SolverKind::Jacobi && solver.mass_splitting;
+  for (const auto& [p0, p1] : chunks) {
+    Kokkos::parallel_for("contacts", Kokkos::RangePolicy<ExecSpace>(p0, p1),
+                         ContactBuild{sys, part, con, grid});
+    Kokkos::parallel_for("incident", Kokkos::RangePolicy<ExecSpace>(p0, p1),
+                         IncidentBuild{sys, part, con, grid});
+    Kokkos::parallel_for("mobility", Kokkos::RangePolicy<ExecSpace>(p0 * kSlots, p1 * kSlots),
+                         ContactMobilityBuild{part, con, split_mass});
+    Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(p0, p1),
+                         BodyVelocity{sys, part, con, false});
+  }
   stage_done("contacts");
+  // Stage 4: the iterative solve.
   if (any_rolling) {
     solve<Effects<true, true, true>>();
   } else if (any_friction) {
