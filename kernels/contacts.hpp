@@ -97,49 +97,55 @@ struct ContactBuild {
       }
     }
     for (int q = k; q < kSlots; ++q) con.partner(p * kSlots + q) = kNoContact;
+    // The particle's own slots open its incidence list (IncidentScatter adds the others).
+    const int own = kmath::imin(k, kSlots);
+    for (int q = 0; q < own; ++q) part.incident(p * kIncident + q) = p * kSlots + q;
+    part.n_incident(p) = own;
   }
 };
 
-// Contact slot ids incident to each particle: its own slots, then the slots of lower-index
-// neighbours that name it, in grid order.
-struct IncidentBuild {
+// Contact slot ids incident to each particle: ContactBuild writes its own slots; this adds each
+// contact slot to the list of its partner (a disk of higher index, in the same system), and
+// IncidentSort then puts every list in increasing slot order, so that the sums over it are
+// the same on every backend whatever order the atomics took.
+struct IncidentScatter {
   SystemViews sys;
   ParticleViews part;
   ContactViews con;
-  GridViews grid;
 
   KOKKOS_INLINE_FUNCTION void operator()(int p) const {
-    int n = 0;
-    const int s = part.system(p);
-    if (part.cell(p) >= 0) {
-      for (int k = 0; k < kSlots && con.partner(p * kSlots + k) != kNoContact; ++k)
-        part.incident(p * kIncident + n++) = p * kSlots + k;
-      const int nx = sys.grid_nx(s), ny = sys.grid_ny(s);
-      const int c0 = part.cell(p) - sys.cell_offset(s);
-      const int cx = c0 % nx, cy = c0 / nx;
-      const ColumnRange cols = grid_columns(cx, nx);
-      for (int ry = kmath::imax(cy - 1, 0); ry <= kmath::imin(cy + 1, ny - 1); ++ry) {
-        for (int kc = 0; kc < cols.n; ++kc) {
-          const int c = sys.cell_offset(s) + ry * nx + cols[kc];
-          for (int a = grid.cell_start(c); a < grid.cell_start(c + 1); ++a) {
-            const int q = grid.cell_particles(a);
-            if (q >= p) continue;
-            for (int k = 0; k < kSlots; ++k) {
-              const int slot = q * kSlots + k;
-              const int partner = con.partner(slot);
-              if (partner == kNoContact) break;
-              if (partner != p) continue;
-              if (n >= kIncident) {
-                Kokkos::atomic_exchange(&sys.failure(s), int(kContactOverflow));
-              } else {
-                part.incident(p * kIncident + n++) = slot;
-              }
-            }
-          }
-        }
-      }
+    if (part.cell(p) < 0) return;
+    for (int k = 0; k < kSlots; ++k) {
+      const int c = p * kSlots + k;
+      const int j = con.partner(c);
+      if (j == kNoContact) break;
+      if (j < 0) continue;  // the floor
+      const int a = Kokkos::atomic_fetch_add(&part.n_incident(j), 1);
+      if (a < kIncident)
+        part.incident(j * kIncident + a) = c;
+      else
+        Kokkos::atomic_exchange(&sys.failure(part.system(p)), int(kContactOverflow));
     }
+  }
+};
+
+struct IncidentSort {
+  ParticleViews part;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int p) const {
+    if (part.cell(p) < 0) return;
+    const int n = kmath::imin(part.n_incident(p), kIncident);  // more: the system has failed
     part.n_incident(p) = n;
+    const int first = p * kIncident;
+    for (int a = first + 1; a < first + n; ++a) {
+      const int v = part.incident(a);
+      int b = a - 1;
+      while (b >= first && part.incident(b) > v) {
+        part.incident(b + 1) = part.incident(b);
+        --b;
+      }
+      part.incident(b + 1) = v;
+    }
   }
 };
 

@@ -556,7 +556,9 @@ void Batch::Impl::step() {
     Kokkos::parallel_for("contacts", Kokkos::RangePolicy<ExecSpace>(p0, p1),
                          ContactBuild{sys, part, con, grid});
     Kokkos::parallel_for("incident", Kokkos::RangePolicy<ExecSpace>(p0, p1),
-                         IncidentBuild{sys, part, con, grid});
+                         IncidentScatter{sys, part, con});
+    Kokkos::parallel_for("incident_sort", Kokkos::RangePolicy<ExecSpace>(p0, p1),
+                         IncidentSort{part});
     Kokkos::parallel_for("mobility", Kokkos::RangePolicy<ExecSpace>(p0 * kSlots, p1 * kSlots),
                          ContactMobilityBuild{part, con, split_mass});
     Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(p0, p1),
