@@ -114,7 +114,8 @@ struct Stage {
   bool per_sweep;
 };
 const Stage kGrid{"grid", {"grid_bin", "grid_scan", "grid_fill", "grid_sort_cells"}, false};
-const Stage kContacts{"contacts", {"contacts", "incident", "mobility", "warm_start"}, false};
+const Stage kContacts{
+    "contacts", {"contacts", "incident", "incident_sort", "mobility", "warm_start"}, false};
 const Stage kJacobi{"jacobi_sweep", {"jacobi_contacts", "jacobi_bodies", "convergence"}, true};
 const Stage kColouring{
     "colouring",
