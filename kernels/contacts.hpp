@@ -98,9 +98,8 @@ struct ContactBuild {
     }
     for (int q = k; q < kSlots; ++q) con.partner(p * kSlots + q) = kNoContact;
     // The particle's own slots open its incidence list (IncidentScatter adds the others).
-    const int own = kmath::imin(k, kSlots);
-    for (int q = 0; q < own; ++q) part.incident(p * kIncident + q) = p * kSlots + q;
-    part.n_incident(p) = own;
+    for (int q = 0; q < k; ++q) part.incident(p * kIncident + q) = p * kSlots + q;
+    part.n_incident(p) = k;  // k <= kSlots < kIncident (add refuses a ninth)
   }
 };
 
@@ -136,16 +135,7 @@ struct IncidentSort {
     if (part.cell(p) < 0) return;
     const int n = kmath::imin(part.n_incident(p), kIncident);  // more: the system has failed
     part.n_incident(p) = n;
-    const int first = p * kIncident;
-    for (int a = first + 1; a < first + n; ++a) {
-      const int v = part.incident(a);
-      int b = a - 1;
-      while (b >= first && part.incident(b) > v) {
-        part.incident(b + 1) = part.incident(b);
-        --b;
-      }
-      part.incident(b + 1) = v;
-    }
+    sort_range(part.incident, p * kIncident, p * kIncident + n);
   }
 };
 

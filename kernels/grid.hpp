@@ -64,17 +64,8 @@ inline void build_grid(const SystemViews& sys, const ParticleViews& part, const 
         plist(start(c) + Kokkos::atomic_fetch_add(&fill(c), 1)) = p;
       });
   Kokkos::parallel_for(
-      "grid_sort_cells", Kokkos::RangePolicy<ExecSpace>(0, n_cells), KOKKOS_LAMBDA(int c) {
-        for (int a = start(c) + 1; a < start(c + 1); ++a) {
-          const int v = plist(a);
-          int b = a - 1;
-          while (b >= start(c) && plist(b) > v) {
-            plist(b + 1) = plist(b);
-            --b;
-          }
-          plist(b + 1) = v;
-        }
-      });
+      "grid_sort_cells", Kokkos::RangePolicy<ExecSpace>(0, n_cells),
+      KOKKOS_LAMBDA(int c) { sort_range(plist, start(c), start(c + 1)); });
 }
 
 }  // namespace loosepack

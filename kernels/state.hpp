@@ -25,6 +25,21 @@ enum SystemFailure : int {
   kParticleOverflow = 3,  // more disks than the system's capacity
 };
 
+// Sorts v[first, end) in increasing order (insertion sort: the ranges are a grid cell's
+// particles or a disk's incident contacts, a handful each). After the atomic fills of a
+// parallel backend this makes every list, and every loop over it, the same on every backend.
+KOKKOS_INLINE_FUNCTION void sort_range(const DView<int>& v, int first, int end) {
+  for (int a = first + 1; a < end; ++a) {
+    const int x = v(a);
+    int b = a - 1;
+    while (b >= first && v(b) > x) {
+      v(b + 1) = v(b);
+      --b;
+    }
+    v(b + 1) = x;
+  }
+}
+
 struct SystemViews {
   // [S] layout
   DView<int> offset, capacity, count;

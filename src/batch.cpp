@@ -394,16 +394,15 @@ void Batch::Impl::solve() {
   const double omega = solver.relaxation;
   const bool jacobi = solver.kind == SolverKind::Jacobi;
   const int n_contacts = n_particles * kSlots;
+  Kokkos::deep_copy(sweeps, 0);
   // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
-    Kokkos::deep_copy(sweeps, 0);
     Kokkos::parallel_for(
         "accelerated_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
         AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
     return;
   }
   if (solver.kind == SolverKind::SequentialGaussSeidel) {
-    Kokkos::deep_copy(sweeps, 0);
     Kokkos::parallel_for(
         "sequential_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
         SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
@@ -417,7 +416,6 @@ void Batch::Impl::solve() {
     Kokkos::deep_copy(hs, colour_start);
     colour_begin.assign(hs.data(), hs.data() + n_colours + 1);
   }
-  Kokkos::deep_copy(sweeps, 0);
   for (int sweep = 0; sweep < solver.max_sweeps; ++sweep) {
     if (jacobi) {
       Kokkos::parallel_for("jacobi_contacts", Kokkos::RangePolicy<ExecSpace>(0, n_contacts),

@@ -25,7 +25,6 @@ set +e
 "$exe" summary "$dir/bad.toml" >/dev/null 2>&1 && fail "summary of a non-HDF5 file succeeded"
 set -e
 # Figures from the result file (Debian's python3 with h5py and matplotlib).
-repo=$(cd "$here/.." && pwd)
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/good.h5" -o "$dir/fig" >/dev/null
 for f in density_profiles avalanche_profiles abs_dy_histograms deposition_density \
   structure_0000_snapshot_0; do

@@ -1,8 +1,10 @@
-# Sourced by the shell tests: the program's absolute path from $1, a scratch directory $dir
-# removed on exit, fail MESSAGE, and same A.h5 B.h5 (tests/h5_equal.py: equal results).
+# Sourced by the shell tests: the program's absolute path from $1, the repository $repo, a
+# scratch directory $dir removed on exit, fail MESSAGE, and same A.h5 B.h5 (tests/h5_equal.py:
+# equal results).
 set -euo pipefail
 exe=$(realpath "$1")
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+repo=$(cd "$here/.." && pwd)
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }

@@ -59,7 +59,7 @@ with h5py.File("member-1.h5") as f:
     assert g.attrs["members"] == 1 and g.attrs["failed"] == 0
     assert list(g["members/seed_index"][()]) == [1]
 PY
-/usr/bin/python3 "$here/../tools/plot.py" serial.h5 -o fig >/dev/null
+/usr/bin/python3 "$repo/tools/plot.py" serial.h5 -o fig >/dev/null
 [ -s fig/structure_0000_failure_1.png ] || fail "plot.py did not draw the failed member"
 # The comparison itself can fail: another scan seed gives other datasets.
 sed 's/name = "mpi"/name = "mpi"\nseed = 2/' s.toml > seed2.toml

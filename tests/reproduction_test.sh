@@ -5,7 +5,6 @@
 # curvature for protocol A at Bo = 1e2, an exponential |Delta y| histogram at Bo = 0, straight
 # lines and the identity b' = b/(1+b), a' = a/(1+b) for protocol C. Several minutes on one core.
 source "$(dirname "$0")/common.sh"
-repo=$(cd "$here/.." && pwd)
 
 "$exe" run "$repo/examples/paper/claims_reduced.toml" -o "$dir/claims.h5" -q
 "$exe" summary "$dir/claims.h5" > "$dir/summary.txt"

@@ -12,9 +12,6 @@ using namespace loosepack;
 
 using scan_errors::error_of;
 
-namespace {
-}  // namespace
-
 TEST(Scan, AxesCombineAsAGrid) {
   const auto scan = parse_scan(R"(
 [scan]
