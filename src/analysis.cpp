@@ -31,16 +31,27 @@ Fit linear_least_squares(const Eigen::MatrixXd& A, const Eigen::VectorXd& y,
                                : Eigen::VectorXd::Ones(n);
   const Eigen::MatrixXd Aw = w.asDiagonal() * A;
   const Eigen::VectorXd yw = w.asDiagonal() * y;
-  const Eigen::MatrixXd normal = Aw.transpose() * Aw;
-  Eigen::LDLT<Eigen::MatrixXd> ldlt(normal);
-  if (ldlt.info() != Eigen::Success || !(ldlt.rcond() > 1e-14)) {
+  // QR of the weighted design matrix, not the normal equations: a bin whose error is tiny
+  // against the others' (disks that did not move at all) squares into a normal matrix too
+  // ill-conditioned to solve, while the fit itself is well defined.
+  if (!Aw.allFinite() || !yw.allFinite()) {
     f.dof = -1;
     return f;
   }
-  const Eigen::VectorXd c = ldlt.solve(Aw.transpose() * yw);
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Aw);
+  if (qr.rank() < k) {
+    f.dof = -1;
+    return f;
+  }
+  const Eigen::VectorXd c = qr.solve(yw);
   const Eigen::VectorXd r = yw - Aw * c;
   f.chi2 = r.squaredNorm();
-  Eigen::MatrixXd cov = ldlt.solve(Eigen::MatrixXd::Identity(k, k));
+  // (Aw^T Aw)^-1 = P R^-1 R^-T P^T
+  const Eigen::MatrixXd R = qr.matrixR().topLeftCorner(k, k).triangularView<Eigen::Upper>();
+  const Eigen::MatrixXd Rinv =
+      R.triangularView<Eigen::Upper>().solve(Eigen::MatrixXd::Identity(k, k));
+  Eigen::MatrixXd cov =
+      qr.colsPermutation() * (Rinv * Rinv.transpose()) * qr.colsPermutation().transpose();
   if (!weighted) {
     cov *= f.dof > 0 ? f.chi2 / f.dof : kNaN;
   } else if (f.dof > 0 && f.chi2 / f.dof > 1.0) {

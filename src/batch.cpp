@@ -79,9 +79,10 @@ struct Batch::Impl {
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks
   void chunk_active();
-  // Batch steps taken, and the last one each system took part in: a system that sat out a step
-  // has stale contact arrays (they are swapped every step) and resumes with a cold start, so
-  // its results never depend on what the rest of the batch did meanwhile.
+  // Batch steps taken, and the last one each system took part in. The contact arrays are
+  // swapped every step; a system that sat out an odd number of steps has its own last contacts
+  // in the other buffer, and resumes from them (restore_warm_start), so a system keeps its
+  // warm start while it waits and its results never depend on what the rest of the batch did.
   long batch_steps = 0;
   std::vector<long> last_stepped;
   // Named stages of a step and their accumulated wall time (fenced, when timing is on).
@@ -100,7 +101,7 @@ struct Batch::Impl {
       }
     stage_seconds.emplace_back(name, t);
   }
-  void drop_warm_start(int s);
+  void restore_warm_start(int s);
   bool any_cohesion = false, any_friction = false, any_rolling = false;
 
   void allocate(const std::vector<SystemSetup>& setups);
@@ -379,12 +380,18 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   last_stepped[k] = batch_steps;
 }
 
-void Batch::Impl::drop_warm_start(int s) {
-  const int first = offsets[static_cast<std::size_t>(s)];
-  const int cap = slot_capacity[static_cast<std::size_t>(s)];
-  const auto slots = std::make_pair(first * kSlots, (first + cap) * kSlots);
-  Kokkos::deep_copy(Kokkos::subview(con.partner, slots), kNoContact);
-  Kokkos::deep_copy(Kokkos::subview(con.prev_partner, slots), kNoContact);
+void Batch::Impl::restore_warm_start(int s) {
+  const auto k = static_cast<std::size_t>(s);
+  if ((batch_steps - last_stepped[k]) % 2 == 0) return;
+  const int first = offsets[k];
+  const auto slots = std::make_pair(first * kSlots, (first + slot_capacity[k]) * kSlots);
+  auto copy = [&](const auto& to, const auto& from) {
+    Kokkos::deep_copy(Kokkos::subview(to, slots), Kokkos::subview(from, slots));
+  };
+  copy(con.partner, con.prev_partner);
+  copy(con.pn, con.prev_pn);
+  copy(con.pt, con.prev_pt);
+  copy(con.pm, con.prev_pm);
 }
 
 template <class Fx>
@@ -541,7 +548,7 @@ void Batch::Impl::step() {
                        FreeVelocity{sys, part});
   stage_done("grid");
   // Stage 3: contacts, warm-started from the previous step's impulses. Systems not stepped
-  // now keep nothing: their warm start is dropped when they resume (see set_active).
+  // now keep theirs untouched in one of the two buffers (see restore_warm_start).
   std::swap(con.partner, con.prev_partner);
   std::swap(con.pn, con.prev_pn);
   std::swap(con.pt, con.prev_pt);
@@ -673,8 +680,8 @@ void Batch::set_active(int s, bool active) {
   if (active && st.failure != Failure::None) return;
   if (st.active == active) return;
   st.active = active;
-  if (active && impl_->last_stepped[static_cast<std::size_t>(s)] != impl_->batch_steps) {
-    impl_->drop_warm_start(s);
+  if (active) {
+    impl_->restore_warm_start(s);
     impl_->last_stepped[static_cast<std::size_t>(s)] = impl_->batch_steps;
   }
   impl_->upload_status_active();
@@ -763,6 +770,63 @@ std::vector<Batch::Avalanche> Batch::close_events(const std::vector<char>& mask,
     out[s].downward = hr(2 * s + 1);
   }
   return out;
+}
+
+void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Disk>& disks) {
+  auto& I = *impl_;
+  const auto& st = I.status.at(static_cast<std::size_t>(s));
+  if (index.size() != disks.size()) throw std::invalid_argument("Batch::set_disks: sizes differ");
+  const int first = I.offsets[static_cast<std::size_t>(s)];
+  const auto range = std::make_pair(first, first + st.count);
+  const double width = I.params[static_cast<std::size_t>(s)].width;
+  auto put = [&](const DView<double>& v, auto f) {
+    auto sub = Kokkos::subview(v, range);
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sub);
+    for (std::size_t k = 0; k < index.size(); ++k) {
+      if (index[k] < 0 || index[k] >= st.count)
+        throw std::out_of_range("Batch::set_disks: no disk " + std::to_string(index[k]));
+      h(index[k]) = f(disks[k]);
+    }
+    Kokkos::deep_copy(sub, h);
+  };
+  put(I.part.x, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
+  put(I.part.y, [](const Disk& d) { return d.y; });
+  put(I.part.theta, [](const Disk& d) { return d.theta; });
+  put(I.part.vx, [](const Disk& d) { return d.vx; });
+  put(I.part.vy, [](const Disk& d) { return d.vy; });
+  put(I.part.w, [](const Disk& d) { return d.w; });
+}
+
+void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
+  auto& I = *impl_;
+  const auto k = static_cast<std::size_t>(s);
+  const auto& st = I.status.at(k);
+  const int first = I.offsets[k];
+  const auto range = std::make_pair(first * kSlots, (first + I.slot_capacity[k]) * kSlots);
+  auto partner = Kokkos::create_mirror_view(Kokkos::subview(I.con.partner, range));
+  auto pn = Kokkos::create_mirror_view(Kokkos::subview(I.con.pn, range));
+  auto pt = Kokkos::create_mirror_view(Kokkos::subview(I.con.pt, range));
+  auto pm = Kokkos::create_mirror_view(Kokkos::subview(I.con.pm, range));
+  Kokkos::deep_copy(partner, kNoContact);
+  std::vector<int> used(static_cast<std::size_t>(I.slot_capacity[k]), 0);
+  const double h = I.params[k].time_step;
+  for (const auto& c : contacts) {
+    if (c.i < 0 || c.i >= st.count || c.j >= st.count || (c.j >= 0 && c.j <= c.i))
+      throw std::out_of_range("Batch::set_contacts: no contact " + std::to_string(c.i) + "-" +
+                              std::to_string(c.j));
+    int& n = used[static_cast<std::size_t>(c.i)];
+    if (n >= kSlots) continue;  // more than a disk can own: no warm start for the rest
+    const int slot = c.i * kSlots + n++;
+    partner(slot) = c.j < 0 ? kFloor : first + c.j;
+    pn(slot) = h * c.normal;
+    pt(slot) = h * c.tangential;
+    pm(slot) = h * c.moment;
+  }
+  Kokkos::deep_copy(Kokkos::subview(I.con.partner, range), partner);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
+  I.last_stepped[k] = I.batch_steps;  // these buffers now hold the system's warm start
 }
 
 std::vector<Disk> Batch::disks(int s) const {

@@ -205,6 +205,9 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         attribute(g, "max_relax_time", scan.protocol.max_relax_time);
         attribute(g, "max_collapse_time", scan.protocol.max_collapse_time);
         attribute(g, "max_unconverged_time", scan.protocol.max_unconverged_time);
+        attribute(g, "region_radius", scan.protocol.region_radius);
+        attribute(g, "region_check_every", static_cast<double>(scan.protocol.region_check_every));
+        attribute(g, "region_max_disks", static_cast<double>(scan.protocol.region_max_disks));
         const auto& o = scan.observables;
         attribute(g, "strip_width", o.strip_width);
         attribute(g, "lower_half_from", o.lower_half_from);

@@ -6,7 +6,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <memory>
 #include <string>
+
+#include "loosepack/region.hpp"
 
 namespace loosepack {
 
@@ -85,8 +88,16 @@ enum class Phase {
   Ballistic,  // B and C (and A at Bo = inf): one disk per round, no dynamics
   Collapse,   // C after its deposit: gravity on, dynamics until rest
   Deposit,    // A: the next disk goes in this round
-  Relax,      // A: dynamics until rest after the last disk
+  Relax,      // A: dynamics of the whole system until rest after the last disk
+  Region,     // A: dynamics of a relaxation region around the last disk until rest
 };
+
+// Relaxation regions that end at rest and then find motion in the whole system start a new
+// region around it at most this many times per disk; then the whole system relaxes.
+constexpr int kMaxRegionRounds = 4;
+// The check of the whole system after a region finds motion where a disk is faster than this
+// many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).
+constexpr double kWakeFactor = 3.0;
 
 struct Slot {
   Phase phase = Phase::Empty;
@@ -97,6 +108,11 @@ struct Slot {
   bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
   long deposited = 0;
   double filled = 0.0;  // height of the last deposited disk over H
+  bool checking = false;      // Relax after a region came to rest: the whole system's rest check
+  int quiet = 0;              // its consecutive steps with every disk below the rest speed
+  int rounds = 0;             // regions started for the current disk
+  bool event_capped = false;  // the current disk's relaxation hit max_relax_time
+  long region_steps = 0, region_sweeps = 0;  // the slot's region counters when the member began
   Clock::time_point start;
   MemberResult result;
 };
@@ -142,7 +158,35 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   for (std::size_t k = 0; k < n_slots; ++k) setups.push_back(setup_of(members[k]));
   Batch batch(setups, scan.solver, scan.rest);
   batch.set_timing(hooks.stage_seconds != nullptr);
+  // Relaxation regions for the slow depositions, when the scan asks for them.
+  std::unique_ptr<Regions> regions;
+  if (scan.protocol.region_radius > 0.0) {
+    std::vector<SystemParams> slow;
+    double tallest = 0.0;
+    for (const auto& m : members)
+      if (!ballistic(m)) {
+        slow.push_back(m.params);
+        tallest = std::max(tallest, m.params.height);
+      }
+    if (!slow.empty()) {
+      RegionSettings rs;
+      rs.radius = scan.protocol.region_radius;
+      rs.max_disks = scan.protocol.region_max_disks;
+      rs.max_height = std::min(tallest, 4.0 * rs.radius + 40.0) + 4.0;
+      regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, scan.solver,
+                                          scan.rest);
+      regions->set_timing(hooks.stage_seconds != nullptr);
+    }
+  }
   std::vector<Slot> slots(n_slots);
+  auto start_region = [&](std::size_t k, const std::vector<Regions::Point>& seeds) {
+    const int s = static_cast<int>(k);
+    if (!regions || !regions->begin(batch, s, seeds, scan.tolerance(Protocol::A))) return false;
+    slots[k].phase = Phase::Region;
+    ++slots[k].rounds;
+    batch.set_active(s, false);
+    return true;
+  };
   std::size_t next = 0;
   Progress prog;
   prog.members_total = static_cast<int>(members.size());
@@ -163,6 +207,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     sl.phase = ballistic(members[sl.member]) ? Phase::Ballistic : Phase::Deposit;
     sl.start = Clock::now();
     sl.result.member = members[sl.member];
+    if (regions) {
+      sl.region_steps = regions->steps(s);
+      sl.region_sweeps = regions->sweeps(s);
+    }
     batch.set_active(s, false);
   };
   auto finish = [&](std::size_t k) {
@@ -173,6 +221,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     r.failure = sl.gave_up ? Failure::Unconverged : st.failure;
     r.steps = st.steps;
     r.sweeps = st.sweeps;
+    if (regions) {
+      r.steps += regions->steps(s) - sl.region_steps;
+      r.sweeps += regions->sweeps(s) - sl.region_sweeps;
+    }
     r.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
     for (const auto& d : batch.disks(s)) {
       r.x.push_back(d.x);
@@ -272,7 +324,9 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
           slots[k].steps = 0;
           slots[k].cap = static_cast<long>(
               std::ceil(scan.protocol.max_relax_time / batch.params(s).time_step));
-          batch.set_active(s, true);
+          slots[k].checking = false;
+          slots[k].rounds = 0;
+          if (!start_region(k, {{placed[k].x, placed[k].y}})) batch.set_active(s, true);
         } else {
           finish(k);
         }
@@ -280,7 +334,8 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     }
     bool dynamic = false, busy = false;
     for (const auto& sl : slots) {
-      dynamic = dynamic || sl.phase == Phase::Relax || sl.phase == Phase::Collapse;
+      dynamic = dynamic || sl.phase == Phase::Relax || sl.phase == Phase::Collapse ||
+                sl.phase == Phase::Region;
       busy = busy || sl.phase != Phase::Empty;
     }
     report();
@@ -288,10 +343,41 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     if (hooks.stop && *hooks.stop) break;
     if (!dynamic) continue;
     batch.step();
+    if (regions) regions->step();
     std::vector<char> closing(n_slots, 0);
     bool any_closing = false;
     for (std::size_t k = 0; k < n_slots; ++k) {
       Slot& sl = slots[k];
+      if (sl.phase == Phase::Region) {
+        const int s = static_cast<int>(k);
+        const auto& rst = regions->status(s);
+        sl.unconverged = rst.converged ? 0 : sl.unconverged + 1;
+        sl.gave_up = static_cast<double>(sl.unconverged) * batch.params(s).time_step >
+                     scan.protocol.max_unconverged_time;
+        ++sl.steps;
+        const auto state = sl.gave_up ? Regions::State::Overflow : regions->poll(batch, s);
+        if (sl.gave_up) {
+          regions->stop(batch, s);
+          finish(k);
+        } else if (state == Regions::State::Running) {
+          if (sl.steps < sl.cap) continue;
+          regions->stop(batch, s);
+          sl.event_capped = true;
+          closing[k] = 1;
+          any_closing = true;
+        } else if (state == Regions::State::Rested &&
+                   sl.deposited % scan.protocol.region_check_every != 0) {
+          sl.event_capped = false;
+          closing[k] = 1;
+          any_closing = true;
+        } else {  // rested, and the whole system's rest is checked; or the region overflowed
+          sl.phase = Phase::Relax;
+          sl.checking = state == Regions::State::Rested;
+          sl.quiet = 0;
+          batch.set_active(s, true);
+        }
+        continue;
+      }
       if (sl.phase != Phase::Relax && sl.phase != Phase::Collapse) continue;
       const auto& st = batch.status(static_cast<int>(k));
       sl.unconverged = st.converged ? 0 : sl.unconverged + 1;
@@ -302,7 +388,20 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         continue;
       }
       ++sl.steps;
-      const bool done = st.at_rest || sl.steps >= sl.cap;
+      // The check after a region: rest.steps steps without motion suffice, converged or not
+      // (a tall deposit's solve can stall near the tolerance for many steps; docs/MODEL.md).
+      const double wake = kWakeFactor * scan.rest.speed;
+      sl.quiet = st.max_speed < wake ? sl.quiet + 1 : 0;
+      const bool quiet = sl.checking && sl.quiet >= scan.rest.steps;
+      const bool done = st.at_rest || quiet || sl.steps >= sl.cap;
+      if (!done && sl.checking && st.max_speed > wake && sl.rounds < kMaxRegionRounds) {
+        // The whole system moves after the region came to rest: relax around what moves.
+        std::vector<Regions::Point> seeds;
+        for (const auto& d : batch.disks(static_cast<int>(k)))
+          if (std::max(std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)) > wake)
+            seeds.push_back({d.x, d.y});
+        if (start_region(k, seeds)) continue;
+      }
       if (sl.phase == Phase::Collapse &&
           (done || sl.steps % scan.observables.trajectory_interval == 0))
         sample(k, static_cast<double>(sl.steps));
@@ -311,6 +410,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         sl.result.capped = st.at_rest ? 0 : 1;
         finish(k);
       } else {
+        sl.event_capped = !st.at_rest && !quiet;
         closing[k] = 1;
         any_closing = true;
       }
@@ -324,7 +424,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       ev.moved = aval[k].moved;
       ev.downward = aval[k].downward;
       ev.steps = sl.steps;
-      ev.capped = !batch.status(static_cast<int>(k)).at_rest;
+      ev.capped = sl.event_capped;
       sl.result.capped += ev.capped ? 1 : 0;
       sl.result.events.push_back(ev);
       sample(k, static_cast<double>(sl.deposited));
@@ -332,7 +432,12 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       batch.set_active(static_cast<int>(k), false);
     }
   }
-  if (hooks.stage_seconds) *hooks.stage_seconds = batch.stage_seconds();
+  if (hooks.stage_seconds) {
+    *hooks.stage_seconds = batch.stage_seconds();
+    if (regions)
+      for (const auto& [name, sec] : regions->stage_seconds())
+        hooks.stage_seconds->emplace_back("region " + name, sec);
+  }
   std::vector<MemberResult> finished;
   for (std::size_t k = 0; k < results.size(); ++k)
     if (done[k]) finished.push_back(std::move(results[k]));

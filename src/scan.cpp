@@ -452,9 +452,18 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.protocol.max_collapse_time = real(v, key, 1e-3, 1e9);
         } else if (k == "max_unconverged_time") {
           scan.protocol.max_unconverged_time = real(v, key, 1e-3, 1e9);
+        } else if (k == "region_radius") {
+          scan.protocol.region_radius = real(v, key, 0.0, 1e6);
+          if (scan.protocol.region_radius > 0.0 && scan.protocol.region_radius < 5.0)
+            fail(file, v, key, "must be 0 (no regions) or at least 5 radii");
+        } else if (k == "region_check_every") {
+          scan.protocol.region_check_every = positive_int(v, key, 1, 1000000);
+        } else if (k == "region_max_disks") {
+          scan.protocol.region_max_disks = positive_int(v, key, 10, 10000000);
         } else {
           fail(file, v, key,
-               "unknown key (allowed: max_relax_time, max_collapse_time, max_unconverged_time)");
+               "unknown key (allowed: max_relax_time, max_collapse_time, max_unconverged_time, "
+               "region_radius, region_check_every, region_max_disks)");
         }
       });
     } else if (section == "observables") {

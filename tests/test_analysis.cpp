@@ -26,6 +26,24 @@ TEST(Analysis, PolynomialFitRecoversAParabola) {
   EXPECT_NEAR(polynomial(f, 100.0), -1.8 - 31.0 + 3.5, 1e-9);
 }
 
+// One bin whose error is a million times smaller than the others' (disks that did not move at
+// all): the weighted fit is still well defined, passes through that point, and recovers
+// noise-free coefficients (the normal equations were too ill-conditioned to solve here).
+TEST(Analysis, WeightedFitWithOneTinyErrorBin) {
+  std::vector<double> x, y, s;
+  for (int k = 0; k < 24; ++k) {
+    x.push_back(2.0 + 4.0 * k);
+    y.push_back(0.3 - 0.25 * x.back() + 0.0025 * x.back() * x.back());
+    s.push_back(k == 23 ? 1e-6 : 1.0);
+  }
+  const Fit f = polynomial_fit(x, y, s, 2);
+  ASSERT_TRUE(f.valid());
+  EXPECT_NEAR(f.coef[0], 0.3, 1e-8);
+  EXPECT_NEAR(f.coef[1], -0.25, 1e-9);
+  EXPECT_NEAR(f.coef[2], 0.0025, 1e-11);
+  EXPECT_TRUE(std::isfinite(f.error[2]) && f.error[2] > 0.0);
+}
+
 // Weighted straight line with equal sigma: the slope's standard error is
 // sigma / sqrt(sum (x - mean x)^2) when chi2/dof <= 1 (no rescaling).
 TEST(Analysis, WeightedLineErrorsFollowTheTextbookFormula) {

@@ -377,6 +377,45 @@ lower_half_from = 1.0
   }
 }
 
+// Relaxation regions (protocol.region_radius), the whole system checked after every disk: every
+// disk's event is recorded, nothing fails, and at the end the floor carries the whole weight
+// (the impulses written back from the regions and the whole system's check together balance
+// the deposit), as without regions.
+TEST(Regions, DepositEndsAtRestCarryingItsWeight) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 2
+[system]
+width = 16.0
+height = 16.0
+bond_number = 10
+[solver]
+tolerance = 1e-5
+max_sweeps = 20000
+[protocol]
+region_radius = 5
+[observables]
+lower_half_from = 1.0
+)");
+  const auto results = run_members(scan, members_of(scan));
+  ASSERT_EQ(results.size(), 2u);
+  for (const auto& r : results) {
+    ASSERT_TRUE(r.ok());
+    EXPECT_EQ(r.events.size(), r.y_e.size());
+    EXPECT_GT(r.y_e.size(), 20u);
+    double floor = 0.0, weight = 0.0;
+    for (const auto& c : r.contacts)
+      if (c.j < 0) floor += c.normal;
+    for (double rad : r.radius) weight += rad * rad;
+    EXPECT_NEAR(floor, weight, 1e-3 * weight);
+    for (std::size_t a = 0; a < r.y_e.size(); ++a) {
+      EXPECT_GT(r.y_e[a], r.radius[a] - 1e-3);
+      EXPECT_LT(r.y_e[a], 16.0 + r.radius[a]);
+    }
+  }
+}
+
 // A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
 // member fails as unconverged once the cap has been hit on every step for longer than
 // protocol.max_unconverged_time (0.505 / h = 0.01: on step 51), keeps its state for the

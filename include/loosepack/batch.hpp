@@ -124,7 +124,14 @@ class Batch {
   std::vector<Avalanche> close_events(const std::vector<char>& mask, double threshold);
 
   std::vector<Disk> disks(int s) const;
+  // Overwrite position, angle and velocities of the disks index[k] (local indices) of system s
+  // with disks[k] (radius, mass and y_i stay). The next step's contacts are warm-started from
+  // the impulses their pairs carried before.
+  void set_disks(int s, const std::vector<int>& index, const std::vector<Disk>& disks);
   std::vector<ContactForce> contacts(int s) const;
+  // Replace the impulses system s's next step is warm-started from with these contacts' forces
+  // (i < j, or j = -1 for the floor; geometry fields are ignored). For an inactive system.
+  void set_contacts(int s, const std::vector<ContactForce>& contacts);
   // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s.
   double max_overlap(int s) const;
 

@@ -42,6 +42,13 @@ struct ProtocolSettings {
   // A member fails (Failure::Unconverged) when its solver hits the sweep cap on every step
   // for this long in a row [sqrt(R/g)].
   double max_unconverged_time = 1000.0;
+  // A: relaxation regions (docs/MODEL.md): after each disk only the disks within this radius of
+  // it (and of every disk that moves) are stepped, the rest held fixed [R]; 0: the whole system.
+  double region_radius = 0.0;
+  // A with regions: after every k-th disk the whole system is stepped to rest as well (1: after
+  // every disk, which keeps the rest criterion of the whole system on every event).
+  int region_check_every = 1;
+  int region_max_disks = 4000;  // a larger region relaxes in the whole system instead
 };
 
 struct ScanPoint {

@@ -1,0 +1,78 @@
+// Relaxation regions of protocol A (docs/MODEL.md, "Relaxation regions"): after a disk is
+// deposited on a tall deposit, almost all of it is at rest. Instead of stepping the whole system
+// until it is at rest again, the disks within a radius of the new disk are stepped in a small
+// system of their own (a slot of a second batch), with the disks around them held fixed; when
+// motion reaches the region's margin the region grows around every moving disk. When the region
+// is at rest its disks are written back into the whole system, whose rest is then checked with
+// the ordinary rest criterion (by the protocol, in the whole system).
+#pragma once
+#include <memory>
+#include <vector>
+
+#include "loosepack/batch.hpp"
+
+namespace loosepack {
+
+struct RegionSettings {
+  double radius = 0.0;  // [R]: disks within this distance of a seed move; 0: no regions
+  int max_disks = 0;    // moving and fixed disks a region slot holds
+  double max_height = 0.0;  // tallest region a slot's grid holds [R]
+};
+
+class Regions {
+ public:
+  struct Point {
+    double x = 0.0, y = 0.0;
+  };
+  // One region slot per system of the whole batch; every slot's grid holds a region
+  // settings.max_height tall of any of `systems`.
+  Regions(int slots, const std::vector<SystemParams>& systems, const RegionSettings& settings,
+          const SolverSettings& solver, const RestSettings& rest);
+  ~Regions();
+  Regions(const Regions&) = delete;
+  Regions& operator=(const Regions&) = delete;
+
+  // Starts relaxing system s of `whole` in region slot s: the disks within the radius of a seed
+  // move, those within contact reach of them are held fixed. False (nothing started) when the
+  // region does not fit the slot: the caller relaxes the whole system instead. The small system
+  // is solved to `tolerance` [h m g] (the whole system's).
+  bool begin(Batch& whole, int s, const std::vector<Point>& seeds, double tolerance);
+  // One step of every running region.
+  void step();
+
+  enum class State {
+    Running,  // still moving inside the region (it may have grown)
+    Rested,   // at rest by the rest criterion; written back into the whole system
+    Overflow  // outgrew the slot, or failed; written back: relax the whole system
+  };
+  // After step(): the state of region s. Grows the region (a new small system around every
+  // disk that moves) when a moving disk is beyond radius - margin of every seed.
+  State poll(Batch& whole, int s);
+  // Writes region s back into the whole system and stops it (a relaxation cut at its cap).
+  void stop(Batch& whole, int s);
+
+  bool running(int s) const;
+  const SystemStatus& status(int s) const;  // of the current small system of slot s
+  long steps(int s) const;   // all steps of slot s, all its regions, since construction
+  long sweeps(int s) const;
+  const std::vector<std::pair<std::string, double>>& stage_seconds() const;
+  void set_timing(bool on);
+
+  // The margin inside the radius where motion makes a region grow [R].
+  double margin() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The disks within `radius` of a seed (moving), and those further out but within `reach` of the
+// moving ones (fixed), in increasing index order; periodic in x with period `width`.
+struct RegionSelection {
+  std::vector<int> index;
+  std::vector<char> moving;
+};
+RegionSelection select_region(const std::vector<Disk>& disks, const std::vector<Regions::Point>& seeds,
+                              double width, double radius, double reach);
+
+}  // namespace loosepack

@@ -1,0 +1,295 @@
+// Relaxation regions of protocol A: a small system per region in a second batch, cut out of the
+// whole system around the seeds, stepped until at rest, grown when motion reaches its margin,
+// and written back.
+#include "loosepack/region.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <unordered_map>
+
+namespace loosepack {
+
+namespace {
+
+double min_image(double d, double width) {
+  if (d > 0.5 * width) return d - width;
+  if (d < -0.5 * width) return d + width;
+  return d;
+}
+
+// Seeds binned in square cells of edge `cutoff` (periodic in x): the distance from a point to
+// the nearest seed, exact whenever it is below the cutoff.
+class SeedGrid {
+ public:
+  SeedGrid() = default;
+  SeedGrid(const std::vector<Regions::Point>& seeds, double width, double cutoff)
+      : seeds_(seeds), width_(width), cell_(cutoff) {
+    nx_ = std::max(1, static_cast<int>(std::floor(width / cutoff)));
+    for (std::size_t k = 0; k < seeds.size(); ++k)
+      cells_[key(column(seeds[k].x), row(seeds[k].y))].push_back(static_cast<int>(k));
+  }
+  double distance(double x, double y) const {
+    double best = std::numeric_limits<double>::infinity();
+    const int cx = column(x), cy = row(y);
+    const int ncols = nx_ < 3 ? nx_ : 3;
+    for (int e = 0; e < ncols; ++e) {
+      const int col = nx_ < 3 ? e : (cx - 1 + e + nx_) % nx_;
+      for (int ry = cy - 1; ry <= cy + 1; ++ry) {
+        const auto it = cells_.find(key(col, ry));
+        if (it == cells_.end()) continue;
+        for (int k : it->second) {
+          const auto& p = seeds_[static_cast<std::size_t>(k)];
+          best = std::min(best, std::hypot(min_image(x - p.x, width_), y - p.y));
+        }
+      }
+    }
+    return best;
+  }
+
+ private:
+  int column(double x) const {
+    const int c = static_cast<int>(std::floor(x / width_ * nx_));
+    return std::clamp(c, 0, nx_ - 1);
+  }
+  int row(double y) const { return static_cast<int>(std::floor(y / cell_)); }
+  static long long key(int col, int row) {
+    return static_cast<long long>(row) * (1LL << 32) + static_cast<long long>(col);
+  }
+  std::vector<Regions::Point> seeds_;
+  double width_ = 1.0, cell_ = 1.0;
+  int nx_ = 1;
+  std::unordered_map<long long, std::vector<int>> cells_;
+};
+
+double speed_of(const Disk& d) { return std::max(std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)); }
+
+}  // namespace
+
+RegionSelection select_region(const std::vector<Disk>& disks,
+                              const std::vector<Regions::Point>& seeds, double width,
+                              double radius, double reach) {
+  const SeedGrid grid(seeds, width, radius + reach);
+  RegionSelection out;
+  for (std::size_t k = 0; k < disks.size(); ++k) {
+    const double d = grid.distance(disks[k].x, disks[k].y);
+    if (d > radius + reach) continue;
+    out.index.push_back(static_cast<int>(k));
+    out.moving.push_back(d <= radius && !disks[k].fixed ? 1 : 0);
+  }
+  return out;
+}
+
+struct Regions::Impl {
+  RegionSettings settings;
+  RestSettings rest;
+  std::unique_ptr<Batch> batch;
+  struct Slot {
+    bool running = false;
+    std::vector<int> index;  // disk of the whole system behind each disk of the region
+    std::vector<char> moving;
+    std::vector<Point> seeds;
+    SeedGrid grid;
+    double y0 = 0.0;       // the region's y = the whole system's y - y0
+    double tolerance = 0;  // the whole system's solver tolerance
+    long done_steps = 0, done_sweeps = 0;
+  };
+  std::vector<Slot> slots;
+
+  double margin() const { return 0.4 * settings.radius; }
+  // Positions and velocities of the moving disks, and the impulses of every contact with a
+  // moving disk, back into the whole system (which keeps its impulses between fixed disks).
+  void write_back(Batch& whole, int s, const std::vector<Disk>& region) {
+    const Slot& sl = slots[static_cast<std::size_t>(s)];
+    std::vector<int> idx;
+    std::vector<Disk> out;
+    std::vector<char> moved(static_cast<std::size_t>(whole.status(s).count), 0);
+    for (std::size_t k = 0; k < sl.index.size(); ++k) {
+      if (!sl.moving[k]) continue;
+      Disk d = region[k];
+      d.y += sl.y0;
+      idx.push_back(sl.index[k]);
+      out.push_back(d);
+      moved[static_cast<std::size_t>(sl.index[k])] = 1;
+    }
+    whole.set_disks(s, idx, out);
+    std::vector<ContactForce> contacts;
+    for (const auto& c : whole.contacts(s))
+      if (!moved[static_cast<std::size_t>(c.i)] && (c.j < 0 || !moved[static_cast<std::size_t>(c.j)]))
+        contacts.push_back(c);
+    for (auto c : batch->contacts(s)) {
+      if (!sl.moving[static_cast<std::size_t>(c.i)] &&
+          (c.j < 0 || !sl.moving[static_cast<std::size_t>(c.j)]))
+        continue;
+      c.i = sl.index[static_cast<std::size_t>(c.i)];
+      if (c.j >= 0) c.j = sl.index[static_cast<std::size_t>(c.j)];
+      contacts.push_back(c);
+    }
+    whole.set_contacts(s, contacts);
+  }
+  void end(int s) {
+    Slot& sl = slots[static_cast<std::size_t>(s)];
+    const auto& st = batch->status(s);
+    sl.done_steps += st.steps;
+    sl.done_sweeps += st.sweeps;
+    sl.running = false;
+    batch->set_active(s, false);
+  }
+};
+
+Regions::Regions(int n, const std::vector<SystemParams>& systems, const RegionSettings& settings,
+                 const SolverSettings& solver, const RestSettings& rest)
+    : impl_(std::make_unique<Impl>()) {
+  if (!(settings.radius > 0.0)) throw std::invalid_argument("Regions: radius must be positive");
+  if (systems.empty()) throw std::invalid_argument("Regions: no systems");
+  impl_->settings = settings;
+  impl_->rest = rest;
+  int cells = 0;
+  for (const auto& p : systems) {
+    SystemSetup su;
+    su.params = p;
+    su.params.height = settings.max_height;
+    cells = std::max(cells, grid_cells_needed(su));
+  }
+  std::vector<SystemSetup> setups(static_cast<std::size_t>(std::max(n, 1)));
+  for (auto& su : setups) {
+    su.params = systems.front();
+    su.params.height = settings.max_height;
+    su.capacity = settings.max_disks;
+    su.grid_cells = cells;
+  }
+  impl_->batch = std::make_unique<Batch>(setups, solver, rest);
+  impl_->slots.resize(setups.size());
+  for (int s = 0; s < impl_->batch->size(); ++s) impl_->batch->set_active(s, false);
+}
+
+Regions::~Regions() = default;
+
+double Regions::margin() const { return impl_->margin(); }
+
+bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double tolerance) {
+  auto& I = *impl_;
+  auto& sl = I.slots.at(static_cast<std::size_t>(s));
+  const std::vector<Disk> disks = whole.disks(s);
+  const SystemParams& pr = whole.params(s);
+  double rmax = pr.radius;
+  for (const auto& d : disks) rmax = std::max(rmax, d.radius);
+  // Contact reach of a moving disk: the largest detection margin a region's grid allows.
+  const double g = std::abs(pr.gravity);
+  const double v_fall = std::sqrt(2.0 * g * I.settings.max_height);
+  const double margin =
+      std::max(0.5 * pr.radius, 2.0 * pr.time_step * (v_fall + pr.time_step * g));
+  const double reach = 2.0 * rmax + pr.cohesion_range + margin;
+  const RegionSelection sel = select_region(disks, seeds, pr.width, I.settings.radius, reach);
+  if (static_cast<int>(sel.index.size()) > I.settings.max_disks) return false;
+  // The floor of the small system: the whole system's floor when the region comes near it,
+  // else out of everyone's reach (two radii below the lowest disk and further below every seed
+  // than the radius, so that no disk reaches it without growing the region first).
+  double lowest = std::numeric_limits<double>::infinity(), top = 0.0;
+  for (int k : sel.index) {
+    const Disk& d = disks[static_cast<std::size_t>(k)];
+    lowest = std::min(lowest, d.y - d.radius);
+    top = std::max(top, d.y + d.radius);
+  }
+  for (const auto& p : seeds) lowest = std::min(lowest, p.y - I.settings.radius);
+  const double y0 = std::max(0.0, lowest - 2.0 * pr.radius);
+  SystemSetup su;
+  su.params = pr;
+  su.params.height = top - y0 + 2.0 * pr.radius;
+  su.capacity = I.settings.max_disks;
+  su.tolerance = tolerance;
+  for (std::size_t k = 0; k < sel.index.size(); ++k) {
+    Disk d = disks[static_cast<std::size_t>(sel.index[k])];
+    d.y -= y0;
+    if (!sel.moving[k]) {  // held where it is: no velocity (a fixed disk keeps its own)
+      d.fixed = true;
+      d.vx = d.vy = d.w = 0.0;
+    }
+    su.disks.push_back(d);
+  }
+  try {
+    I.batch->reset(s, su);
+  } catch (const std::invalid_argument&) {
+    return false;  // more grid cells than the slot holds: too tall
+  }
+  // Warm start from the whole system's impulses between the region's disks.
+  std::vector<int> local(disks.size(), -1);
+  for (std::size_t k = 0; k < sel.index.size(); ++k)
+    local[static_cast<std::size_t>(sel.index[k])] = static_cast<int>(k);
+  std::vector<ContactForce> contacts;
+  for (auto c : whole.contacts(s)) {
+    const int i = local[static_cast<std::size_t>(c.i)];
+    const int j = c.j < 0 ? (y0 > 0.0 ? -2 : -1) : local[static_cast<std::size_t>(c.j)];
+    if (i < 0 || j < -1) continue;
+    c.i = i;
+    c.j = j;
+    contacts.push_back(c);
+  }
+  I.batch->set_contacts(s, contacts);
+  I.batch->set_active(s, true);
+  sl.running = true;
+  sl.index = sel.index;
+  sl.moving = sel.moving;
+  sl.seeds = seeds;
+  sl.grid = SeedGrid(seeds, pr.width, I.settings.radius);
+  sl.y0 = y0;
+  sl.tolerance = tolerance;
+  return true;
+}
+
+void Regions::step() { impl_->batch->step(); }
+
+Regions::State Regions::poll(Batch& whole, int s) {
+  auto& I = *impl_;
+  auto& sl = I.slots.at(static_cast<std::size_t>(s));
+  if (!sl.running) return State::Overflow;
+  const auto& st = I.batch->status(s);
+  if (st.failure != Failure::None) {
+    I.end(s);  // nothing written back: the whole system relaxes from where it was
+    return State::Overflow;
+  }
+  const std::vector<Disk> region = I.batch->disks(s);
+  if (st.at_rest) {
+    I.write_back(whole, s, region);
+    I.end(s);
+    return State::Rested;
+  }
+  // Grow when a moving disk is in the margin; the new seeds are every moving disk.
+  bool grow = false;
+  std::vector<Point> seeds = sl.seeds;
+  for (std::size_t k = 0; k < region.size(); ++k) {
+    if (!sl.moving[k] || !(speed_of(region[k]) > I.rest.speed)) continue;
+    const Point p{region[k].x, region[k].y + sl.y0};
+    seeds.push_back(p);
+    if (sl.grid.distance(p.x, p.y) > I.settings.radius - I.margin()) grow = true;
+  }
+  if (!grow) return State::Running;
+  I.write_back(whole, s, region);
+  I.end(s);
+  return begin(whole, s, seeds, sl.tolerance) ? State::Running : State::Overflow;
+}
+
+void Regions::stop(Batch& whole, int s) {
+  auto& I = *impl_;
+  if (!I.slots.at(static_cast<std::size_t>(s)).running) return;
+  if (I.batch->status(s).failure == Failure::None) I.write_back(whole, s, I.batch->disks(s));
+  I.end(s);
+}
+
+bool Regions::running(int s) const { return impl_->slots.at(static_cast<std::size_t>(s)).running; }
+const SystemStatus& Regions::status(int s) const { return impl_->batch->status(s); }
+long Regions::steps(int s) const {
+  const auto& sl = impl_->slots.at(static_cast<std::size_t>(s));
+  return sl.done_steps + (sl.running ? impl_->batch->status(s).steps : 0);
+}
+long Regions::sweeps(int s) const {
+  const auto& sl = impl_->slots.at(static_cast<std::size_t>(s));
+  return sl.done_sweeps + (sl.running ? impl_->batch->status(s).sweeps : 0);
+}
+const std::vector<std::pair<std::string, double>>& Regions::stage_seconds() const {
+  return impl_->batch->stage_seconds();
+}
+void Regions::set_timing(bool on) { impl_->batch->set_timing(on); }
+
+}  // namespace loosepack

@@ -1,0 +1,145 @@
+// Relaxation regions (protocol A): which disks a region holds, the round trip of state and
+// impulses between a region and the whole system, and a column whose new top disk is relaxed
+// in a region and then by the whole system, with the exact weights of MODEL.md case 1.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "loosepack/region.hpp"
+#include "tests/scenes.hpp"
+
+using namespace loosepack;
+using namespace loosepack::scenes;
+
+namespace {
+
+SolverSettings accurate() {
+  SolverSettings s;
+  s.tolerance = 1e-8;
+  s.max_sweeps = 200000;
+  return s;
+}
+
+}  // namespace
+
+// A disk moves iff it lies within the radius of a seed (minimum image in x), is held fixed iff
+// it lies beyond the radius but within radius + reach, and is left out otherwise.
+TEST(Region, SelectsByDistanceToTheNearestSeed) {
+  const double width = 40.0, radius = 6.0, reach = 2.5;
+  std::vector<Disk> disks;
+  for (int k = 0; k < 40; ++k) {
+    Disk d;
+    d.x = std::fmod(1.0 + 1.0 * k, width);  // along y = 5, crossing x = 0
+    d.y = 5.0;
+    disks.push_back(d);
+  }
+  disks[3].fixed = true;  // a support: never moves
+  const std::vector<Regions::Point> seeds = {{2.0, 5.0}, {2.0, 12.0}};
+  const RegionSelection sel = select_region(disks, seeds, width, radius, reach);
+  std::vector<int> expect_moving, expect_fixed;
+  for (int k = 0; k < 40; ++k) {
+    double dx = disks[k].x - 2.0;
+    if (dx > 0.5 * width) dx -= width;
+    if (dx < -0.5 * width) dx += width;
+    const double d = std::abs(dx);  // the seed at y = 12 is further from every disk
+    if (d <= radius && !disks[k].fixed)
+      expect_moving.push_back(k);
+    else if (d <= radius + reach)
+      expect_fixed.push_back(k);
+  }
+  std::vector<int> moving, fixed;
+  for (std::size_t k = 0; k < sel.index.size(); ++k)
+    (sel.moving[k] ? moving : fixed).push_back(sel.index[k]);
+  EXPECT_EQ(moving, expect_moving);
+  EXPECT_EQ(fixed, expect_fixed);
+  EXPECT_TRUE(std::is_sorted(sel.index.begin(), sel.index.end()));
+  // Disks across the periodic boundary (x near 40) are within the radius of x = 2.
+  EXPECT_NE(std::find(moving.begin(), moving.end(), 38), moving.end());  // x = 39
+}
+
+// set_disks and set_contacts write what disks() and contacts() read back.
+TEST(Region, BatchStateRoundTrip) {
+  auto p = bare_params();
+  p.friction = 0.3;
+  Batch batch({setup(p, column(4, 10.0))}, accurate());
+  for (int k = 0; k < 3; ++k) batch.step();
+  auto d = batch.disks(0);
+  d[2].x = 11.5;
+  d[2].vy = -0.25;
+  d[2].w = 0.5;
+  batch.set_disks(0, {2}, {d[2]});
+  const auto back = batch.disks(0);
+  EXPECT_EQ(back[2].x, 11.5);
+  EXPECT_EQ(back[2].vy, -0.25);
+  EXPECT_EQ(back[2].w, 0.5);
+  EXPECT_EQ(back[1].y, d[1].y);
+  std::vector<ContactForce> forces = {{0, -1, 0, -1, 0, 7.0, 0.5, 0.0}, {1, 2, 0, 1, 0, 3.0, 0, 0}};
+  batch.set_contacts(0, forces);
+  const auto c = batch.contacts(0);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_EQ(c[0].j, -1);
+  EXPECT_DOUBLE_EQ(c[0].normal, 7.0);
+  EXPECT_DOUBLE_EQ(c[0].tangential, 0.5);
+  EXPECT_EQ(c[1].i, 1);
+  EXPECT_EQ(c[1].j, 2);
+  EXPECT_DOUBLE_EQ(c[1].normal, 3.0);
+  EXPECT_THROW(batch.set_contacts(0, {{2, 1, 0, 1, 0, 1.0, 0, 0}}), std::out_of_range);
+}
+
+// A column of n disks at rest gets a disk on top (MODEL.md case 1: the contact below the k-th
+// disk from the top carries k m g). Relaxed in a region of radius 5 around the new disk, the
+// top three disks move and carry 1, 2, 3 m g below them; the disks below are held and keep
+// their old loads (one m g short) and their positions exactly. The whole system then carries
+// the new disk's weight to the floor: k m g everywhere.
+TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
+  const int n = 20;
+  auto p = bare_params(20.0, 60.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  RestSettings rest;
+  Batch batch({setup(p, column(n, 10.0), 64)}, accurate(), rest);
+  batch.run_to_rest(2000);
+  ASSERT_TRUE(batch.status(0).at_rest);
+  const auto before = batch.disks(0);
+  const auto placed = batch.deposit_at({1}, {10.0}, DropRule::Touch);
+  ASSERT_TRUE(placed[0].placed);
+  EXPECT_NEAR(placed[0].y, 1.0 + 2.0 * n, 1e-6);
+
+  RegionSettings rs;
+  rs.radius = 5.0;
+  rs.max_disks = 64;
+  rs.max_height = 60.0;
+  Regions regions(1, {p}, rs, accurate(), rest);
+  ASSERT_TRUE(regions.begin(batch, 0, {{placed[0].x, placed[0].y}}, 1e-8));
+  Regions::State state = Regions::State::Running;
+  for (int k = 0; k < 2000 && state == Regions::State::Running; ++k) {
+    regions.step();
+    state = regions.poll(batch, 0);
+  }
+  ASSERT_EQ(state, Regions::State::Rested);
+  const double mg = p.reference_mass() * p.gravity;
+  const int top = n;  // index of the new disk
+  auto load_below = [&](const std::vector<ContactForce>& contacts, int upper) {
+    for (const auto& c : contacts)
+      if ((upper == 0 && c.i == 0 && c.j < 0) || (c.j == upper && c.i == upper - 1))
+        return c.normal;
+    return -1.0;
+  };
+  const auto after_region = batch.contacts(0);
+  for (int k = 1; k <= 3; ++k)  // moving disks: the new load
+    EXPECT_NEAR(load_below(after_region, top + 1 - k), k * mg, 1e-4 * mg) << "k = " << k;
+  for (int k = 4; k <= n + 1; ++k)  // held disks: the load before the new disk
+    EXPECT_NEAR(load_below(after_region, top + 1 - k), (k - 1) * mg, 1e-4 * mg) << "k = " << k;
+  const auto held = batch.disks(0);
+  for (int k = 0; k + 3 < n; ++k) EXPECT_EQ(held[k].y, before[k].y) << "disk " << k;
+
+  batch.set_active(0, true);
+  batch.reset_rest(0);
+  batch.run_to_rest(2000);
+  ASSERT_TRUE(batch.status(0).at_rest);
+  const auto whole = batch.contacts(0);
+  for (int k = 1; k <= n + 1; ++k)
+    EXPECT_NEAR(load_below(whole, top + 1 - k), k * mg, 1e-4 * k * mg) << "k = " << k;
+}
