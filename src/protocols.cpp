@@ -109,7 +109,7 @@ struct Slot {
   long deposited = 0;
   double filled = 0.0;  // height of the last deposited disk over H
   bool checking = false;      // Relax after a region came to rest: the whole system's rest check
-  int quiet = 0;              // its consecutive steps with every disk below the rest speed
+  int quiet = 0;              // its consecutive steps with every disk below the wake speed
   int rounds = 0;             // regions started for the current disk
   bool event_capped = false;  // the current disk's relaxation hit max_relax_time
   long region_steps = 0, region_sweeps = 0;  // the slot's region counters when the member began
