@@ -7,13 +7,6 @@
 
 namespace loosepack {
 
-// Minimum-image difference a - b in a periodic interval of length width.
-KOKKOS_INLINE_FUNCTION double periodic_delta(double d, double width) {
-  if (d > 0.5 * width) return d - width;
-  if (d < -0.5 * width) return d + width;
-  return d;
-}
-
 struct ContactBuild {
   SystemViews sys;
   ParticleViews part;

@@ -40,6 +40,13 @@ KOKKOS_INLINE_FUNCTION void sort_range(const DView<int>& v, int first, int end) 
   }
 }
 
+// Minimum-image difference a - b in a periodic interval of length width.
+KOKKOS_INLINE_FUNCTION double periodic_delta(double d, double width) {
+  if (d > 0.5 * width) return d - width;
+  if (d < -0.5 * width) return d + width;
+  return d;
+}
+
 struct SystemViews {
   // [S] layout
   DView<int> offset, capacity, count;

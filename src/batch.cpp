@@ -353,7 +353,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   double speed = 0.0;
   for (const auto& d : su.disks) {
     if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
-    speed = std::max({speed, std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)});
+    speed = std::max(speed, loosepack::speed(d));
   }
   upload(part.x, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
   upload(part.y, [](const Disk& d) { return d.y; });

@@ -355,11 +355,13 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         sl.gave_up = static_cast<double>(sl.unconverged) * batch.params(s).time_step >
                      scan.protocol.max_unconverged_time;
         ++sl.steps;
-        const auto state = sl.gave_up ? Regions::State::Overflow : regions->poll(batch, s);
         if (sl.gave_up) {
           regions->stop(batch, s);
           finish(k);
-        } else if (state == Regions::State::Running) {
+          continue;
+        }
+        const auto state = regions->poll(batch, s);
+        if (state == Regions::State::Running) {
           if (sl.steps < sl.cap) continue;
           regions->stop(batch, s);
           sl.event_capped = true;
@@ -398,7 +400,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         // The whole system moves after the region came to rest: relax around what moves.
         std::vector<Regions::Point> seeds;
         for (const auto& d : batch.disks(static_cast<int>(k)))
-          if (std::max(std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)) > wake)
+          if (speed(d) > wake)
             seeds.push_back({d.x, d.y});
         if (start_region(k, seeds)) continue;
       }

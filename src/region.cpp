@@ -9,15 +9,11 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "kernels/state.hpp"
+
 namespace loosepack {
 
 namespace {
-
-double min_image(double d, double width) {
-  if (d > 0.5 * width) return d - width;
-  if (d < -0.5 * width) return d + width;
-  return d;
-}
 
 // Seeds binned in square cells of edge `cutoff` (periodic in x): the distance from a point to
 // the nearest seed, exact whenever it is below the cutoff.
@@ -41,7 +37,7 @@ class SeedGrid {
         if (it == cells_.end()) continue;
         for (int k : it->second) {
           const auto& p = seeds_[static_cast<std::size_t>(k)];
-          best = std::min(best, std::hypot(min_image(x - p.x, width_), y - p.y));
+          best = std::min(best, std::hypot(periodic_delta(x - p.x, width_), y - p.y));
         }
       }
     }
@@ -62,8 +58,6 @@ class SeedGrid {
   int nx_ = 1;
   std::unordered_map<long long, std::vector<int>> cells_;
 };
-
-double speed_of(const Disk& d) { return std::max(std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)); }
 
 }  // namespace
 
@@ -166,8 +160,6 @@ Regions::Regions(int n, const std::vector<SystemParams>& systems, const RegionSe
 
 Regions::~Regions() = default;
 
-double Regions::margin() const { return impl_->margin(); }
-
 bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double tolerance) {
   auto& I = *impl_;
   auto& sl = I.slots.at(static_cast<std::size_t>(s));
@@ -219,11 +211,10 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
     local[static_cast<std::size_t>(sel.index[k])] = static_cast<int>(k);
   std::vector<ContactForce> contacts;
   for (auto c : whole.contacts(s)) {
-    const int i = local[static_cast<std::size_t>(c.i)];
-    const int j = c.j < 0 ? (y0 > 0.0 ? -2 : -1) : local[static_cast<std::size_t>(c.j)];
-    if (i < 0 || j < -1) continue;
-    c.i = i;
-    c.j = j;
+    if (c.j < 0 && y0 > 0.0) continue;  // the region's floor is not the real one
+    c.i = local[static_cast<std::size_t>(c.i)];
+    if (c.j >= 0) c.j = local[static_cast<std::size_t>(c.j)];
+    if (c.i < 0 || c.j < -1) continue;  // a disk outside the region
     contacts.push_back(c);
   }
   I.batch->set_contacts(s, contacts);
@@ -249,6 +240,7 @@ Regions::State Regions::poll(Batch& whole, int s) {
     I.end(s);  // nothing written back: the whole system relaxes from where it was
     return State::Overflow;
   }
+  if (!st.at_rest && !(st.max_speed > I.rest.speed)) return State::Running;  // nothing to grow
   const std::vector<Disk> region = I.batch->disks(s);
   if (st.at_rest) {
     I.write_back(whole, s, region);
@@ -259,7 +251,7 @@ Regions::State Regions::poll(Batch& whole, int s) {
   bool grow = false;
   std::vector<Point> seeds = sl.seeds;
   for (std::size_t k = 0; k < region.size(); ++k) {
-    if (!sl.moving[k] || !(speed_of(region[k]) > I.rest.speed)) continue;
+    if (!sl.moving[k] || !(speed(region[k]) > I.rest.speed)) continue;
     const Point p{region[k].x, region[k].y + sl.y0};
     seeds.push_back(p);
     if (sl.grid.distance(p.x, p.y) > I.settings.radius - I.margin()) grow = true;
@@ -277,7 +269,6 @@ void Regions::stop(Batch& whole, int s) {
   I.end(s);
 }
 
-bool Regions::running(int s) const { return impl_->slots.at(static_cast<std::size_t>(s)).running; }
 const SystemStatus& Regions::status(int s) const { return impl_->batch->status(s); }
 long Regions::steps(int s) const {
   const auto& sl = impl_->slots.at(static_cast<std::size_t>(s));

@@ -49,6 +49,16 @@ std::pair<double, double> slope(const std::vector<double>& x, const std::vector<
   const double se = std::sqrt(rss / (n - 2) / (sxx - sx * sx / n));
   return {b, se};
 }
+
+// The floor's normal force on a member's final deposit, and the deposit's weight (m g with
+// m = r^2, m = 1 at R = 1, g = 1): equal for a deposit at rest.
+std::pair<double, double> floor_force_and_weight(const MemberResult& r) {
+  double floor = 0.0, weight = 0.0;
+  for (const auto& c : r.contacts)
+    if (c.j < 0) floor += c.normal;
+  for (double rad : r.radius) weight += rad * rad;
+  return {floor, weight};
+}
 }  // namespace
 
 // Protocol B: the bulk density of off-lattice ballistic deposition is flat in y and lies in the
@@ -354,10 +364,7 @@ lower_half_from = 1.0
 )");
   const auto r = run_members(scan, members_of(scan)).at(0);
   ASSERT_TRUE(r.ok());
-  double floor = 0.0, weight = 0.0;
-  for (const auto& c : r.contacts)
-    if (c.j < 0) floor += c.normal;
-  for (double rad : r.radius) weight += rad * rad;  // m g with m = r^2 (m = 1 at R = 1), g = 1
+  const auto [floor, weight] = floor_force_and_weight(r);
   EXPECT_NEAR(floor, weight, 1e-3 * weight);
   ASSERT_FALSE(r.trajectory_time.empty());
   for (std::size_t d = 0; d < r.y_e.size(); d += 3) {
@@ -404,10 +411,7 @@ lower_half_from = 1.0
     ASSERT_TRUE(r.ok());
     EXPECT_EQ(r.events.size(), r.y_e.size());
     EXPECT_GT(r.y_e.size(), 20u);
-    double floor = 0.0, weight = 0.0;
-    for (const auto& c : r.contacts)
-      if (c.j < 0) floor += c.normal;
-    for (double rad : r.radius) weight += rad * rad;
+    const auto [floor, weight] = floor_force_and_weight(r);
     EXPECT_NEAR(floor, weight, 1e-3 * weight);
     for (std::size_t a = 0; a < r.y_e.size(); ++a) {
       EXPECT_GT(r.y_e[a], r.radius[a] - 1e-3);

@@ -1,6 +1,8 @@
 // A batch of independent 2D systems of disks advanced together by one set of Kokkos kernels.
 // The host API uses plain structs; the device state stays behind the pointer to implementation.
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -19,6 +21,9 @@ struct Disk {
   bool lock_rotation = false;  // infinite inertia only
   double y_deposit = 0.0;      // y_i: height at which the disk was deposited
 };
+
+// The speed the rest criterion compares with rest.speed: max(|v|, R |w|).
+inline double speed(const Disk& d) { return std::max(std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)); }
 
 struct SystemSetup {
   SystemParams params;

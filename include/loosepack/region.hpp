@@ -46,20 +46,17 @@ class Regions {
     Overflow  // outgrew the slot, or failed; written back: relax the whole system
   };
   // After step(): the state of region s. Grows the region (a new small system around every
-  // disk that moves) when a moving disk is beyond radius - margin of every seed.
+  // disk that moves) when a disk faster than the rest speed is further than 0.6 radius
+  // from every seed.
   State poll(Batch& whole, int s);
   // Writes region s back into the whole system and stops it (a relaxation cut at its cap).
   void stop(Batch& whole, int s);
 
-  bool running(int s) const;
   const SystemStatus& status(int s) const;  // of the current small system of slot s
   long steps(int s) const;   // all steps of slot s, all its regions, since construction
   long sweeps(int s) const;
   const std::vector<std::pair<std::string, double>>& stage_seconds() const;
   void set_timing(bool on);
-
-  // The margin inside the radius where motion makes a region grow [R].
-  double margin() const;
 
  private:
   struct Impl;
