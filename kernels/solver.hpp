@@ -251,6 +251,49 @@ struct SequentialGaussSeidel {
   }
 };
 
+// The NNCG pieces shared by AcceleratedGaussSeidel and ColouredAcceleratedGaussSeidel.
+// Squared norm of contact c's change over the last iteration (moments scaled by 1/r_c).
+KOKKOS_INLINE_FUNCTION double nncg_change2(const ContactViews& con, int c) {
+  if (con.partner(c) == kNoContact) return 0.0;
+  const double dn = con.pn(c) - con.start_pn(c), dt = con.pt(c) - con.start_pt(c);
+  const double dm = (con.pm(c) - con.start_pm(c)) / con.rc(c);
+  return dn * dn + dt * dt + dm * dm;
+}
+// beta = |d_k|^2 / |d_{k-1}|^2; 2 (a restart) on the first iteration of a step.
+KOKKOS_INLINE_FUNCTION double nncg_beta(double previous, double g2) {
+  return previous > 0.0 ? g2 / previous : 2.0;
+}
+KOKKOS_INLINE_FUNCTION void nncg_keep_start(const ContactViews& con, int c) {
+  if (con.partner(c) == kNoContact) return;
+  con.start_pn(c) = con.pn(c);
+  con.start_pt(c) = con.pt(c);
+  con.start_pm(c) = con.pm(c);
+}
+// The NNCG step of contact c: beta > 1 restarts (the direction becomes the change d), else the
+// impulses move by beta p and p becomes beta p + d. Writes the impulse step (sn, st, sm) and
+// returns true when there is one for the bodies; the iterate is then the next start.
+KOKKOS_INLINE_FUNCTION bool nncg_step(const ContactViews& con, int c, double beta, double& sn,
+                                      double& st, double& sm) {
+  sn = st = sm = 0.0;
+  if (con.partner(c) == kNoContact) return false;
+  const double dn = con.pn(c) - con.start_pn(c), dt = con.pt(c) - con.start_pt(c),
+               dm = con.pm(c) - con.start_pm(c);
+  const bool step = !(beta > 1.0);
+  if (step) {
+    sn = beta * con.dir_pn(c);
+    st = beta * con.dir_pt(c);
+    sm = beta * con.dir_pm(c);
+    con.pn(c) += sn;
+    con.pt(c) += st;
+    con.pm(c) += sm;
+  }
+  con.dir_pn(c) = sn + dn;
+  con.dir_pt(c) = st + dt;
+  con.dir_pm(c) = sm + dm;
+  nncg_keep_start(con, c);
+  return step;
+}
+
 // Gauss-Seidel accelerated by the nonsmooth nonlinear conjugate gradient method (NNCG; Silcowitz,
 // Niebe & Erleben, "A nonsmooth nonlinear conjugate gradient method for interactive contact
 // force problems", 2010). One iteration is a symmetric pair of exact Gauss-Seidel sweeps (the
@@ -295,45 +338,114 @@ struct AcceleratedGaussSeidel {
       return true;
     }
     double g2 = 0.0;
-    for (int c = first; c < end; ++c) {
-      if (con.partner(c) == kNoContact) continue;
-      const double dn = con.pn(c) - con.start_pn(c), dt = con.pt(c) - con.start_pt(c);
-      const double dm = (con.pm(c) - con.start_pm(c)) / con.rc(c);
-      g2 += dn * dn + dt * dt + dm * dm;
-    }
+    for (int c = first; c < end; ++c) g2 += nncg_change2(con, c);
     const double previous = sys.gradient2(s);
     sys.gradient2(s) = g2;
-    const double beta = previous > 0.0 ? g2 / previous : 2.0;
+    const double beta = nncg_beta(previous, g2);
     for (int c = first; c < end; ++c) {
-      const int j = con.partner(c);
-      if (j == kNoContact) continue;
-      const double dn = con.pn(c) - con.start_pn(c), dt = con.pt(c) - con.start_pt(c),
-                   dm = con.pm(c) - con.start_pm(c);
-      if (beta > 1.0) {  // restart
-        con.dir_pn(c) = dn;
-        con.dir_pt(c) = dt;
-        con.dir_pm(c) = dm;
-      } else {
-        const double sn = beta * con.dir_pn(c), st = beta * con.dir_pt(c),
-                     sm = beta * con.dir_pm(c);
-        con.pn(c) += sn;
-        con.pt(c) += st;
-        con.pm(c) += sm;
-        apply_impulse_change(part, con, c, c / kSlots, j, sn, st, sm);
-        con.dir_pn(c) = sn + dn;
-        con.dir_pt(c) = st + dt;
-        con.dir_pm(c) = sm + dm;
-      }
-      keep_start(c);  // the next iteration starts from here
+      double sn, st, sm;
+      if (nncg_step(con, c, beta, sn, st, sm))
+        apply_impulse_change(part, con, c, c / kSlots, con.partner(c), sn, st, sm);
     }
     return false;
   }
 
-  KOKKOS_INLINE_FUNCTION void keep_start(int c) const {
-    if (con.partner(c) == kNoContact) return;
-    con.start_pn(c) = con.pn(c);
-    con.start_pt(c) = con.pt(c);
-    con.start_pm(c) = con.pm(c);
+  KOKKOS_INLINE_FUNCTION void keep_start(int c) const { nncg_keep_start(con, c); }
+};
+
+// NNCG over graph-coloured symmetric Gauss-Seidel with one team per system, for wide devices
+// (a GPU): the team's threads share the contacts of one colour (which share no body), sweep the
+// colours forward then backward, and reduce the convergence test and |d|^2 among themselves;
+// the NNCG step then updates every contact's impulses at once and every disk's velocity is
+// recomputed from its impulses (BodyVelocity), which needs no atomics. Each team iterates its
+// system to convergence in one launch, as AcceleratedGaussSeidel does with one thread.
+// `list` holds each system's contact slots grouped by colour within the system's own slot
+// range; `starts` [S * (n_colours + 1)] the colour boundaries (both written by the kernel).
+// On a host backend (team size 1) it is the same method with the contacts in colour order.
+template <class Fx>
+struct ColouredAcceleratedGaussSeidel {
+  using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  DView<int> sweeps;  // [S] sweeps of this step
+  DView<int> list, starts;
+  int n_colours;
+  double omega;
+  int max_sweeps;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
+    const int s = team.league_rank();
+    if (!sys.active(s) || !sys.unconverged(s)) return;
+    const SlotRange range = system_slots(sys, s);
+    const int base = s * (n_colours + 1);
+    group_by_colour(team, range, base);
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
+                         [&](int c) { nncg_keep_start(con, c); });
+    team.team_barrier();
+    double previous = 0.0;  // the first iteration of a step restarts
+    for (int sweep = 0; sweep < max_sweeps; sweep += 2) {
+      double worst = 0.0;
+      for (int k = 0; k < n_colours; ++k) worst = kmath::max(worst, colour_sweep(team, base, k));
+      for (int k = n_colours - 1; k >= 0; --k)
+        worst = kmath::max(worst, colour_sweep(team, base, k));
+      Kokkos::single(Kokkos::PerTeam(team), [&]() { sweeps(s) += 2; });
+      if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
+        Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.unconverged(s) = 0; });
+        return;
+      }
+      double g2 = 0.0;
+      Kokkos::parallel_reduce(
+          Kokkos::TeamThreadRange(team, range.first, range.end),
+          [&](int c, double& sum) { sum += nncg_change2(con, c); }, g2);
+      const double beta = nncg_beta(previous, g2);
+      previous = g2;
+      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end), [&](int c) {
+        double sn, st, sm;
+        nncg_step(con, c, beta, sn, st, sm);
+      });
+      team.team_barrier();
+      if (!(beta > 1.0)) {  // the impulses moved: the velocities follow
+        const BodyVelocity velocity{sys, part, con, false};
+        Kokkos::parallel_for(
+            Kokkos::TeamThreadRange(team, sys.offset(s), sys.offset(s) + sys.count(s)),
+            [&](int p) { velocity(p); });
+        team.team_barrier();
+      }
+    }
+  }
+
+  // One colour's contacts updated in parallel; returns the largest change (on every thread).
+  KOKKOS_INLINE_FUNCTION double colour_sweep(const Member& team, int base, int k) const {
+    double worst = 0.0;
+    Kokkos::parallel_reduce(
+        Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)),
+        [&](int a, double& w) { gauss_seidel_update<Fx>(sys, part, con, list(a), omega, w); },
+        Kokkos::Max<double>(worst));
+    return kmath::max(worst, 0.0);
+  }
+
+  // Writes the system's contact slots into list[range], grouped by colour (in slot order within
+  // a colour), and the colour boundaries into starts[base ...].
+  KOKKOS_INLINE_FUNCTION void group_by_colour(const Member& team, SlotRange range,
+                                              int base) const {
+    int next = range.first;
+    for (int k = 0; k < n_colours; ++k) {
+      int n = 0;
+      Kokkos::parallel_reduce(
+          Kokkos::TeamThreadRange(team, range.first, range.end),
+          [&](int c, int& m) { m += con.colour(c) == k ? 1 : 0; }, n);
+      Kokkos::parallel_scan(Kokkos::TeamThreadRange(team, range.first, range.end),
+                            [&](int c, int& partial, bool final) {
+                              if (con.colour(c) != k) return;
+                              if (final) list(next + partial) = c;
+                              ++partial;
+                            });
+      Kokkos::single(Kokkos::PerTeam(team), [&]() { starts(base + k) = next; });
+      next += n;
+    }
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { starts(base + n_colours) = next; });
+    team.team_barrier();
   }
 };
 

@@ -66,6 +66,7 @@ struct Batch::Impl {
   ContactViews con;
   GridViews grid;
   DView<int> colour_list, colour_start, colour_fill;
+  DView<int> system_colour_start;  // [S * (colours + 1)] ColouredAcceleratedGaussSeidel's
   DView<int> sweeps_this_step;  // [S]
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
@@ -109,7 +110,7 @@ struct Batch::Impl {
   void upload_status_active();
   template <class Fx>
   void solve();
-  int colour();
+  int colour(bool batch_list);
   void step();
 };
 
@@ -269,7 +270,8 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   con.prev_pt = alloc<double>("prev_pt", NC);
   con.prev_pm = alloc<double>("prev_pm", NC);
   con.colour = alloc<int>("colour", NC);
-  if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
+  if (solver.kind == SolverKind::AcceleratedGaussSeidel ||
+      solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {
     con.start_pn = alloc<double>("start_pn", NC);
     con.start_pt = alloc<double>("start_pt", NC);
     con.start_pm = alloc<double>("start_pm", NC);
@@ -415,10 +417,22 @@ void Batch::Impl::solve() {
         SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
     return;
   }
+  if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
+    const int n_colours = colour(false);
+    const auto need = static_cast<std::size_t>(n_systems) * (n_colours + 1);
+    if (system_colour_start.extent(0) < need)
+      system_colour_start = alloc<int>("system_colour_start", need);
+    Kokkos::parallel_for("coloured_accelerated_gauss_seidel",
+                         Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO),
+                         ColouredAcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, colour_list,
+                                                            system_colour_start, n_colours, omega,
+                                                            solver.max_sweeps});
+    return;
+  }
   int n_colours = 0;
   std::vector<int> colour_begin;
   if (!jacobi) {
-    n_colours = colour();
+    n_colours = colour(true);
     auto hs = Kokkos::create_mirror_view(colour_start);
     Kokkos::deep_copy(hs, colour_start);
     colour_begin.assign(hs.data(), hs.data() + n_colours + 1);
@@ -456,7 +470,9 @@ void Batch::Impl::solve() {
   }
 }
 
-int Batch::Impl::colour() {
+// Colours the contacts of every system (ColourRound); with batch_list, also lists the batch's
+// contact slots by colour in colour_list, delimited by colour_start. Returns the colour count.
+int Batch::Impl::colour(bool batch_list) {
   const int n_contacts = n_particles * kSlots;
   Kokkos::parallel_for("colour_reset", Kokkos::RangePolicy<ExecSpace>(0, n_contacts),
                        ColourReset{con});
@@ -468,6 +484,7 @@ int Batch::Impl::colour() {
     if (uncoloured == 0) break;
   }
   const int n_colours = rounds + 1;
+  if (!batch_list) return n_colours;
   if (static_cast<int>(colour_fill.extent(0)) < n_colours) {
     colour_fill = alloc<int>("colour_fill", static_cast<std::size_t>(n_colours));
     colour_start = alloc<int>("colour_start", static_cast<std::size_t>(n_colours) + 1);

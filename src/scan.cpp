@@ -416,8 +416,8 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           auto s = v.as_string();
           if (!s || !solver_kind_from_name(s->get(), scan.solver.kind))
             fail(file, v, key,
-                 "expected \"jacobi\", \"gauss_seidel\", \"sequential_gauss_seidel\" or "
-                 "\"accelerated_gauss_seidel\"");
+                 "expected \"jacobi\", \"gauss_seidel\", \"sequential_gauss_seidel\", "
+                 "\"accelerated_gauss_seidel\" or \"coloured_accelerated_gauss_seidel\"");
         } else if (k == "tolerance") {
           scan.solver.tolerance = real(v, key, 1e-14, 1.0);
           scan.tolerance_given = true;

@@ -147,7 +147,8 @@ TEST(Solver, JacobiConvergesOnDenseHexagonalPacking) {
   p.friction = 0.3;
   p.rolling_friction = 0.1;
   for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
-                          SolverKind::AcceleratedGaussSeidel}) {
+                          SolverKind::AcceleratedGaussSeidel,
+                          SolverKind::ColouredAcceleratedGaussSeidel}) {
     SolverSettings s;
     s.kind = kind;
     s.tolerance = 1e-10;
@@ -173,7 +174,8 @@ TEST(Solver, AllSolversAgreeOnDeterminatePiles) {
     std::vector<std::vector<ContactForce>> forces;
     for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
                             SolverKind::SequentialGaussSeidel,
-                            SolverKind::AcceleratedGaussSeidel}) {
+                            SolverKind::AcceleratedGaussSeidel,
+                            SolverKind::ColouredAcceleratedGaussSeidel}) {
       SolverSettings s;
       s.kind = kind;
       s.tolerance = 1e-10;
@@ -222,11 +224,17 @@ TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
   const double gs80 = sweeps_for(SolverKind::SequentialGaussSeidel, 80);
   const double acc40 = sweeps_for(SolverKind::AcceleratedGaussSeidel, 40);
   const double acc80 = sweeps_for(SolverKind::AcceleratedGaussSeidel, 80);
-  std::printf("column 40 / 80: Gauss-Seidel %.0f / %.0f sweeps, accelerated %.0f / %.0f\n", gs40,
-              gs80, acc40, acc80);
+  const double col40 = sweeps_for(SolverKind::ColouredAcceleratedGaussSeidel, 40);
+  const double col80 = sweeps_for(SolverKind::ColouredAcceleratedGaussSeidel, 80);
+  std::printf(
+      "column 40 / 80: Gauss-Seidel %.0f / %.0f sweeps, accelerated %.0f / %.0f, coloured "
+      "accelerated %.0f / %.0f\n",
+      gs40, gs80, acc40, acc80, col40, col80);
   EXPECT_GT(gs80 / gs40, 3.0);   // ~ n^2
   EXPECT_LT(acc80 / acc40, 2.6);  // ~ n
   EXPECT_LT(acc80, gs80 / 10.0);
+  EXPECT_LT(col80 / col40, 2.6);  // the coloured order keeps the NNCG scaling
+  EXPECT_LT(col80, gs80 / 10.0);
 }
 
 // The tolerance is per system (scans give protocols different defaults, scan.hpp): two equal
@@ -238,7 +246,8 @@ TEST(Solver, ToleranceIsPerSystem) {
   p.friction = 0.3;
   p.rolling_friction = 0.1;
   const int n = 20;
-  for (SolverKind kind : {SolverKind::AcceleratedGaussSeidel, SolverKind::Jacobi}) {
+  for (SolverKind kind : {SolverKind::AcceleratedGaussSeidel,
+                          SolverKind::ColouredAcceleratedGaussSeidel, SolverKind::Jacobi}) {
     SCOPED_TRACE(solver_kind_name(kind));
     SolverSettings s;
     s.kind = kind;

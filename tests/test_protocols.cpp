@@ -420,6 +420,43 @@ lower_half_from = 1.0
   }
 }
 
+// The coloured accelerated solver (one team per system, for GPUs) through protocol A: a cohesive
+// deposit comes to rest with the floor carrying its whole weight, and, each system being solved
+// by its own team, the batch size changes nothing.
+TEST(ColouredSolver, DepositCarriesItsWeightWhateverTheBatch) {
+  const std::string text = R"(
+[scan]
+protocol = "A"
+seeds = 3
+[system]
+width = 12.0
+height = 12.0
+bond_number = 10
+[solver]
+kind = "coloured_accelerated_gauss_seidel"
+tolerance = 1e-5
+max_sweeps = 20000
+[observables]
+lower_half_from = 1.0
+)";
+  auto one = scan_of(text);
+  one.batch_size = 1;
+  auto many = scan_of(text);
+  many.batch_size = 3;
+  const auto a = run_members(one, members_of(one));
+  const auto b = run_members(many, members_of(many));
+  ASSERT_EQ(a.size(), 3u);
+  ASSERT_EQ(b.size(), 3u);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    ASSERT_TRUE(a[k].ok());
+    EXPECT_EQ(a[k].events.size(), a[k].y_e.size());
+    const auto [floor, weight] = floor_force_and_weight(a[k]);
+    EXPECT_NEAR(floor, weight, 1e-3 * weight) << "member " << k;
+    EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
+    EXPECT_EQ(a[k].sweeps, b[k].sweeps) << "member " << k;
+  }
+}
+
 // A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
 // member fails as unconverged once the cap has been hit on every step for longer than
 // protocol.max_unconverged_time (0.505 / h = 0.01: on step 51), keeps its state for the

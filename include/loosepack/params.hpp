@@ -40,6 +40,9 @@ enum class SolverKind {
   // SequentialGaussSeidel accelerated by the nonsmooth nonlinear conjugate gradient step (NNCG,
   // Silcowitz, Niebe & Erleben 2010): force crosses n layers in about n sweeps, not n^2.
   AcceleratedGaussSeidel,
+  // NNCG over graph-coloured Gauss-Seidel, one team of threads per system: the solver for wide
+  // devices (a GPU), where one thread per system leaves the device idle.
+  ColouredAcceleratedGaussSeidel,
 };
 
 // The scan-file spelling of a solver kind.
@@ -53,6 +56,8 @@ inline const char* solver_kind_name(SolverKind k) {
       return "sequential_gauss_seidel";
     case SolverKind::AcceleratedGaussSeidel:
       return "accelerated_gauss_seidel";
+    case SolverKind::ColouredAcceleratedGaussSeidel:
+      return "coloured_accelerated_gauss_seidel";
   }
   return "unknown";
 }
@@ -60,7 +65,8 @@ inline const char* solver_kind_name(SolverKind k) {
 // The solver kind of a scan-file spelling; false if there is none.
 inline bool solver_kind_from_name(const std::string& name, SolverKind& kind) {
   for (SolverKind k : {SolverKind::Jacobi, SolverKind::GaussSeidel,
-                       SolverKind::SequentialGaussSeidel, SolverKind::AcceleratedGaussSeidel})
+                       SolverKind::SequentialGaussSeidel, SolverKind::AcceleratedGaussSeidel,
+                       SolverKind::ColouredAcceleratedGaussSeidel})
     if (name == solver_kind_name(k)) {
       kind = k;
       return true;
