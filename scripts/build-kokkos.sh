@@ -67,6 +67,15 @@ else
   kokkos_options+=(-DKokkos_ENABLE_OPENMP=ON)
 fi
 
+# A CUDA install is for one GPU architecture: record it, and refuse to reuse it for another.
+stamp="$prefix/loosepack-cuda-arch"
+if [ "$backend" = cuda ] && [ -f "$prefix/lib/cmake/Kokkos/KokkosConfig.cmake" ] &&
+  [ "$(cat "$stamp" 2>/dev/null || echo unknown)" != "$arch" ]; then
+  echo "build-kokkos.sh: $prefix holds Kokkos built for CUDA_ARCH" \
+    "$(cat "$stamp" 2>/dev/null || echo '(unrecorded)'), not $arch: set PREFIX to another" \
+    "directory or remove $prefix" >&2
+  exit 2
+fi
 if [ ! -f "$prefix/lib/cmake/Kokkos/KokkosConfig.cmake" ]; then
   apt-get source --print-uris trilinos >/dev/null 2>&1 || add_source loosepack-debsrc.sources deb-src main
   work=$(mktemp -d)
@@ -87,6 +96,7 @@ if [ ! -f "$prefix/lib/cmake/Kokkos/KokkosConfig.cmake" ]; then
     { cat "$work/configure.log"; echo "build-kokkos.sh: Kokkos configure failed" >&2; exit 1; }
   cmake --build "$work/build" -j"$(nproc)"
   cmake --install "$work/build" >/dev/null
+  if [ "$backend" = cuda ]; then echo "$arch" >"$stamp"; fi
   rm -rf "$work"
 fi
 cmake -S . -B "build-$backend" -DKokkos_ROOT="$prefix" -DCMAKE_BUILD_TYPE=Release \

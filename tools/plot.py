@@ -42,6 +42,12 @@ def need(group, name):
     return obj[()] if isinstance(obj, h5py.Dataset) else obj
 
 
+def sem(group):
+    """Standard errors for error bars: a bin with no estimate (one member) draws no bar."""
+    e = np.asarray(need(group, "sem"), dtype=float)
+    return np.where(np.isfinite(e), e, 0.0)
+
+
 def text(v):
     return v.decode() if isinstance(v, bytes) else str(v)
 
@@ -83,7 +89,7 @@ def density_profiles(points, out, written):
     for g in points:
         nu = need(g, "nu")
         for ax, x in ((axes[0], need(nu, "centre")), (axes[1], need(nu, "depth"))):
-            ax.errorbar(x, need(nu, "mean"), yerr=need(nu, "sem"), label=label(g), capsize=2)
+            ax.errorbar(x, need(nu, "mean"), yerr=sem(nu), label=label(g), capsize=2)
     axes[0].set_xlabel("y [R]")
     axes[1].set_xlabel("depth H - y [R]")
     axes[0].set_ylabel("volume fraction nu")
@@ -117,7 +123,7 @@ def avalanche_profiles(points, out, written):
             a = need(g, key)
             # Each bin at the mean position of its disks, where the fits put it.
             x = need(a, "position") if "position" in a else need(a, "centre")
-            line = ax.errorbar(x, need(a, "mean"), yerr=need(a, "sem"),
+            line = ax.errorbar(x, need(a, "mean"), yerr=sem(a),
                                fmt="o", ms=3, label=label(g), capsize=2)
             f = fit_of(a, "fit")
             if f is not None:
@@ -170,7 +176,7 @@ def deposition_density(points, out, written):
     for g in points:
         nu, nud = need(g, "nu"), need(g, "nu_deposition")
         line = ax.plot(need(nud, "centre"), need(nud, "mean"), ":", label=f"nu_d(y_i), {label(g)}")[0]
-        ax.errorbar(need(nu, "centre"), need(nu, "mean"), yerr=need(nu, "sem"), fmt="o", ms=3,
+        ax.errorbar(need(nu, "centre"), need(nu, "mean"), yerr=sem(nu), fmt="o", ms=3,
                     color=line.get_color(), capsize=2)
         if "predicted" in nu:
             ax.plot(need(nu, "centre"), need(nu, "predicted"), "-", color=line.get_color(), lw=1.5)
