@@ -426,26 +426,25 @@ struct ColouredAcceleratedGaussSeidel {
   }
 
   // Writes the system's contact slots into list[range], grouped by colour (in slot order within
-  // a colour), and the colour boundaries into starts[base ...].
+  // a colour), and the colour boundaries into starts[base ...]: one team scan per colour, whose
+  // extra last element writes where the next colour begins.
   KOKKOS_INLINE_FUNCTION void group_by_colour(const Member& team, SlotRange range,
                                               int base) const {
-    int next = range.first;
-    for (int k = 0; k < n_colours; ++k) {
-      int n = 0;
-      Kokkos::parallel_reduce(
-          Kokkos::TeamThreadRange(team, range.first, range.end),
-          [&](int c, int& m) { m += con.colour(c) == k ? 1 : 0; }, n);
-      Kokkos::parallel_scan(Kokkos::TeamThreadRange(team, range.first, range.end),
-                            [&](int c, int& partial, bool final) {
-                              if (con.colour(c) != k) return;
-                              if (final) list(next + partial) = c;
-                              ++partial;
-                            });
-      Kokkos::single(Kokkos::PerTeam(team), [&]() { starts(base + k) = next; });
-      next += n;
-    }
-    Kokkos::single(Kokkos::PerTeam(team), [&]() { starts(base + n_colours) = next; });
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { starts(base) = range.first; });
     team.team_barrier();
+    for (int k = 0; k < n_colours; ++k) {
+      const int next = starts(base + k);
+      Kokkos::parallel_scan(Kokkos::TeamThreadRange(team, range.first, range.end + 1),
+                            [&](int c, int& partial, bool final) {
+                              if (c == range.end) {
+                                if (final) starts(base + k + 1) = next + partial;
+                              } else if (con.colour(c) == k) {
+                                if (final) list(next + partial) = c;
+                                ++partial;
+                              }
+                            });
+      team.team_barrier();
+    }
   }
 };
 

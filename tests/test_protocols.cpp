@@ -59,6 +59,20 @@ std::pair<double, double> floor_force_and_weight(const MemberResult& r) {
   for (double rad : r.radius) weight += rad * rad;
   return {floor, weight};
 }
+
+// One scan text run twice: in batches of one system and in batches of `many`.
+struct BatchedRuns {
+  Scan one, many;
+  std::vector<MemberResult> alone, batched;
+};
+BatchedRuns run_alone_and_batched(const std::string& text, int many) {
+  BatchedRuns r{scan_of(text), scan_of(text), {}, {}};
+  r.one.batch_size = 1;
+  r.many.batch_size = many;
+  r.alone = run_members(r.one, members_of(r.one));
+  r.batched = run_members(r.many, members_of(r.many));
+  return r;
+}
 }  // namespace
 
 // Protocol B: the bulk density of off-lattice ballistic deposition is flat in y and lies in the
@@ -266,12 +280,9 @@ bond_number = 50
 [observables]
 lower_half_from = 2.0
 )";
-  auto one = scan_of(text);
-  one.batch_size = 1;
-  auto many = scan_of(text);
-  many.batch_size = 6;
-  const auto a = run_members(one, members_of(one));
-  const auto b = run_members(many, members_of(many));
+  const auto runs = run_alone_and_batched(text, 6);
+  const auto &one = runs.one, &many = runs.many;
+  const auto &a = runs.alone, &b = runs.batched;
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t k = 0; k < a.size(); ++k) {
     EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
@@ -439,12 +450,8 @@ max_sweeps = 20000
 [observables]
 lower_half_from = 1.0
 )";
-  auto one = scan_of(text);
-  one.batch_size = 1;
-  auto many = scan_of(text);
-  many.batch_size = 3;
-  const auto a = run_members(one, members_of(one));
-  const auto b = run_members(many, members_of(many));
+  const auto runs = run_alone_and_batched(text, 3);
+  const auto &a = runs.alone, &b = runs.batched;
   ASSERT_EQ(a.size(), 3u);
   ASSERT_EQ(b.size(), 3u);
   for (std::size_t k = 0; k < a.size(); ++k) {
