@@ -331,6 +331,15 @@ int main(int argc, char** argv) {
   sum_cmd->add_option("file", summary_path, "result file (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);
+  std::string analyse_path, analyse_out;
+  auto* an_cmd = app.add_subcommand(
+      "analyse", "Recompute the fits of a result file from the aggregates it stores (a file of "
+                 "an older program gets the current analysis without a rerun)");
+  an_cmd->add_option("file", analyse_path, "result file (HDF5)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  an_cmd->add_option("-o,--output", analyse_out,
+                     "write here instead of replacing FILE (atomically, either way)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -345,6 +354,10 @@ int main(int argc, char** argv) {
   }
   if (!ranks.root()) return 0;
   try {
+    if (*an_cmd) {
+      reanalyse(analyse_path, analyse_out.empty() ? analyse_path : analyse_out);
+      return 0;
+    }
     print_summary(summary_path, std::cout);
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";

@@ -7,6 +7,7 @@
 #include <Kokkos_Core.hpp>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
@@ -134,6 +135,67 @@ void histogram_shape(hid_t parent, const std::string& name, const HistogramShape
   fit(g, "gaussian", h.gaussian);
 }
 
+H5 open_group(hid_t parent, const std::string& name) {
+  return H5(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose, "open group " + name);
+}
+
+// The analysis of one point (docs/OUTPUT.md, "Analysis"): fits inside the groups of the data
+// they fit, which must exist.
+void point_analysis(hid_t g, Protocol protocol, const PointAnalysis& an) {
+  {
+    H5 nu = open_group(g, "nu");
+    dataset(nu, "predicted", an.nu_predicted);
+    dataset(nu, "deviation", an.nu_deviation);
+    attribute(nu, "rms_deviation", an.nu_rms_deviation);
+  }
+  fit(open_group(g, "nu_deposition"), "power_law", an.deposition_power_law);
+  fit(open_group(g, "avalanche_by_yi"), "fit", an.dy_by_yi);
+  {
+    H5 ye = open_group(g, "avalanche_by_ye");
+    fit(ye, "fit", an.dy_by_ye);
+    if (protocol == Protocol::A) fit(ye, "slice_parabola", an.slice_parabola);
+  }
+  {
+    H5 h = open_group(g, "abs_dy_histogram");
+    histogram_shape(h, "shape", an.abs_dy);
+    histogram_shape(h, "shape_cut", an.abs_dy_cut);
+  }
+  if (protocol == Protocol::C) {
+    H5 c = group(g, "collapse_identity");
+    attribute(c, "b_prime", an.b_prime);
+    attribute(c, "b_prime_error", an.b_prime_error);
+    attribute(c, "b_prime_predicted", an.b_prime_predicted);
+    attribute(c, "b_prime_predicted_error", an.b_prime_predicted_error);
+    attribute(c, "a_prime", an.a_prime);
+    attribute(c, "a_prime_error", an.a_prime_error);
+    attribute(c, "a_prime_predicted", an.a_prime_predicted);
+    attribute(c, "a_prime_predicted_error", an.a_prime_predicted_error);
+    attribute(c, "slope_increase", an.slope_increase);
+    attribute(c, "slope_increase_error", an.slope_increase_error);
+  }
+}
+
+// Every object point_analysis writes, removed where present (a file of an older program may
+// lack some). HDF5 does not give the freed space back; the file keeps its size.
+void remove_point_analysis(hid_t g) {
+  for (const char* name :
+       {"nu/predicted", "nu/deviation", "nu_deposition/power_law", "avalanche_by_yi/fit",
+        "avalanche_by_ye/fit", "avalanche_by_ye/slice_parabola", "abs_dy_histogram/shape",
+        "abs_dy_histogram/shape_cut", "collapse_identity"})
+    if (H5Lexists(g, name, H5P_DEFAULT) > 0)
+      check(H5Ldelete(g, name, H5P_DEFAULT), std::string("remove ") + name);
+  if (H5Aexists_by_name(g, "nu", "rms_deviation", H5P_DEFAULT) > 0)
+    check(H5Adelete_by_name(g, "nu", "rms_deviation", H5P_DEFAULT), "remove nu@rms_deviation");
+}
+
+// The fits across scan points.
+void scan_analysis(hid_t file, const ScanAnalysis& s) {
+  H5 g = group(file, "analysis");
+  fit(g, "increase_vs_log_height", s.increase_vs_log_height);
+  fit(g, "increase_vs_nu_initial", s.increase_vs_nu_initial);
+  fit(g, "quadratic_vs_height", s.quadratic_vs_height);
+}
+
 std::string point_name(int k) {
   std::ostringstream o;
   o << "points/" << std::setw(4) << std::setfill('0') << k;
@@ -219,12 +281,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         attribute(g, "trajectory_every", static_cast<double>(o.trajectory_every));
         attribute(g, "trajectory_interval", static_cast<double>(o.trajectory_interval));
       }
-      {
-        H5 g = group(file, "analysis");
-        fit(g, "increase_vs_log_height", analysis.scan.increase_vs_log_height);
-        fit(g, "increase_vs_nu_initial", analysis.scan.increase_vs_nu_initial);
-        fit(g, "quadratic_vs_height", analysis.scan.quadratic_vs_height);
-      }
+      scan_analysis(file, analysis.scan);
       H5 all = group(file, "points");
       for (std::size_t pk = 0; pk < points.size(); ++pk) {
         const PointResult& pr = points[pk];
@@ -241,51 +298,21 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         std::vector<double> depth;
         for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
         dataset(g, "nu/depth", depth);
-        {
-          H5 nu = H5(H5Gopen2(g, "nu", H5P_DEFAULT), H5Gclose, "open group nu");
-          dataset(nu, "predicted", an.nu_predicted);
-          dataset(nu, "deviation", an.nu_deviation);
-          attribute(nu, "rms_deviation", an.nu_rms_deviation);
-        }
         profile(g, "nu_deposition", pr.nu_deposition);
-        {
-          H5 nud = H5(H5Gopen2(g, "nu_deposition", H5P_DEFAULT), H5Gclose,
-                      "open group nu_deposition");
-          fit(nud, "power_law", an.deposition_power_law);
-        }
         binned(g, "avalanche_by_yi", pr.dy_by_yi);
         binned(g, "avalanche_by_ye", pr.dy_by_ye);
-        {
-          H5 yi = H5(H5Gopen2(g, "avalanche_by_yi", H5P_DEFAULT), H5Gclose, "open group");
-          fit(yi, "fit", an.dy_by_yi);
-          H5 ye = H5(H5Gopen2(g, "avalanche_by_ye", H5P_DEFAULT), H5Gclose, "open group");
-          fit(ye, "fit", an.dy_by_ye);
-          if (pr.point.protocol == Protocol::A) fit(ye, "slice_parabola", an.slice_parabola);
-        }
         {
           H5 h = group(g, "abs_dy_histogram");
           dataset(h, "edges", pr.abs_dy_edges);
           dataset(h, "counts", pr.abs_dy_counts);
           dataset(h, "counts_cut", pr.abs_dy_counts_cut);
-          histogram_shape(h, "shape", an.abs_dy);
-          histogram_shape(h, "shape_cut", an.abs_dy_cut);
         }
         if (pr.point.protocol == Protocol::C) {
           scalar(g, "nu_initial", pr.nu_initial);
           scalar(g, "nu_final", pr.nu_final);
           scalar(g, "relative_increase", pr.relative_increase);
-          H5 c = group(g, "collapse_identity");
-          attribute(c, "b_prime", an.b_prime);
-          attribute(c, "b_prime_error", an.b_prime_error);
-          attribute(c, "b_prime_predicted", an.b_prime_predicted);
-          attribute(c, "b_prime_predicted_error", an.b_prime_predicted_error);
-          attribute(c, "a_prime", an.a_prime);
-          attribute(c, "a_prime_error", an.a_prime_error);
-          attribute(c, "a_prime_predicted", an.a_prime_predicted);
-          attribute(c, "a_prime_predicted_error", an.a_prime_predicted_error);
-          attribute(c, "slope_increase", an.slope_increase);
-          attribute(c, "slope_increase_error", an.slope_increase_error);
         }
+        point_analysis(g, pr.point.protocol, an);
         if (pr.point.protocol == Protocol::A) {
           H5 e = group(g, "events");
           dataset(e, "edges", pr.event_edges);
@@ -338,10 +365,10 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
   }
 }
 
-std::vector<double> read_dataset(const std::string& path, const std::string& name) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
-  H5 set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+namespace {
+
+std::vector<double> doubles(hid_t loc, const std::string& name) {
+  H5 set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
   H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
   const hssize_t n = H5Sget_simple_extent_npoints(space);
   std::vector<double> v(static_cast<std::size_t>(n));
@@ -351,15 +378,124 @@ std::vector<double> read_dataset(const std::string& path, const std::string& nam
   return v;
 }
 
-double read_attribute_double(const std::string& path, const std::string& object,
-                             const std::string& name) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
-  H5 a(H5Aopen_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+double double_attribute(hid_t loc, const std::string& object, const std::string& name) {
+  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
        "open attribute " + object + "@" + name);
   double v = 0.0;
   check(H5Aread(a, H5T_NATIVE_DOUBLE, &v), "read attribute " + name);
   return v;
+}
+
+// What write_results stored of a point's aggregates, as far as the analysis reads them.
+PointResult read_point(hid_t file, const ScanPoint& point) {
+  const std::string n = point_name(point.index);
+  if (H5Lexists(file, "points", H5P_DEFAULT) <= 0 || H5Lexists(file, n.c_str(), H5P_DEFAULT) <= 0)
+    throw std::runtime_error("no such group, though its scan_text has this point");
+  H5 g = open_group(file, n);
+  PointResult pr;
+  pr.point = point;
+  pr.members = static_cast<int>(double_attribute(g, ".", "members"));
+  pr.failed = static_cast<int>(double_attribute(g, ".", "failed"));
+  auto scalar_of = [&](const std::string& name) {
+    Scalar s;
+    s.mean = double_attribute(g, ".", name + "_mean");
+    s.sem = double_attribute(g, ".", name + "_sem");
+    s.n = static_cast<int>(double_attribute(g, ".", name + "_n"));
+    return s;
+  };
+  auto profile_of = [&](const std::string& name) {
+    EnsembleProfile e;
+    e.centre = doubles(g, name + "/centre");
+    e.mean = doubles(g, name + "/mean");
+    e.sem = doubles(g, name + "/sem");
+    e.members = doubles(g, name + "/members");
+    e.rel_fluctuation = doubles(g, name + "/rel_fluctuation");
+    return e;
+  };
+  auto binned_of = [&](const std::string& name) {
+    BinnedStat b;
+    b.centre = doubles(g, name + "/centre");
+    b.position = doubles(g, name + "/position");
+    b.mean = doubles(g, name + "/mean");
+    b.stddev = doubles(g, name + "/stddev");
+    b.count = doubles(g, name + "/count");
+    b.sem = doubles(g, name + "/sem");
+    return b;
+  };
+  pr.nu_lower_half = scalar_of("nu_lower_half");
+  pr.mean_abs_dy = scalar_of("mean_abs_dy");
+  pr.nu = profile_of("nu");
+  pr.nu_deposition = profile_of("nu_deposition");
+  pr.dy_by_yi = binned_of("avalanche_by_yi");
+  pr.dy_by_ye = binned_of("avalanche_by_ye");
+  pr.abs_dy_edges = doubles(g, "abs_dy_histogram/edges");
+  pr.abs_dy_counts = doubles(g, "abs_dy_histogram/counts");
+  pr.abs_dy_counts_cut = doubles(g, "abs_dy_histogram/counts_cut");
+  if (point.protocol == Protocol::C) {
+    pr.nu_initial = scalar_of("nu_initial");
+    pr.nu_final = scalar_of("nu_final");
+    pr.relative_increase = scalar_of("relative_increase");
+  }
+  return pr;
+}
+
+}  // namespace
+
+void reanalyse(const std::string& in, const std::string& out) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  Scan scan;
+  std::vector<PointResult> points;
+  try {
+    H5 file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
+            "open it (not an HDF5 file written by loosepack?)");
+    scan = parse_scan(read_attribute_string(in, "/", "scan_text"), in + " (scan_text)");
+    for (const auto& p : scan.points) {
+      try {
+        points.push_back(read_point(file, p));
+      } catch (const std::runtime_error& e) {
+        throw std::runtime_error(point_name(p.index) + ": " + e.what());
+      }
+    }
+  } catch (const ScanError&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(in + ": " + e.what());
+  }
+  const Analysis analysis = analyse(scan, points);
+  const std::string tmp = out + ".tmp." + std::to_string(::getpid());
+  try {
+    std::filesystem::copy_file(in, tmp, std::filesystem::copy_options::overwrite_existing);
+    {
+      H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + tmp);
+      if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
+        check(H5Ldelete(file, "analysis", H5P_DEFAULT), "remove analysis");
+      scan_analysis(file, analysis.scan);
+      for (std::size_t k = 0; k < points.size(); ++k) {
+        H5 g = open_group(file, point_name(points[k].point.index));
+        remove_point_analysis(g);
+        point_analysis(g, points[k].point.protocol, analysis.points[k]);
+      }
+      check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
+    }
+    if (std::rename(tmp.c_str(), out.c_str()) != 0)
+      throw std::runtime_error("cannot rename " + tmp + " to " + out);
+  } catch (...) {
+    std::remove(tmp.c_str());
+    throw;
+  }
+}
+
+std::vector<double> read_dataset(const std::string& path, const std::string& name) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  return doubles(file, name);
+}
+
+double read_attribute_double(const std::string& path, const std::string& object,
+                             const std::string& name) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  return double_attribute(file, object, name);
 }
 
 std::string read_attribute_string(const std::string& path, const std::string& object,

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Command-line behaviour: help, a bad scan refused before any work with file:line and key, an
-# existing result file left untouched, and a small good run with its summary.
+# existing result file left untouched, a small good run with its summary and plots, and the
+# re-analysis of a result file.
 source "$(dirname "$0")/common.sh"
 
 "$exe" --help | grep -q "run" || fail "--help does not list run"
@@ -35,6 +36,40 @@ printf '[scan]\nprotocol = "C"\n[system]\nwidth = 12\nheight = 12\nbond_number =
 "$exe" run "$dir/traj.toml" -o "$dir/traj.h5" -q
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/traj.h5" -o "$dir/fig" >/dev/null
 [ -s "$dir/fig/trajectories_0000_trajectory_0.png" ] || fail "plot.py did not draw trajectories"
+# `analyse` recomputes the fits from the aggregates the file stores: an unchanged file gets the
+# same fits; with the stored Delta y(y_i) means doubled (errors kept) and the old fits removed,
+# the weighted line's coefficients double; a non-HDF5 file is refused and left untouched.
+printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = 16\nbond_number = 30\n[observables]\nlower_half_from = 2\n' > "$dir/an.toml"
+"$exe" run "$dir/an.toml" -o "$dir/an.h5" -q
+"$exe" analyse "$dir/an.h5" -o "$dir/an2.h5"
+/usr/bin/python3 "$repo/tests/h5_equal.py" "$dir/an.h5" "$dir/an2.h5" >/dev/null ||
+  fail "analyse changed the fits of an unchanged file"
+/usr/bin/python3 - "$dir/an2.h5" <<'EOF_PY'
+import sys, h5py
+with h5py.File(sys.argv[1], "r+") as f:
+    g = f["points/0000/avalanche_by_yi"]
+    g["mean"][...] = 2 * g["mean"][...]
+    del g["fit"], f["analysis"]
+EOF_PY
+"$exe" analyse "$dir/an2.h5"
+/usr/bin/python3 - "$dir/an.h5" "$dir/an2.h5" <<'EOF_PY' || fail "analyse did not refit the changed data"
+import sys, h5py, numpy as np
+fit = "points/0000/avalanche_by_yi/fit"
+a, b = (h5py.File(p, "r") for p in sys.argv[1:])
+assert a[fit].attrs["valid"] == 1 and b[fit].attrs["valid"] == 1
+assert len(a[fit]["coef"]) == 2, a[fit]["coef"][:]
+assert np.allclose(b[fit]["coef"][:], 2 * a[fit]["coef"][:], rtol=1e-9, atol=0), (a[fit]["coef"][:], b[fit]["coef"][:])
+assert "analysis/increase_vs_log_height" in b
+EOF_PY
+cp "$dir/bad.toml" "$dir/bad_copy.toml"
+set +e
+msg=$("$exe" analyse "$dir/bad_copy.toml" 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 1 ] || fail "analyse of a non-HDF5 file: exit code $rc"
+echo "$msg" | grep -q "bad_copy.toml: .*not an HDF5 file" || fail "analyse message: $msg"
+cmp -s "$dir/bad.toml" "$dir/bad_copy.toml" || fail "analyse touched a file it refused"
+ls "$dir" | grep -q tmp && fail "analyse left a temporary file behind"
 set +e
 msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)
 rc=$?

@@ -21,6 +21,13 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
                    const std::vector<PointResult>& points, const Analysis& analysis,
                    const std::vector<MemberResult>& members, bool snapshots);
 
+// Recomputes the analysis of result file `in` from what it stores (its scan_text, the
+// aggregated profiles, avalanche bins, histograms and scalars) and writes it with the fits
+// replaced to `out` (which may be `in`), through a temporary file and a rename: a file of an
+// older program gets the current analysis without a rerun. Throws std::runtime_error (or
+// ScanError for a scan text this program no longer accepts) naming the file and the object.
+void reanalyse(const std::string& in, const std::string& out);
+
 // One line per scan point: parameters and headline observables.
 void print_summary(const std::string& path, std::ostream& out);
 
