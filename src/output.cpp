@@ -612,6 +612,23 @@ void print_summary(const std::string& path, std::ostream& out) {
           << read_attribute_double(path, h + "/exponential", "reduced_chi2") << ")\n";
     }
   }
+  // The fits across scan points, where the scan has the points for them.
+  auto power_text = [&](const std::string& object) {
+    if (!exists(object) || read_attribute_double(path, object, "valid") == 0.0) return std::string();
+    const auto c = read_dataset(path, object + "/coef"), e = read_dataset(path, object + "/error");
+    std::ostringstream o;
+    o << std::setprecision(3) << "A = " << std::exp(c[0]) << ", p = " << c[1] << " +- " << e[1]
+      << "  [chi2/dof " << read_attribute_double(path, object, "reduced_chi2") << "]";
+    return o.str();
+  };
+  const std::string log_h = fit_text("analysis/increase_vs_log_height", "ln H");
+  const std::string nu_i = power_text("analysis/increase_vs_nu_initial");
+  const std::string c_h = power_text("analysis/quadratic_vs_height");
+  if (log_h.empty() && nu_i.empty() && c_h.empty()) return;
+  out << "# fits across points\n";
+  if (!log_h.empty()) out << "  dnu/nu_i = " << log_h << "\n";
+  if (!nu_i.empty()) out << "  dnu/nu_i = A nu_i^p: " << nu_i << "\n";
+  if (!c_h.empty()) out << "  abs(c2) of Delta y(y_e) = A H^p: " << c_h << "\n";
 }
 
 }  // namespace loosepack

@@ -39,8 +39,11 @@ printf '[scan]\nprotocol = "C"\n[system]\nwidth = 12\nheight = 12\nbond_number =
 # `analyse` recomputes the fits from the aggregates the file stores: an unchanged file gets the
 # same fits; with the stored Delta y(y_i) means doubled (errors kept) and the old fits removed,
 # the weighted line's coefficients double; a non-HDF5 file is refused and left untouched.
-printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = 16\nbond_number = 30\n[observables]\nlower_half_from = 2\n' > "$dir/an.toml"
+printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = [16, 20, 24]\nbond_number = 30\n[observables]\nlower_half_from = 2\n' > "$dir/an.toml"
 "$exe" run "$dir/an.toml" -o "$dir/an.h5" -q
+# Three heights of protocol C: the summary ends with the fit of dnu/nu_i against ln H.
+"$exe" summary "$dir/an.h5" | grep -A1 "^# fits across points" | grep -q "dnu/nu_i = (.*) ln H" ||
+  fail "summary prints no fit across points"
 "$exe" analyse "$dir/an.h5" -o "$dir/an2.h5"
 /usr/bin/python3 "$repo/tests/h5_equal.py" "$dir/an.h5" "$dir/an2.h5" >/dev/null ||
   fail "analyse changed the fits of an unchanged file"
