@@ -44,6 +44,15 @@ printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = [16, 2
 # Three heights of protocol C: the summary ends with the fit of dnu/nu_i against ln H.
 "$exe" summary "$dir/an.h5" | grep -A1 "^# fits across points" | grep -q "dnu/nu_i = (.*) ln H" ||
   fail "summary prints no fit across points"
+# claims.py judges that fit too, and exits 1 exactly when it prints a FAIL.
+set +e
+/usr/bin/python3 "$repo/tools/claims.py" "$dir/an.h5" > "$dir/claims.txt"
+rc=$?
+set -e
+grep -q "C across heights: dnu/nu_i grows with ln H  \[slope against ln H = " "$dir/claims.txt" ||
+  fail "claims.py does not judge the fit across heights: $(cat "$dir/claims.txt")"
+if grep -q "^FAIL" "$dir/claims.txt"; then [ "$rc" -eq 1 ]; else [ "$rc" -eq 0 ]; fi ||
+  fail "claims.py exit code $rc does not match its verdicts"
 "$exe" analyse "$dir/an.h5" -o "$dir/an2.h5"
 /usr/bin/python3 "$repo/tests/h5_equal.py" "$dir/an.h5" "$dir/an2.h5" >/dev/null ||
   fail "analyse changed the fits of an unchanged file"

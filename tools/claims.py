@@ -13,6 +13,15 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     and the coefficient identity b' = b/(1+b), a' = a/(1+b) holds within two
                     combined standard errors (figs. 14, 15)
 
+and, across the points of a scan (the fits in `analysis/`, made when three or more points
+differ only in that variable):
+
+  A, heights        the curvature of Delta y(y_e) scales like 1/H: the exponent p of
+                    abs(c2) = A H^p within two standard errors of -1 (fig. 7)
+  C, heights        dnu/nu_i grows with ln H: slope above zero by two standard errors (fig. 16)
+  C, r_capt         dnu/nu_i falls with nu_i as a power law: exponent below zero by two
+                    standard errors (fig. 17; the paper's is -1.64)
+
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
 one. Prints one line per claim (PASS or FAIL with the numbers) and exits with status 1 when any
@@ -91,6 +100,30 @@ def check_point(point, path):
             yield (f"{where}: {name} = {p[0]}/(1+b)", ok, f"{v:.3g} +- {e:.2g} against {w:.3g} +- {f:.2g}")
 
 
+def check_scan(f, path):
+    """Yields (claim, ok, detail) for the fits across scan points that the file has."""
+    if "analysis" not in f:
+        fail_missing(path, "/analysis")
+    a = f["analysis"]
+    claims = (
+        ("quadratic_vs_height", "A across heights: curvature c2 of Delta y(y_e) scales like 1/H",
+         lambda p, e: abs(p + 1) <= 2 * e, "exponent p of abs(c2) = A H^p"),
+        ("increase_vs_log_height", "C across heights: dnu/nu_i grows with ln H",
+         lambda p, e: p > 2 * e, "slope against ln H"),
+        ("increase_vs_nu_initial", "C across capture radii: dnu/nu_i falls with nu_i (power law)",
+         lambda p, e: p < -2 * e, "exponent p of dnu/nu_i = A nu_i^p"),
+    )
+    for key, claim, holds, what in claims:
+        if key not in a:
+            fail_missing(path, f"/analysis/{key}")
+        if not a[key].attrs.get("valid", 0):
+            continue  # the scan has no three points differing in that variable
+        coef, err, attrs = fit(a[key], path)
+        p, e = float(coef[1]), float(err[1])
+        yield (claim, holds(p, e),
+               f"{what} = {p:.3g} +- {e:.2g}, chi2/dof {float(attrs.get('reduced_chi2', math.nan)):.2g}")
+
+
 def main():
     if len(sys.argv) != 2 or sys.argv[1].startswith("-"):
         sys.exit("usage: claims.py RESULT.h5")
@@ -105,6 +138,7 @@ def main():
         results = []
         for name in sorted(f["points"]):
             results.extend(check_point(f["points"][name], path))
+        results.extend(check_scan(f, path))
     if not results:
         print(f"claims.py: {path}: no scan point the claims speak about")
         sys.exit(2)
