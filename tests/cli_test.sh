@@ -36,9 +36,7 @@ printf '[scan]\nprotocol = "C"\n[system]\nwidth = 12\nheight = 12\nbond_number =
 "$exe" run "$dir/traj.toml" -o "$dir/traj.h5" -q
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/traj.h5" -o "$dir/fig" >/dev/null
 [ -s "$dir/fig/trajectories_0000_trajectory_0.png" ] || fail "plot.py did not draw trajectories"
-# `analyse` recomputes the fits from the aggregates the file stores: an unchanged file gets the
-# same fits; with the stored Delta y(y_i) means doubled (errors kept) and the old fits removed,
-# the weighted line's coefficients double; a non-HDF5 file is refused and left untouched.
+# A collapse at three heights, 3 seeds each.
 printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = [16, 20, 24]\nbond_number = 30\n[observables]\nlower_half_from = 2\n' > "$dir/an.toml"
 "$exe" run "$dir/an.toml" -o "$dir/an.h5" -q
 # Three heights of protocol C: the summary ends with the fit of dnu/nu_i against ln H.
@@ -53,6 +51,9 @@ grep -q "C across heights: dnu/nu_i grows with ln H  \[slope against ln H = " "$
   fail "claims.py does not judge the fit across heights: $(cat "$dir/claims.txt")"
 if grep -q "^FAIL" "$dir/claims.txt"; then [ "$rc" -eq 1 ]; else [ "$rc" -eq 0 ]; fi ||
   fail "claims.py exit code $rc does not match its verdicts"
+# `analyse` recomputes the fits from the aggregates the file stores: an unchanged file gets the
+# same fits; with the stored Delta y(y_i) means doubled (errors kept) and the old fits removed,
+# the weighted line's coefficients double; a non-HDF5 file is refused and left untouched.
 "$exe" analyse "$dir/an.h5" -o "$dir/an2.h5"
 /usr/bin/python3 "$repo/tests/h5_equal.py" "$dir/an.h5" "$dir/an2.h5" >/dev/null ||
   fail "analyse changed the fits of an unchanged file"
