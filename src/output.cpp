@@ -76,23 +76,23 @@ void scalar(hid_t obj, const std::string& name, const Scalar& s) {
   attribute(obj, name + "_n", static_cast<double>(s.n));
 }
 
-void profile(hid_t parent, const std::string& name, const EnsembleProfile& e) {
-  H5 g = group(parent, name);
-  dataset(g, "centre", e.centre);
-  dataset(g, "mean", e.mean);
-  dataset(g, "sem", e.sem);
-  dataset(g, "members", e.members);
-  dataset(g, "rel_fluctuation", e.rel_fluctuation);
-}
+// The datasets of a profile and of a binned statistic: one list for writing and reading.
+template <class T>
+using Field = std::pair<const char*, std::vector<double> T::*>;
+const Field<EnsembleProfile> kProfileFields[] = {
+    {"centre", &EnsembleProfile::centre},   {"mean", &EnsembleProfile::mean},
+    {"sem", &EnsembleProfile::sem},         {"members", &EnsembleProfile::members},
+    {"rel_fluctuation", &EnsembleProfile::rel_fluctuation}};
+const Field<BinnedStat> kBinnedFields[] = {
+    {"centre", &BinnedStat::centre}, {"position", &BinnedStat::position},
+    {"mean", &BinnedStat::mean},     {"stddev", &BinnedStat::stddev},
+    {"count", &BinnedStat::count},   {"sem", &BinnedStat::sem}};
 
-void binned(hid_t parent, const std::string& name, const BinnedStat& b) {
+// A group `name` with one dataset per field of v.
+template <class T, std::size_t N>
+void fields(hid_t parent, const std::string& name, const T& v, const Field<T> (&list)[N]) {
   H5 g = group(parent, name);
-  dataset(g, "centre", b.centre);
-  dataset(g, "position", b.position);
-  dataset(g, "mean", b.mean);
-  dataset(g, "stddev", b.stddev);
-  dataset(g, "count", b.count);
-  dataset(g, "sem", b.sem);
+  for (const auto& [field, member] : list) dataset(g, field, v.*member);
 }
 
 void params(hid_t g, const SystemParams& p) {
@@ -294,13 +294,13 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         attribute(g, "failed", static_cast<double>(pr.failed));
         scalar(g, "nu_lower_half", pr.nu_lower_half);
         scalar(g, "mean_abs_dy", pr.mean_abs_dy);
-        profile(g, "nu", pr.nu);
+        fields(g, "nu", pr.nu, kProfileFields);
         std::vector<double> depth;
         for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
         dataset(g, "nu/depth", depth);
-        profile(g, "nu_deposition", pr.nu_deposition);
-        binned(g, "avalanche_by_yi", pr.dy_by_yi);
-        binned(g, "avalanche_by_ye", pr.dy_by_ye);
+        fields(g, "nu_deposition", pr.nu_deposition, kProfileFields);
+        fields(g, "avalanche_by_yi", pr.dy_by_yi, kBinnedFields);
+        fields(g, "avalanche_by_ye", pr.dy_by_ye, kBinnedFields);
         {
           H5 h = group(g, "abs_dy_histogram");
           dataset(h, "edges", pr.abs_dy_edges);
@@ -386,6 +386,19 @@ double double_attribute(hid_t loc, const std::string& object, const std::string&
   return v;
 }
 
+std::string string_attribute(hid_t loc, const std::string& object, const std::string& name) {
+  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "open attribute " + object + "@" + name);
+  H5 type(H5Aget_type(a), H5Tclose, "get attribute type");
+  const std::size_t n = H5Tget_size(type);
+  std::string s(n, '\0');
+  H5 mem(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
+  check(H5Tset_size(mem, n), "set string size");
+  check(H5Aread(a, mem, s.data()), "read attribute " + name);
+  while (!s.empty() && s.back() == '\0') s.pop_back();
+  return s;
+}
+
 // What write_results stored of a point's aggregates, as far as the analysis reads them.
 PointResult read_point(hid_t file, const ScanPoint& point) {
   const std::string n = point_name(point.index);
@@ -403,31 +416,15 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
     s.n = static_cast<int>(double_attribute(g, ".", name + "_n"));
     return s;
   };
-  auto profile_of = [&](const std::string& name) {
-    EnsembleProfile e;
-    e.centre = doubles(g, name + "/centre");
-    e.mean = doubles(g, name + "/mean");
-    e.sem = doubles(g, name + "/sem");
-    e.members = doubles(g, name + "/members");
-    e.rel_fluctuation = doubles(g, name + "/rel_fluctuation");
-    return e;
-  };
-  auto binned_of = [&](const std::string& name) {
-    BinnedStat b;
-    b.centre = doubles(g, name + "/centre");
-    b.position = doubles(g, name + "/position");
-    b.mean = doubles(g, name + "/mean");
-    b.stddev = doubles(g, name + "/stddev");
-    b.count = doubles(g, name + "/count");
-    b.sem = doubles(g, name + "/sem");
-    return b;
+  auto read = [&](const std::string& name, auto& v, const auto& list) {
+    for (const auto& [field, member] : list) v.*member = doubles(g, name + "/" + field);
   };
   pr.nu_lower_half = scalar_of("nu_lower_half");
   pr.mean_abs_dy = scalar_of("mean_abs_dy");
-  pr.nu = profile_of("nu");
-  pr.nu_deposition = profile_of("nu_deposition");
-  pr.dy_by_yi = binned_of("avalanche_by_yi");
-  pr.dy_by_ye = binned_of("avalanche_by_ye");
+  read("nu", pr.nu, kProfileFields);
+  read("nu_deposition", pr.nu_deposition, kProfileFields);
+  read("avalanche_by_yi", pr.dy_by_yi, kBinnedFields);
+  read("avalanche_by_ye", pr.dy_by_ye, kBinnedFields);
   pr.abs_dy_edges = doubles(g, "abs_dy_histogram/edges");
   pr.abs_dy_counts = doubles(g, "abs_dy_histogram/counts");
   pr.abs_dy_counts_cut = doubles(g, "abs_dy_histogram/counts_cut");
@@ -448,7 +445,7 @@ void reanalyse(const std::string& in, const std::string& out) {
   try {
     H5 file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
             "open it (not an HDF5 file written by loosepack?)");
-    scan = parse_scan(read_attribute_string(in, "/", "scan_text"), in + " (scan_text)");
+    scan = parse_scan(string_attribute(file, "/", "scan_text"), in + " (scan_text)");
     for (const auto& p : scan.points) {
       try {
         points.push_back(read_point(file, p));
@@ -502,24 +499,15 @@ std::string read_attribute_string(const std::string& path, const std::string& ob
                                   const std::string& name) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
-  H5 a(H5Aopen_by_name(file, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-       "open attribute " + object + "@" + name);
-  H5 type(H5Aget_type(a), H5Tclose, "get attribute type");
-  const std::size_t n = H5Tget_size(type);
-  std::string s(n, '\0');
-  H5 mem(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
-  check(H5Tset_size(mem, n), "set string size");
-  check(H5Aread(a, mem, s.data()), "read attribute " + name);
-  while (!s.empty() && s.back() == '\0') s.pop_back();
-  return s;
+  return string_attribute(file, object, name);
 }
 
 void print_summary(const std::string& path, std::ostream& out) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
+          "open " + path + " (not an HDF5 file written by loosepack?)");
   std::vector<std::string> names;
   {
-    H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
-            "open " + path + " (not an HDF5 file written by loosepack?)");
     H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
     H5G_info_t info;
     check(H5Gget_info(g, &info), "list points");
@@ -529,22 +517,22 @@ void print_summary(const std::string& path, std::ostream& out) {
       names.emplace_back(std::string("points/") + buf);
     }
   }
-  out << "# " << path << ": scan '" << read_attribute_string(path, "/", "scan_name") << "', "
-      << names.size() << " points, " << read_attribute_double(path, "/", "wall_seconds") << " s\n";
+  out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', "
+      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds") << " s\n";
   out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
       << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)
       << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]"
       << std::setw(22) << "dnu/nu_i"
       << "members(failed)\n";
   for (const auto& n : names) {
-    auto d = [&](const char* a) { return read_attribute_double(path, n, a); };
+    auto d = [&](const char* a) { return double_attribute(file, n, a); };
     auto pm = [](double m, double s) {
       std::ostringstream o;
       o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4)
         << (std::isnan(s) ? 0.0 : s);
       return o.str();
     };
-    const std::string prot = read_attribute_string(path, n, "protocol");
+    const std::string prot = string_attribute(file, n, "protocol");
     std::string rel = "-";
     if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
     std::ostringstream bo;
@@ -558,13 +546,12 @@ void print_summary(const std::string& path, std::ostream& out) {
   }
   // The fits of the analysis, where the file has them.
   auto exists = [&](const std::string& object) {
-    H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
     return H5Lexists(file, object.c_str(), H5P_DEFAULT) > 0 &&
            H5Oexists_by_name(file, object.c_str(), H5P_DEFAULT) > 0;
   };
   auto fit_text = [&](const std::string& object, const char* var) {
-    if (!exists(object) || read_attribute_double(path, object, "valid") == 0.0) return std::string();
-    const auto c = read_dataset(path, object + "/coef"), e = read_dataset(path, object + "/error");
+    if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
+    const auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
     std::ostringstream o;
     o << std::setprecision(3);
     for (std::size_t k = 0; k < c.size(); ++k) {
@@ -572,7 +559,7 @@ void print_summary(const std::string& path, std::ostream& out) {
       if (k == 1) o << " " << var;
       if (k > 1) o << " " << var << "^" << k;
     }
-    o << "  [chi2/dof " << read_attribute_double(path, object, "reduced_chi2") << "]";
+    o << "  [chi2/dof " << double_attribute(file, object, "reduced_chi2") << "]";
     return o.str();
   };
   bool header = false;
@@ -580,7 +567,7 @@ void print_summary(const std::string& path, std::ostream& out) {
     const std::string yi = fit_text(n + "/avalanche_by_yi/fit", "y_i");
     const std::string ye = fit_text(n + "/avalanche_by_ye/fit", "y_e");
     const std::string shape = exists(n + "/abs_dy_histogram/shape_cut")
-                                  ? read_attribute_string(path, n + "/abs_dy_histogram/shape_cut",
+                                  ? string_attribute(file, n + "/abs_dy_histogram/shape_cut",
                                                           "preferred")
                                   : std::string("none");
     if (yi.empty() && ye.empty() && shape == "none") continue;
@@ -590,35 +577,35 @@ void print_summary(const std::string& path, std::ostream& out) {
     if (!yi.empty()) out << "  Delta y(y_i) = " << yi << "\n";
     if (!ye.empty()) out << "  Delta y(y_e) = " << ye << "\n";
     const std::string slice = n + "/avalanche_by_ye/slice_parabola";
-    if (exists(slice) && read_attribute_double(path, slice, "valid") != 0.0) {
-      const auto c = read_dataset(path, slice + "/coef"), e = read_dataset(path, slice + "/error");
+    if (exists(slice) && double_attribute(file, slice, "valid") != 0.0) {
+      const auto c = doubles(file, slice + "/coef"), e = doubles(file, slice + "/error");
       out << "  slice model Delta y(y_e) = -a y_e (1 - y_e/H): a = " << c[0] << " +- " << e[0]
           << "\n";
     }
     if (exists(n + "/collapse_identity")) {
-      auto c = [&](const char* a) { return read_attribute_double(path, n + "/collapse_identity", a); };
+      auto c = [&](const char* a) { return double_attribute(file, n + "/collapse_identity", a); };
       out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error") << ", from b/(1+b): "
           << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
           << "; -dDelta y/dy_e = " << c("slope_increase") << " +- " << c("slope_increase_error")
-          << " vs dnu/nu_i = " << read_attribute_double(path, n, "relative_increase_mean")
-          << " +- " << read_attribute_double(path, n, "relative_increase_sem") << "\n";
+          << " vs dnu/nu_i = " << double_attribute(file, n, "relative_increase_mean")
+          << " +- " << double_attribute(file, n, "relative_increase_sem") << "\n";
     }
-    const double rms = read_attribute_double(path, n + "/nu", "rms_deviation");
+    const double rms = double_attribute(file, n + "/nu", "rms_deviation");
     if (std::isfinite(rms)) out << "  nu predicted from the deposition density: rms deviation " << rms << "\n";
     if (shape != "none") {
       const std::string h = n + "/abs_dy_histogram/shape_cut";
       out << "  |Delta y| histogram (top and bottom cut): " << shape << " (chi2/dof gaussian "
-          << read_attribute_double(path, h + "/gaussian", "reduced_chi2") << ", exponential "
-          << read_attribute_double(path, h + "/exponential", "reduced_chi2") << ")\n";
+          << double_attribute(file, h + "/gaussian", "reduced_chi2") << ", exponential "
+          << double_attribute(file, h + "/exponential", "reduced_chi2") << ")\n";
     }
   }
   // The fits across scan points, where the scan has the points for them.
   auto power_text = [&](const std::string& object) {
-    if (!exists(object) || read_attribute_double(path, object, "valid") == 0.0) return std::string();
-    const auto c = read_dataset(path, object + "/coef"), e = read_dataset(path, object + "/error");
+    if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
+    const auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
     std::ostringstream o;
     o << std::setprecision(3) << "A = " << std::exp(c[0]) << ", p = " << c[1] << " +- " << e[1]
-      << "  [chi2/dof " << read_attribute_double(path, object, "reduced_chi2") << "]";
+      << "  [chi2/dof " << double_attribute(file, object, "reduced_chi2") << "]";
     return o.str();
   };
   const std::string log_h = fit_text("analysis/increase_vs_log_height", "ln H");

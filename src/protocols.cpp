@@ -391,7 +391,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       }
       ++sl.steps;
       // The check after a region: rest.steps steps without motion suffice, converged or not
-      // (a tall deposit's solve can stall near the tolerance for many steps; docs/MODEL.md).
+      // (a tall deposit's solve misses the tolerance on some steps; docs/MODEL.md).
       const double wake = kWakeFactor * scan.rest.speed;
       sl.quiet = st.max_speed < wake ? sl.quiet + 1 : 0;
       const bool quiet = sl.checking && sl.quiet >= scan.rest.steps;
