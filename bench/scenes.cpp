@@ -3,6 +3,10 @@
 // prints one JSON record per scene and N, to set beside other engines' records.
 //
 //   bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] [--solver KIND]
+//                [--tolerance T] [--max-sweeps N] [--rest converged|speed]
+//                [--regions R [--region-check K]]
+// The defaults are the program's (scan defaults, our stricter rest test); --rest speed is the
+// scene's own rest test (speeds only), which a solve capped by --max-sweeps needs to end at all.
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
@@ -11,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -19,6 +24,8 @@
 #include "bench/record.hpp"
 #include "loosepack/batch.hpp"
 #include "loosepack/observables.hpp"
+#include "loosepack/region.hpp"
+#include "loosepack/scan.hpp"
 
 using namespace loosepack;
 
@@ -79,10 +86,12 @@ std::string num(double v) {
   return o.str();
 }
 
-SystemParams scene_params(int n_max, double dt) {
+// The box height leaves room for the deposit: S1's dense pile (phi ~ 0.9, ~0.035 R per disk on
+// this width) or S2's ballistic one (phi ~ 0.26, ~0.12 R per disk), whose top varies more.
+SystemParams scene_params(int n_max, double dt, double height_per_disk) {
   SystemParams p;
   p.width = kWidth;
-  p.height = 4.0 * n_max / kWidth + 20.0;  // room for the loosest deposit
+  p.height = height_per_disk * n_max + 20.0;
   p.bond_number = 0.0;
   p.friction = 0.3;
   p.rolling_friction = 0.0;
@@ -90,14 +99,25 @@ SystemParams scene_params(int n_max, double dt) {
   return p;
 }
 
+RestSettings g_rest;  // --rest; the program's rest test (speeds and a converged solve) otherwise
+
 RestSettings scene_rest(double dt) {
-  RestSettings r;
+  RestSettings r = g_rest;
   r.speed = 1e-3;
   r.steps = std::max(10, static_cast<int>(std::ceil((1.0 / 6.0) / dt)));
   return r;
 }
 
-SolverSettings g_solver;  // --solver; the scan default otherwise
+SolverSettings g_solver;  // --solver, --tolerance, --max-sweeps; the scan defaults otherwise
+
+double g_region_radius = 0.0;  // --regions R: S1 relaxes each new disk in a region (below)
+int g_region_check = 0;        // --region-check K: the whole system after every K-th disk
+
+bool default_settings() {
+  const SolverSettings s;
+  return g_solver.kind == s.kind && g_solver.tolerance == s.tolerance &&
+         g_solver.max_sweeps == s.max_sweeps && g_rest.converged && g_region_radius == 0.0;
+}
 
 void record(const char* scene, int n, double wall, long steps, const Measure& m, double phi_i,
             double sim_time, int capped, double vmax, double dt) {
@@ -105,24 +125,88 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
       "{\"engine\": \"loosepack\", \"scene\": \"%s\", \"bc\": \"periodic\", \"N\": %d, "
       "\"wall_s\": %s, \"steps\": %ld, \"per_particle_ms\": %s, \"phi_final\": %s, "
       "\"phi_initial\": %s, \"phi_aux\": %s, \"h_top\": %s, \"h_mean\": %s, \"sim_time\": %s, "
-      "\"max_overlap\": %s, \"n_capped\": %d, \"vmax_peak\": %s, \"setting\": \"default\", "
-      "\"params\": {\"dt\": %s, \"solver\": \"%s\", \"tolerance\": %g}, "
-      "\"notes\": \"contact dynamics, Kokkos %s; rest also needs R|w| < 1e-3 and a converged "
-      "solve\", %s}\n",
+      "\"max_overlap\": %s, \"n_capped\": %d, \"vmax_peak\": %s, \"setting\": \"%s\", "
+      "\"params\": {\"dt\": %s, \"solver\": \"%s\", \"tolerance\": %g, \"max_sweeps\": %d, "
+      "\"rest\": \"%s\", \"region_radius\": %s, \"region_check_every\": %d}, "
+      "\"notes\": \"contact dynamics, Kokkos %s; %s%s\", %s}\n",
       scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(), num(m.phi_final).c_str(),
       num(phi_i).c_str(), num(m.phi_aux).c_str(), num(m.h_top).c_str(), num(m.h_mean).c_str(),
-      num(sim_time).c_str(), num(m.max_overlap).c_str(), capped, num(vmax).c_str(), num(dt).c_str(),
-      solver_kind_name(g_solver.kind), g_solver.tolerance,
-      Kokkos::DefaultExecutionSpace::name(), bench::Environment().json().c_str());
+      num(sim_time).c_str(), num(m.max_overlap).c_str(), capped, num(vmax).c_str(),
+      default_settings() && dt == 0.01 ? "default" : "custom", num(dt).c_str(),
+      solver_kind_name(g_solver.kind), g_solver.tolerance, g_solver.max_sweeps,
+      g_rest.converged ? "converged" : "speed", num(g_region_radius).c_str(), g_region_check,
+      Kokkos::DefaultExecutionSpace::name(),
+      g_rest.converged ? "rest also needs R|w| < 1e-3 and a converged solve"
+                       : "rest also needs R|w| < 1e-3",
+      g_region_radius > 0.0 && !std::strcmp(scene, "S1")
+          ? "; each disk relaxes in a region around it, the rest of the deposit held fixed "
+            "(and the whole system relaxes after every region_check_every-th disk)"
+          : "",
+      bench::Environment().json().c_str());
   std::fflush(stdout);
 }
 
-void scene_s1(const std::vector<int>& ns, double dt) {
+// Relaxes the whole system after a deposit until rest or the cap; returns the steps taken.
+long relax_whole(Batch& batch, long cap, double& vmax) {
+  batch.set_active(0, true);
+  long n = 0;
+  for (; n < cap && !batch.status(0).at_rest; ++n) {
+    batch.step();
+    vmax = std::max(vmax, batch.status(0).max_speed);
+    if (batch.status(0).failure != Failure::None) return -1;
+  }
+  return n;
+}
+
+// With --regions R the new disk relaxes in a relaxation region of radius R (docs/MODEL.md,
+// "Relaxation regions"); after every --region-check K-th disk (never by default) the whole
+// system then relaxes to rest by the ordinary criterion, else the disks outside the region stay
+// where they are. A region that outgrows its slot relaxes in the whole system instead.
+// Returns the steps taken and sets `rested`.
+long relax_region(Batch& batch, Regions& regions, const Deposit& d, bool check, long cap,
+                  double& vmax, bool& rested) {
+  rested = false;
+  if (!regions.begin(batch, 0, {{d.x, d.y}}, g_solver.tolerance)) {
+    const long n = relax_whole(batch, cap, vmax);
+    rested = batch.status(0).at_rest;
+    return n;
+  }
+  batch.set_active(0, false);
+  for (long n = 0; n < cap; ++n) {
+    regions.step();
+    vmax = std::max(vmax, regions.status(0).max_speed);
+    const Regions::State state = regions.poll(batch, 0);
+    if (state == Regions::State::Rested && !check) {
+      rested = true;
+      return n + 1;
+    }
+    if (state != Regions::State::Running) {
+      const long m = relax_whole(batch, cap - n - 1, vmax);
+      rested = batch.status(0).at_rest;
+      return m < 0 ? -1 : n + 1 + m;
+    }
+  }
+  regions.stop(batch, 0);
+  return cap;
+}
+
+// Each scene returns false (after a message on stderr) when a disk could not be placed or the
+// system failed.
+bool scene_s1(const std::vector<int>& ns, double dt) {
   const int n_max = *std::max_element(ns.begin(), ns.end());
   SystemSetup su;
-  su.params = scene_params(n_max, dt);
+  su.params = scene_params(n_max, dt, 0.04);
   su.capacity = n_max;
   Batch batch({su}, g_solver, scene_rest(dt));
+  std::unique_ptr<Regions> regions;
+  if (g_region_radius > 0.0) {
+    RegionSettings rs;
+    rs.radius = g_region_radius;
+    rs.max_disks = ProtocolSettings{}.region_max_disks;
+    rs.max_height = std::min(su.params.height, 4.0 * rs.radius + 40.0) + 4.0;
+    regions = std::make_unique<Regions>(1, std::vector<SystemParams>{su.params}, rs, g_solver,
+                                        scene_rest(dt));
+  }
   SplitMix64 rng{1001};
   const long cap = static_cast<long>(std::ceil(20.0 / dt));
   long steps = 0;
@@ -131,33 +215,34 @@ void scene_s1(const std::vector<int>& ns, double dt) {
   const auto t0 = std::chrono::steady_clock::now();
   for (int k = 1; k <= n_max; ++k) {
     const double x = kWidth * rng.next();
-    if (!batch.deposit_at({1}, {x}, DropRule::Touch)[0].placed) {
+    const Deposit d = batch.deposit_at({1}, {x}, DropRule::Touch)[0];
+    if (!d.placed) {
       std::fprintf(stderr, "S1: disk %d could not be placed below the box height\n", k);
-      return;
+      return false;
     }
-    batch.set_active(0, true);
-    long n = 0;
-    for (; n < cap && !batch.status(0).at_rest; ++n) {
-      batch.step();
-      vmax = std::max(vmax, batch.status(0).max_speed);
-      if (batch.status(0).failure != Failure::None) {
-        std::fprintf(stderr, "S1: %s\n", failure_message(batch.status(0).failure).c_str());
-        return;
-      }
+    bool rested = false;
+    const bool check = g_region_check > 0 && k % g_region_check == 0;
+    const long n = regions ? relax_region(batch, *regions, d, check, cap, vmax, rested)
+                           : relax_whole(batch, cap, vmax);
+    if (!regions) rested = batch.status(0).at_rest;
+    if (n < 0 || batch.status(0).failure != Failure::None) {
+      std::fprintf(stderr, "S1: %s\n", failure_message(batch.status(0).failure).c_str());
+      return false;
     }
     steps += n;
-    capped += batch.status(0).at_rest ? 0 : 1;
+    capped += rested ? 0 : 1;
     if (std::find(ns.begin(), ns.end(), k) != ns.end()) {
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       record("S1", k, wall, steps, measure(batch), NAN, steps * dt, capped, vmax, dt);
     }
   }
+  return true;
 }
 
-void scene_s2(int n, double dt) {
+bool scene_s2(int n, double dt) {
   SystemSetup su;
-  su.params = scene_params(n, dt);
+  su.params = scene_params(n, dt, 0.2);
   su.params.gravity_on = false;
   su.capacity = n;
   Batch batch({su}, g_solver, scene_rest(dt));
@@ -165,7 +250,7 @@ void scene_s2(int n, double dt) {
   for (int k = 0; k < n; ++k)
     if (!batch.deposit_at({1}, {kWidth * rng.next()}, DropRule::Touch)[0].placed) {
       std::fprintf(stderr, "S2: disk %d could not be placed\n", k + 1);
-      return;
+      return false;
     }
   const Measure before = measure(batch);
   batch.set_gravity(0, true);
@@ -177,11 +262,15 @@ void scene_s2(int n, double dt) {
   for (; steps < cap && !batch.status(0).at_rest; ++steps) {
     batch.step();
     vmax = std::max(vmax, batch.status(0).max_speed);
-    if (batch.status(0).failure != Failure::None) break;
+    if (batch.status(0).failure != Failure::None) {
+      std::fprintf(stderr, "S2, N = %d: %s\n", n, failure_message(batch.status(0).failure).c_str());
+      return false;
+    }
   }
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   record("S2", n, wall, steps, measure(batch), before.phi_final, steps * dt,
          batch.status(0).at_rest ? 0 : 1, vmax, dt);
+  return true;
 }
 
 }  // namespace
@@ -200,11 +289,23 @@ int main(int argc, char** argv) {
       dt = std::atof(argv[k + 1]);
     else if (!std::strcmp(argv[k], "--solver") && solver_kind_from_name(argv[k + 1], g_solver.kind))
       continue;
+    else if (!std::strcmp(argv[k], "--tolerance") && std::atof(argv[k + 1]) > 0.0)
+      g_solver.tolerance = std::atof(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--max-sweeps") && std::atoi(argv[k + 1]) > 0)
+      g_solver.max_sweeps = std::atoi(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--regions") && std::atof(argv[k + 1]) > 0.0)
+      g_region_radius = std::atof(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--region-check") && std::atoi(argv[k + 1]) > 0)
+      g_region_check = std::atoi(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--rest") &&
+             (!std::strcmp(argv[k + 1], "speed") || !std::strcmp(argv[k + 1], "converged")))
+      g_rest.converged = !std::strcmp(argv[k + 1], "converged");
     else {
       std::fprintf(stderr,
                    "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] "
                    "[--solver jacobi|gauss_seidel|sequential_gauss_seidel|"
-                   "accelerated_gauss_seidel]\n");
+                   "accelerated_gauss_seidel|coloured_accelerated_gauss_seidel] [--tolerance T] "
+                   "[--max-sweeps N] [--rest converged|speed] [--regions R [--region-check K]]\n");
       return 2;
     }
   }
@@ -215,8 +316,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_scenes: SplitMix64 check values differ from the scene's\n");
     return 1;
   }
-  if (scene == "S1" || scene == "both") scene_s1(ns, dt);
+  bool ok = true;
+  if (scene == "S1" || scene == "both") ok = scene_s1(ns, dt) && ok;
   if (scene == "S2" || scene == "both")
-    for (int n : ns) scene_s2(n, dt);
-  return 0;
+    for (int n : ns) ok = scene_s2(n, dt) && ok;
+  return ok ? 0 : 1;
 }

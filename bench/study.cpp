@@ -21,7 +21,9 @@
 // that each record states (`*_noise`: the standard errors of both ensembles combined).
 //
 //   bench_study --study effects|size|accuracy [--tiny] [--seeds N] [--budget S]
-//               [--protocol A|C]
+//               [--protocol A|C] [--match TEXT]
+// --match: the accuracy study runs only the settings whose label contains TEXT (after the
+// reference and the default, which every run has).
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
@@ -52,6 +54,7 @@ struct Setup {
   double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
   int max_sweeps = SolverSettings{}.max_sweeps;
+  bool rest_converged = RestSettings{}.converged;
   std::string solver = solver_kind_name(SolverSettings{}.kind);
   int seeds = 16;
 
@@ -87,8 +90,8 @@ struct Setup {
       << "\nfriction = 0.3\nrolling_friction = " << rolling_friction
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
       << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << max_sweeps
-      << "\nrelaxation = " << relaxation
-      << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
+      << "\nrelaxation = " << relaxation << "\n[rest]\nconverged = "
+      << (rest_converged ? "true" : "false") << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
       << "\nstrip_width = 3.97\nbin_width = 4.0\n";
     return o.str();
   }
@@ -104,7 +107,9 @@ struct Setup {
       << ", \"time_step\": " << bench::json_number(time_step)
       << ", \"solver\": " << bench::json_string(solver)
       << ", \"tolerance\": " << bench::json_number(tolerance) << ", \"max_sweeps\": " << max_sweeps
-      << ", \"relaxation\": " << bench::json_number(relaxation) << ", \"seeds\": " << seeds << "}";
+      << ", \"relaxation\": " << bench::json_number(relaxation)
+      << ", \"rest_converged\": " << (rest_converged ? "true" : "false") << ", \"seeds\": " << seeds
+      << "}";
     return o.str();
   }
 };
@@ -270,12 +275,18 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
       add("relaxation=" + bench::json_number(w), [w](Setup& s) { s.relaxation = w; });
   for (const char* k : {"sequential_gauss_seidel", "gauss_seidel", "jacobi"})
     add(std::string("solver=") + k, [k](Setup& s) { s.solver = k; });
+  // Rest by speeds alone, the solve capped as a fixed-iteration engine caps it.
+  for (int c : {16, 64, 2000})
+    add("rest=speed max_sweeps=" + std::to_string(c), [c](Setup& s) {
+      s.rest_converged = false;
+      s.max_sweeps = c;
+    });
   // The default again, last: its two wall times give the run-to-run timing noise.
   add("default (repeat)", [](Setup&) {});
   return v;
 }
 
-void accuracy(const Setup& base, double budget_s) {
+void accuracy(const Setup& base, double budget_s, const std::string& match) {
   Setup ref = base;
   ref.label = "reference";
   ref.tolerance = 1e-5;
@@ -284,6 +295,7 @@ void accuracy(const Setup& base, double budget_s) {
   const Outcome r = run(ref, 1e30);
   print("accuracy_reference", ref, outcome_json(r));
   for (const Setup& s : accuracy_settings(base)) {
+    if (!match.empty() && s.label != "default" && s.label.find(match) == std::string::npos) continue;
     const Outcome o = run(s, budget_s);
     print("accuracy", s, outcome_json(o) + ", " + error_json(s, o, r));
   }
@@ -341,7 +353,7 @@ void size(Setup base, const std::vector<double>& sides, double budget_s) {
 int usage() {
   std::fprintf(stderr,
                "usage: bench_study --study effects|size|accuracy [--tiny] [--seeds N] "
-               "[--budget S] [--protocol A|C]\n");
+               "[--budget S] [--protocol A|C] [--match TEXT]\n");
   return 2;
 }
 
@@ -349,7 +361,7 @@ int usage() {
 
 int main(int argc, char** argv) {
   Kokkos::ScopeGuard kokkos(argc, argv);
-  std::string study, protocol;
+  std::string study, protocol, match;
   bool tiny = false;
   int seeds = 0;
   double budget_s = 600.0;  // per ensemble run of a setting
@@ -364,6 +376,8 @@ int main(int argc, char** argv) {
       seeds = std::atoi(argv[++a]);
     } else if (f == "--budget" && has_value) {
       budget_s = std::atof(argv[++a]);
+    } else if (f == "--match" && has_value) {
+      match = argv[++a];
     } else if (f == "--protocol" && has_value) {
       protocol = argv[++a];
     } else {
@@ -387,7 +401,7 @@ int main(int argc, char** argv) {
       if (study == "effects") {
         effects(base, budget_s);
       } else if (study == "accuracy") {
-        accuracy(base, budget_s);
+        accuracy(base, budget_s, match);
       } else {
         if (seeds <= 0) base.seeds = base.protocol == "A" ? 2 : 4;
         if (base.protocol == "C" && !tiny) base.height = 48.0;

@@ -636,7 +636,7 @@ void Batch::Impl::step() {
       deactivate = true;
       continue;
     }
-    const bool quiet = st.converged && st.max_speed < rest.speed;
+    const bool quiet = (st.converged || !rest.converged) && st.max_speed < rest.speed;
     st.rest_steps = quiet ? st.rest_steps + 1 : 0;
     st.at_rest = st.rest_steps >= rest.steps;
   }

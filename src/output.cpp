@@ -264,6 +264,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
         attribute(g, "rest_speed", scan.rest.speed);
         attribute(g, "rest_steps", static_cast<double>(scan.rest.steps));
+        attribute(g, "rest_converged", scan.rest.converged ? 1.0 : 0.0);
         attribute(g, "max_relax_time", scan.protocol.max_relax_time);
         attribute(g, "max_collapse_time", scan.protocol.max_collapse_time);
         attribute(g, "max_unconverged_time", scan.protocol.max_unconverged_time);

@@ -351,7 +351,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       if (sl.phase == Phase::Region) {
         const int s = static_cast<int>(k);
         const auto& rst = regions->status(s);
-        sl.unconverged = rst.converged ? 0 : sl.unconverged + 1;
+        sl.unconverged = rst.converged || !scan.rest.converged ? 0 : sl.unconverged + 1;
         sl.gave_up = static_cast<double>(sl.unconverged) * batch.params(s).time_step >
                      scan.protocol.max_unconverged_time;
         ++sl.steps;
@@ -382,7 +382,8 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       }
       if (sl.phase != Phase::Relax && sl.phase != Phase::Collapse) continue;
       const auto& st = batch.status(static_cast<int>(k));
-      sl.unconverged = st.converged ? 0 : sl.unconverged + 1;
+      // With rest.converged false a capped solve blocks nothing, so it is not a failure either.
+      sl.unconverged = st.converged || !scan.rest.converged ? 0 : sl.unconverged + 1;
       sl.gave_up = static_cast<double>(sl.unconverged) * batch.params(static_cast<int>(k)).time_step >
                    scan.protocol.max_unconverged_time;
       if (st.failure != Failure::None || sl.gave_up) {

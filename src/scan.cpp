@@ -439,8 +439,10 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.rest.speed = real(v, key, 1e-12, 1.0);
         } else if (k == "steps") {
           scan.rest.steps = positive_int(v, key, 1, 1000000);
+        } else if (k == "converged") {
+          scan.rest.converged = as_bool(file, v, key);
         } else {
-          fail(file, v, key, "unknown key (allowed: speed, steps)");
+          fail(file, v, key, "unknown key (allowed: speed, steps, converged)");
         }
       });
     } else if (section == "protocol") {

@@ -54,6 +54,11 @@ TEST(Scan, ToleranceIsTheProtocolDefaultUnlessSet) {
   EXPECT_EQ(set.tolerance(Protocol::C), 2e-4);
 }
 
+TEST(Scan, RestNeedsAConvergedSolveUnlessSet) {
+  EXPECT_TRUE(parse_scan("[scan]\n", "plain.toml").rest.converged);
+  EXPECT_FALSE(parse_scan("[rest]\nconverged = false\n", "speeds.toml").rest.converged);
+}
+
 TEST(Scan, RejectsBadInputWithFileLineAndKey) {
   const std::vector<scan_errors::Case> cases = {
       {"[system]\nbond_number = -1\n", "bad.toml:2:15: key 'system.bond_number': Bo must be"},
@@ -69,6 +74,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[solver]\nkind = \"newton\"\n", "key 'solver.kind'"},
       {"[solver]\ntolerance = 2.0\n", "key 'solver.tolerance': value 2 outside the allowed range"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
+      {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",
        "bad.toml:2:17: key 'protocol.region_radius': must be 0 (no regions) or at least 5 radii"},
       {"[protocol]\nregion_check_every = 0\n", "key 'protocol.region_check_every': expected an"},
