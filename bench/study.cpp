@@ -21,7 +21,11 @@
 // that each record states (`*_noise`: the standard errors of both ensembles combined).
 //
 //   bench_study --study effects|size|accuracy [--tiny] [--seeds N] [--budget S]
-//               [--protocol A|C] [--match TEXT]
+//               [--protocol A|C] [--match TEXT] [--sides S1,S2,...]
+//               [--regions R [--region-check K]]
+// --sides: the box sides (A) or widths (C) of the size study; --regions: every ensemble's
+// protocol-A members relax in relaxation regions of radius R, the whole system checked after
+// every K-th disk (protocol.region_radius, region_check_every; docs/MODEL.md).
 // --match: the accuracy study runs only the settings whose label contains TEXT (after the
 // reference and the default, which every run has).
 #include <Kokkos_Core.hpp>
@@ -55,6 +59,8 @@ struct Setup {
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
   int max_sweeps = SolverSettings{}.max_sweeps;
   bool rest_converged = RestSettings{}.converged;
+  double region_radius = 0.0;  // protocol.region_radius; 0: the whole system relaxes
+  int region_check_every = ProtocolSettings{}.region_check_every;
   std::string solver = solver_kind_name(SolverSettings{}.kind);
   int seeds = 16;
 
@@ -91,7 +97,8 @@ struct Setup {
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
       << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << max_sweeps
       << "\nrelaxation = " << relaxation << "\n[rest]\nconverged = "
-      << (rest_converged ? "true" : "false") << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
+      << (rest_converged ? "true" : "false") << "\n[protocol]\nregion_radius = " << region_radius
+      << "\nregion_check_every = " << region_check_every << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
       << "\nstrip_width = 3.97\nbin_width = 4.0\n";
     return o.str();
   }
@@ -108,7 +115,9 @@ struct Setup {
       << ", \"solver\": " << bench::json_string(solver)
       << ", \"tolerance\": " << bench::json_number(tolerance) << ", \"max_sweeps\": " << max_sweeps
       << ", \"relaxation\": " << bench::json_number(relaxation)
-      << ", \"rest_converged\": " << (rest_converged ? "true" : "false") << ", \"seeds\": " << seeds
+      << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
+      << ", \"region_radius\": " << bench::json_number(region_radius)
+      << ", \"region_check_every\": " << region_check_every << ", \"seeds\": " << seeds
       << "}";
     return o.str();
   }
@@ -353,7 +362,8 @@ void size(Setup base, const std::vector<double>& sides, double budget_s) {
 int usage() {
   std::fprintf(stderr,
                "usage: bench_study --study effects|size|accuracy [--tiny] [--seeds N] "
-               "[--budget S] [--protocol A|C] [--match TEXT]\n");
+               "[--budget S] [--protocol A|C] [--match TEXT] [--sides S1,S2,...] "
+               "[--regions R [--region-check K]]\n");
   return 2;
 }
 
@@ -362,6 +372,9 @@ int usage() {
 int main(int argc, char** argv) {
   Kokkos::ScopeGuard kokkos(argc, argv);
   std::string study, protocol, match;
+  std::vector<int> sides_given;
+  double region_radius = 0.0;
+  int region_check = ProtocolSettings{}.region_check_every;
   bool tiny = false;
   int seeds = 0;
   double budget_s = 600.0;  // per ensemble run of a setting
@@ -376,6 +389,12 @@ int main(int argc, char** argv) {
       seeds = std::atoi(argv[++a]);
     } else if (f == "--budget" && has_value) {
       budget_s = std::atof(argv[++a]);
+    } else if (f == "--sides" && has_value) {
+      sides_given = bench::parse_list(argv[++a]);
+    } else if (f == "--regions" && has_value) {
+      region_radius = std::atof(argv[++a]);
+    } else if (f == "--region-check" && has_value) {
+      region_check = std::atoi(argv[++a]);
     } else if (f == "--match" && has_value) {
       match = argv[++a];
     } else if (f == "--protocol" && has_value) {
@@ -393,6 +412,8 @@ int main(int argc, char** argv) {
     for (Setup& s : b) {
       if (tiny) s.width = s.height = 8.0;
       s.seeds = seeds > 0 ? seeds : (tiny ? 2 : s.seeds);
+      s.region_radius = region_radius;
+      s.region_check_every = region_check;
     }
     return b;
   };
@@ -405,10 +426,11 @@ int main(int argc, char** argv) {
       } else {
         if (seeds <= 0) base.seeds = base.protocol == "A" ? 2 : 4;
         if (base.protocol == "C" && !tiny) base.height = 48.0;
-        const std::vector<double> sides =
+        std::vector<double> sides =
             tiny ? std::vector<double>{6.0, 8.0}
                  : (base.protocol == "A" ? std::vector<double>{16.0, 23.0, 32.0, 46.0}
                                          : std::vector<double>{12.0, 24.0, 48.0, 96.0});
+        if (!sides_given.empty()) sides.assign(sides_given.begin(), sides_given.end());
         size(base, sides, budget_s);
       }
     }
