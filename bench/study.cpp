@@ -98,7 +98,8 @@ struct Setup {
       << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << max_sweeps
       << "\nrelaxation = " << relaxation << "\n[rest]\nconverged = "
       << (rest_converged ? "true" : "false") << "\n[protocol]\nregion_radius = " << region_radius
-      << "\nregion_check_every = " << region_check_every << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
+      << "\nregion_check_every = " << region_check_every
+      << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
       << "\nstrip_width = 3.97\nbin_width = 4.0\n";
     return o.str();
   }
@@ -304,7 +305,8 @@ void accuracy(const Setup& base, double budget_s, const std::string& match) {
   const Outcome r = run(ref, 1e30);
   print("accuracy_reference", ref, outcome_json(r));
   for (const Setup& s : accuracy_settings(base)) {
-    if (!match.empty() && s.label != "default" && s.label.find(match) == std::string::npos) continue;
+    if (!match.empty() && s.label != "default" && s.label.find(match) == std::string::npos)
+      continue;
     const Outcome o = run(s, budget_s);
     print("accuracy", s, outcome_json(o) + ", " + error_json(s, o, r));
   }
