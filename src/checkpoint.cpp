@@ -1,8 +1,6 @@
 // Encoding of finished members, and checkpoint part files built on it.
 #include "loosepack/checkpoint.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -11,6 +9,8 @@
 #include <map>
 #include <sstream>
 #include <type_traits>
+
+#include "replace_file.hpp"
 
 namespace loosepack {
 
@@ -191,20 +191,12 @@ void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
   w.put<std::uint64_t>(fingerprint);
   bytes += encode_members(results);
   w.put<std::uint64_t>(fnv1a(bytes.data(), bytes.size()));
-  const std::string tmp = file + ".tmp." + std::to_string(::getpid());
-  {
+  replace_file(file, [&](const std::string& tmp) {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     f.flush();
-    if (!f) {
-      std::remove(tmp.c_str());
-      throw std::runtime_error("cannot write checkpoint " + tmp);
-    }
-  }
-  if (std::rename(tmp.c_str(), file.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error("cannot rename " + tmp + " to " + file);
-  }
+    if (!f) throw std::runtime_error("cannot write checkpoint " + tmp);
+  });
 }
 
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan) {

@@ -2,7 +2,6 @@
 #include "loosepack/output.hpp"
 
 #include <hdf5.h>
-#include <unistd.h>
 
 #include <Kokkos_Core.hpp>
 #include <cmath>
@@ -11,6 +10,8 @@
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
+
+#include "replace_file.hpp"
 
 namespace loosepack {
 
@@ -229,141 +230,133 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
                    const std::vector<PointResult>& points, const Analysis& analysis,
                    const std::vector<MemberResult>& members, bool snapshots) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  try {
+  replace_file(path, [&](const std::string& tmp) {
+    H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+            "create " + tmp);
+    attribute(file, "program", std::string("loosepack"));
+    attribute(file, "version", std::string(LOOSEPACK_VERSION));
+    attribute(file, "git_commit", std::string(LOOSEPACK_GIT_COMMIT));
+    attribute(file, "compiler", std::string(LOOSEPACK_COMPILER));
+    attribute(file, "cxx_flags", std::string(LOOSEPACK_CXX_FLAGS));
+    attribute(file, "kokkos_execution_space", std::string(Kokkos::DefaultExecutionSpace::name()));
+    attribute(file, "kokkos_version", static_cast<double>(KOKKOS_VERSION));
+    attribute(file, "units",
+              std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
+                          "time sqrt(R/g); lengths in R"));
+    attribute(file, "start_time", info.start_time);
+    attribute(file, "end_time", info.end_time);
+    attribute(file, "wall_seconds", info.wall_seconds);
+    attribute(file, "mpi_ranks", static_cast<double>(info.ranks));
+    attribute(file, "scan_file", scan.file);
+    attribute(file, "scan_text", scan.text);
+    attribute(file, "scan_name", scan.name);
+    attribute(file, "seed", static_cast<double>(scan.seed));
+    attribute(file, "seeds", static_cast<double>(scan.seeds));
+    attribute(file, "batch_size", static_cast<double>(scan.batch_size));
     {
-      H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-              "create " + tmp);
-      attribute(file, "program", std::string("loosepack"));
-      attribute(file, "version", std::string(LOOSEPACK_VERSION));
-      attribute(file, "git_commit", std::string(LOOSEPACK_GIT_COMMIT));
-      attribute(file, "compiler", std::string(LOOSEPACK_COMPILER));
-      attribute(file, "cxx_flags", std::string(LOOSEPACK_CXX_FLAGS));
-      attribute(file, "kokkos_execution_space", std::string(Kokkos::DefaultExecutionSpace::name()));
-      attribute(file, "kokkos_version", static_cast<double>(KOKKOS_VERSION));
-      attribute(file, "units",
-                std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
-                            "time sqrt(R/g); lengths in R"));
-      attribute(file, "start_time", info.start_time);
-      attribute(file, "end_time", info.end_time);
-      attribute(file, "wall_seconds", info.wall_seconds);
-      attribute(file, "mpi_ranks", static_cast<double>(info.ranks));
-      attribute(file, "scan_file", scan.file);
-      attribute(file, "scan_text", scan.text);
-      attribute(file, "scan_name", scan.name);
-      attribute(file, "seed", static_cast<double>(scan.seed));
-      attribute(file, "seeds", static_cast<double>(scan.seeds));
-      attribute(file, "batch_size", static_cast<double>(scan.batch_size));
+      H5 g = group(file, "settings");
+      attribute(g, "solver_kind",
+                std::string(solver_kind_name(scan.solver.kind)));
+      if (scan.tolerance_given) attribute(g, "solver_tolerance", scan.solver.tolerance);
+      attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
+      attribute(g, "solver_relaxation", scan.solver.relaxation);
+      attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
+      attribute(g, "rest_speed", scan.rest.speed);
+      attribute(g, "rest_steps", static_cast<double>(scan.rest.steps));
+      attribute(g, "rest_converged", scan.rest.converged ? 1.0 : 0.0);
+      attribute(g, "max_relax_time", scan.protocol.max_relax_time);
+      attribute(g, "max_collapse_time", scan.protocol.max_collapse_time);
+      attribute(g, "max_unconverged_time", scan.protocol.max_unconverged_time);
+      attribute(g, "region_radius", scan.protocol.region_radius);
+      attribute(g, "region_check_every", static_cast<double>(scan.protocol.region_check_every));
+      attribute(g, "region_max_disks", static_cast<double>(scan.protocol.region_max_disks));
+      const auto& o = scan.observables;
+      attribute(g, "strip_width", o.strip_width);
+      attribute(g, "lower_half_from", o.lower_half_from);
+      attribute(g, "bin_width", o.bin_width);
+      attribute(g, "abs_dy_bin", o.abs_dy_bin);
+      attribute(g, "cut_bottom", o.cut_bottom);
+      attribute(g, "cut_top", o.cut_top);
+      attribute(g, "event_threshold", o.event_threshold);
+      attribute(g, "trajectory_every", static_cast<double>(o.trajectory_every));
+      attribute(g, "trajectory_interval", static_cast<double>(o.trajectory_interval));
+    }
+    scan_analysis(file, analysis.scan);
+    H5 all = group(file, "points");
+    for (std::size_t pk = 0; pk < points.size(); ++pk) {
+      const PointResult& pr = points[pk];
+      const PointAnalysis& an = analysis.points.at(pk);
+      H5 g = group(file, point_name(pr.point.index));
+      attribute(g, "protocol", protocol_name(pr.point.protocol));
+      attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
+      params(g, pr.point.params);
+      attribute(g, "members", static_cast<double>(pr.members));
+      attribute(g, "failed", static_cast<double>(pr.failed));
+      scalar(g, "nu_lower_half", pr.nu_lower_half);
+      scalar(g, "mean_abs_dy", pr.mean_abs_dy);
+      fields(g, "nu", pr.nu, kProfileFields);
+      std::vector<double> depth;
+      for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
+      dataset(g, "nu/depth", depth);
+      fields(g, "nu_deposition", pr.nu_deposition, kProfileFields);
+      fields(g, "avalanche_by_yi", pr.dy_by_yi, kBinnedFields);
+      fields(g, "avalanche_by_ye", pr.dy_by_ye, kBinnedFields);
       {
-        H5 g = group(file, "settings");
-        attribute(g, "solver_kind",
-                  std::string(solver_kind_name(scan.solver.kind)));
-        if (scan.tolerance_given) attribute(g, "solver_tolerance", scan.solver.tolerance);
-        attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
-        attribute(g, "solver_relaxation", scan.solver.relaxation);
-        attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
-        attribute(g, "rest_speed", scan.rest.speed);
-        attribute(g, "rest_steps", static_cast<double>(scan.rest.steps));
-        attribute(g, "rest_converged", scan.rest.converged ? 1.0 : 0.0);
-        attribute(g, "max_relax_time", scan.protocol.max_relax_time);
-        attribute(g, "max_collapse_time", scan.protocol.max_collapse_time);
-        attribute(g, "max_unconverged_time", scan.protocol.max_unconverged_time);
-        attribute(g, "region_radius", scan.protocol.region_radius);
-        attribute(g, "region_check_every", static_cast<double>(scan.protocol.region_check_every));
-        attribute(g, "region_max_disks", static_cast<double>(scan.protocol.region_max_disks));
-        const auto& o = scan.observables;
-        attribute(g, "strip_width", o.strip_width);
-        attribute(g, "lower_half_from", o.lower_half_from);
-        attribute(g, "bin_width", o.bin_width);
-        attribute(g, "abs_dy_bin", o.abs_dy_bin);
-        attribute(g, "cut_bottom", o.cut_bottom);
-        attribute(g, "cut_top", o.cut_top);
-        attribute(g, "event_threshold", o.event_threshold);
-        attribute(g, "trajectory_every", static_cast<double>(o.trajectory_every));
-        attribute(g, "trajectory_interval", static_cast<double>(o.trajectory_interval));
+        H5 h = group(g, "abs_dy_histogram");
+        dataset(h, "edges", pr.abs_dy_edges);
+        dataset(h, "counts", pr.abs_dy_counts);
+        dataset(h, "counts_cut", pr.abs_dy_counts_cut);
       }
-      scan_analysis(file, analysis.scan);
-      H5 all = group(file, "points");
-      for (std::size_t pk = 0; pk < points.size(); ++pk) {
-        const PointResult& pr = points[pk];
-        const PointAnalysis& an = analysis.points.at(pk);
-        H5 g = group(file, point_name(pr.point.index));
-        attribute(g, "protocol", protocol_name(pr.point.protocol));
-        attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
-        params(g, pr.point.params);
-        attribute(g, "members", static_cast<double>(pr.members));
-        attribute(g, "failed", static_cast<double>(pr.failed));
-        scalar(g, "nu_lower_half", pr.nu_lower_half);
-        scalar(g, "mean_abs_dy", pr.mean_abs_dy);
-        fields(g, "nu", pr.nu, kProfileFields);
-        std::vector<double> depth;
-        for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
-        dataset(g, "nu/depth", depth);
-        fields(g, "nu_deposition", pr.nu_deposition, kProfileFields);
-        fields(g, "avalanche_by_yi", pr.dy_by_yi, kBinnedFields);
-        fields(g, "avalanche_by_ye", pr.dy_by_ye, kBinnedFields);
-        {
-          H5 h = group(g, "abs_dy_histogram");
-          dataset(h, "edges", pr.abs_dy_edges);
-          dataset(h, "counts", pr.abs_dy_counts);
-          dataset(h, "counts_cut", pr.abs_dy_counts_cut);
-        }
-        if (pr.point.protocol == Protocol::C) {
-          scalar(g, "nu_initial", pr.nu_initial);
-          scalar(g, "nu_final", pr.nu_final);
-          scalar(g, "relative_increase", pr.relative_increase);
-        }
-        point_analysis(g, pr.point.protocol, an);
-        if (pr.point.protocol == Protocol::A) {
-          H5 e = group(g, "events");
-          dataset(e, "edges", pr.event_edges);
-          dataset(e, "downward_counts", pr.event_downward_counts);
-          dataset(e, "moved_counts", pr.event_moved_counts);
-          dataset(e, "steps_counts", pr.event_steps_counts);
-          attribute(e, "without_motion", pr.events_without_motion);
-        }
-        H5 m = group(g, "members");
-        dataset(m, "seed_index", pr.m_seed_index);
-        dataset(m, "disks", pr.m_disks);
-        dataset(m, "top", pr.m_top);
-        dataset(m, "nu_lower_half", pr.m_nu_lower_half);
-        dataset(m, "steps", pr.m_steps);
-        dataset(m, "sweeps", pr.m_sweeps);
-        dataset(m, "wall_time", pr.m_wall_time);
-        dataset(m, "failure", pr.m_failure);
-        dataset(m, "capped", pr.m_capped);
-        if (scan.observables.trajectory_every > 0) {
-          for (const auto& r : members) {
-            if (r.member.point != pr.point.index) continue;
-            H5 t = group(m, "trajectory_" + std::to_string(r.member.seed_index));
-            dataset(t, "time", r.trajectory_time);
-            dataset(t, "disk", r.trajectory_disk);
-            dataset(t, "x", r.trajectory_x);
-            dataset(t, "y", r.trajectory_y);
-          }
-        }
+      if (pr.point.protocol == Protocol::C) {
+        scalar(g, "nu_initial", pr.nu_initial);
+        scalar(g, "nu_final", pr.nu_final);
+        scalar(g, "relative_increase", pr.relative_increase);
+      }
+      point_analysis(g, pr.point.protocol, an);
+      if (pr.point.protocol == Protocol::A) {
+        H5 e = group(g, "events");
+        dataset(e, "edges", pr.event_edges);
+        dataset(e, "downward_counts", pr.event_downward_counts);
+        dataset(e, "moved_counts", pr.event_moved_counts);
+        dataset(e, "steps_counts", pr.event_steps_counts);
+        attribute(e, "without_motion", pr.events_without_motion);
+      }
+      H5 m = group(g, "members");
+      dataset(m, "seed_index", pr.m_seed_index);
+      dataset(m, "disks", pr.m_disks);
+      dataset(m, "top", pr.m_top);
+      dataset(m, "nu_lower_half", pr.m_nu_lower_half);
+      dataset(m, "steps", pr.m_steps);
+      dataset(m, "sweeps", pr.m_sweeps);
+      dataset(m, "wall_time", pr.m_wall_time);
+      dataset(m, "failure", pr.m_failure);
+      dataset(m, "capped", pr.m_capped);
+      if (scan.observables.trajectory_every > 0) {
         for (const auto& r : members) {
           if (r.member.point != pr.point.index) continue;
-          if (snapshots) snapshot(group(m, "snapshot_" + std::to_string(r.member.seed_index)), r);
-          if (r.ok()) continue;
-          // A failed member's state at the failure, always: its diagnostic snapshot.
-          H5 f = group(m, "failure_" + std::to_string(r.member.seed_index));
-          snapshot(f, r);
-          attribute(f, "member", static_cast<double>(r.member.id));
-          attribute(f, "failure", failure_message(r.failure));
-          dataset(f, "vx", r.vx);
-          dataset(f, "vy", r.vy);
-          dataset(f, "w", r.w);
+          H5 t = group(m, "trajectory_" + std::to_string(r.member.seed_index));
+          dataset(t, "time", r.trajectory_time);
+          dataset(t, "disk", r.trajectory_disk);
+          dataset(t, "x", r.trajectory_x);
+          dataset(t, "y", r.trajectory_y);
         }
       }
-      check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
+      for (const auto& r : members) {
+        if (r.member.point != pr.point.index) continue;
+        if (snapshots) snapshot(group(m, "snapshot_" + std::to_string(r.member.seed_index)), r);
+        if (r.ok()) continue;
+        // A failed member's state at the failure, always: its diagnostic snapshot.
+        H5 f = group(m, "failure_" + std::to_string(r.member.seed_index));
+        snapshot(f, r);
+        attribute(f, "member", static_cast<double>(r.member.id));
+        attribute(f, "failure", failure_message(r.failure));
+        dataset(f, "vx", r.vx);
+        dataset(f, "vy", r.vy);
+        dataset(f, "w", r.w);
+      }
     }
-    if (std::rename(tmp.c_str(), path.c_str()) != 0)
-      throw std::runtime_error("cannot rename " + tmp + " to " + path);
-  } catch (...) {
-    std::remove(tmp.c_str());
-    throw;
-  }
+    check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
+  });
 }
 
 namespace {
@@ -460,27 +453,19 @@ void reanalyse(const std::string& in, const std::string& out) {
     throw std::runtime_error(in + ": " + e.what());
   }
   const Analysis analysis = analyse(scan, points);
-  const std::string tmp = out + ".tmp." + std::to_string(::getpid());
-  try {
+  replace_file(out, [&](const std::string& tmp) {
     std::filesystem::copy_file(in, tmp, std::filesystem::copy_options::overwrite_existing);
-    {
-      H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + tmp);
-      if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
-        check(H5Ldelete(file, "analysis", H5P_DEFAULT), "remove analysis");
-      scan_analysis(file, analysis.scan);
-      for (std::size_t k = 0; k < points.size(); ++k) {
-        H5 g = open_group(file, point_name(points[k].point.index));
-        remove_point_analysis(g);
-        point_analysis(g, points[k].point.protocol, analysis.points[k]);
-      }
-      check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
+    H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + tmp);
+    if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
+      check(H5Ldelete(file, "analysis", H5P_DEFAULT), "remove analysis");
+    scan_analysis(file, analysis.scan);
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      H5 g = open_group(file, point_name(points[k].point.index));
+      remove_point_analysis(g);
+      point_analysis(g, points[k].point.protocol, analysis.points[k]);
     }
-    if (std::rename(tmp.c_str(), out.c_str()) != 0)
-      throw std::runtime_error("cannot rename " + tmp + " to " + out);
-  } catch (...) {
-    std::remove(tmp.c_str());
-    throw;
-  }
+    check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
+  });
 }
 
 std::vector<double> read_dataset(const std::string& path, const std::string& name) {
