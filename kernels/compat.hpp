@@ -30,6 +30,10 @@ KOKKOS_INLINE_FUNCTION int imax(int a, int b) { return a > b ? a : b; }
 
 using ExecSpace = Kokkos::DefaultExecutionSpace;
 using MemSpace = ExecSpace::memory_space;
+// One iteration per system for kernels whose cost differs from system to system by orders of
+// magnitude (a per-system solve: one sweep at rest, thousands in an avalanche): handed out one
+// at a time on a multi-threaded CPU backend (static chunks leave threads idle); GPUs ignore it.
+using PerSystemPolicy = Kokkos::RangePolicy<ExecSpace, Kokkos::Schedule<Kokkos::Dynamic>>;
 template <class T>
 using DView = Kokkos::View<T*, MemSpace>;
 }  // namespace loosepack

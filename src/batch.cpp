@@ -407,13 +407,13 @@ void Batch::Impl::solve() {
   // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
     Kokkos::parallel_for(
-        "accelerated_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+        "accelerated_gauss_seidel", PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
         AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
     return;
   }
   if (solver.kind == SolverKind::SequentialGaussSeidel) {
     Kokkos::parallel_for(
-        "sequential_gauss_seidel", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+        "sequential_gauss_seidel", PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
         SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
     return;
   }
