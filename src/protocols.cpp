@@ -109,7 +109,7 @@ struct Slot {
   long deposited = 0;
   double filled = 0.0;  // height of the last deposited disk over H
   bool checking = false;      // Relax after a region came to rest: the whole system's rest check
-  int quiet = 0;              // its consecutive steps with every disk below the wake speed
+  int quiet = 0;              // steps in a row with no disk above the wake speed (check)
   int rounds = 0;             // regions started for the current disk
   bool event_capped = false;  // the current disk's relaxation hit max_relax_time
   long region_steps = 0, region_sweeps = 0;  // the slot's region counters when the member began
@@ -172,17 +172,25 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       RegionSettings rs;
       rs.radius = scan.protocol.region_radius;
       rs.max_disks = scan.protocol.region_max_disks;
-      rs.max_height = std::min(tallest, 4.0 * rs.radius + 40.0) + 4.0;
+      // The largest region: the last round's radius (see start_region).
+      const double widest = rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1);
+      rs.max_height = std::min(tallest, 4.0 * widest + 40.0) + 4.0;
       regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, scan.solver,
                                           scan.rest);
       regions->set_timing(hooks.stage_seconds != nullptr);
     }
   }
   std::vector<Slot> slots(n_slots);
+  // Every region after the first of a disk (the check found motion where the last one rested)
+  // has twice the radius of the one before: what the region held fixed (the rest of a cohesive
+  // arm tipping about a pivot further away, the load of the column above) may be what moves.
   auto start_region = [&](std::size_t k, const std::vector<Regions::Point>& seeds) {
     const int s = static_cast<int>(k);
-    if (!regions || !regions->begin(batch, s, seeds, scan.tolerance(Protocol::A))) return false;
+    const double radius = scan.protocol.region_radius * std::ldexp(1.0, slots[k].rounds);
+    if (!regions || !regions->begin(batch, s, seeds, scan.tolerance(Protocol::A), radius))
+      return false;
     slots[k].phase = Phase::Region;
+    slots[k].quiet = 0;
     ++slots[k].rounds;
     batch.set_active(s, false);
     return true;
@@ -360,7 +368,14 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
           finish(k);
           continue;
         }
-        const auto state = regions->poll(batch, s);
+        // A region the check started (not the disk's first) is part of the check and ends as
+        // it does: rest.steps steps without a disk above the wake speed, converged or not.
+        sl.quiet = rst.max_speed < kWakeFactor * scan.rest.speed ? sl.quiet + 1 : 0;
+        auto state = regions->poll(batch, s);
+        if (state == Regions::State::Running && sl.rounds > 1 && sl.quiet >= scan.rest.steps) {
+          regions->stop(batch, s);
+          state = Regions::State::Rested;
+        }
         if (state == Regions::State::Running) {
           if (sl.steps < sl.cap) continue;
           regions->stop(batch, s);

@@ -15,6 +15,9 @@ namespace loosepack {
 
 namespace {
 
+// A region grows when a moving disk comes this fraction of its radius near its edge.
+constexpr double kMargin = 0.4;
+
 // Seeds binned in square cells of edge `cutoff` (periodic in x): the distance from a point to
 // the nearest seed, exact whenever it is below the cutoff.
 class SeedGrid {
@@ -85,13 +88,13 @@ struct Regions::Impl {
     std::vector<char> moving;
     std::vector<Point> seeds;
     SeedGrid grid;
+    double radius = 0.0;   // disks within it of a seed move
     double y0 = 0.0;       // the region's y = the whole system's y - y0
     double tolerance = 0;  // the whole system's solver tolerance
     long done_steps = 0, done_sweeps = 0;
   };
   std::vector<Slot> slots;
 
-  double margin() const { return 0.4 * settings.radius; }
   // Positions and velocities of the moving disks, and the impulses of every contact with a
   // moving disk, back into the whole system (which keeps its impulses between fixed disks).
   void write_back(Batch& whole, int s, const std::vector<Disk>& region) {
@@ -160,7 +163,8 @@ Regions::Regions(int n, const std::vector<SystemParams>& systems, const RegionSe
 
 Regions::~Regions() = default;
 
-bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double tolerance) {
+bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double tolerance,
+                    double radius) {
   auto& I = *impl_;
   auto& sl = I.slots.at(static_cast<std::size_t>(s));
   const std::vector<Disk> disks = whole.disks(s);
@@ -173,7 +177,8 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   const double margin =
       std::max(0.5 * pr.radius, 2.0 * pr.time_step * (v_fall + pr.time_step * g));
   const double reach = 2.0 * rmax + pr.cohesion_range + margin;
-  const RegionSelection sel = select_region(disks, seeds, pr.width, I.settings.radius, reach);
+  if (!(radius > 0.0)) radius = I.settings.radius;
+  const RegionSelection sel = select_region(disks, seeds, pr.width, radius, reach);
   if (static_cast<int>(sel.index.size()) > I.settings.max_disks) return false;
   // The floor of the small system: the whole system's floor when the region comes near it,
   // else out of everyone's reach (two radii below the lowest disk and further below every seed
@@ -184,7 +189,7 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
     lowest = std::min(lowest, d.y - d.radius);
     top = std::max(top, d.y + d.radius);
   }
-  for (const auto& p : seeds) lowest = std::min(lowest, p.y - I.settings.radius);
+  for (const auto& p : seeds) lowest = std::min(lowest, p.y - radius);
   const double y0 = std::max(0.0, lowest - 2.0 * pr.radius);
   SystemSetup su;
   su.params = pr;
@@ -223,7 +228,8 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   sl.index = sel.index;
   sl.moving = sel.moving;
   sl.seeds = seeds;
-  sl.grid = SeedGrid(seeds, pr.width, I.settings.radius);
+  sl.grid = SeedGrid(seeds, pr.width, radius);
+  sl.radius = radius;
   sl.y0 = y0;
   sl.tolerance = tolerance;
   return true;
@@ -254,12 +260,12 @@ Regions::State Regions::poll(Batch& whole, int s) {
     if (!sl.moving[k] || !(speed(region[k]) > I.rest.speed)) continue;
     const Point p{region[k].x, region[k].y + sl.y0};
     seeds.push_back(p);
-    if (sl.grid.distance(p.x, p.y) > I.settings.radius - I.margin()) grow = true;
+    if (sl.grid.distance(p.x, p.y) > sl.radius - kMargin * sl.radius) grow = true;
   }
   if (!grow) return State::Running;
   I.write_back(whole, s, region);
   I.end(s);
-  return begin(whole, s, seeds, sl.tolerance) ? State::Running : State::Overflow;
+  return begin(whole, s, seeds, sl.tolerance, sl.radius) ? State::Running : State::Overflow;
 }
 
 void Regions::stop(Batch& whole, int s) {

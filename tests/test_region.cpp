@@ -88,12 +88,14 @@ TEST(Region, BatchStateRoundTrip) {
   EXPECT_THROW(batch.set_contacts(0, {{2, 1, 0, 1, 0, 1.0, 0, 0}}), std::out_of_range);
 }
 
+namespace {
+
 // A column of n disks at rest gets a disk on top (MODEL.md case 1: the contact below the k-th
-// disk from the top carries k m g). Relaxed in a region of radius 5 around the new disk, the
-// top three disks move and carry 1, 2, 3 m g below them; the disks below are held and keep
-// their old loads (one m g short) and their positions exactly. The whole system then carries
-// the new disk's weight to the floor: k m g everywhere.
-TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
+// disk from the top carries k m g). Relaxed in a region around the new disk, the top `moving`
+// disks move and carry 1 ... moving m g below them; the disks below are held and keep their old
+// loads (one m g short) and their positions exactly. The whole system then carries the new
+// disk's weight to the floor: k m g everywhere. `radius` is the region's (0: the settings' 5).
+void column_top_relaxes_in_its_region(double radius, int moving) {
   const int n = 20;
   auto p = bare_params(20.0, 60.0);
   p.friction = 0.3;
@@ -112,7 +114,7 @@ TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
   rs.max_disks = 64;
   rs.max_height = 60.0;
   Regions regions(1, {p}, rs, accurate(), rest);
-  ASSERT_TRUE(regions.begin(batch, 0, {{placed[0].x, placed[0].y}}, 1e-8));
+  ASSERT_TRUE(regions.begin(batch, 0, {{placed[0].x, placed[0].y}}, 1e-8, radius));
   Regions::State state = Regions::State::Running;
   for (int k = 0; k < 2000 && state == Regions::State::Running; ++k) {
     regions.step();
@@ -128,12 +130,12 @@ TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
     return -1.0;
   };
   const auto after_region = batch.contacts(0);
-  for (int k = 1; k <= 3; ++k)  // moving disks: the new load
+  for (int k = 1; k <= moving; ++k)  // moving disks: the new load
     EXPECT_NEAR(load_below(after_region, top + 1 - k), k * mg, 1e-4 * mg) << "k = " << k;
-  for (int k = 4; k <= n + 1; ++k)  // held disks: the load before the new disk
+  for (int k = moving + 1; k <= n + 1; ++k)  // held disks: the load before the new disk
     EXPECT_NEAR(load_below(after_region, top + 1 - k), (k - 1) * mg, 1e-4 * mg) << "k = " << k;
   const auto held = batch.disks(0);
-  for (int k = 0; k + 3 < n; ++k) EXPECT_EQ(held[k].y, before[k].y) << "disk " << k;
+  for (int k = 0; k + moving < n; ++k) EXPECT_EQ(held[k].y, before[k].y) << "disk " << k;
 
   batch.set_active(0, true);
   batch.reset_rest(0);
@@ -143,3 +145,14 @@ TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
   for (int k = 1; k <= n + 1; ++k)
     EXPECT_NEAR(load_below(whole, top + 1 - k), k * mg, 1e-4 * k * mg) << "k = " << k;
 }
+
+}  // namespace
+
+// Radius 5 around the new disk (centres 2 R apart): it and the two below move.
+TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
+  column_top_relaxes_in_its_region(0.0, 3);
+}
+
+// A radius given to begin() replaces the settings' (the larger regions the protocol starts
+// where the check finds motion): radius 9 moves the new disk and the four below it.
+TEST(Region, AGivenRadiusReplacesTheSettingsRadius) { column_top_relaxes_in_its_region(9.0, 5); }
