@@ -146,48 +146,49 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
   std::fflush(stdout);
 }
 
-// Relaxes the whole system after a deposit until rest or the cap; returns the steps taken.
-long relax_whole(Batch& batch, long cap, double& vmax) {
+// How the relaxation after one deposit ended.
+struct Relaxation {
+  long steps = 0;
+  bool rested = false;  // by the rest criterion (else cut at the cap)
+  bool failed = false;  // the system failed (its status says why)
+};
+
+// Relaxes the whole system after a deposit until rest or the cap.
+Relaxation relax_whole(Batch& batch, long cap, double& vmax) {
   batch.set_active(0, true);
-  long n = 0;
-  for (; n < cap && !batch.status(0).at_rest; ++n) {
+  Relaxation r;
+  for (; r.steps < cap && !batch.status(0).at_rest; ++r.steps) {
     batch.step();
     vmax = std::max(vmax, batch.status(0).max_speed);
-    if (batch.status(0).failure != Failure::None) return -1;
+    r.failed = batch.status(0).failure != Failure::None;
+    if (r.failed) return r;
   }
-  return n;
+  r.rested = batch.status(0).at_rest;
+  return r;
 }
 
 // With --regions R the new disk relaxes in a relaxation region of radius R (docs/MODEL.md,
 // "Relaxation regions"); after every --region-check K-th disk (never by default) the whole
 // system then relaxes to rest by the ordinary criterion, else the disks outside the region stay
 // where they are. A region that outgrows its slot relaxes in the whole system instead.
-// Returns the steps taken and sets `rested`.
-long relax_region(Batch& batch, Regions& regions, const Deposit& d, bool check, long cap,
-                  double& vmax, bool& rested) {
-  rested = false;
-  if (!regions.begin(batch, 0, {{d.x, d.y}}, g_solver.tolerance)) {
-    const long n = relax_whole(batch, cap, vmax);
-    rested = batch.status(0).at_rest;
-    return n;
-  }
+Relaxation relax_region(Batch& batch, Regions& regions, const Deposit& d, bool check, long cap,
+                        double& vmax) {
+  if (!regions.begin(batch, 0, {{d.x, d.y}}, g_solver.tolerance))
+    return relax_whole(batch, cap, vmax);
   batch.set_active(0, false);
   for (long n = 0; n < cap; ++n) {
     regions.step();
     vmax = std::max(vmax, regions.status(0).max_speed);
     const Regions::State state = regions.poll(batch, 0);
-    if (state == Regions::State::Rested && !check) {
-      rested = true;
-      return n + 1;
-    }
+    if (state == Regions::State::Rested && !check) return {n + 1, true, false};
     if (state != Regions::State::Running) {
-      const long m = relax_whole(batch, cap - n - 1, vmax);
-      rested = batch.status(0).at_rest;
-      return m < 0 ? -1 : n + 1 + m;
+      Relaxation r = relax_whole(batch, cap - n - 1, vmax);
+      r.steps += n + 1;
+      return r;
     }
   }
   regions.stop(batch, 0);
-  return cap;
+  return {cap, false, false};
 }
 
 // Each scene returns false (after a message on stderr) when a disk could not be placed or the
@@ -203,7 +204,7 @@ bool scene_s1(const std::vector<int>& ns, double dt) {
     RegionSettings rs;
     rs.radius = g_region_radius;
     rs.max_disks = ProtocolSettings{}.region_max_disks;
-    rs.max_height = std::min(su.params.height, 4.0 * rs.radius + 40.0) + 4.0;
+    rs.max_height = region_slot_height(rs.radius, su.params.height);
     regions = std::make_unique<Regions>(1, std::vector<SystemParams>{su.params}, rs, g_solver,
                                         scene_rest(dt));
   }
@@ -220,17 +221,15 @@ bool scene_s1(const std::vector<int>& ns, double dt) {
       std::fprintf(stderr, "S1: disk %d could not be placed below the box height\n", k);
       return false;
     }
-    bool rested = false;
     const bool check = g_region_check > 0 && k % g_region_check == 0;
-    const long n = regions ? relax_region(batch, *regions, d, check, cap, vmax, rested)
-                           : relax_whole(batch, cap, vmax);
-    if (!regions) rested = batch.status(0).at_rest;
-    if (n < 0 || batch.status(0).failure != Failure::None) {
+    const Relaxation r = regions ? relax_region(batch, *regions, d, check, cap, vmax)
+                                 : relax_whole(batch, cap, vmax);
+    if (r.failed) {
       std::fprintf(stderr, "S1: %s\n", failure_message(batch.status(0).failure).c_str());
       return false;
     }
-    steps += n;
-    capped += rested ? 0 : 1;
+    steps += r.steps;
+    capped += r.rested ? 0 : 1;
     if (std::find(ns.begin(), ns.end(), k) != ns.end()) {
       const double wall =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

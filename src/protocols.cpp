@@ -172,9 +172,9 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       RegionSettings rs;
       rs.radius = scan.protocol.region_radius;
       rs.max_disks = scan.protocol.region_max_disks;
-      // The largest region: the last round's radius (see start_region).
-      const double widest = rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1);
-      rs.max_height = std::min(tallest, 4.0 * widest + 40.0) + 4.0;
+      // For the largest region: the last round's radius (see start_region).
+      rs.max_height =
+          region_slot_height(rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1), tallest);
       regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, scan.solver,
                                           scan.rest);
       regions->set_timing(hooks.stage_seconds != nullptr);
@@ -278,6 +278,17 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   for (std::size_t k = 0; k < n_slots; ++k) begin(k);
 
   const double threshold = scan.observables.event_threshold;
+  const double wake = kWakeFactor * scan.rest.speed;
+  // A slot's counters after one step of its system (whole or region): steps, consecutive
+  // unconverged steps (with rest.converged false a capped solve blocks nothing, so it is not a
+  // failure either) and consecutive steps with no disk above the wake speed.
+  auto count_step = [&](Slot& sl, const SystemStatus& st, double time_step) {
+    ++sl.steps;
+    sl.unconverged = st.converged || !scan.rest.converged ? 0 : sl.unconverged + 1;
+    sl.gave_up = static_cast<double>(sl.unconverged) * time_step >
+                 scan.protocol.max_unconverged_time;
+    sl.quiet = st.max_speed < wake ? sl.quiet + 1 : 0;
+  };
   const int every = scan.observables.trajectory_every;
   auto sample = [&](std::size_t k, double when) {
     if (every <= 0) return;
@@ -358,11 +369,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       Slot& sl = slots[k];
       if (sl.phase == Phase::Region) {
         const int s = static_cast<int>(k);
-        const auto& rst = regions->status(s);
-        sl.unconverged = rst.converged || !scan.rest.converged ? 0 : sl.unconverged + 1;
-        sl.gave_up = static_cast<double>(sl.unconverged) * batch.params(s).time_step >
-                     scan.protocol.max_unconverged_time;
-        ++sl.steps;
+        count_step(sl, regions->status(s), batch.params(s).time_step);
         if (sl.gave_up) {
           regions->stop(batch, s);
           finish(k);
@@ -370,7 +377,6 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         }
         // A region the check started (not the disk's first) is part of the check and ends as
         // it does: rest.steps steps without a disk above the wake speed, converged or not.
-        sl.quiet = rst.max_speed < kWakeFactor * scan.rest.speed ? sl.quiet + 1 : 0;
         auto state = regions->poll(batch, s);
         if (state == Regions::State::Running && sl.rounds > 1 && sl.quiet >= scan.rest.steps) {
           regions->stop(batch, s);
@@ -397,19 +403,13 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       }
       if (sl.phase != Phase::Relax && sl.phase != Phase::Collapse) continue;
       const auto& st = batch.status(static_cast<int>(k));
-      // With rest.converged false a capped solve blocks nothing, so it is not a failure either.
-      sl.unconverged = st.converged || !scan.rest.converged ? 0 : sl.unconverged + 1;
-      sl.gave_up = static_cast<double>(sl.unconverged) * batch.params(static_cast<int>(k)).time_step >
-                   scan.protocol.max_unconverged_time;
+      count_step(sl, st, batch.params(static_cast<int>(k)).time_step);
       if (st.failure != Failure::None || sl.gave_up) {
         finish(k);
         continue;
       }
-      ++sl.steps;
       // The check after a region: rest.steps steps without motion suffice, converged or not
       // (a tall deposit's solve misses the tolerance on some steps; docs/MODEL.md).
-      const double wake = kWakeFactor * scan.rest.speed;
-      sl.quiet = st.max_speed < wake ? sl.quiet + 1 : 0;
       const bool quiet = sl.checking && sl.quiet >= scan.rest.steps;
       const bool done = st.at_rest || quiet || sl.steps >= sl.cap;
       if (!done && sl.checking && st.max_speed > wake && sl.rounds < kMaxRegionRounds) {

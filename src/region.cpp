@@ -135,6 +135,10 @@ struct Regions::Impl {
   }
 };
 
+double region_slot_height(double radius, double tallest) {
+  return std::min(tallest, 4.0 * radius + 40.0) + 4.0;
+}
+
 Regions::Regions(int n, const std::vector<SystemParams>& systems, const RegionSettings& settings,
                  const SolverSettings& solver, const RestSettings& rest)
     : impl_(std::make_unique<Impl>()) {

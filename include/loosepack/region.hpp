@@ -19,6 +19,10 @@ struct RegionSettings {
   double max_height = 0.0;  // tallest region a slot's grid holds [R]
 };
 
+// The height of a region slot's grid for regions of this radius in systems at most `tallest`
+// high: min(tallest, 4 radius + 40 R) + 4 R (docs/MODEL.md, "Relaxation regions").
+double region_slot_height(double radius, double tallest);
+
 class Regions {
  public:
   struct Point {
