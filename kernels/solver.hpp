@@ -40,6 +40,71 @@ KOKKOS_INLINE_FUNCTION RelativeVelocity relative_velocity(const ParticleViews& p
   return u;
 }
 
+// Impulses of one contact: normal, tangential, rolling moment.
+struct ContactImpulse {
+  double pn, pt, pm;
+};
+
+// What the local solve of one contact reads besides its impulses and relative velocity.
+struct LocalProblem {
+  double gap, h;           // gap at the start of the step, time step
+  double wn, wa, wb, wc;   // local Delassus entries (ContactMobility)
+  double lower;            // -h F_c for a cohesive contact, else 0
+  double friction;         // mu
+  double rolling_lever;    // mu_r R_c
+};
+
+// The exact local solve of one contact with everything else fixed: normal first, then the
+// friction/rolling box that depends on it, relaxed by omega and projected back onto the bounds.
+// p0 are the current impulses and u the relative velocities they give. The one definition of
+// the local step, used by every sweep and by the Newton step (src/newton.hpp).
+template <class Fx>
+KOKKOS_INLINE_FUNCTION ContactImpulse local_impulse(const ContactImpulse& p0,
+                                                    const RelativeVelocity& u,
+                                                    const LocalProblem& q, double omega) {
+  const double lower = Fx::Cohesion ? q.lower : 0.0;
+  double pn = solve_normal(p0.pn, u.un, q.gap, q.h, q.wn, lower);
+  // Relaxation (omega < 1 under-, omega > 1 over-relaxation), projected back onto the bounds.
+  pn = kmath::max(lower, p0.pn + omega * (pn - p0.pn));
+  ContactImpulse p{pn, p0.pt, p0.pm};
+  if (Fx::Friction) {
+    const double shifted = pn - lower;  // P_n + h F_c >= 0
+    // The tangential velocity after this contact's normal change is unchanged (t is orthogonal
+    // to n and a normal impulse exerts no torque on a disk).
+    const double bound_t = q.friction * shifted;
+    double pt = p0.pt, pm = p0.pm;
+    const double bound_r = Fx::Rolling ? q.rolling_lever * shifted : 0.0;
+    if (Fx::Rolling && bound_r > 0.0 && q.wb > 0.0) {
+      solve_friction_rolling(p0.pt, p0.pm, u.ut, u.om, q.wa, q.wb, q.wc, bound_t, bound_r, pt,
+                             pm);
+    } else {
+      // No rolling resistance here: the moment goes to zero, which shifts u_t by -c pm0.
+      pt = solve_friction(p0.pt, u.ut - q.wc * p0.pm, q.wa, bound_t);
+      pm = 0.0;
+    }
+    p.pt = kmath::clamp(p0.pt + omega * (pt - p0.pt), -bound_t, bound_t);
+    p.pm = kmath::clamp(p0.pm + omega * (pm - p0.pm), -bound_r, bound_r);
+  }
+  return p;
+}
+
+// Size of an impulse change in impulse units (moments by the rolling radius r_c): what the
+// convergence test compares with the tolerance (after division by h m g).
+template <class Fx>
+KOKKOS_INLINE_FUNCTION double impulse_change(double dn, double dt, double dm, double rc) {
+  double change = kmath::fabs(dn);
+  if (Fx::Friction) change += kmath::fabs(dt) + kmath::fabs(dm) / rc;
+  return change;
+}
+
+// The local problem of contact slot c of system s.
+KOKKOS_INLINE_FUNCTION LocalProblem local_problem(const SystemViews& sys, const ContactViews& con,
+                                                  int s, int c) {
+  return {con.gap(c),  sys.time_step(s), con.wn(c),   con.wa(c),
+          con.wb(c),   con.wc(c),        con.lower(c), sys.friction(s),
+          sys.rolling_friction(s) * con.rc(c)};
+}
+
 // One exact local solve of contact c with everything else fixed; returns the impulse change
 // (dn, dt, dm) and the size of the change in force units for the convergence test.
 template <class Fx>
@@ -49,37 +114,13 @@ KOKKOS_INLINE_FUNCTION double local_solve(const SystemViews& sys, const Particle
   dn = dt = dm = 0.0;
   if (con.wn(c) <= 0.0) return 0.0;  // two immobile bodies
   const int s = part.system(i);
-  const double h = sys.time_step(s);
-  const RelativeVelocity u = relative_velocity(part, con, c, i, j);
-  const double lower = Fx::Cohesion ? con.lower(c) : 0.0;
-  const double pn0 = con.pn(c), pt0 = con.pt(c), pm0 = con.pm(c);
-  double pn = solve_normal(pn0, u.un, con.gap(c), h, con.wn(c), lower);
-  // Relaxation (omega < 1 under-, omega > 1 over-relaxation), projected back onto the bounds.
-  pn = kmath::max(lower, pn0 + omega * (pn - pn0));
-  dn = pn - pn0;
-  double change = kmath::fabs(dn);
-  if (Fx::Friction) {
-    const double shifted = pn - lower;  // P_n + h F_c >= 0
-    // The tangential velocity after this contact's normal change is unchanged (t is orthogonal
-    // to n and a normal impulse exerts no torque on a disk).
-    const double bound_t = sys.friction(s) * shifted;
-    double pt = pt0, pm = pm0;
-    const double bound_r = Fx::Rolling ? sys.rolling_friction(s) * con.rc(c) * shifted : 0.0;
-    if (Fx::Rolling && bound_r > 0.0 && con.wb(c) > 0.0) {
-      solve_friction_rolling(pt0, pm0, u.ut, u.om, con.wa(c), con.wb(c), con.wc(c), bound_t,
-                             bound_r, pt, pm);
-    } else {
-      // No rolling resistance here: the moment goes to zero, which shifts u_t by -c pm0.
-      pt = solve_friction(pt0, u.ut - con.wc(c) * pm0, con.wa(c), bound_t);
-      pm = 0.0;
-    }
-    pt = kmath::clamp(pt0 + omega * (pt - pt0), -bound_t, bound_t);
-    pm = kmath::clamp(pm0 + omega * (pm - pm0), -bound_r, bound_r);
-    dt = pt - pt0;
-    dm = pm - pm0;
-    change += kmath::fabs(dt) + kmath::fabs(dm) / con.rc(c);
-  }
-  return change / (h * sys.weight(s));
+  const ContactImpulse p0{con.pn(c), con.pt(c), con.pm(c)};
+  const ContactImpulse p = local_impulse<Fx>(p0, relative_velocity(part, con, c, i, j),
+                                             local_problem(sys, con, s, c), omega);
+  dn = p.pn - p0.pn;
+  dt = p.pt - p0.pt;
+  dm = p.pm - p0.pm;
+  return impulse_change<Fx>(dn, dt, dm, con.rc(c)) / (sys.time_step(s) * sys.weight(s));
 }
 
 // Applies an impulse change (dn, dt, dm) of contact c to the velocities of its bodies i and j.
@@ -304,6 +345,10 @@ KOKKOS_INLINE_FUNCTION bool nncg_step(const ContactViews& con, int c, double bet
 // iterations instead of n^2. One thread per system iterating to convergence in one launch,
 // like SequentialGaussSeidel; the convergence test is the same (largest local change of a
 // sweep).
+//
+// With Newton steps (SolverSettings::newton_every), a launch iterates each system only up to its
+// `sweep_limit` (sweeps of this step, [S]); the host then takes a Newton step (src/newton.hpp)
+// and launches again, which restarts the iteration from the new impulses.
 template <class Fx>
 struct AcceleratedGaussSeidel {
   SystemViews sys;
@@ -312,6 +357,7 @@ struct AcceleratedGaussSeidel {
   DView<int> sweeps;  // [S] sweeps of this step
   double omega;
   int max_sweeps;
+  DView<int> sweep_limit;  // [S] this launch's limit, below max_sweeps; empty: max_sweeps
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
@@ -320,10 +366,12 @@ struct AcceleratedGaussSeidel {
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
-    // The first iteration of a step restarts, so no direction is read.
+    // The first iteration of a launch restarts, so no direction is read.
     sys.gradient2(s) = 0.0;
     for (int c = range.first; c < range.end; ++c) keep_start(c);
-    for (int sweep = 0; sweep < max_sweeps; sweep += 2)
+    const int limit =
+        sweep_limit.extent(0) > 0 ? kmath::imin(sweep_limit(s), max_sweeps) : max_sweeps;
+    while (sweeps(s) < limit)
       if (iterate(s, range.first, range.end)) return;
   }
 

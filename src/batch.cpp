@@ -14,6 +14,7 @@
 #include "kernels/events.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/solver.hpp"
+#include "src/newton.hpp"
 
 namespace loosepack {
 
@@ -68,6 +69,8 @@ struct Batch::Impl {
   DView<int> colour_list, colour_start, colour_fill;
   DView<int> system_colour_start;  // [S * (colours + 1)] ColouredAcceleratedGaussSeidel's
   DView<int> sweeps_this_step;  // [S]
+  DView<int> sweep_limit;       // [S] accelerated solver with Newton steps: this launch's limit
+  std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
     DView<int>::HostMirror failure, unconverged, sweeps, count;
@@ -110,6 +113,10 @@ struct Batch::Impl {
   void upload_status_active();
   template <class Fx>
   void solve();
+  template <class Fx>
+  void solve_with_newton(const AcceleratedGaussSeidel<Fx>& sweeps);
+  template <class Fx>
+  void newton_round(const std::vector<int>& due, std::vector<int>& gap);
   int colour(bool batch_list);
   void step();
 };
@@ -211,6 +218,8 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.max_margin = alloc<double>("max_margin", S);
   sys.gradient2 = alloc<double>("gradient2", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
+  sweep_limit = alloc<int>("sweep_limit", S);
+  newton_steps.assign(static_cast<std::size_t>(S), 0);
   host.failure = Kokkos::create_mirror_view(sys.failure);
   host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
   host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
@@ -379,6 +388,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   status[k] = SystemStatus{};
   status[k].active = true;
   status[k].count = count;
+  newton_steps[k] = 0;
   last_stepped[k] = batch_steps;
 }
 
@@ -406,9 +416,14 @@ void Batch::Impl::solve() {
   Kokkos::deep_copy(sweeps, 0);
   // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
-    Kokkos::parallel_for(
-        "accelerated_gauss_seidel", PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
-        AcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
+    const AcceleratedGaussSeidel<Fx> sweeper{sys, part, con, sweeps, omega, solver.max_sweeps,
+                                             DView<int>()};
+    if (solver.newton_every > 0) {
+      solve_with_newton(sweeper);
+      return;
+    }
+    Kokkos::parallel_for("accelerated_gauss_seidel",
+                         PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)), sweeper);
     return;
   }
   if (solver.kind == SolverKind::SequentialGaussSeidel) {
@@ -468,6 +483,138 @@ void Batch::Impl::solve() {
         still);
     if (still == 0) break;
   }
+}
+
+// The accelerated solver with Newton steps: each system iterates until it converges or has
+// done solver.newton_every iterations more; the host then takes Newton steps for the systems
+// still iterating, and the sweeps go on from the new impulses. A system whose Newton step could
+// not lower its residual waits twice as many iterations for the next (a step of the wrong
+// active set costs a factorisation and gains nothing).
+template <class Fx>
+void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& sweeps) {
+  AcceleratedGaussSeidel<Fx> sweeper = sweeps;
+  sweeper.sweep_limit = sweep_limit;
+  const int every = 2 * solver.newton_every;  // sweeps between Newton steps
+  std::vector<int> gap(static_cast<std::size_t>(n_systems), every);
+  auto limit = Kokkos::create_mirror_view(sweep_limit);
+  for (int s = 0; s < n_systems; ++s) limit(s) = every;
+  auto& unconverged = host.unconverged;
+  auto& done = host.sweeps;
+  for (;;) {
+    Kokkos::deep_copy(sweep_limit, limit);
+    Kokkos::parallel_for("accelerated_gauss_seidel",
+                         PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)), sweeper);
+    Kokkos::deep_copy(unconverged, sys.unconverged);
+    Kokkos::deep_copy(done, sweeps_this_step);
+    std::vector<int> due;
+    for (int s = 0; s < n_systems; ++s)
+      if (status[static_cast<std::size_t>(s)].active && unconverged(s) &&
+          done(s) < solver.max_sweeps)
+        due.push_back(s);
+    if (due.empty()) return;
+    stage_done("solve");
+    newton_round<Fx>(due, gap);
+    stage_done("newton");
+    for (int s : due) limit(s) = done(s) + gap[static_cast<std::size_t>(s)];
+  }
+}
+
+// Newton steps (src/newton.hpp) for the systems `due`, on host copies of their state (the same
+// memory on a host backend), one system per host thread; at most kNewtonSteps per round.
+template <class Fx>
+void Batch::Impl::newton_round(const std::vector<int>& due, std::vector<int>& gap) {
+  constexpr int kNewtonSteps = 3;
+  const auto mirror = [](const auto& v) {
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
+  };
+  const auto vx = mirror(part.vx), vy = mirror(part.vy), w = mirror(part.w);
+  const auto vfx = mirror(part.vfx), vfy = mirror(part.vfy), wf = mirror(part.wf);
+  const auto inv_mass = mirror(part.inv_mass), inv_inertia = mirror(part.inv_inertia);
+  const auto radius = mirror(part.radius);
+  const auto n_incident = mirror(part.n_incident), incident = mirror(part.incident);
+  const auto partner = mirror(con.partner);
+  const auto nx = mirror(con.nx), ny = mirror(con.ny), gap_ = mirror(con.gap), rc = mirror(con.rc);
+  const auto wn = mirror(con.wn), wa = mirror(con.wa), wb = mirror(con.wb), wc = mirror(con.wc);
+  const auto lower = mirror(con.lower);
+  const auto pn = mirror(con.pn), pt = mirror(con.pt), pm = mirror(con.pm);
+  const auto weight = mirror(sys.weight), tolerance = mirror(sys.tolerance);
+  const auto counts = mirror(sys.count);
+  Kokkos::parallel_for(
+      "newton",
+      Kokkos::RangePolicy<Kokkos::DefaultHostExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>(
+          0, static_cast<int>(due.size())),
+      [&](int k) {
+        const int s = due[static_cast<std::size_t>(k)];
+        const auto su = static_cast<std::size_t>(s);
+        const SystemParams& pr = params[su];
+        const int first = offsets[su], count = counts(s);
+        // Gather: bodies first..first+count, their contacts in slot order.
+        NewtonSystem ns;
+        ns.impulse_unit = pr.time_step * weight(s);
+        std::vector<int> local(static_cast<std::size_t>(count) * kSlots, -1);
+        for (int p = first; p < first + count; ++p)
+          for (int a = 0; a < kSlots; ++a) {
+            const int c = p * kSlots + a;
+            const int j = partner(c);
+            if (j == kNoContact) break;
+            local[static_cast<std::size_t>(c - first * kSlots)] = ns.contacts();
+            ns.i.push_back(p - first);
+            ns.j.push_back(j >= 0 ? j - first : kFloor);
+            ns.nx.push_back(nx(c));
+            ns.ny.push_back(ny(c));
+            ns.rc.push_back(rc(c));
+            ns.problem.push_back({gap_(c), pr.time_step, wn(c), wa(c), wb(c), wc(c), lower(c),
+                                  pr.friction, pr.rolling_friction * rc(c)});
+            ns.impulse.push_back({pn(c), pt(c), pm(c)});
+          }
+        ns.incident_start.push_back(0);
+        for (int p = first; p < first + count; ++p) {
+          ns.inv_mass.push_back(inv_mass(p));
+          ns.inv_inertia.push_back(inv_inertia(p));
+          ns.radius.push_back(radius(p));
+          ns.vfx.push_back(vfx(p));
+          ns.vfy.push_back(vfy(p));
+          ns.wf.push_back(wf(p));
+          ns.vx.push_back(vx(p));
+          ns.vy.push_back(vy(p));
+          ns.w.push_back(w(p));
+          for (int a = 0; a < n_incident(p); ++a)
+            ns.incident.push_back(
+                local[static_cast<std::size_t>(incident(p * kIncident + a) - first * kSlots)]);
+          ns.incident_start.push_back(static_cast<int>(ns.incident.size()));
+        }
+        double residual = ns.residual<Fx>();
+        bool stalled = false;
+        for (int n = 0; n < kNewtonSteps && residual > tolerance(s); ++n) {
+          stalled = !ns.newton_step<Fx>();
+          if (stalled) break;
+          residual = ns.residual<Fx>();
+          ++newton_steps[su];
+        }
+        if (stalled) gap[su] *= 2;
+        // Scatter the impulses and velocities back.
+        for (int p = first; p < first + count; ++p) {
+          const auto b = static_cast<std::size_t>(p - first);
+          vx(p) = ns.vx[b];
+          vy(p) = ns.vy[b];
+          w(p) = ns.w[b];
+          for (int a = 0; a < kSlots; ++a) {
+            const int c = p * kSlots + a;
+            const int l = local[static_cast<std::size_t>(c - first * kSlots)];
+            if (l < 0) break;
+            const ContactImpulse& P = ns.impulse[static_cast<std::size_t>(l)];
+            pn(c) = P.pn;
+            pt(c) = P.pt;
+            pm(c) = P.pm;
+          }
+        }
+      });
+  Kokkos::deep_copy(part.vx, vx);
+  Kokkos::deep_copy(part.vy, vy);
+  Kokkos::deep_copy(part.w, w);
+  Kokkos::deep_copy(con.pn, pn);
+  Kokkos::deep_copy(con.pt, pt);
+  Kokkos::deep_copy(con.pm, pm);
 }
 
 // Colours the contacts of every system (ColourRound); with batch_list, also lists the batch's
@@ -626,6 +773,7 @@ void Batch::Impl::step() {
     last_stepped[static_cast<std::size_t>(s)] = batch_steps;
     st.steps += 1;
     st.last_sweeps = h_sweeps(s);
+    st.newton_steps = newton_steps[static_cast<std::size_t>(s)];
     st.sweeps += h_sweeps(s);
     st.converged = h_unconv(s) == 0;
     st.max_speed = h_speed(s);

@@ -427,9 +427,12 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.solver.relaxation = real(v, key, 0.01, 1.95);
         } else if (k == "mass_splitting") {
           scan.solver.mass_splitting = as_bool(file, v, key);
+        } else if (k == "newton_every") {
+          scan.solver.newton_every = positive_int(v, key, 0, 100000000);
         } else {
           fail(file, v, key,
-               "unknown key (allowed: kind, tolerance, max_sweeps, relaxation, mass_splitting)");
+               "unknown key (allowed: kind, tolerance, max_sweeps, relaxation, mass_splitting, "
+               "newton_every)");
         }
       });
     } else if (section == "rest") {

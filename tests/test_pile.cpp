@@ -201,6 +201,7 @@ TEST(Solver, AllSolversAgreeOnDeterminatePiles) {
 // Force propagation: plain Gauss-Seidel needs of order n^2 sweeps to load a column of n disks
 // from zero impulses (diffusion), the accelerated (NNCG) solver of order n. Doubling the column
 // must roughly quadruple the one and double the other; both reach the exact weights.
+// (NNCG alone: without Newton steps.)
 TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
   auto sweeps_for = [](SolverKind kind, int n) {
     auto p = bare_params(20.0, 2.0 * n + 10.0);
@@ -210,6 +211,7 @@ TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
     s.kind = kind;
     s.tolerance = 1e-8;
     s.max_sweeps = 2000000;
+    s.newton_every = 0;
     Batch batch({setup(p, column(n, 10.0))}, s);
     batch.step();
     EXPECT_TRUE(batch.status(0).converged);
@@ -235,6 +237,42 @@ TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
   EXPECT_LT(acc80, gs80 / 10.0);
   EXPECT_LT(col80 / col40, 2.6);  // the coloured order keeps the NNCG scaling
   EXPECT_LT(col80, gs80 / 10.0);
+}
+
+// Newton steps (src/newton.hpp) carry the load through the whole column at once: from zero
+// impulses the accelerated solver with Newton steps reaches the exact weights (the contact below
+// the k-th disk from the top carries k m g) in a number of sweeps that does not grow with the
+// column, where NNCG alone needs sweeps in proportion to its height.
+TEST(Solver, NewtonStepsLoadAColumnInAFixedNumberOfSweeps) {
+  auto solve = [](int n, int newton_every) {
+    auto p = bare_params(20.0, 2.0 * n + 10.0);
+    p.friction = 0.3;
+    p.rolling_friction = 0.1;
+    SolverSettings s;
+    s.tolerance = 1e-8;
+    s.max_sweeps = 2000000;
+    s.newton_every = newton_every;
+    Batch batch({setup(p, column(n, 10.0))}, s);
+    batch.step();
+    EXPECT_TRUE(batch.status(0).converged);
+    const double mg = p.reference_mass() * p.gravity;
+    for (const auto& c : batch.contacts(0)) {
+      const int above = c.j < 0 ? n : n - c.j;  // disks resting on contact c
+      EXPECT_NEAR(c.normal, above * mg, 1e-6 * n * mg) << "n = " << n << ", contact " << c.i;
+      EXPECT_NEAR(c.tangential, 0.0, 1e-6 * n * mg);
+    }
+    return batch.status(0);
+  };
+  const SystemStatus newton40 = solve(40, 5), newton160 = solve(160, 5);
+  const SystemStatus nncg160 = solve(160, 0);
+  std::printf("column 40 / 160 with Newton steps: %ld / %ld sweeps, %ld / %ld Newton steps; "
+              "NNCG alone at 160: %ld sweeps\n",
+              newton40.sweeps, newton160.sweeps, newton40.newton_steps, newton160.newton_steps,
+              nncg160.sweeps);
+  EXPECT_GE(newton40.newton_steps, 1);
+  EXPECT_EQ(nncg160.newton_steps, 0);
+  EXPECT_LE(newton160.sweeps, newton40.sweeps + 10);  // one Newton round more at most
+  EXPECT_LT(newton160.sweeps, nncg160.sweeps / 20);
 }
 
 // The tolerance is per system (scans give protocols different defaults, scan.hpp): two equal

@@ -61,6 +61,7 @@ struct SystemStatus {
   long steps = 0;         // steps taken
   long sweeps = 0;        // solver sweeps, all steps
   int last_sweeps = 0;    // sweeps of the last step
+  long newton_steps = 0;  // Newton steps of the accelerated solver (src/newton.hpp), all steps
   bool converged = true;  // the last step's solve reached the tolerance
   double max_speed = 0.0;
   int rest_steps = 0;  // consecutive steps below the rest speed with the solver converged

@@ -87,6 +87,9 @@ struct SolverSettings {
   // fewer sweeps than 1.0 at the same accuracy for protocols A and C.
   double relaxation = 0.8;
   bool mass_splitting = true;  // Jacobi: each body's mass divided by its contact count
+  // accelerated_gauss_seidel: a nonsmooth Newton step (src/newton.hpp) after every this many
+  // unconverged iterations (pairs of sweeps) of a step, on the host; 0: none.
+  int newton_every = 5;
 };
 
 // When a system counts as at rest.

@@ -1,0 +1,294 @@
+// Nonsmooth Newton steps for the contact problem of one system (host code, Eigen): what lets
+// the accelerated Gauss-Seidel solver (kernels/solver.hpp) converge where its sweeps crawl.
+//
+// The solution of a step's contact problem is the fixed point P = L(P) of the exact local solves
+// (local_impulse) taken all at once. Near it, each component of L is either inside its bounds,
+// where the fixed point says the contact's relative velocity meets its target (u_n = -gap/h for
+// a closed contact, u_t = 0 sticking, Omega = 0 not rolling), or on a bound, where the impulse
+// is that bound (P_n = -h F_c for an open contact, P_t = +-mu (P_n + h F_c) sliding, M = +-mu_r
+// R_c (P_n + h F_c) rolling). Which is which is read off the local solves at the current
+// impulses; with that choice fixed the conditions are linear in P, and one sparse solve gives
+// the impulses that meet them all: the semismooth Newton step of Silcowitz, Niebe & Erleben
+// ("A nonsmooth Newton method with applications to computer animation", 2009). Velocity rows
+// couple contacts through the Delassus matrix W = H M^-1 H^T, so force crosses a whole deposit in
+// one step where sweeps move it one contact per sweep (a column of n disks: ~n NNCG sweeps).
+//
+// Safeguards: W is singular for the closed loops of a cohesive deposit (stuck contacts in a loop
+// carry any self-stress), so its diagonal is raised by the relative kRegularisation for the
+// factorisation (and the solve refined against the exact matrix); the step
+// is projected onto the bounds and accepted only if it lowers the natural residual (the largest
+// change a Jacobi pass of local solves would make, in the units of the solver tolerance), with
+// step halving; a step that lowers nothing is undone. The sweeps stay the judge of convergence.
+#pragma once
+#include <Eigen/Sparse>
+#include <Eigen/SparseLU>
+#include <algorithm>
+#include <vector>
+
+#include "kernels/solver.hpp"
+
+namespace loosepack {
+
+// Relative increase of the velocity rows' diagonal (see above). Measured on protocol A at
+// Bo = 1e3 (docs/PERFORMANCE.md, "Newton steps"): 1e-6 and below let the step follow the
+// near-null modes of long loops far outside the bounds; 1e-4 and above slow the column.
+constexpr double kRegularisation = 1e-5;
+// Refinements of the regularised solve (each a back substitution and a product with W).
+constexpr int kRefinements = 3;
+// Step lengths tried: 1, 1/2, ..., 1/32.
+constexpr int kLineSearchSteps = 6;
+
+// One system's contact problem on the host, in local indices: what a Newton step reads and
+// writes. Bodies [n]: inverse mass and inertia, radius, free and current velocities; their
+// incident contacts as a compressed list. Contacts [m]: bodies i < j (j = kFloor: the floor),
+// geometry, local problem and impulses.
+struct NewtonSystem {
+  double impulse_unit = 1.0;  // h m g: the unit of the solver tolerance
+  std::vector<double> inv_mass, inv_inertia, radius, vfx, vfy, wf, vx, vy, w;
+  std::vector<int> incident_start, incident;
+  std::vector<int> i, j;
+  std::vector<double> nx, ny, rc;
+  std::vector<LocalProblem> problem;
+  std::vector<ContactImpulse> impulse;
+
+  int bodies() const { return static_cast<int>(inv_mass.size()); }
+  int contacts() const { return static_cast<int>(i.size()); }
+
+  RelativeVelocity relative_velocity(int c) const {
+    const int a = i[static_cast<std::size_t>(c)], b = j[static_cast<std::size_t>(c)];
+    const auto k = static_cast<std::size_t>(c);
+    double dvx = -vx[a], dvy = -vy[a];
+    double spin = radius[a] * w[a];
+    double om = -w[a];
+    if (b >= 0) {
+      dvx += vx[b];
+      dvy += vy[b];
+      spin += radius[b] * w[b];
+      om += w[b];
+    }
+    return {dvx * nx[k] + dvy * ny[k], -dvx * ny[k] + dvy * nx[k] - spin, om};
+  }
+
+  // v = v_free + M^-1 H^T P (as BodyVelocity).
+  void update_velocities() {
+    for (int p = 0; p < bodies(); ++p) {
+      double ux = vfx[p], uy = vfy[p], uw = wf[p];
+      for (int a = incident_start[p]; a < incident_start[p + 1]; ++a) {
+        const auto c = static_cast<std::size_t>(incident[a]);
+        const ContactImpulse& P = impulse[c];
+        const double fx = P.pn * nx[c] - P.pt * ny[c], fy = P.pn * ny[c] + P.pt * nx[c];
+        if (i[c] == p) {
+          ux -= inv_mass[p] * fx;
+          uy -= inv_mass[p] * fy;
+          uw += inv_inertia[p] * (-radius[p] * P.pt - P.pm);
+        } else {
+          ux += inv_mass[p] * fx;
+          uy += inv_mass[p] * fy;
+          uw += inv_inertia[p] * (-radius[p] * P.pt + P.pm);
+        }
+      }
+      vx[p] = ux;
+      vy[p] = uy;
+      w[p] = uw;
+    }
+  }
+
+  // The natural residual: the largest change a pass of exact local solves from the current
+  // impulses would make [h m g], as the sweeps' convergence test measures it.
+  template <class Fx>
+  double residual() const {
+    double worst = 0.0;
+    for (int c = 0; c < contacts(); ++c) {
+      const auto k = static_cast<std::size_t>(c);
+      if (problem[k].wn <= 0.0) continue;
+      const ContactImpulse p = local_impulse<Fx>(impulse[k], relative_velocity(c), problem[k], 1.0);
+      worst = std::max(worst, impulse_change<Fx>(p.pn - impulse[k].pn, p.pt - impulse[k].pt,
+                                                 p.pm - impulse[k].pm, rc[k]));
+    }
+    return worst / impulse_unit;
+  }
+
+  // The merit of the Newton step's line search: the sum of squares of the same changes (a step
+  // that lowers it moves the impulses towards the fixed point as a whole; the largest change
+  // alone would refuse a step that settles all contacts but one).
+  template <class Fx>
+  double merit() const {
+    double sum = 0.0;
+    for (int c = 0; c < contacts(); ++c) {
+      const auto k = static_cast<std::size_t>(c);
+      if (problem[k].wn <= 0.0) continue;
+      const ContactImpulse p = local_impulse<Fx>(impulse[k], relative_velocity(c), problem[k], 1.0);
+      const double d = impulse_change<Fx>(p.pn - impulse[k].pn, p.pt - impulse[k].pt,
+                                                 p.pm - impulse[k].pm, rc[k]);
+      sum += d * d;
+    }
+    return sum / (impulse_unit * impulse_unit);
+  }
+
+  // The rows of H for contact c on body p (rows n, t, Omega; columns vx, vy, w).
+  void jacobian_rows(int c, int p, double H[3][3]) const {
+    const auto k = static_cast<std::size_t>(c);
+    const double sg = i[k] == p ? -1.0 : 1.0;
+    H[0][0] = sg * nx[k];
+    H[0][1] = sg * ny[k];
+    H[0][2] = 0.0;
+    H[1][0] = -sg * ny[k];
+    H[1][1] = sg * nx[k];
+    H[1][2] = -radius[p];
+    H[2][0] = 0.0;
+    H[2][1] = 0.0;
+    H[2][2] = sg;
+  }
+
+  // One Newton step from the current impulses (velocities consistent with them). Returns true
+  // when a step lowered the merit; else the impulses and velocities are left as they were.
+  template <class Fx>
+  bool newton_step();
+};
+
+template <class Fx>
+bool NewtonSystem::newton_step() {
+  const int m = contacts();
+  if (m == 0) return false;
+  const double r0 = merit<Fx>();
+  const int n_rows = 3 * m;
+  // Row kinds: a velocity row (the contact's relative velocity meets its target), or an impulse
+  // row: P = coupling * (P_n + h F_c) + the rest (a bound, or a fixed value).
+  enum Row : char { Velocity, Impulse };
+  std::vector<char> kind(static_cast<std::size_t>(n_rows), Velocity);
+  Eigen::VectorXd rhs(n_rows);
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(static_cast<std::size_t>(n_rows) * 8);
+  for (int c = 0; c < m; ++c) {
+    const auto k = static_cast<std::size_t>(c);
+    const int r = 3 * c;
+    const LocalProblem& q = problem[k];
+    const ContactImpulse& P = impulse[k];
+    const double lower = Fx::Cohesion ? q.lower : 0.0;
+    if (q.wn <= 0.0) {  // two immobile bodies: nothing to solve
+      for (int a = 0; a < 3; ++a) {
+        kind[static_cast<std::size_t>(r + a)] = Impulse;
+        rhs(r + a) = 0.0;
+        entries.emplace_back(r + a, r + a, 1.0);
+      }
+      continue;
+    }
+    const RelativeVelocity u = relative_velocity(c);
+    const ContactImpulse L = local_impulse<Fx>(P, u, q, 1.0);
+    // Closed: the local solve leaves the normal impulse above its bound, or the contact touches
+    // and does not separate (at zero impulse and zero relative velocity, as in a resting column
+    // cold started, the local solve cannot tell; the Newton step can).
+    const bool closed = L.pn > lower || (q.gap <= 0.0 && u.un <= 0.0);
+    // Normal row.
+    if (closed) {
+      rhs(r) = -(q.gap > 0.0 ? q.gap / q.h : 0.0) - u.un;
+    } else {
+      kind[static_cast<std::size_t>(r)] = Impulse;
+      rhs(r) = lower - P.pn;
+      entries.emplace_back(r, r, 1.0);
+    }
+    // Tangential and rolling rows: inside the bounds a velocity row, on a bound an impulse row
+    // that follows the normal impulse (through the bound), open contacts carry nothing.
+    const double shifted = L.pn - lower;
+    const double coef_t = Fx::Friction ? q.friction : 0.0;
+    const double coef_r = (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever : 0.0;
+    const double bound_t = coef_t * shifted, bound_r = coef_r * shifted;
+    const double value[2] = {L.pt, L.pm}, bound[2] = {bound_t, bound_r},
+                 coef[2] = {coef_t, coef_r}, now[2] = {P.pt, P.pm};
+    const double velocity[2] = {u.ut, u.om};
+    for (int a = 0; a < 2; ++a) {
+      const int row = r + 1 + a;
+      // (A contact closed by touching, with no normal impulse yet, sticks.)
+      const bool inside =
+          closed && (std::abs(value[a]) < bound[a] || (bound[a] <= 0.0 && coef[a] > 0.0));
+      if (inside) {
+        rhs(row) = -velocity[a];
+        continue;
+      }
+      kind[static_cast<std::size_t>(row)] = Impulse;
+      const double sign = !closed || bound[a] <= 0.0 ? 0.0 : (value[a] > 0.0 ? 1.0 : -1.0);
+      // P + dP = sign coef (P_n + dP_n - lower)
+      rhs(row) = sign * coef[a] * (P.pn - lower) - now[a];
+      entries.emplace_back(row, row, 1.0);
+      if (sign != 0.0 && kind[static_cast<std::size_t>(r)] == Velocity)
+        entries.emplace_back(row, r, -sign * coef[a]);
+    }
+  }
+  // Velocity rows: W = H M^-1 H^T over the bodies the contacts share.
+  for (int p = 0; p < bodies(); ++p) {
+    const double mobility[3] = {inv_mass[p], inv_mass[p], inv_inertia[p]};
+    for (int a = incident_start[p]; a < incident_start[p + 1]; ++a) {
+      const int ca = incident[a];
+      double Ha[3][3];
+      jacobian_rows(ca, p, Ha);
+      for (int b = incident_start[p]; b < incident_start[p + 1]; ++b) {
+        const int cb = incident[b];
+        double Hb[3][3];
+        jacobian_rows(cb, p, Hb);
+        for (int x = 0; x < 3; ++x) {
+          if (kind[static_cast<std::size_t>(3 * ca + x)] != Velocity) continue;
+          for (int y = 0; y < 3; ++y) {
+            double v = 0.0;
+            for (int d = 0; d < 3; ++d) v += Ha[x][d] * mobility[d] * Hb[y][d];
+            if (v != 0.0) entries.emplace_back(3 * ca + x, 3 * cb + y, v);
+          }
+        }
+      }
+    }
+  }
+  Eigen::SparseMatrix<double> J(n_rows, n_rows);
+  J.setFromTriplets(entries.begin(), entries.end());
+  J.makeCompressed();
+  // Factorise the regularised matrix; iterative refinement against the exact one then removes
+  // the regularisation's error where W is well conditioned (a tall column needs it: its
+  // smallest eigenvalue is ~1/n^2 of the diagonal) and leaves the near-null modes damped.
+  Eigen::SparseMatrix<double> regularised = J;
+  for (int r = 0; r < n_rows; ++r)
+    if (kind[static_cast<std::size_t>(r)] == Velocity)
+      regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
+  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+  lu.compute(regularised);
+  if (lu.info() != Eigen::Success) return false;
+  const Eigen::VectorXd damped = lu.solve(rhs);
+  Eigen::VectorXd refined = damped;
+  for (int k = 0; k < kRefinements; ++k) refined += lu.solve(rhs - J * refined);
+  if (!damped.allFinite() || !refined.allFinite()) return false;
+  // The refined or the damped step, whichever leaves the lower residual (on the near-null modes
+  // of a loop whose active set is not yet right the refined step can leave the bounds far
+  // behind), then the damped one halved while the residual does not fall; projected onto the
+  // bounds.
+  const std::vector<ContactImpulse> start = impulse;
+  const auto take = [&](const Eigen::VectorXd& step, double length) {
+    for (int c = 0; c < m; ++c) {
+      const auto k = static_cast<std::size_t>(c);
+      const LocalProblem& q = problem[k];
+      const double lower = Fx::Cohesion ? q.lower : 0.0;
+      const double pn = std::max(lower, start[k].pn + length * step(3 * c));
+      const double bound_t = Fx::Friction ? q.friction * (pn - lower) : 0.0;
+      const double bound_r = (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever * (pn - lower) : 0.0;
+      impulse[k] = {pn, std::clamp(start[k].pt + length * step(3 * c + 1), -bound_t, bound_t),
+                    std::clamp(start[k].pm + length * step(3 * c + 2), -bound_r, bound_r)};
+    }
+    update_velocities();
+    return merit<Fx>();
+  };
+  const double r_refined = take(refined, 1.0);
+  const std::vector<ContactImpulse> after_refined = impulse;
+  double r1 = take(damped, 1.0);
+  if (r_refined < r1 && r_refined < r0) {
+    impulse = after_refined;
+    update_velocities();
+    return true;
+  }
+  double length = 1.0;
+  for (int attempt = 1; attempt < kLineSearchSteps && !(r1 < r0); ++attempt) {
+    length *= 0.5;
+    r1 = take(damped, length);
+  }
+  if (r1 < r0) return true;
+  impulse = start;
+  update_velocities();
+  return false;
+}
+
+}  // namespace loosepack

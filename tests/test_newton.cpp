@@ -1,0 +1,124 @@
+// The Newton step of the contact solve (src/newton.hpp) on hand-built problems: exact loads from
+// statics, and the safeguards (the residual never rises, impulses stay within their bounds).
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "src/newton.hpp"
+
+using namespace loosepack;
+
+namespace {
+
+using Full = Effects<false, true, true>;  // friction and rolling friction, no cohesion
+
+struct Body {
+  double x, y;
+};
+
+// The contact problem of disks of radius 1 and mass 1 at rest under gravity g = 1 (free
+// velocities -h g), with the contacts (i, j) given (j = kFloor: the floor), all impulses zero.
+NewtonSystem rest_problem(const std::vector<Body>& bodies,
+                          const std::vector<std::pair<int, int>>& pairs, double h, double mu,
+                          double mu_r) {
+  NewtonSystem ns;
+  ns.impulse_unit = h;  // h m g
+  const int n = static_cast<int>(bodies.size());
+  for (int p = 0; p < n; ++p) {
+    ns.inv_mass.push_back(1.0);
+    ns.inv_inertia.push_back(2.0);  // I = m R^2 / 2
+    ns.radius.push_back(1.0);
+    ns.vfx.push_back(0.0);
+    ns.vfy.push_back(-h);
+    ns.wf.push_back(0.0);
+  }
+  ns.vx = ns.vfx;
+  ns.vy = ns.vfy;
+  ns.w = ns.wf;
+  for (const auto& [i, j] : pairs) {
+    double nx = 0.0, ny = -1.0, gap = bodies[i].y - 1.0;
+    ContactMobility mob = contact_mobility(1.0, 2.0, 1.0, 0.0, 0.0, 0.0);
+    if (j >= 0) {
+      const double dx = bodies[j].x - bodies[i].x, dy = bodies[j].y - bodies[i].y;
+      const double d = std::hypot(dx, dy);
+      nx = dx / d;
+      ny = dy / d;
+      gap = d - 2.0;
+      mob = contact_mobility(1.0, 2.0, 1.0, 1.0, 2.0, 1.0);
+    }
+    ns.i.push_back(i);
+    ns.j.push_back(j);
+    ns.nx.push_back(nx);
+    ns.ny.push_back(ny);
+    ns.rc.push_back(1.0);
+    ns.problem.push_back({gap, h, mob.wn, mob.a, mob.b, mob.c, 0.0, mu, mu_r});
+    ns.impulse.push_back({0.0, 0.0, 0.0});
+  }
+  ns.incident_start.push_back(0);
+  for (int p = 0; p < n; ++p) {
+    for (int c = 0; c < ns.contacts(); ++c)
+      if (ns.i[static_cast<std::size_t>(c)] == p || ns.j[static_cast<std::size_t>(c)] == p)
+        ns.incident.push_back(c);
+    ns.incident_start.push_back(static_cast<int>(ns.incident.size()));
+  }
+  return ns;
+}
+
+}  // namespace
+
+// A column of n disks on the floor from zero impulses: the contacts are all closed and stuck, the
+// conditions linear, and one Newton step gives the statics: the contact below the k-th disk from
+// the top carries k m g (impulse k h m g), no tangential force, no moment, all at rest. (The
+// regularisation, 1e-5 of the diagonal, refined three times, leaves a relative error ~1e-9.)
+TEST(Newton, OneStepCarriesAColumnsWeight) {
+  const int n = 30;
+  const double h = 0.01;
+  std::vector<Body> bodies;
+  std::vector<std::pair<int, int>> pairs{{0, kFloor}};
+  for (int k = 0; k < n; ++k) bodies.push_back({5.0, 1.0 + 2.0 * k});
+  for (int k = 0; k + 1 < n; ++k) pairs.emplace_back(k, k + 1);
+  NewtonSystem ns = rest_problem(bodies, pairs, h, 0.3, 0.1);
+  const double r0 = ns.residual<Full>();
+  EXPECT_NEAR(r0, 1.0, 1e-12);  // the floor contact alone would take h m g
+  EXPECT_TRUE(ns.newton_step<Full>());
+  EXPECT_LT(ns.residual<Full>(), 1e-6);
+  for (int c = 0; c < ns.contacts(); ++c) {
+    const int below = c == 0 ? n : n - c;  // disks above contact c
+    const ContactImpulse& P = ns.impulse[static_cast<std::size_t>(c)];
+    EXPECT_NEAR(P.pn, below * h, 1e-6 * below * h) << "contact " << c;
+    EXPECT_NEAR(P.pt, 0.0, 1e-12);
+    EXPECT_NEAR(P.pm, 0.0, 1e-12);
+  }
+  for (int p = 0; p < n; ++p) EXPECT_NEAR(ns.vy[static_cast<std::size_t>(p)], 0.0, 1e-6 * h);
+}
+
+// The three-disk pyramid with mu = 0.25, below its stability threshold 2 - sqrt 3 = 0.268: no
+// impulses hold it, the upper contacts slide. Whatever the steps do, each leaves a merit no
+// larger than the one it started from, leaves every impulse within its bounds and the
+// velocities those of the impulses.
+TEST(Newton, StepsNeverRaiseTheResidualNorLeaveTheBounds) {
+  const double half = 1.0 + 0.5e-9, h = 0.01, mu = 0.25;
+  const std::vector<Body> bodies{
+      {10.0 - half, 1.0}, {10.0 + half, 1.0}, {10.0, 1.0 + std::sqrt(4.0 - half * half)}};
+  NewtonSystem ns = rest_problem(bodies, {{0, kFloor}, {1, kFloor}, {0, 2}, {1, 2}}, h, mu, 0.0);
+  for (int step = 0; step < 10; ++step) {
+    const double before = ns.merit<Full>();
+    ns.newton_step<Full>();
+    EXPECT_LE(ns.merit<Full>(), before) << "step " << step;
+    for (const auto& P : ns.impulse) {
+      EXPECT_GE(P.pn, 0.0);
+      EXPECT_LE(std::abs(P.pt), mu * P.pn * (1.0 + 1e-12));
+      EXPECT_EQ(P.pm, 0.0);  // no rolling resistance
+    }
+    NewtonSystem again = ns;
+    again.update_velocities();
+    for (int p = 0; p < ns.bodies(); ++p) {
+      const auto k = static_cast<std::size_t>(p);
+      EXPECT_NEAR(again.vx[k], ns.vx[k], 1e-14);
+      EXPECT_NEAR(again.vy[k], ns.vy[k], 1e-14);
+      EXPECT_NEAR(again.w[k], ns.w[k], 1e-14);
+    }
+  }
+  // The top disk cannot stay: it moves down (the base disks slide apart).
+  EXPECT_LT(ns.vy[2], -1e-3 * h);
+}
