@@ -2,7 +2,8 @@
 // structures"): sweeps to a fixed tolerance against the height n of a loaded column, for each
 // solver, cold started (first step, all impulses zero) and warm started (one disk added on top of
 // a column at rest). Also the error of the bottom contact force against n m g, so a solver that
-// stops early cannot look fast. Prints one JSON record per solver, n and start.
+// stops early cannot look fast. The accelerated solver runs with and without Newton steps.
+// Prints one JSON record per solver, n and start.
 //
 //   bench_convergence [--n 25,50,100,200] [--tolerance 1e-4] [--max-sweeps 400000]
 #include <Kokkos_Core.hpp>
@@ -23,9 +24,16 @@ using namespace loosepack;
 
 namespace {
 
-const SolverKind kSolvers[] = {SolverKind::Jacobi, SolverKind::GaussSeidel,
-                               SolverKind::SequentialGaussSeidel,
-                               SolverKind::AcceleratedGaussSeidel};
+// The solvers, and for the accelerated one with and without Newton steps (newton_every).
+struct Variant {
+  SolverKind kind;
+  int newton_every;
+};
+const Variant kSolvers[] = {{SolverKind::Jacobi, 0},
+                            {SolverKind::GaussSeidel, 0},
+                            {SolverKind::SequentialGaussSeidel, 0},
+                            {SolverKind::AcceleratedGaussSeidel, 0},
+                            {SolverKind::AcceleratedGaussSeidel, SolverSettings{}.newton_every}};
 
 SystemParams column_params(int n) {
   SystemParams p;
@@ -55,13 +63,14 @@ double bottom_error(const Batch& batch, int n_total) {
 }
 
 struct Record {
-  long sweeps;
+  long sweeps, newton_steps;
   double error, seconds;
 };
 
-Record run(SolverKind kind, int n, bool warm, double tolerance, int max_sweeps) {
+Record run(Variant variant, int n, bool warm, double tolerance, int max_sweeps) {
   SolverSettings solver;
-  solver.kind = kind;
+  solver.kind = variant.kind;
+  solver.newton_every = variant.newton_every;
   solver.tolerance = tolerance;
   solver.max_sweeps = max_sweeps;
   SystemSetup su;
@@ -74,11 +83,12 @@ Record run(SolverKind kind, int n, bool warm, double tolerance, int max_sweeps) 
     for (int k = 0; k < 3; ++k) batch.step();
     batch.deposit_at({1}, {10.0}, DropRule::Touch);
   }
-  const long before = batch.status(0).sweeps;
+  const long before = batch.status(0).sweeps, newton_before = batch.status(0).newton_steps;
   const auto t0 = std::chrono::steady_clock::now();
   batch.step();
   const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return {batch.status(0).sweeps - before, bottom_error(batch, warm ? n + 1 : n), sec};
+  return {batch.status(0).sweeps - before, batch.status(0).newton_steps - newton_before,
+          bottom_error(batch, warm ? n + 1 : n), sec};
 }
 
 }  // namespace
@@ -102,17 +112,18 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  for (SolverKind kind : kSolvers)
+  for (const Variant& variant : kSolvers)
     for (bool warm : {false, true})
       for (int n : sizes) {
-        const Record r = run(kind, n, warm, tolerance, max_sweeps);
+        const Record r = run(variant, n, warm, tolerance, max_sweeps);
         std::printf(
-            "{\"study\": \"column_convergence\", \"solver\": \"%s\", \"start\": \"%s\", \"n\": %d, "
-            "\"tolerance\": %g, \"sweeps\": %ld, \"capped\": %s, \"bottom_force_rel_error\": %.3e, "
+            "{\"study\": \"column_convergence\", \"solver\": \"%s\", \"newton_every\": %d, "
+            "\"start\": \"%s\", \"n\": %d, \"tolerance\": %g, \"sweeps\": %ld, "
+            "\"newton_steps\": %ld, \"capped\": %s, \"bottom_force_rel_error\": %.3e, "
             "\"wall_s\": %.4f, %s}\n",
-            solver_kind_name(kind), warm ? "warm" : "cold", n, tolerance, r.sweeps,
-            r.sweeps >= max_sweeps ? "true" : "false", r.error, r.seconds,
-            bench::Environment().json().c_str());
+            solver_kind_name(variant.kind), variant.newton_every, warm ? "warm" : "cold", n,
+            tolerance, r.sweeps, r.newton_steps, r.sweeps >= max_sweeps ? "true" : "false",
+            r.error, r.seconds, bench::Environment().json().c_str());
         std::fflush(stdout);
       }
   return 0;

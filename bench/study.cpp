@@ -22,7 +22,8 @@
 //
 //   bench_study --study effects|size|accuracy [--tiny] [--seeds N] [--budget S]
 //               [--protocol A|C] [--match TEXT] [--sides S1,S2,...]
-//               [--regions R [--region-check K]]
+//               [--regions R [--region-check K]] [--newton K]
+// --newton: solver.newton_every of every ensemble (0: NNCG alone; docs/MODEL.md, "Solvers").
 // --sides: the box sides (A) or widths (C) of the size study; --regions: every ensemble's
 // protocol-A members relax in relaxation regions of radius R, the whole system checked after
 // every K-th disk (protocol.region_radius, region_check_every; docs/MODEL.md).
@@ -58,6 +59,7 @@ struct Setup {
   double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
   int max_sweeps = SolverSettings{}.max_sweeps;
+  int newton_every = SolverSettings{}.newton_every;
   bool rest_converged = RestSettings{}.converged;
   double region_radius = 0.0;  // protocol.region_radius; 0: the whole system relaxes
   int region_check_every = ProtocolSettings{}.region_check_every;
@@ -96,7 +98,8 @@ struct Setup {
       << "\nfriction = 0.3\nrolling_friction = " << rolling_friction
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
       << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << max_sweeps
-      << "\nrelaxation = " << relaxation << "\n[rest]\nconverged = "
+      << "\nrelaxation = " << relaxation << "\nnewton_every = " << newton_every
+      << "\n[rest]\nconverged = "
       << (rest_converged ? "true" : "false") << "\n[protocol]\nregion_radius = " << region_radius
       << "\nregion_check_every = " << region_check_every
       << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
@@ -116,6 +119,7 @@ struct Setup {
       << ", \"solver\": " << bench::json_string(solver)
       << ", \"tolerance\": " << bench::json_number(tolerance) << ", \"max_sweeps\": " << max_sweeps
       << ", \"relaxation\": " << bench::json_number(relaxation)
+      << ", \"newton_every\": " << newton_every
       << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
       << ", \"region_radius\": " << bench::json_number(region_radius)
       << ", \"region_check_every\": " << region_check_every << ", \"seeds\": " << seeds
@@ -285,6 +289,7 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
       add("relaxation=" + bench::json_number(w), [w](Setup& s) { s.relaxation = w; });
   for (const char* k : {"sequential_gauss_seidel", "gauss_seidel", "jacobi"})
     add(std::string("solver=") + k, [k](Setup& s) { s.solver = k; });
+  add("newton_every=0", [](Setup& s) { s.newton_every = 0; });
   // Rest by speeds alone, the solve capped as a fixed-iteration engine caps it.
   for (int c : {16, 64, 2000})
     add("rest=speed max_sweeps=" + std::to_string(c), [c](Setup& s) {
@@ -365,7 +370,7 @@ int usage() {
   std::fprintf(stderr,
                "usage: bench_study --study effects|size|accuracy [--tiny] [--seeds N] "
                "[--budget S] [--protocol A|C] [--match TEXT] [--sides S1,S2,...] "
-               "[--regions R [--region-check K]]\n");
+               "[--regions R [--region-check K]] [--newton K]\n");
   return 2;
 }
 
@@ -376,6 +381,7 @@ int main(int argc, char** argv) {
   std::string study, protocol, match;
   std::vector<int> sides_given;
   double region_radius = 0.0;
+  int newton_every = SolverSettings{}.newton_every;
   int region_check = ProtocolSettings{}.region_check_every;
   bool tiny = false;
   int seeds = 0;
@@ -397,6 +403,8 @@ int main(int argc, char** argv) {
       region_radius = std::atof(argv[++a]);
     } else if (f == "--region-check" && has_value) {
       region_check = std::atoi(argv[++a]);
+    } else if (f == "--newton" && has_value) {
+      newton_every = std::atoi(argv[++a]);
     } else if (f == "--match" && has_value) {
       match = argv[++a];
     } else if (f == "--protocol" && has_value) {
@@ -416,6 +424,7 @@ int main(int argc, char** argv) {
       s.seeds = seeds > 0 ? seeds : (tiny ? 2 : s.seeds);
       s.region_radius = region_radius;
       s.region_check_every = region_check;
+      s.newton_every = newton_every;
     }
     return b;
   };

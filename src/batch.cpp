@@ -71,6 +71,7 @@ struct Batch::Impl {
   DView<int> sweeps_this_step;  // [S]
   DView<int> sweep_limit;       // [S] accelerated solver with Newton steps: this launch's limit
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
+  std::vector<int> newton_wait;    // [S] sweeps before a step's first Newton round (adapted)
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
     DView<int>::HostMirror failure, unconverged, sweeps, count;
@@ -116,7 +117,7 @@ struct Batch::Impl {
   template <class Fx>
   void solve_with_newton(const AcceleratedGaussSeidel<Fx>& sweeps);
   template <class Fx>
-  void newton_round(const std::vector<int>& due, std::vector<int>& gap);
+  void newton_round(const std::vector<int>& due);
   int colour(bool batch_list);
   void step();
 };
@@ -220,6 +221,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
+  newton_wait.assign(static_cast<std::size_t>(S), 2 * solver.newton_every);
   host.failure = Kokkos::create_mirror_view(sys.failure);
   host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
   host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
@@ -389,6 +391,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   status[k].active = true;
   status[k].count = count;
   newton_steps[k] = 0;
+  newton_wait[k] = 2 * solver.newton_every;
   last_stepped[k] = batch_steps;
 }
 
@@ -486,18 +489,19 @@ void Batch::Impl::solve() {
 }
 
 // The accelerated solver with Newton steps: each system iterates until it converges or has
-// done solver.newton_every iterations more; the host then takes Newton steps for the systems
-// still iterating, and the sweeps go on from the new impulses. A system whose Newton step could
-// not lower its residual waits twice as many iterations for the next (a step of the wrong
-// active set costs a factorisation and gains nothing).
+// done its wait; the host then takes Newton steps for the systems still iterating, and the sweeps
+// go on from the new impulses for another wait. The wait adapts per system from round to round
+// (and carries over to the next step): a round that cut the residual tenfold (or below the
+// tolerance) halves it, down to solver.newton_every iterations; one that did not doubles it, up
+// to the sweep cap. Where Newton steps pay (a tall cohesive deposit, whose sweeps crawl) they
+// come early; where the sweeps' trouble is a nonsmooth switch that a Newton step does not settle
+// either, they fade out and cost next to nothing.
 template <class Fx>
 void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& sweeps) {
   AcceleratedGaussSeidel<Fx> sweeper = sweeps;
   sweeper.sweep_limit = sweep_limit;
-  const int every = 2 * solver.newton_every;  // sweeps between Newton steps
-  std::vector<int> gap(static_cast<std::size_t>(n_systems), every);
   auto limit = Kokkos::create_mirror_view(sweep_limit);
-  for (int s = 0; s < n_systems; ++s) limit(s) = every;
+  for (int s = 0; s < n_systems; ++s) limit(s) = newton_wait[static_cast<std::size_t>(s)];
   auto& unconverged = host.unconverged;
   auto& done = host.sweeps;
   for (;;) {
@@ -513,16 +517,16 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& sweeps) {
         due.push_back(s);
     if (due.empty()) return;
     stage_done("solve");
-    newton_round<Fx>(due, gap);
+    newton_round<Fx>(due);
     stage_done("newton");
-    for (int s : due) limit(s) = done(s) + gap[static_cast<std::size_t>(s)];
+    for (int s : due) limit(s) = done(s) + newton_wait[static_cast<std::size_t>(s)];
   }
 }
 
 // Newton steps (src/newton.hpp) for the systems `due`, on host copies of their state (the same
 // memory on a host backend), one system per host thread; at most kNewtonSteps per round.
 template <class Fx>
-void Batch::Impl::newton_round(const std::vector<int>& due, std::vector<int>& gap) {
+void Batch::Impl::newton_round(const std::vector<int>& due) {
   constexpr int kNewtonSteps = 3;
   const auto mirror = [](const auto& v) {
     return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
@@ -583,15 +587,18 @@ void Batch::Impl::newton_round(const std::vector<int>& due, std::vector<int>& ga
                 local[static_cast<std::size_t>(incident(p * kIncident + a) - first * kSlots)]);
           ns.incident_start.push_back(static_cast<int>(ns.incident.size()));
         }
-        double residual = ns.residual<Fx>();
-        bool stalled = false;
+        const double before = ns.residual<Fx>();
+        double residual = before;
         for (int n = 0; n < kNewtonSteps && residual > tolerance(s); ++n) {
-          stalled = !ns.newton_step<Fx>();
-          if (stalled) break;
+          if (!ns.newton_step<Fx>()) break;
           residual = ns.residual<Fx>();
           ++newton_steps[su];
         }
-        if (stalled) gap[su] *= 2;
+        const int every = 2 * solver.newton_every;
+        newton_wait[su] = residual < 0.1 * before || !(residual > tolerance(s))
+                              ? std::max(every, newton_wait[su] / 2)
+                              : std::min(solver.max_sweeps, 2 * newton_wait[su]);
+
         // Scatter the impulses and velocities back.
         for (int p = first; p < first + count; ++p) {
           const auto b = static_cast<std::size_t>(p - first);

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <string>
+#include <utility>
 
 #include "loosepack/batch.hpp"
 #include "tests/scenes.hpp"
@@ -284,12 +286,19 @@ TEST(Solver, ToleranceIsPerSystem) {
   p.friction = 0.3;
   p.rolling_friction = 0.1;
   const int n = 20;
-  for (SolverKind kind : {SolverKind::AcceleratedGaussSeidel,
-                          SolverKind::ColouredAcceleratedGaussSeidel, SolverKind::Jacobi}) {
-    SCOPED_TRACE(solver_kind_name(kind));
+  // The accelerated solver with and without Newton steps (with them, both tolerances take the
+  // same 12 sweeps here: one Newton step makes the column exact).
+  const std::pair<SolverKind, int> variants[] = {{SolverKind::AcceleratedGaussSeidel, 0},
+                                                 {SolverKind::AcceleratedGaussSeidel, 5},
+                                                 {SolverKind::ColouredAcceleratedGaussSeidel, 0},
+                                                 {SolverKind::Jacobi, 0}};
+  for (const auto& [kind, newton_every] : variants) {
+    SCOPED_TRACE(std::string(solver_kind_name(kind)) + " newton_every " +
+                 std::to_string(newton_every));
     SolverSettings s;
     s.kind = kind;
     s.max_sweeps = 2000000;
+    s.newton_every = newton_every;
     auto alone = [&](double tolerance) {
       SolverSettings t = s;
       t.tolerance = tolerance;
@@ -304,7 +313,9 @@ TEST(Solver, ToleranceIsPerSystem) {
     batch.step();
     EXPECT_EQ(batch.status(0).sweeps, alone(1e-2));
     EXPECT_EQ(batch.status(1).sweeps, alone(1e-8));
-    EXPECT_GT(batch.status(1).sweeps, batch.status(0).sweeps);
+    if (newton_every == 0) {
+      EXPECT_GT(batch.status(1).sweeps, batch.status(0).sweeps);
+    }
     const double mg = p.reference_mass() * p.gravity;
     int floor_contacts = 0;
     for (const auto& c : batch.contacts(1)) {
