@@ -139,6 +139,25 @@ KOKKOS_INLINE_FUNCTION void apply_impulse_change(const ParticleViews& part, cons
   }
 }
 
+// Adds to a body's velocity (vx, vy, w) what the impulses (pn, pt, pm) of one of its contacts
+// with normal (nx, ny) give it: the partner j receives pn n + pt t (t = (-ny, nx)) and the
+// moment pm, the owner i the opposite; both the torque -r pt. The one statement of H^T P, for
+// BodyVelocity and the Newton step's host copy (src/newton.hpp).
+KOKKOS_INLINE_FUNCTION void add_contact_impulse(bool owner, double pn, double pt, double pm,
+                                                double nx, double ny, double im, double iI,
+                                                double r, double& vx, double& vy, double& w) {
+  const double fx = pn * nx - pt * ny, fy = pn * ny + pt * nx;
+  if (owner) {
+    vx -= im * fx;
+    vy -= im * fy;
+    w += iI * (-r * pt - pm);
+  } else {
+    vx += im * fx;
+    vy += im * fy;
+    w += iI * (-r * pt + pm);
+  }
+}
+
 // v = v_free + M^-1 sum H^T P over the contacts incident to each particle.
 struct BodyVelocity {
   SystemViews sys;
@@ -155,19 +174,8 @@ struct BodyVelocity {
     const int n = part.n_incident(p);
     for (int a = 0; a < n; ++a) {
       const int c = part.incident(p * kIncident + a);
-      const double nx = con.nx(c), ny = con.ny(c);
-      const double pn = con.pn(c), pt = con.pt(c), pm = con.pm(c);
-      // impulse on the partner j: pn n + pt t, t = (-ny, nx)
-      const double fx = pn * nx - pt * ny, fy = pn * ny + pt * nx;
-      if (c / kSlots == p) {  // owner i
-        vx -= im * fx;
-        vy -= im * fy;
-        w += iI * (-r * pt - pm);
-      } else {
-        vx += im * fx;
-        vy += im * fy;
-        w += iI * (-r * pt + pm);
-      }
+      add_contact_impulse(c / kSlots == p, con.pn(c), con.pt(c), con.pm(c), con.nx(c), con.ny(c),
+                          im, iI, r, vx, vy, w);
     }
     part.vx(p) = vx;
     part.vy(p) = vy;

@@ -75,17 +75,8 @@ struct NewtonSystem {
       double ux = vfx[p], uy = vfy[p], uw = wf[p];
       for (int a = incident_start[p]; a < incident_start[p + 1]; ++a) {
         const auto c = static_cast<std::size_t>(incident[a]);
-        const ContactImpulse& P = impulse[c];
-        const double fx = P.pn * nx[c] - P.pt * ny[c], fy = P.pn * ny[c] + P.pt * nx[c];
-        if (i[c] == p) {
-          ux -= inv_mass[p] * fx;
-          uy -= inv_mass[p] * fy;
-          uw += inv_inertia[p] * (-radius[p] * P.pt - P.pm);
-        } else {
-          ux += inv_mass[p] * fx;
-          uy += inv_mass[p] * fy;
-          uw += inv_inertia[p] * (-radius[p] * P.pt + P.pm);
-        }
+        add_contact_impulse(i[c] == p, impulse[c].pn, impulse[c].pt, impulse[c].pm, nx[c], ny[c],
+                            inv_mass[p], inv_inertia[p], radius[p], ux, uy, uw);
       }
       vx[p] = ux;
       vy[p] = uy;
@@ -93,36 +84,33 @@ struct NewtonSystem {
     }
   }
 
-  // The natural residual: the largest change a pass of exact local solves from the current
-  // impulses would make [h m g], as the sweeps' convergence test measures it.
+  // Calls f with the change [h m g] that each contact's exact local solve would make from the
+  // current impulses (as the sweeps' convergence test measures a change).
+  template <class Fx, class F>
+  void for_each_local_change(F f) const {
+    for (int c = 0; c < contacts(); ++c) {
+      const auto k = static_cast<std::size_t>(c);
+      if (problem[k].wn <= 0.0) continue;
+      const ContactImpulse& P = impulse[k];
+      const ContactImpulse L = local_impulse<Fx>(P, relative_velocity(c), problem[k], 1.0);
+      f(impulse_change<Fx>(L.pn - P.pn, L.pt - P.pt, L.pm - P.pm, rc[k]) / impulse_unit);
+    }
+  }
+  // The natural residual: the largest of those changes.
   template <class Fx>
   double residual() const {
     double worst = 0.0;
-    for (int c = 0; c < contacts(); ++c) {
-      const auto k = static_cast<std::size_t>(c);
-      if (problem[k].wn <= 0.0) continue;
-      const ContactImpulse p = local_impulse<Fx>(impulse[k], relative_velocity(c), problem[k], 1.0);
-      worst = std::max(worst, impulse_change<Fx>(p.pn - impulse[k].pn, p.pt - impulse[k].pt,
-                                                 p.pm - impulse[k].pm, rc[k]));
-    }
-    return worst / impulse_unit;
+    for_each_local_change<Fx>([&](double d) { worst = std::max(worst, d); });
+    return worst;
   }
-
-  // The merit of the Newton step's line search: the sum of squares of the same changes (a step
-  // that lowers it moves the impulses towards the fixed point as a whole; the largest change
-  // alone would refuse a step that settles all contacts but one).
+  // The merit of the Newton step's line search: the sum of their squares (a step that lowers it
+  // moves the impulses towards the fixed point as a whole; the largest change alone would
+  // refuse a step that settles all contacts but one).
   template <class Fx>
   double merit() const {
     double sum = 0.0;
-    for (int c = 0; c < contacts(); ++c) {
-      const auto k = static_cast<std::size_t>(c);
-      if (problem[k].wn <= 0.0) continue;
-      const ContactImpulse p = local_impulse<Fx>(impulse[k], relative_velocity(c), problem[k], 1.0);
-      const double d = impulse_change<Fx>(p.pn - impulse[k].pn, p.pt - impulse[k].pt,
-                                                 p.pm - impulse[k].pm, rc[k]);
-      sum += d * d;
-    }
-    return sum / (impulse_unit * impulse_unit);
+    for_each_local_change<Fx>([&](double d) { sum += d * d; });
+    return sum;
   }
 
   // The rows of H for contact c on body p (rows n, t, Omega; columns vx, vy, w).
