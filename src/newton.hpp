@@ -15,10 +15,11 @@
 //
 // Safeguards: W is singular for the closed loops of a cohesive deposit (stuck contacts in a loop
 // carry any self-stress), so its diagonal is raised by the relative kRegularisation for the
-// factorisation (and the solve refined against the exact matrix); the step
-// is projected onto the bounds and accepted only if it lowers the natural residual (the largest
-// change a Jacobi pass of local solves would make, in the units of the solver tolerance), with
-// step halving; a step that lowers nothing is undone. The sweeps stay the judge of convergence.
+// factorisation (and the solve refined against the exact matrix); the step is projected onto
+// the bounds and accepted only if it lowers the merit (the sum of squares of the changes a
+// Jacobi pass of local solves would make, in the units of the solver tolerance), with step
+// halving; a step that lowers nothing is undone. The sweeps stay the judge of convergence.
+// When to take a step is the batch's business (Batch::Impl::solve_with_newton, src/batch.cpp).
 #pragma once
 #include <Eigen/Sparse>
 #include <Eigen/SparseLU>
