@@ -142,24 +142,21 @@ bool NewtonSystem::newton_step() {
   const double r0 = merit<Fx>();
   const int n_rows = 3 * m;
   // Row kinds: a velocity row (the contact's relative velocity meets its target), or an impulse
-  // row: P = coupling * (P_n + h F_c) + the rest (a bound, or a fixed value).
+  // row, whose change is fixed: dP_r = rhs_r + follow_r dP_n, where follow_r = +-coef makes a
+  // component on its bound follow the contact's normal impulse (when that has a velocity row).
+  // The velocity rows' changes are the unknowns of the sparse solve; the impulse rows are
+  // eliminated into it.
   enum Row : char { Velocity, Impulse };
   std::vector<char> kind(static_cast<std::size_t>(n_rows), Velocity);
-  Eigen::VectorXd rhs(n_rows);
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(static_cast<std::size_t>(n_rows) * 8);
+  std::vector<double> rhs(static_cast<std::size_t>(n_rows), 0.0), follow(rhs);
   for (int c = 0; c < m; ++c) {
     const auto k = static_cast<std::size_t>(c);
-    const int r = 3 * c;
+    const auto r = static_cast<std::size_t>(3 * c);
     const LocalProblem& q = problem[k];
     const ContactImpulse& P = impulse[k];
     const double lower = Fx::Cohesion ? q.lower : 0.0;
     if (q.wn <= 0.0) {  // two immobile bodies: nothing to solve
-      for (int a = 0; a < 3; ++a) {
-        kind[static_cast<std::size_t>(r + a)] = Impulse;
-        rhs(r + a) = 0.0;
-        entries.emplace_back(r + a, r + a, 1.0);
-      }
+      for (std::size_t a = 0; a < 3; ++a) kind[r + a] = Impulse;
       continue;
     }
     const RelativeVelocity u = relative_velocity(c);
@@ -168,80 +165,106 @@ bool NewtonSystem::newton_step() {
     // and does not separate (at zero impulse and zero relative velocity, as in a resting column
     // cold started, the local solve cannot tell; the Newton step can).
     const bool closed = L.pn > lower || (q.gap <= 0.0 && u.un <= 0.0);
-    // Normal row.
     if (closed) {
-      rhs(r) = -(q.gap > 0.0 ? q.gap / q.h : 0.0) - u.un;
+      rhs[r] = -(q.gap > 0.0 ? q.gap / q.h : 0.0) - u.un;
     } else {
-      kind[static_cast<std::size_t>(r)] = Impulse;
-      rhs(r) = lower - P.pn;
-      entries.emplace_back(r, r, 1.0);
+      kind[r] = Impulse;
+      rhs[r] = lower - P.pn;
     }
     // Tangential and rolling rows: inside the bounds a velocity row, on a bound an impulse row
     // that follows the normal impulse (through the bound), open contacts carry nothing.
     const double shifted = L.pn - lower;
     const double coef_t = Fx::Friction ? q.friction : 0.0;
     const double coef_r = (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever : 0.0;
-    const double bound_t = coef_t * shifted, bound_r = coef_r * shifted;
-    const double value[2] = {L.pt, L.pm}, bound[2] = {bound_t, bound_r},
-                 coef[2] = {coef_t, coef_r}, now[2] = {P.pt, P.pm};
+    const double value[2] = {L.pt, L.pm}, coef[2] = {coef_t, coef_r}, now[2] = {P.pt, P.pm};
     const double velocity[2] = {u.ut, u.om};
-    for (int a = 0; a < 2; ++a) {
-      const int row = r + 1 + a;
+    for (std::size_t a = 0; a < 2; ++a) {
+      const std::size_t row = r + 1 + a;
+      const double bound = coef[a] * shifted;
       // (A contact closed by touching, with no normal impulse yet, sticks.)
       const bool inside =
-          closed && (std::abs(value[a]) < bound[a] || (bound[a] <= 0.0 && coef[a] > 0.0));
+          closed && (std::abs(value[a]) < bound || (bound <= 0.0 && coef[a] > 0.0));
       if (inside) {
-        rhs(row) = -velocity[a];
+        rhs[row] = -velocity[a];
         continue;
       }
-      kind[static_cast<std::size_t>(row)] = Impulse;
-      const double sign = !closed || bound[a] <= 0.0 ? 0.0 : (value[a] > 0.0 ? 1.0 : -1.0);
+      kind[row] = Impulse;
+      const double sign = !closed || bound <= 0.0 ? 0.0 : (value[a] > 0.0 ? 1.0 : -1.0);
       // P + dP = sign coef (P_n + dP_n - lower)
-      rhs(row) = sign * coef[a] * (P.pn - lower) - now[a];
-      entries.emplace_back(row, row, 1.0);
-      if (sign != 0.0 && kind[static_cast<std::size_t>(r)] == Velocity)
-        entries.emplace_back(row, r, -sign * coef[a]);
+      rhs[row] = sign * coef[a] * (P.pn - lower) - now[a];
+      if (kind[r] == Velocity) follow[row] = sign * coef[a];
     }
   }
-  // Velocity rows: W = H M^-1 H^T over the bodies the contacts share.
+  std::vector<int> unknown(static_cast<std::size_t>(n_rows), -1);
+  int n_unknowns = 0;
+  for (std::size_t r = 0; r < unknown.size(); ++r)
+    if (kind[r] == Velocity) unknown[r] = n_unknowns++;
+  Eigen::VectorXd b(n_unknowns);
+  for (std::size_t r = 0; r < unknown.size(); ++r)
+    if (unknown[r] >= 0) b(unknown[r]) = rhs[r];
+  // Velocity rows: W = H M^-1 H^T over the bodies the contacts share, with the impulse rows'
+  // fixed changes moved to the right-hand side and their following into the normal's column.
+  std::vector<Eigen::Triplet<double>> entries;
+  entries.reserve(static_cast<std::size_t>(n_unknowns) * 8);
   for (int p = 0; p < bodies(); ++p) {
     const double mobility[3] = {inv_mass[p], inv_mass[p], inv_inertia[p]};
     for (int a = incident_start[p]; a < incident_start[p + 1]; ++a) {
       const int ca = incident[a];
       double Ha[3][3];
       jacobian_rows(ca, p, Ha);
-      for (int b = incident_start[p]; b < incident_start[p + 1]; ++b) {
-        const int cb = incident[b];
+      for (int e = incident_start[p]; e < incident_start[p + 1]; ++e) {
+        const int cb = incident[e];
         double Hb[3][3];
         jacobian_rows(cb, p, Hb);
         for (int x = 0; x < 3; ++x) {
-          if (kind[static_cast<std::size_t>(3 * ca + x)] != Velocity) continue;
+          const int ra = unknown[static_cast<std::size_t>(3 * ca + x)];
+          if (ra < 0) continue;
           for (int y = 0; y < 3; ++y) {
             double v = 0.0;
             for (int d = 0; d < 3; ++d) v += Ha[x][d] * mobility[d] * Hb[y][d];
-            if (v != 0.0) entries.emplace_back(3 * ca + x, 3 * cb + y, v);
+            if (v == 0.0) continue;
+            const auto rb = static_cast<std::size_t>(3 * cb + y);
+            if (unknown[rb] >= 0) {
+              entries.emplace_back(ra, unknown[rb], v);
+              continue;
+            }
+            b(ra) -= v * rhs[rb];
+            if (follow[rb] != 0.0) entries.emplace_back(ra, unknown[3 * cb], v * follow[rb]);
           }
         }
       }
     }
   }
-  Eigen::SparseMatrix<double> J(n_rows, n_rows);
-  J.setFromTriplets(entries.begin(), entries.end());
-  J.makeCompressed();
-  // Factorise the regularised matrix; iterative refinement against the exact one then removes
-  // the regularisation's error where W is well conditioned (a tall column needs it: its
-  // smallest eigenvalue is ~1/n^2 of the diagonal) and leaves the near-null modes damped.
-  Eigen::SparseMatrix<double> regularised = J;
-  for (int r = 0; r < n_rows; ++r)
-    if (kind[static_cast<std::size_t>(r)] == Velocity)
-      regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
-  Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
-  lu.compute(regularised);
-  if (lu.info() != Eigen::Success) return false;
-  const Eigen::VectorXd damped = lu.solve(rhs);
-  Eigen::VectorXd refined = damped;
-  for (int k = 0; k < kRefinements; ++k) refined += lu.solve(rhs - J * refined);
-  if (!damped.allFinite() || !refined.allFinite()) return false;
+  // The whole step from the unknowns' changes x.
+  const auto expand = [&](const Eigen::VectorXd& x) {
+    Eigen::VectorXd step(n_rows);
+    for (int r = 0; r < n_rows; ++r) {
+      const auto k = static_cast<std::size_t>(r);
+      step(r) = unknown[k] >= 0
+                    ? x(unknown[k])
+                    : rhs[k] + (follow[k] != 0.0 ? follow[k] * x(unknown[k - k % 3]) : 0.0);
+    }
+    return step;
+  };
+  Eigen::VectorXd damped_x = Eigen::VectorXd::Zero(n_unknowns), refined_x = damped_x;
+  if (n_unknowns > 0) {
+    Eigen::SparseMatrix<double> A(n_unknowns, n_unknowns);
+    A.setFromTriplets(entries.begin(), entries.end());
+    A.makeCompressed();
+    // Factorise the regularised matrix; iterative refinement against the exact one then
+    // removes the regularisation's error where W is well conditioned (a tall column needs it:
+    // its smallest eigenvalue is ~1/n^2 of the diagonal) and leaves the near-null modes damped.
+    Eigen::SparseMatrix<double> regularised = A;
+    for (int r = 0; r < n_unknowns; ++r) regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
+    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+    lu.compute(regularised);
+    if (lu.info() != Eigen::Success) return false;
+    damped_x = lu.solve(b);
+    refined_x = damped_x;
+    for (int k = 0; k < kRefinements; ++k) refined_x += lu.solve(b - A * refined_x);
+    if (!damped_x.allFinite() || !refined_x.allFinite()) return false;
+  }
+  const Eigen::VectorXd damped = expand(damped_x), refined = expand(refined_x);
   // The refined or the damped step, whichever leaves the lower residual (on the near-null modes
   // of a loop whose active set is not yet right the refined step can leave the bounds far
   // behind), then the damped one halved while the residual does not fall; projected onto the
