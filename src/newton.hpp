@@ -30,10 +30,12 @@
 
 namespace loosepack {
 
-// Relative increase of the velocity rows' diagonal (see above). Measured on protocol A at
-// Bo = 1e3 (docs/PERFORMANCE.md, "Newton steps"): 1e-6 and below let the step follow the
-// near-null modes of long loops far outside the bounds; 1e-4 and above slow the column.
-constexpr double kRegularisation = 1e-5;
+// Relative increase of the velocity rows' diagonal (see above). Measured (docs/PERFORMANCE.md,
+// "Newton steps"): 1e-5 leaves errors in the near-null modes that the sweeps cannot see (a
+// column of 200 stuck disks: its bottom force off by 7e-3; a Bo = 1e6 deposit's floor reaction
+// off by 3x the tolerance's bound) and is 1.2-1.4x slower on protocols A and C than 1e-8; with
+// the damped step as the fallback, 1e-8 costs no robustness.
+constexpr double kRegularisation = 1e-8;
 // Refinements of the regularised solve (each a back substitution and a product with W).
 constexpr int kRefinements = 3;
 // Step lengths tried: 1, 1/2, ..., 1/32.
@@ -265,10 +267,10 @@ bool NewtonSystem::newton_step() {
     if (!damped_x.allFinite() || !refined_x.allFinite()) return false;
   }
   const Eigen::VectorXd damped = expand(damped_x), refined = expand(refined_x);
-  // The refined or the damped step, whichever leaves the lower residual (on the near-null modes
-  // of a loop whose active set is not yet right the refined step can leave the bounds far
-  // behind), then the damped one halved while the residual does not fall; projected onto the
-  // bounds.
+  // The refined step if it lowers the merit (the merit hardly sees the near-null modes, which
+  // only the refined step gets right), else the damped one (on the near-null modes of a loop
+  // whose active set is not yet right the refined step can leave the bounds far behind),
+  // halved while the merit does not fall; projected onto the bounds.
   const std::vector<ContactImpulse> start = impulse;
   const auto take = [&](const Eigen::VectorXd& step, double length) {
     for (int c = 0; c < m; ++c) {
@@ -284,14 +286,8 @@ bool NewtonSystem::newton_step() {
     update_velocities();
     return merit<Fx>();
   };
-  const double r_refined = take(refined, 1.0);
-  const std::vector<ContactImpulse> after_refined = impulse;
+  if (take(refined, 1.0) < r0) return true;
   double r1 = take(damped, 1.0);
-  if (r_refined < r1 && r_refined < r0) {
-    impulse = after_refined;
-    update_velocities();
-    return true;
-  }
   double length = 1.0;
   for (int attempt = 1; attempt < kLineSearchSteps && !(r1 < r0); ++attempt) {
     length *= 0.5;

@@ -54,6 +54,13 @@ TEST(Scan, ToleranceIsTheProtocolDefaultUnlessSet) {
   EXPECT_EQ(set.tolerance(Protocol::C), 2e-4);
 }
 
+TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {
+  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").solver.newton_every,
+            SolverSettings{}.newton_every);
+  EXPECT_GT(SolverSettings{}.newton_every, 0);
+  EXPECT_EQ(parse_scan("[solver]\nnewton_every = 0\n", "off.toml").solver.newton_every, 0);
+}
+
 TEST(Scan, RestNeedsAConvergedSolveUnlessSet) {
   EXPECT_TRUE(parse_scan("[scan]\n", "plain.toml").rest.converged);
   EXPECT_FALSE(parse_scan("[rest]\nconverged = false\n", "speeds.toml").rest.converged);
@@ -73,6 +80,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[scan]\nprotocol = \"D\"\n", "key 'scan.protocol': expected \"A\", \"B\" or \"C\""},
       {"[solver]\nkind = \"newton\"\n", "key 'solver.kind'"},
       {"[solver]\ntolerance = 2.0\n", "key 'solver.tolerance': value 2 outside the allowed range"},
+      {"[solver]\nnewton_every = -1\n",
+       "bad.toml:2:16: key 'solver.newton_every': expected an integer in [0,"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",
