@@ -15,29 +15,41 @@ struct Effects {
   static constexpr bool Rolling = Rolling_;
 };
 
-// Relative velocities of contact c between i and j (j < 0: the floor, at rest).
+// Relative velocities of a contact: normal, tangential, rolling (Omega = w_j - w_i).
 struct RelativeVelocity {
   double un, ut, om;
 };
 
-KOKKOS_INLINE_FUNCTION RelativeVelocity relative_velocity(const ParticleViews& part,
-                                                          const ContactViews& con, int c, int i,
-                                                          int j) {
-  const double nx = con.nx(c), ny = con.ny(c);
-  double dvx = -part.vx(i), dvy = -part.vy(i);
-  double spin = part.radius(i) * part.w(i);
-  double om = -part.w(i);
-  if (j >= 0) {
-    dvx += part.vx(j);
-    dvy += part.vy(j);
-    spin += part.radius(j) * part.w(j);
-    om += part.w(j);
+// Relative velocities at a contact with normal (nx, ny) between body i and body j (velocities
+// v, spin w, radius r), or the floor (floor: j's terms absent, at rest).
+KOKKOS_INLINE_FUNCTION RelativeVelocity contact_relative_velocity(
+    double nx, double ny, double vxi, double vyi, double wi, double ri, bool floor, double vxj,
+    double vyj, double wj, double rj) {
+  double dvx = -vxi, dvy = -vyi;
+  double spin = ri * wi;
+  double om = -wi;
+  if (!floor) {
+    dvx += vxj;
+    dvy += vyj;
+    spin += rj * wj;
+    om += wj;
   }
   RelativeVelocity u;
   u.un = dvx * nx + dvy * ny;
   u.ut = -dvx * ny + dvy * nx - spin;
   u.om = om;
   return u;
+}
+
+// Relative velocities of contact c between i and j (j < 0: the floor, at rest).
+KOKKOS_INLINE_FUNCTION RelativeVelocity relative_velocity(const ParticleViews& part,
+                                                          const ContactViews& con, int c, int i,
+                                                          int j) {
+  const bool floor = j < 0;
+  const int b = floor ? i : j;
+  return contact_relative_velocity(con.nx(c), con.ny(c), part.vx(i), part.vy(i), part.w(i),
+                                   part.radius(i), floor, part.vx(b), part.vy(b), part.w(b),
+                                   part.radius(b));
 }
 
 // Impulses of one contact: normal, tangential, rolling moment.

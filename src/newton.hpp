@@ -58,18 +58,10 @@ struct NewtonSystem {
   int contacts() const { return static_cast<int>(i.size()); }
 
   RelativeVelocity relative_velocity(int c) const {
-    const int a = i[static_cast<std::size_t>(c)], b = j[static_cast<std::size_t>(c)];
     const auto k = static_cast<std::size_t>(c);
-    double dvx = -vx[a], dvy = -vy[a];
-    double spin = radius[a] * w[a];
-    double om = -w[a];
-    if (b >= 0) {
-      dvx += vx[b];
-      dvy += vy[b];
-      spin += radius[b] * w[b];
-      om += w[b];
-    }
-    return {dvx * nx[k] + dvy * ny[k], -dvx * ny[k] + dvy * nx[k] - spin, om};
+    const int a = i[k], b = j[k] >= 0 ? j[k] : a;
+    return contact_relative_velocity(nx[k], ny[k], vx[a], vy[a], w[a], radius[a], j[k] < 0, vx[b],
+                                     vy[b], w[b], radius[b]);
   }
 
   // v = v_free + M^-1 H^T P (as BodyVelocity).
