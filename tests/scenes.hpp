@@ -20,6 +20,15 @@ inline SystemParams bare_params(double width = 20.0, double height = 40.0) {
   return p;
 }
 
+// The box of a column of n disks (20 R wide, room above it), with friction and rolling
+// friction (mu = 0.3, mu_r = 0.1), no cohesion.
+inline SystemParams column_params(int n) {
+  SystemParams p = bare_params(20.0, 2.0 * n + 10.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  return p;
+}
+
 // A vertical column of n touching disks standing on the floor at x.
 inline std::vector<Disk> column(int n, double x, double radius = 1.0) {
   std::vector<Disk> d(static_cast<std::size_t>(n));

@@ -195,9 +195,7 @@ TEST(HardCase, BallisticDepositsHoldAtBo1e6) {
 TEST(HardCase, ColumnOf200CarriesWeights) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = 200;
-  SystemParams p = bare_params(20.0, 2.0 * n + 10.0);
-  p.friction = 0.3;
-  p.rolling_friction = 0.1;
+  SystemParams p = column_params(n);
   SolverSettings solver;
   solver.tolerance = 1e-10;
   solver.max_sweeps = 1000000;

@@ -206,9 +206,7 @@ TEST(Solver, AllSolversAgreeOnDeterminatePiles) {
 // (NNCG alone: without Newton steps.)
 TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
   auto sweeps_for = [](SolverKind kind, int n) {
-    auto p = bare_params(20.0, 2.0 * n + 10.0);
-    p.friction = 0.3;
-    p.rolling_friction = 0.1;
+    const auto p = column_params(n);
     SolverSettings s;
     s.kind = kind;
     s.tolerance = 1e-8;
@@ -247,9 +245,7 @@ TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
 // column, where NNCG alone needs sweeps in proportion to its height.
 TEST(Solver, NewtonStepsLoadAColumnInAFixedNumberOfSweeps) {
   auto solve = [](int n, int newton_every) {
-    auto p = bare_params(20.0, 2.0 * n + 10.0);
-    p.friction = 0.3;
-    p.rolling_friction = 0.1;
+    const auto p = column_params(n);
     SolverSettings s;
     s.tolerance = 1e-8;
     s.max_sweeps = 2000000;
