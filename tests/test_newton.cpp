@@ -96,7 +96,7 @@ TEST(Newton, OneStepCarriesAColumnsWeight) {
 // impulses hold it, the upper contacts slide. Whatever the steps do, each leaves a merit no
 // larger than the one it started from, leaves every impulse within its bounds and the
 // velocities those of the impulses.
-TEST(Newton, StepsNeverRaiseTheResidualNorLeaveTheBounds) {
+TEST(Newton, StepsNeverRaiseTheMeritNorLeaveTheBounds) {
   const double half = 1.0 + 0.5e-9, h = 0.01, mu = 0.25;
   const std::vector<Body> bodies{
       {10.0 - half, 1.0}, {10.0 + half, 1.0}, {10.0, 1.0 + std::sqrt(4.0 - half * half)}};
