@@ -115,7 +115,7 @@ struct Batch::Impl {
   template <class Fx>
   void solve();
   template <class Fx>
-  void solve_with_newton(const AcceleratedGaussSeidel<Fx>& sweeps);
+  void solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain);
   template <class Fx>
   void newton_round(const std::vector<int>& due);
   int colour(bool batch_list);
@@ -497,8 +497,8 @@ void Batch::Impl::solve() {
 // come early; where the sweeps' trouble is a nonsmooth switch that a Newton step does not settle
 // either, they fade out and cost next to nothing.
 template <class Fx>
-void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& sweeps) {
-  AcceleratedGaussSeidel<Fx> sweeper = sweeps;
+void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
+  AcceleratedGaussSeidel<Fx> sweeper = plain;  // the same sweeps, stopping at sweep_limit
   sweeper.sweep_limit = sweep_limit;
   auto limit = Kokkos::create_mirror_view(sweep_limit);
   for (int s = 0; s < n_systems; ++s) limit(s) = newton_wait[static_cast<std::size_t>(s)];

@@ -196,14 +196,20 @@ void for_each_key(const toml::table& tbl, F f) {
 // tokens, after a line-ending backslash. Refuse them there before parsing. Comments and
 // strings are tracked as TOML lexes them; a string counts as a value only when it follows '='
 // and is not a multi-line basic string (whose line-ending backslash is one of those places).
-// Where this lexer and toml++ could disagree (invalid TOML) it errs towards refusing, and UTF-8
-// is decoded leniently (overlong forms too), again refusing a superset.
+// A bare token (a key, a number, a date, a boolean) is read as toml++ reads a value: up to
+// whitespace, ']', '}', ',' or '#', quotes included (those strings are not values); only a key
+// at the start of a line outside an array also ends at '='. Where this lexer and toml++ could
+// disagree (invalid TOML) it errs towards refusing, and UTF-8 is decoded leniently (overlong
+// forms too), again refusing a superset.
 constexpr char32_t kUnsafe[][2] = {
     {0xA1, 0x499}, {0x2C5E, 0x2FFF}, {0x3001, 0x3057}, {0xFB26, 0xFEFE}};
 void refuse_unsafe_characters(const std::string& text, const std::string& file) {
-  enum { Outside, Comment, Basic, Literal, MultiBasic, MultiLiteral } state = Outside;
+  enum { Outside, Bare, Comment, Basic, Literal, MultiBasic, MultiLiteral } state = Outside;
   bool escaped = false;  // the previous character was a backslash in a basic string
   bool value = false;    // the string being read follows '='
+  bool in_bare = false;  // the string being read is inside a bare token, which resumes after it
+  bool key = false;      // the bare token being read is a key at the start of a line
+  int arrays = 0;        // arrays open (not table headers)
   char last = '\n';      // the last character outside strings and comments, not space or tab
   long line = 1, column = 0;
   for (std::size_t i = 0; i < text.size();) {
@@ -218,7 +224,12 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
       c = (c << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
     }
     ++column;
-    const bool safe = state == Comment || (value && state != Outside && state != MultiBasic);
+    if (state == Bare && (c == ' ' || c == '\t' || c == '\n' || c == ']' || c == '}' ||
+                          c == ',' || c == '#' || (key && c == '='))) {
+      state = Outside;
+    }
+    const bool safe = state == Comment ||
+                      (value && state != Outside && state != Bare && state != MultiBasic);
     bool unsafe = false;
     for (const auto& r : kUnsafe) unsafe = unsafe || (c >= r[0] && c <= r[1]);
     if (n > 1 && !safe && unsafe) {
@@ -238,9 +249,18 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
       column = 0;
       if (state == Comment || state == Basic || state == Literal) state = Outside;
       if (state == Outside) last = '\n';
-    } else if (state == Outside) {
-      value = last == '=';
+    } else if (state == Outside || state == Bare) {
+      in_bare = state == Bare;
+      value = !in_bare && last == '=';
+      const char before = last;
       if (c != ' ' && c != '\t') last = static_cast<char>(c < 0x80 ? c : 0x7F);
+      if (in_bare) {
+        // a quote inside a bare token starts a string that is not a value
+      } else if (c == '[') {
+        if (arrays > 0 || before == '=') ++arrays;  // else a table header
+      } else if (c == ']') {
+        if (arrays > 0) --arrays;
+      }
       if (c == '#') {
         state = Comment;
       } else if (at("\"\"\"")) {
@@ -253,20 +273,24 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
         advance = 3;
       } else if (c == '\'') {
         state = Literal;
+      } else if (!in_bare && c != ' ' && c != '\t' && c != '\r' && c != '=' && c != '[' &&
+                 c != ']' && c != '{' && c != '}' && c != ',') {
+        state = Bare;
+        key = before == '\n' && arrays == 0;
       }
     } else if ((state == Basic || state == MultiBasic) && !was_escaped) {
       if (c == '\\') {
         escaped = true;
       } else if (state == MultiBasic && at("\"\"\"")) {
-        state = Outside;
+        state = in_bare ? Bare : Outside;
         advance = 3;
       } else if (state == Basic && c == '"') {
-        state = Outside;
+        state = in_bare ? Bare : Outside;
       }
     } else if (state == Literal && c == '\'') {
-      state = Outside;
+      state = in_bare ? Bare : Outside;
     } else if (state == MultiLiteral && at("\'\'\'")) {
-      state = Outside;
+      state = in_bare ? Bare : Outside;
       advance = 3;
     }
     if (advance == 3) column += 2;  // the two further quotes of a """ or '''

@@ -171,6 +171,13 @@ TEST(Scan, RejectsWhatTheFuzzerFound) {
       // the first guard missed U+2C5E..U+3057 and U+FB26..U+FC05; the fuzzer found U+FBBB
       {"\xef\xae\xbb@", "bad.toml:1:1: character U+FBBB is only allowed in comments"},
       {"x = 1 \xe3\x81\x82\n", "bad.toml:1:7: character U+3042 is only allowed in comments"},
+      // toml++ reads a bare value up to whitespace, ']', '}', ',' or '#', quotes included: a
+      // quoted string inside it is no value (the fuzzer found the first one)
+      {"[system]\nwth = [[[[[[[922''='0\xc9\xa2system]\n",
+       "bad.toml:2:22: character U+262 is only allowed in comments"},
+      {"x = 1='\xc9\xa2'\n", "bad.toml:1:8: character U+262 is only allowed in comments"},
+      // a line that starts inside an array holds a value, not a key
+      {"x = [\n1='\xc9\xa2'\n]\n", "bad.toml:2:4: character U+262 is only allowed in comments"},
   };
   scan_errors::expect_refused(cases);
   // Those characters stay fine in comments and string values.
@@ -179,6 +186,7 @@ TEST(Scan, RejectsWhatTheFuzzerFound) {
       "# \xce\xbc\n[system]\nwidth = 30 # \xc2\xb5\n",
       "ok.toml");
   EXPECT_EQ(scan.name, "d\xc3\xa9p\xc3\xb4t \xe2\x80\x94 t");
+  EXPECT_EQ(parse_scan("[scan]\nname=\"\xc3\xa9\"\n", "ok.toml").name, "\xc3\xa9");
   EXPECT_EQ(scan.points[0].params.width, 30.0);
 }
 
