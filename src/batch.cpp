@@ -493,9 +493,11 @@ void Batch::Impl::solve() {
 // go on from the new impulses for another wait. The wait adapts per system from round to round
 // (and carries over to the next step): a round that cut the residual tenfold (or below the
 // tolerance) halves it, down to solver.newton_every iterations; one that did not doubles it, up
-// to the sweep cap. Where Newton steps pay (a tall cohesive deposit, whose sweeps crawl) they
-// come early; where the sweeps' trouble is a nonsmooth switch that a Newton step does not settle
-// either, they fade out and cost next to nothing.
+// to one wait short of the sweep cap, so that a step about to be capped still gets a round (and a
+// round that pays brings the waits down again: before session 13 they could stay at the cap for
+// good). Where Newton steps pay (a tall cohesive deposit, whose sweeps crawl) they come early;
+// where the sweeps' trouble is a nonsmooth switch that a Newton step does not settle either,
+// they fade out and cost little.
 template <class Fx>
 void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   AcceleratedGaussSeidel<Fx> sweeper = plain;  // the same sweeps, stopping at sweep_limit
@@ -524,10 +526,12 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
 }
 
 // Newton steps (src/newton.hpp) for the systems `due`, on host copies of their state (the same
-// memory on a host backend), one system per host thread; at most kNewtonSteps per round.
+// memory on a host backend), one system per host thread; per round at most kNewtonSteps steps
+// that are not blocked, and kMaxSteps in all (a blocked step opens one self-stress of a loop
+// that cannot close: src/newton.hpp).
 template <class Fx>
 void Batch::Impl::newton_round(const std::vector<int>& due) {
-  constexpr int kNewtonSteps = 3;
+  constexpr int kNewtonSteps = 3, kMaxSteps = 8;
   const auto mirror = [](const auto& v) {
     return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
   };
@@ -589,15 +593,19 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
         }
         const double before = ns.residual<Fx>();
         double residual = before;
-        for (int n = 0; n < kNewtonSteps && residual > tolerance(s); ++n) {
-          if (!ns.newton_step<Fx>()) break;
+        for (int full = 0, n = 0; full < kNewtonSteps && n < kMaxSteps && residual > tolerance(s);
+             ++n) {
+          const auto step = ns.newton_step<Fx>();
+          if (step == NewtonSystem::Step::Failed) break;
+          if (step == NewtonSystem::Step::Full) ++full;
           residual = ns.residual<Fx>();
           ++newton_steps[su];
         }
         const int every = 2 * solver.newton_every;
+        const int longest = std::max(every, solver.max_sweeps - every);
         newton_wait[su] = residual < 0.1 * before || !(residual > tolerance(s))
                               ? std::max(every, newton_wait[su] / 2)
-                              : std::min(solver.max_sweeps, 2 * newton_wait[su]);
+                              : std::min(longest, 2 * newton_wait[su]);
 
         // Scatter the impulses and velocities back.
         for (int p = first; p < first + count; ++p) {

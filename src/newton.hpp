@@ -20,10 +20,22 @@
 // Jacobi pass of local solves would make, in the units of the solver tolerance), with step
 // halving; a step that lowers nothing is undone. The sweeps stay the judge of convergence.
 // When to take a step is the batch's business (Batch::Impl::solve_with_newton, src/batch.cpp).
+//
+// Loops that cannot close: when a loop of stuck contacts is asked for velocities no rigid motion
+// gives (a small gap to close across it), the linear system is inconsistent along the loop's
+// self-stresses, and its solution is a huge self-stress (the inconsistency over the
+// regularisation) that breaks every bound. That self-stress is where the sweeps creep, a little
+// per sweep, for thousands of sweeps, until one contact of the loop reaches its friction or
+// rolling bound and the loop opens. Newton steps go there at once: when no step lowers the
+// merit, the first component inside its bounds that the refined step would drive onto one (the
+// blocking constraint of an active-set method) is held on that bound in the system's later steps
+// (`pinned`). A loop of stuck contacts (three self-stresses) opens in up to three such steps, and
+// the next one solves the rest exactly (docs/PERFORMANCE.md, "Loops that cannot close").
 #pragma once
 #include <Eigen/Sparse>
 #include <Eigen/SparseLU>
 #include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "kernels/solver.hpp"
@@ -53,6 +65,9 @@ struct NewtonSystem {
   std::vector<double> nx, ny, rc;
   std::vector<LocalProblem> problem;
   std::vector<ContactImpulse> impulse;
+  // Per row (3 per contact: n, t, Omega): 0, or the side (+-1; -1 for a normal row: open) of the
+  // bound a blocked step held it on, for the steps after it. Sized by the first step.
+  std::vector<signed char> pinned;
 
   int bodies() const { return static_cast<int>(inv_mass.size()); }
   int contacts() const { return static_cast<int>(i.size()); }
@@ -123,18 +138,23 @@ struct NewtonSystem {
     H[2][2] = sg;
   }
 
-  // One Newton step from the current impulses (velocities consistent with them). Returns true
-  // when a step lowered the merit; else the impulses and velocities are left as they were.
+  // One Newton step from the current impulses (velocities consistent with them): Full (the
+  // refined step, or a damped one, lowered the merit), Blocked (none did, and the first row the
+  // refined step drives onto a bound is pinned there for the next steps), or Failed (none did
+  // and none can be pinned). Unless Full, the impulses and velocities are left as they were.
+  enum class Step { Full, Blocked, Failed };
   template <class Fx>
-  bool newton_step();
+  Step newton_step();
 };
 
 template <class Fx>
-bool NewtonSystem::newton_step() {
+NewtonSystem::Step NewtonSystem::newton_step() {
   const int m = contacts();
-  if (m == 0) return false;
+  if (m == 0) return Step::Failed;
   const double r0 = merit<Fx>();
   const int n_rows = 3 * m;
+  if (pinned.size() != static_cast<std::size_t>(n_rows))
+    pinned.assign(static_cast<std::size_t>(n_rows), 0);
   // Row kinds: a velocity row (the contact's relative velocity meets its target), or an impulse
   // row, whose change is fixed: dP_r = rhs_r + follow_r dP_n, where follow_r = +-coef makes a
   // component on its bound follow the contact's normal impulse (when that has a velocity row).
@@ -158,7 +178,7 @@ bool NewtonSystem::newton_step() {
     // Closed: the local solve leaves the normal impulse above its bound, or the contact touches
     // and does not separate (at zero impulse and zero relative velocity, as in a resting column
     // cold started, the local solve cannot tell; the Newton step can).
-    const bool closed = L.pn > lower || (q.gap <= 0.0 && u.un <= 0.0);
+    const bool closed = pinned[r] == 0 && (L.pn > lower || (q.gap <= 0.0 && u.un <= 0.0));
     if (closed) {
       rhs[r] = -(q.gap > 0.0 ? q.gap / q.h : 0.0) - u.un;
     } else {
@@ -176,14 +196,16 @@ bool NewtonSystem::newton_step() {
       const std::size_t row = r + 1 + a;
       const double bound = coef[a] * shifted;
       // (A contact closed by touching, with no normal impulse yet, sticks.)
-      const bool inside =
-          closed && (std::abs(value[a]) < bound || (bound <= 0.0 && coef[a] > 0.0));
+      const bool inside = closed && pinned[row] == 0 &&
+                          (std::abs(value[a]) < bound || (bound <= 0.0 && coef[a] > 0.0));
       if (inside) {
         rhs[row] = -velocity[a];
         continue;
       }
       kind[row] = Impulse;
-      const double sign = !closed || bound <= 0.0 ? 0.0 : (value[a] > 0.0 ? 1.0 : -1.0);
+      const double sign = !closed || bound <= 0.0 ? 0.0
+                          : pinned[row] != 0      ? pinned[row]
+                                                  : (value[a] > 0.0 ? 1.0 : -1.0);
       // P + dP = sign coef (P_n + dP_n - lower)
       rhs[row] = sign * coef[a] * (P.pn - lower) - now[a];
       if (kind[r] == Velocity) follow[row] = sign * coef[a];
@@ -252,11 +274,11 @@ bool NewtonSystem::newton_step() {
     for (int r = 0; r < n_unknowns; ++r) regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
     Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
     lu.compute(regularised);
-    if (lu.info() != Eigen::Success) return false;
+    if (lu.info() != Eigen::Success) return Step::Failed;
     damped_x = lu.solve(b);
     refined_x = damped_x;
     for (int k = 0; k < kRefinements; ++k) refined_x += lu.solve(b - A * refined_x);
-    if (!damped_x.allFinite() || !refined_x.allFinite()) return false;
+    if (!damped_x.allFinite() || !refined_x.allFinite()) return Step::Failed;
   }
   const Eigen::VectorXd damped = expand(damped_x), refined = expand(refined_x);
   // The refined step if it lowers the merit (the merit hardly sees the near-null modes, which
@@ -278,17 +300,51 @@ bool NewtonSystem::newton_step() {
     update_velocities();
     return merit<Fx>();
   };
-  if (take(refined, 1.0) < r0) return true;
+  if (take(refined, 1.0) < r0) return Step::Full;
   double r1 = take(damped, 1.0);
   double length = 1.0;
   for (int attempt = 1; attempt < kLineSearchSteps && !(r1 < r0); ++attempt) {
     length *= 0.5;
     r1 = take(damped, length);
   }
-  if (r1 < r0) return true;
+  if (r1 < r0) return Step::Full;
   impulse = start;
   update_velocities();
-  return false;
+  // Nothing lowered the merit. Along the refined step, which component that is inside its
+  // bounds (a velocity row) reaches one first, and on which side: hold it there from the next
+  // step on (a loop that cannot close opens there; the impulses are not moved now).
+  double blocking = std::numeric_limits<double>::infinity();
+  int block_row = -1;
+  signed char block_side = 0;
+  const auto limit = [&](double rate, double slack, int row, signed char side) {
+    if (rate > 0.0 && std::max(0.0, slack) < blocking * rate) {
+      blocking = std::max(0.0, slack) / rate;
+      block_row = row;
+      block_side = side;
+    }
+  };
+  for (int c = 0; c < m; ++c) {
+    const auto k = static_cast<std::size_t>(c);
+    const LocalProblem& q = problem[k];
+    const double lower = Fx::Cohesion ? q.lower : 0.0;
+    const ContactImpulse& P = start[k];
+    const double dn = refined(3 * c), dt = refined(3 * c + 1), dm = refined(3 * c + 2);
+    const double shifted = P.pn - lower;
+    if (kind[3 * k] == Velocity) limit(-dn, shifted, 3 * c, -1);
+    const double coef_t = Fx::Friction ? q.friction : 0.0;
+    const double coef_r = (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever : 0.0;
+    if (kind[3 * k + 1] == Velocity && coef_t > 0.0) {
+      limit(dt - coef_t * dn, coef_t * shifted - P.pt, 3 * c + 1, 1);
+      limit(-dt - coef_t * dn, coef_t * shifted + P.pt, 3 * c + 1, -1);
+    }
+    if (kind[3 * k + 2] == Velocity && coef_r > 0.0) {
+      limit(dm - coef_r * dn, coef_r * shifted - P.pm, 3 * c + 2, 1);
+      limit(-dm - coef_r * dn, coef_r * shifted + P.pm, 3 * c + 2, -1);
+    }
+  }
+  if (block_row < 0) return Step::Failed;
+  pinned[static_cast<std::size_t>(block_row)] = block_side;
+  return Step::Blocked;
 }
 
 }  // namespace loosepack

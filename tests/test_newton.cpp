@@ -11,6 +11,7 @@ using namespace loosepack;
 namespace {
 
 using Full = Effects<false, true, true>;  // friction and rolling friction, no cohesion
+using Cohesive = Effects<true, true, true>;
 
 struct Body {
   double x, y;
@@ -80,7 +81,7 @@ TEST(Newton, OneStepCarriesAColumnsWeight) {
   NewtonSystem ns = rest_problem(bodies, pairs, h, 0.3, 0.1);
   const double r0 = ns.residual<Full>();
   EXPECT_NEAR(r0, 1.0, 1e-12);  // the floor contact alone would take h m g
-  EXPECT_TRUE(ns.newton_step<Full>());
+  EXPECT_EQ(ns.newton_step<Full>(), NewtonSystem::Step::Full);
   EXPECT_LT(ns.residual<Full>(), 1e-6);
   for (int c = 0; c < ns.contacts(); ++c) {
     const int below = c == 0 ? n : n - c;  // disks above contact c
@@ -121,4 +122,37 @@ TEST(Newton, StepsNeverRaiseTheMeritNorLeaveTheBounds) {
   }
   // The top disk cannot stay: it moves down (the base disks slide apart).
   EXPECT_LT(ns.vy[2], -1e-3 * h);
+}
+
+// A loop that cannot close: two cohesive disks on the floor, 2 delta apart, their contact within
+// the cohesion range and pulled shut in one step (u_n = -gap/h), both stuck to the floor and not
+// rolling. No rigid motion closes the gap, so the linear system of "everything stuck" is
+// inconsistent along the loop's three self-stresses, and its solution a huge self-stress that
+// breaks every bound: a full Newton step cannot lower the merit. Blocked steps go along it
+// until contacts reach their bounds (the loop opens; Gauss-Seidel creeps there a little per
+// sweep), and the steps end at the fixed point of the local solves: the gap closes within the
+// step, the bodies approach each other by exactly 2 delta, every impulse within its bounds.
+TEST(Newton, BlockedStepsOpenALoopThatCannotClose) {
+  const double delta = 1e-5, h = 0.01, mu = 0.3, mu_r = 0.1, cohesion = 10.0 * h;  // h F_c
+  NewtonSystem ns = rest_problem({{5.0 - 1.0 - delta, 1.0}, {5.0 + 1.0 + delta, 1.0}},
+                                 {{0, kFloor}, {1, kFloor}, {0, 1}}, h, mu, mu_r);
+  for (auto& q : ns.problem) q.lower = -cohesion;
+  int blocked = 0, steps = 0;
+  for (; steps < 12 && ns.residual<Cohesive>() > 1e-9; ++steps) {
+    const auto step = ns.newton_step<Cohesive>();
+    ASSERT_NE(step, NewtonSystem::Step::Failed) << "step " << steps;
+    blocked += step == NewtonSystem::Step::Blocked;
+  }
+  EXPECT_LE(ns.residual<Cohesive>(), 1e-9);
+  EXPECT_GE(blocked, 1);
+  EXPECT_LE(steps, 6);
+  // The gap closes: the relative normal velocity of the pair is -2 delta / h.
+  EXPECT_NEAR(ns.relative_velocity(2).un, -2.0 * delta / h, 1e-9 * delta / h);
+  for (int c = 0; c < ns.contacts(); ++c) {
+    const ContactImpulse& P = ns.impulse[static_cast<std::size_t>(c)];
+    const double shifted = P.pn + cohesion;
+    EXPECT_GE(shifted, -1e-15) << "contact " << c;
+    EXPECT_LE(std::abs(P.pt), mu * shifted * (1.0 + 1e-12)) << "contact " << c;
+    EXPECT_LE(std::abs(P.pm), mu_r * shifted * (1.0 + 1e-12)) << "contact " << c;
+  }
 }
