@@ -3,7 +3,7 @@
 set -euo pipefail
 packages=(
   build-essential cmake git pkg-config clang libclang-rt-dev
-  libtrilinos-kokkos-dev libeigen3-dev libhdf5-dev
+  libtrilinos-kokkos-dev libeigen3-dev libsuitesparse-dev libhdf5-dev
   libtomlplusplus-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenmpi-dev openmpi-bin

@@ -32,8 +32,8 @@
 // (`pinned`). A loop of stuck contacts (three self-stresses) opens in up to three such steps, and
 // the next one solves the rest exactly (docs/PERFORMANCE.md, "Loops that cannot close").
 #pragma once
+#include <Eigen/KLUSupport>
 #include <Eigen/Sparse>
-#include <Eigen/SparseLU>
 #include <algorithm>
 #include <limits>
 #include <vector>
@@ -272,12 +272,16 @@ NewtonSystem::Step NewtonSystem::newton_step() {
     // its smallest eigenvalue is ~1/n^2 of the diagonal) and leaves the near-null modes damped.
     Eigen::SparseMatrix<double> regularised = A;
     for (int r = 0; r < n_unknowns; ++r) regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
-    Eigen::SparseLU<Eigen::SparseMatrix<double>> lu;
+    Eigen::KLU<Eigen::SparseMatrix<double>> lu;
     lu.compute(regularised);
     if (lu.info() != Eigen::Success) return Step::Failed;
     damped_x = lu.solve(b);
     refined_x = damped_x;
-    for (int k = 0; k < kRefinements; ++k) refined_x += lu.solve(b - A * refined_x);
+    for (int k = 0; k < kRefinements; ++k) {
+      const Eigen::VectorXd r = b - A * refined_x;  // (KLU's solve takes a plain vector)
+      const Eigen::VectorXd correction = lu.solve(r);
+      refined_x += correction;
+    }
     if (!damped_x.allFinite() || !refined_x.allFinite()) return Step::Failed;
   }
   const Eigen::VectorXd damped = expand(damped_x), refined = expand(refined_x);
