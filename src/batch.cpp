@@ -493,11 +493,10 @@ void Batch::Impl::solve() {
 // go on from the new impulses for another wait. The wait adapts per system from round to round
 // (and carries over to the next step): a round that cut the residual tenfold (or below the
 // tolerance) halves it, down to solver.newton_every iterations; one that did not doubles it, up
-// to one wait short of the sweep cap, so that a step about to be capped still gets a round (and a
-// round that pays brings the waits down again: before session 13 they could stay at the cap for
-// good). Where Newton steps pay (a tall cohesive deposit, whose sweeps crawl) they come early;
-// where the sweeps' trouble is a nonsmooth switch that a Newton step does not settle either,
-// they fade out and cost little.
+// to one wait short of the sweep cap, so that a step about to be capped still gets a round (a
+// wait at the cap would never see another round, nor come down). Where Newton steps pay (a tall
+// cohesive deposit, whose sweeps crawl) they come early; where the sweeps' trouble is a nonsmooth
+// switch that a Newton step does not settle either, they fade out and cost little.
 template <class Fx>
 void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   AcceleratedGaussSeidel<Fx> sweeper = plain;  // the same sweeps, stopping at sweep_limit
