@@ -123,6 +123,18 @@ struct NewtonSystem {
     return sum;
   }
 
+  // The bounds of contact c's impulses: P_n >= lower, and |P_t|, |M| <= coef[0], coef[1] times
+  // (P_n - lower) (a coefficient is 0 where its effect is off, or a body cannot roll).
+  struct Bounds {
+    double lower, coef[2];
+  };
+  template <class Fx>
+  Bounds bounds(int c) const {
+    const LocalProblem& q = problem[static_cast<std::size_t>(c)];
+    return {Fx::Cohesion ? q.lower : 0.0,
+            {Fx::Friction ? q.friction : 0.0, (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever : 0.0}};
+  }
+
   // The rows of H for contact c on body p (rows n, t, Omega; columns vx, vy, w).
   void jacobian_rows(int c, int p, double H[3][3]) const {
     const auto k = static_cast<std::size_t>(c);
@@ -168,7 +180,8 @@ NewtonSystem::Step NewtonSystem::newton_step() {
     const auto r = static_cast<std::size_t>(3 * c);
     const LocalProblem& q = problem[k];
     const ContactImpulse& P = impulse[k];
-    const double lower = Fx::Cohesion ? q.lower : 0.0;
+    const Bounds B = bounds<Fx>(c);
+    const double lower = B.lower;
     if (q.wn <= 0.0) {  // two immobile bodies: nothing to solve
       for (std::size_t a = 0; a < 3; ++a) kind[r + a] = Impulse;
       continue;
@@ -188,9 +201,8 @@ NewtonSystem::Step NewtonSystem::newton_step() {
     // Tangential and rolling rows: inside the bounds a velocity row, on a bound an impulse row
     // that follows the normal impulse (through the bound), open contacts carry nothing.
     const double shifted = L.pn - lower;
-    const double coef_t = Fx::Friction ? q.friction : 0.0;
-    const double coef_r = (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever : 0.0;
-    const double value[2] = {L.pt, L.pm}, coef[2] = {coef_t, coef_r}, now[2] = {P.pt, P.pm};
+    const double value[2] = {L.pt, L.pm}, now[2] = {P.pt, P.pm};
+    const double* coef = B.coef;
     const double velocity[2] = {u.ut, u.om};
     for (std::size_t a = 0; a < 2; ++a) {
       const std::size_t row = r + 1 + a;
@@ -293,11 +305,9 @@ NewtonSystem::Step NewtonSystem::newton_step() {
   const auto take = [&](const Eigen::VectorXd& step, double length) {
     for (int c = 0; c < m; ++c) {
       const auto k = static_cast<std::size_t>(c);
-      const LocalProblem& q = problem[k];
-      const double lower = Fx::Cohesion ? q.lower : 0.0;
-      const double pn = std::max(lower, start[k].pn + length * step(3 * c));
-      const double bound_t = Fx::Friction ? q.friction * (pn - lower) : 0.0;
-      const double bound_r = (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever * (pn - lower) : 0.0;
+      const Bounds B = bounds<Fx>(c);
+      const double pn = std::max(B.lower, start[k].pn + length * step(3 * c));
+      const double bound_t = B.coef[0] * (pn - B.lower), bound_r = B.coef[1] * (pn - B.lower);
       impulse[k] = {pn, std::clamp(start[k].pt + length * step(3 * c + 1), -bound_t, bound_t),
                     std::clamp(start[k].pm + length * step(3 * c + 2), -bound_r, bound_r)};
     }
@@ -329,21 +339,17 @@ NewtonSystem::Step NewtonSystem::newton_step() {
   };
   for (int c = 0; c < m; ++c) {
     const auto k = static_cast<std::size_t>(c);
-    const LocalProblem& q = problem[k];
-    const double lower = Fx::Cohesion ? q.lower : 0.0;
+    const Bounds B = bounds<Fx>(c);
     const ContactImpulse& P = start[k];
-    const double dn = refined(3 * c), dt = refined(3 * c + 1), dm = refined(3 * c + 2);
-    const double shifted = P.pn - lower;
+    const double dn = refined(3 * c), shifted = P.pn - B.lower;
     if (kind[3 * k] == Velocity) limit(-dn, shifted, 3 * c, -1);
-    const double coef_t = Fx::Friction ? q.friction : 0.0;
-    const double coef_r = (Fx::Rolling && q.wb > 0.0) ? q.rolling_lever : 0.0;
-    if (kind[3 * k + 1] == Velocity && coef_t > 0.0) {
-      limit(dt - coef_t * dn, coef_t * shifted - P.pt, 3 * c + 1, 1);
-      limit(-dt - coef_t * dn, coef_t * shifted + P.pt, 3 * c + 1, -1);
-    }
-    if (kind[3 * k + 2] == Velocity && coef_r > 0.0) {
-      limit(dm - coef_r * dn, coef_r * shifted - P.pm, 3 * c + 2, 1);
-      limit(-dm - coef_r * dn, coef_r * shifted + P.pm, 3 * c + 2, -1);
+    const double now[2] = {P.pt, P.pm};
+    for (int a = 0; a < 2; ++a) {  // |P + L dP| <= coef (P_n + L dP_n - lower), both sides
+      const int row = 3 * c + 1 + a;
+      const double d = refined(row), coef = B.coef[a];
+      if (kind[static_cast<std::size_t>(row)] != Velocity || !(coef > 0.0)) continue;
+      limit(d - coef * dn, coef * shifted - now[a], row, 1);
+      limit(-d - coef * dn, coef * shifted + now[a], row, -1);
     }
   }
   if (block_row < 0) return Step::Failed;

@@ -254,13 +254,10 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
       value = !in_bare && last == '=';
       const char before = last;
       if (c != ' ' && c != '\t') last = static_cast<char>(c < 0x80 ? c : 0x7F);
-      if (in_bare) {
-        // a quote inside a bare token starts a string that is not a value
-      } else if (c == '[') {
-        if (arrays > 0 || before == '=') ++arrays;  // else a table header
-      } else if (c == ']') {
-        if (arrays > 0) --arrays;
-      }
+      // (Inside a bare token brackets are the token's, and a quote starts a string that is no
+      // value.)
+      if (!in_bare && c == '[' && (arrays > 0 || before == '=')) ++arrays;  // else a header
+      if (!in_bare && c == ']' && arrays > 0) --arrays;
       if (c == '#') {
         state = Comment;
       } else if (at("\"\"\"")) {
