@@ -71,7 +71,7 @@ struct Batch::Impl {
   DView<int> sweeps_this_step;  // [S]
   DView<int> sweep_limit;       // [S] accelerated solver with Newton steps: this launch's limit
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
-  std::vector<int> newton_wait;    // [S] sweeps before a step's first Newton round (adapted)
+  std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
     DView<int>::HostMirror failure, unconverged, sweeps, count;
@@ -118,6 +118,10 @@ struct Batch::Impl {
   void solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain);
   template <class Fx>
   void newton_round(const std::vector<int>& due);
+  // One wait short of the sweep cap, so that a step about to be capped still gets a round.
+  int longest_newton_wait() const {
+    return std::max(2 * solver.newton_every, solver.max_sweeps - 2 * solver.newton_every);
+  }
   int colour(bool batch_list);
   void step();
 };
@@ -221,7 +225,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
-  newton_wait.assign(static_cast<std::size_t>(S), 2 * solver.newton_every);
+  newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{2 * solver.newton_every});
   host.failure = Kokkos::create_mirror_view(sys.failure);
   host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
   host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
@@ -391,7 +395,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   status[k].active = true;
   status[k].count = count;
   newton_steps[k] = 0;
-  newton_wait[k] = 2 * solver.newton_every;
+  newton_pace[k] = NewtonPace{2 * solver.newton_every};
   last_stepped[k] = batch_steps;
 }
 
@@ -491,10 +495,7 @@ void Batch::Impl::solve() {
 // The accelerated solver with Newton steps: each system iterates until it converges or has
 // done its wait; the host then takes Newton steps for the systems still iterating, and the sweeps
 // go on from the new impulses for another wait. The wait adapts per system from round to round
-// (and carries over to the next step): a round that cut the residual tenfold (or below the
-// tolerance) halves it, down to solver.newton_every iterations; one that did not doubles it, up
-// to one wait short of the sweep cap, so that a step about to be capped still gets a round (a
-// wait at the cap would never see another round, nor come down). Where Newton steps pay (a tall
+// and carries over to the next step (NewtonPace, src/newton.hpp): where Newton steps pay (a tall
 // cohesive deposit, whose sweeps crawl) they come early; where the sweeps' trouble is a nonsmooth
 // switch that a Newton step does not settle either, they fade out and cost little.
 template <class Fx>
@@ -502,7 +503,11 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   AcceleratedGaussSeidel<Fx> sweeper = plain;  // the same sweeps, stopping at sweep_limit
   sweeper.sweep_limit = sweep_limit;
   auto limit = Kokkos::create_mirror_view(sweep_limit);
-  for (int s = 0; s < n_systems; ++s) limit(s) = newton_wait[static_cast<std::size_t>(s)];
+  const int longest = longest_newton_wait();
+  for (int s = 0; s < n_systems; ++s) {
+    const NewtonPace& pace = newton_pace[static_cast<std::size_t>(s)];
+    limit(s) = pace.skips_step(longest) ? solver.max_sweeps : pace.wait;
+  }
   auto& unconverged = host.unconverged;
   auto& done = host.sweeps;
   for (;;) {
@@ -512,15 +517,18 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
     Kokkos::deep_copy(unconverged, sys.unconverged);
     Kokkos::deep_copy(done, sweeps_this_step);
     std::vector<int> due;
-    for (int s = 0; s < n_systems; ++s)
-      if (status[static_cast<std::size_t>(s)].active && unconverged(s) &&
-          done(s) < solver.max_sweeps)
+    for (int s = 0; s < n_systems; ++s) {
+      if (!status[static_cast<std::size_t>(s)].active || !unconverged(s)) continue;
+      if (done(s) < solver.max_sweeps)
         due.push_back(s);
+      else
+        newton_pace[static_cast<std::size_t>(s)].capped(solver.max_sweeps);
+    }
     if (due.empty()) return;
     stage_done("solve");
     newton_round<Fx>(due);
     stage_done("newton");
-    for (int s : due) limit(s) = done(s) + newton_wait[static_cast<std::size_t>(s)];
+    for (int s : due) limit(s) = done(s) + newton_pace[static_cast<std::size_t>(s)].wait;
   }
 }
 
@@ -531,6 +539,7 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
 template <class Fx>
 void Batch::Impl::newton_round(const std::vector<int>& due) {
   constexpr int kNewtonSteps = 3, kMaxSteps = 8;
+  const int longest = longest_newton_wait();
   const auto mirror = [](const auto& v) {
     return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
   };
@@ -590,6 +599,7 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
                 local[static_cast<std::size_t>(incident(p * kIncident + a) - first * kSlots)]);
           ns.incident_start.push_back(static_cast<int>(ns.incident.size()));
         }
+        const long steps_before = newton_steps[su];
         const double before = ns.residual<Fx>();
         double residual = before;
         for (int full = 0, n = 0; full < kNewtonSteps && n < kMaxSteps && residual > tolerance(s);
@@ -600,11 +610,11 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
           residual = ns.residual<Fx>();
           ++newton_steps[su];
         }
-        const int every = 2 * solver.newton_every;
-        const int longest = std::max(every, solver.max_sweeps - every);
-        newton_wait[su] = residual < 0.1 * before || !(residual > tolerance(s))
-                              ? std::max(every, newton_wait[su] / 2)
-                              : std::min(longest, 2 * newton_wait[su]);
+        newton_pace[su].after_round(
+            residual < 0.1 * before || !(residual > tolerance(s)),
+            NewtonPace::round_cost(static_cast<int>(newton_steps[su] - steps_before),
+                                   ns.factor_entries, ns.contacts()),
+            2 * solver.newton_every, longest);
 
         // Scatter the impulses and velocities back.
         for (int p = first; p < first + count; ++p) {

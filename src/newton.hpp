@@ -32,7 +32,8 @@
 // (`pinned`). A loop of stuck contacts (three self-stresses) opens in up to three such steps, and
 // the next one solves the rest exactly (docs/PERFORMANCE.md, "Loops that cannot close").
 #pragma once
-#include <Eigen/KLUSupport>
+#include <klu.h>
+
 #include <Eigen/Sparse>
 #include <algorithm>
 #include <limits>
@@ -53,6 +54,47 @@ constexpr int kRefinements = 3;
 // Step lengths tried: 1, 1/2, ..., 1/32.
 constexpr int kLineSearchSteps = 6;
 
+// A sparse LU factorisation by KLU (SuiteSparse; Davis & Palamadai Natarajan, "Algorithm 907:
+// KLU", 2010: made for very sparse unsymmetric systems such as these tree-like contact
+// networks), called directly for the size of its factors, the measure of a Newton step's work.
+class KluFactor {
+ public:
+  KluFactor() { klu_defaults(&common_); }
+  ~KluFactor() { release(); }
+  KluFactor(const KluFactor&) = delete;
+  KluFactor& operator=(const KluFactor&) = delete;
+
+  // Factorises A (compressed columns); false where KLU fails (a singular matrix).
+  bool factorise(const Eigen::SparseMatrix<double>& A) {
+    release();
+    n_ = static_cast<int>(A.rows());
+    auto* p = const_cast<int*>(A.outerIndexPtr());
+    auto* i = const_cast<int*>(A.innerIndexPtr());
+    symbolic_ = klu_analyze(n_, p, i, &common_);
+    if (symbolic_ == nullptr) return false;
+    numeric_ = klu_factor(p, i, const_cast<double*>(A.valuePtr()), symbolic_, &common_);
+    return numeric_ != nullptr;
+  }
+  // A^-1 b, after a successful factorise.
+  Eigen::VectorXd solve(const Eigen::VectorXd& b) {
+    Eigen::VectorXd x = b;
+    klu_solve(symbolic_, numeric_, n_, 1, x.data(), &common_);
+    return x;
+  }
+  // Entries of L and U, diagonals included.
+  long entries() const { return numeric_ != nullptr ? long{numeric_->lnz} + numeric_->unz : 0; }
+
+ private:
+  void release() {
+    if (numeric_ != nullptr) klu_free_numeric(&numeric_, &common_);
+    if (symbolic_ != nullptr) klu_free_symbolic(&symbolic_, &common_);
+  }
+  klu_common common_{};
+  klu_symbolic* symbolic_ = nullptr;
+  klu_numeric* numeric_ = nullptr;
+  int n_ = 0;
+};
+
 // One system's contact problem on the host, in local indices: what a Newton step reads and
 // writes. Bodies [n]: inverse mass and inertia, radius, free and current velocities; their
 // incident contacts as a compressed list. Contacts [m]: bodies i < j (j = kFloor: the floor),
@@ -68,6 +110,8 @@ struct NewtonSystem {
   // Per row (3 per contact: n, t, Omega): 0, or the side (+-1; -1 for a normal row: open) of the
   // bound a blocked step held it on, for the steps after it. Sized by the first step.
   std::vector<signed char> pinned;
+  // Entries of the LU factors of every step so far (the steps' work; src/batch.cpp).
+  long factor_entries = 0;
 
   int bodies() const { return static_cast<int>(inv_mass.size()); }
   int contacts() const { return static_cast<int>(i.size()); }
@@ -284,15 +328,14 @@ NewtonSystem::Step NewtonSystem::newton_step() {
     // its smallest eigenvalue is ~1/n^2 of the diagonal) and leaves the near-null modes damped.
     Eigen::SparseMatrix<double> regularised = A;
     for (int r = 0; r < n_unknowns; ++r) regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
-    Eigen::KLU<Eigen::SparseMatrix<double>> lu;
-    lu.compute(regularised);
-    if (lu.info() != Eigen::Success) return Step::Failed;
+    KluFactor lu;
+    const bool factorised = lu.factorise(regularised);
+    factor_entries += lu.entries();
+    if (!factorised) return Step::Failed;
     damped_x = lu.solve(b);
     refined_x = damped_x;
     for (int k = 0; k < kRefinements; ++k) {
-      const Eigen::VectorXd r = b - A * refined_x;  // (KLU's solve takes a plain vector)
-      const Eigen::VectorXd correction = lu.solve(r);
-      refined_x += correction;
+      refined_x += lu.solve(b - A * refined_x);
     }
     if (!damped_x.allFinite() || !refined_x.allFinite()) return Step::Failed;
   }
@@ -356,5 +399,44 @@ NewtonSystem::Step NewtonSystem::newton_step() {
   pinned[static_cast<std::size_t>(block_row)] = block_side;
   return Step::Blocked;
 }
+
+// When one system's Newton rounds come (Batch::Impl::solve_with_newton, src/batch.cpp). A
+// step's sweeps run for `wait` sweeps before its first round and between rounds; a round that
+// pays (cuts the residual tenfold, or below the tolerance) halves the wait, down to `shortest`;
+// one that does not doubles it, up to `longest` (one wait short of the sweep cap, so that a step
+// about to be capped still gets a round, and a round that pays there brings the waits down).
+// Rounds at the longest wait spend at most kCapShare of the sweeps of the capped steps: each
+// capped step earns that share of its sweeps as credit (up to one step's share), each round at
+// the longest wait costs what it cost (in sweeps of its system: NewtonPace::round_cost), and a
+// step starts without a round while the credit is negative. Where a round is cheap against a
+// capped step (a loose cohesive deposit: tree-like contact networks, small factors) every
+// capped step keeps its round; where the capped steps are a nonsmooth switch that no Newton step
+// settles and a round factorises a dense packing (frictional packings without cohesion: a
+// round of eight steps can cost more than the capped step's sweeps), the rounds thin out.
+struct NewtonPace {
+  static constexpr double kCapShare = 0.0625;
+  int wait = 0;         // sweeps before a step's first round, and between rounds
+  double credit = 0.0;  // [sweeps] for rounds at the longest wait
+
+  // A round's cost in sweeps of its system: its steps (their classification, assembly, line
+  // searches and residuals) and their factorisations, from timings of rounds against sweeps on
+  // protocol A at Bo = 0 and 1e3 (docs/PERFORMANCE.md, "The pace of the rounds"): about 25
+  // sweeps a step, one per entry of the LU factors per contact, and 4 for gathering the system.
+  static double round_cost(int steps, long factor_entries, int contacts) {
+    return 4.0 + 25.0 * steps + static_cast<double>(factor_entries) / std::max(contacts, 1);
+  }
+  // Whether this step runs to the sweep cap without a round.
+  bool skips_step(int longest) const { return wait >= longest && credit < 0.0; }
+  void capped(int max_sweeps) {
+    credit = std::min(credit + kCapShare * max_sweeps, kCapShare * max_sweeps);
+  }
+  void after_round(bool paid, double cost, int shortest, int longest) {
+    if (wait >= longest) credit -= cost;
+    if (paid)
+      wait = std::max(shortest, wait / 2);
+    else
+      wait = std::min(longest, 2 * wait);
+  }
+};
 
 }  // namespace loosepack

@@ -156,3 +156,55 @@ TEST(Newton, BlockedStepsOpenALoopThatCannotClose) {
     EXPECT_LE(std::abs(P.pm), mu_r * shifted * (1.0 + 1e-12)) << "contact " << c;
   }
 }
+
+// The pace of a system's Newton rounds: failed rounds double the wait up to the longest; there,
+// rounds spend at most NewtonPace::kCapShare of the capped steps' sweeps (a cheap round comes
+// with every capped step, a dear one with some); a round that pays halves the wait.
+TEST(Newton, PaceSpendsAShareOfTheCappedStepsOnRounds) {
+  const int shortest = 10, max_sweeps = 1000, longest = max_sweeps - shortest;
+  NewtonPace pace{shortest};
+  for (int expected : {20, 40, 80, 160, 320, 640, 990}) {
+    EXPECT_FALSE(pace.skips_step(longest));
+    pace.after_round(false, 1.0, shortest, longest);
+    EXPECT_EQ(pace.wait, expected);
+  }
+  EXPECT_EQ(pace.credit, 0.0);  // rounds below the longest wait are not counted
+  const double share = NewtonPace::kCapShare * max_sweeps;
+  const int capped_steps = 2000;
+  for (double cost : {0.5 * share, share, 3.0 * share, 7.5 * share}) {
+    NewtonPace p{longest};
+    int rounds = 0;
+    for (int step = 0; step < capped_steps; ++step) {
+      if (!p.skips_step(longest)) {
+        ++rounds;
+        p.after_round(false, cost, shortest, longest);
+      }
+      p.capped(max_sweeps);
+    }
+    if (cost <= share) {
+      EXPECT_EQ(rounds, capped_steps) << "cost " << cost;
+      continue;
+    }
+    // Spent rounds * cost; earned a share per capped step, spent ahead by at most one round,
+    // and at most one share left unspent.
+    EXPECT_LE(rounds * cost, capped_steps * share + cost) << "cost " << cost;
+    EXPECT_GE(rounds * cost, (capped_steps - 1) * share) << "cost " << cost;
+  }
+  // A round that pays at the longest wait brings the wait and the rounds back.
+  NewtonPace p{longest};
+  p.after_round(false, 10.0 * share, shortest, longest);
+  EXPECT_TRUE(p.skips_step(longest));
+  p.after_round(true, 1.0, shortest, longest);
+  EXPECT_EQ(p.wait, longest / 2);
+  EXPECT_FALSE(p.skips_step(longest));
+  for (int i = 0; i < 10; ++i) p.after_round(true, 1.0, shortest, longest);
+  EXPECT_EQ(p.wait, shortest);
+}
+
+// A round's cost in sweeps grows with its steps and with the size of its factors per contact.
+TEST(Newton, RoundCostCountsStepsAndFactors) {
+  EXPECT_LT(NewtonPace::round_cost(1, 3000, 100), NewtonPace::round_cost(2, 3000, 100));
+  EXPECT_LT(NewtonPace::round_cost(1, 3000, 100), NewtonPace::round_cost(1, 30000, 100));
+  // The same factors per contact cost the same sweeps in a larger system.
+  EXPECT_DOUBLE_EQ(NewtonPace::round_cost(3, 3000, 100), NewtonPace::round_cost(3, 30000, 1000));
+}
