@@ -517,14 +517,16 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
     Kokkos::deep_copy(unconverged, sys.unconverged);
     Kokkos::deep_copy(done, sweeps_this_step);
     std::vector<int> due;
-    for (int s = 0; s < n_systems; ++s) {
-      if (!status[static_cast<std::size_t>(s)].active || !unconverged(s)) continue;
-      if (done(s) < solver.max_sweeps)
+    for (int s = 0; s < n_systems; ++s)
+      if (status[static_cast<std::size_t>(s)].active && unconverged(s) &&
+          done(s) < solver.max_sweeps)
         due.push_back(s);
-      else
-        newton_pace[static_cast<std::size_t>(s)].capped(solver.max_sweeps);
+    if (due.empty()) {  // every system converged or was capped
+      for (int s = 0; s < n_systems; ++s)
+        if (status[static_cast<std::size_t>(s)].active && unconverged(s))
+          newton_pace[static_cast<std::size_t>(s)].capped(solver.max_sweeps);
+      return;
     }
-    if (due.empty()) return;
     stage_done("solve");
     newton_round<Fx>(due);
     stage_done("newton");
