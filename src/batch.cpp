@@ -523,8 +523,9 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
         due.push_back(s);
     if (due.empty()) {  // every system converged or was capped
       for (int s = 0; s < n_systems; ++s)
-        if (status[static_cast<std::size_t>(s)].active && unconverged(s))
-          newton_pace[static_cast<std::size_t>(s)].capped(solver.max_sweeps);
+        if (status[static_cast<std::size_t>(s)].active)
+          newton_pace[static_cast<std::size_t>(s)].step_done(unconverged(s) != 0,
+                                                             solver.max_sweeps);
       return;
     }
     stage_done("solve");

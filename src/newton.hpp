@@ -407,16 +407,19 @@ NewtonSystem::Step NewtonSystem::newton_step() {
 // about to be capped still gets a round, and a round that pays there brings the waits down).
 // Rounds at the longest wait spend at most kCapShare of the sweeps of the capped steps: each
 // capped step earns that share of its sweeps as credit (up to one step's share), each round at
-// the longest wait costs what it cost (in sweeps of its system: NewtonPace::round_cost), and a
-// step starts without a round while the credit is negative. Where a round is cheap against a
-// capped step (a loose cohesive deposit: tree-like contact networks, small factors) every
-// capped step keeps its round; where the capped steps are a nonsmooth switch that no Newton step
-// settles and a round factorises a dense packing (frictional packings without cohesion: a
-// round of eight steps can cost more than the capped step's sweeps), the rounds thin out.
+// the longest wait costs what it cost (in sweeps of its system: NewtonPace::round_cost) unless
+// it ended its step (the step converged instead of being capped: the round did what it came
+// for), and a step starts without a round while the credit is negative. Where such rounds are
+// cheap against a capped step or end it often (a loose cohesive deposit: tree-like contact
+// networks, small factors, a quarter of them end their step) every capped step keeps its
+// round; where the capped steps are a nonsmooth switch that no Newton step settles (frictional
+// packings without cohesion: 1 % end their step) and a round factorises a dense packing (a
+// round of eight steps there can cost more than the capped step's sweeps), they thin out.
 struct NewtonPace {
   static constexpr double kCapShare = 0.0625;
-  int wait = 0;         // sweeps before a step's first round, and between rounds
-  double credit = 0.0;  // [sweeps] for rounds at the longest wait
+  int wait = 0;          // sweeps before a step's first round, and between rounds
+  double credit = 0.0;   // [sweeps] for rounds at the longest wait
+  double charged = 0.0;  // [sweeps] the cost of this step's round at the longest wait, if any
 
   // A round's cost in sweeps of its system: its steps (their classification, assembly, line
   // searches and residuals) and their factorisations, from timings of rounds against sweeps on
@@ -427,15 +430,21 @@ struct NewtonPace {
   }
   // Whether this step runs to the sweep cap without a round.
   bool skips_step(int longest) const { return wait >= longest && credit < 0.0; }
-  void capped(int max_sweeps) {
-    credit = std::min(credit + kCapShare * max_sweeps, kCapShare * max_sweeps);
-  }
   void after_round(bool paid, double cost, int shortest, int longest) {
-    if (wait >= longest) credit -= cost;
+    if (wait >= longest) {
+      credit -= cost;
+      charged += cost;
+    }
     if (paid)
       wait = std::max(shortest, wait / 2);
     else
       wait = std::min(longest, 2 * wait);
+  }
+  // At the end of every step.
+  void step_done(bool capped, int max_sweeps) {
+    const double most = kCapShare * max_sweeps;
+    credit = std::min(credit + (capped ? most : charged), most);
+    charged = 0.0;
   }
 };
 

@@ -159,7 +159,8 @@ TEST(Newton, BlockedStepsOpenALoopThatCannotClose) {
 
 // The pace of a system's Newton rounds: failed rounds double the wait up to the longest; there,
 // rounds spend at most NewtonPace::kCapShare of the capped steps' sweeps (a cheap round comes
-// with every capped step, a dear one with some); a round that pays halves the wait.
+// with every capped step, a dear one with some) unless they end their step; a round that pays
+// halves the wait.
 TEST(Newton, PaceSpendsAShareOfTheCappedStepsOnRounds) {
   const int shortest = 10, max_sweeps = 1000, longest = max_sweeps - shortest;
   NewtonPace pace{shortest};
@@ -179,7 +180,7 @@ TEST(Newton, PaceSpendsAShareOfTheCappedStepsOnRounds) {
         ++rounds;
         p.after_round(false, cost, shortest, longest);
       }
-      p.capped(max_sweeps);
+      p.step_done(true, max_sweeps);
     }
     if (cost <= share) {
       EXPECT_EQ(rounds, capped_steps) << "cost " << cost;
@@ -189,6 +190,16 @@ TEST(Newton, PaceSpendsAShareOfTheCappedStepsOnRounds) {
     // and at most one share left unspent.
     EXPECT_LE(rounds * cost, capped_steps * share + cost) << "cost " << cost;
     EXPECT_GE(rounds * cost, (capped_steps - 1) * share) << "cost " << cost;
+  }
+  // Rounds that end their step (it converges instead of being capped) cost nothing, however
+  // dear: every step keeps its round.
+  {
+    NewtonPace p{longest};
+    for (int step = 0; step < 100; ++step) {
+      ASSERT_FALSE(p.skips_step(longest)) << "step " << step;
+      p.after_round(false, 7.5 * share, shortest, longest);
+      p.step_done(false, max_sweeps);
+    }
   }
   // A round that pays at the longest wait brings the wait and the rounds back.
   NewtonPace p{longest};
