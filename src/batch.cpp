@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <utility>
 
@@ -72,6 +73,7 @@ struct Batch::Impl {
   DView<int> sweep_limit;       // [S] accelerated solver with Newton steps: this launch's limit
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
   std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
+  std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
     DView<int>::HostMirror failure, unconverged, sweeps, count;
@@ -226,6 +228,8 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
   newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{2 * solver.newton_every});
+  newton_factor.resize(static_cast<std::size_t>(S));
+  for (auto& f : newton_factor) f = std::make_unique<KluFactor>();
   host.failure = Kokkos::create_mirror_view(sys.failure);
   host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
   host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
@@ -396,6 +400,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   status[k].count = count;
   newton_steps[k] = 0;
   newton_pace[k] = NewtonPace{2 * solver.newton_every};
+  newton_factor[k] = std::make_unique<KluFactor>();
   last_stepped[k] = batch_steps;
 }
 
@@ -570,6 +575,7 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
         // Gather: bodies first..first+count, their contacts in slot order.
         NewtonSystem ns;
         ns.impulse_unit = pr.time_step * weight(s);
+        ns.factor = newton_factor[su].get();
         std::vector<int> local(static_cast<std::size_t>(count) * kSlots, -1);
         for (int p = first; p < first + count; ++p)
           for (int a = 0; a < kSlots; ++a) {

@@ -56,23 +56,39 @@ constexpr int kLineSearchSteps = 6;
 
 // A sparse LU factorisation by KLU (SuiteSparse; Davis & Palamadai Natarajan, "Algorithm 907:
 // KLU", 2010: made for very sparse unsymmetric systems such as these tree-like contact
-// networks), called directly for the size of its factors, the measure of a Newton step's work.
+// networks), called directly for the size of its factors (the measure of a Newton step's work)
+// and to keep its symbolic analysis (BTF and AMD ordering: as costly as the factorisation
+// itself) for the next matrix with the same pattern.
 class KluFactor {
  public:
   KluFactor() { klu_defaults(&common_); }
-  ~KluFactor() { release(); }
+  ~KluFactor() {
+    if (numeric_ != nullptr) klu_free_numeric(&numeric_, &common_);
+    if (symbolic_ != nullptr) klu_free_symbolic(&symbolic_, &common_);
+  }
   KluFactor(const KluFactor&) = delete;
   KluFactor& operator=(const KluFactor&) = delete;
 
-  // Factorises A (compressed columns); false where KLU fails (a singular matrix).
+  // Factorises A (compressed columns), analysing its pattern unless it is the last one's;
+  // false where KLU fails (a singular matrix).
   bool factorise(const Eigen::SparseMatrix<double>& A) {
-    release();
-    n_ = static_cast<int>(A.rows());
-    auto* p = const_cast<int*>(A.outerIndexPtr());
-    auto* i = const_cast<int*>(A.innerIndexPtr());
-    symbolic_ = klu_analyze(n_, p, i, &common_);
-    if (symbolic_ == nullptr) return false;
-    numeric_ = klu_factor(p, i, const_cast<double*>(A.valuePtr()), symbolic_, &common_);
+    if (numeric_ != nullptr) klu_free_numeric(&numeric_, &common_);
+    const int n = static_cast<int>(A.rows());
+    const int *p = A.outerIndexPtr(), *i = A.innerIndexPtr();
+    const bool same = symbolic_ != nullptr && n == n_ &&
+                      std::equal(p, p + n + 1, column_start_.begin(), column_start_.end()) &&
+                      std::equal(i, i + p[n], row_.begin(), row_.end());
+    if (!same) {
+      if (symbolic_ != nullptr) klu_free_symbolic(&symbolic_, &common_);
+      n_ = n;
+      column_start_.assign(p, p + n + 1);
+      row_.assign(i, i + p[n]);
+      symbolic_ = klu_analyze(n_, column_start_.data(), row_.data(), &common_);
+      if (symbolic_ == nullptr) return false;
+      ++analyses_;
+    }
+    numeric_ = klu_factor(column_start_.data(), row_.data(), const_cast<double*>(A.valuePtr()),
+                          symbolic_, &common_);
     return numeric_ != nullptr;
   }
   // A^-1 b, after a successful factorise.
@@ -83,16 +99,16 @@ class KluFactor {
   }
   // Entries of L and U, diagonals included.
   long entries() const { return numeric_ != nullptr ? long{numeric_->lnz} + numeric_->unz : 0; }
+  // Symbolic analyses done so far.
+  long analyses() const { return analyses_; }
 
  private:
-  void release() {
-    if (numeric_ != nullptr) klu_free_numeric(&numeric_, &common_);
-    if (symbolic_ != nullptr) klu_free_symbolic(&symbolic_, &common_);
-  }
   klu_common common_{};
   klu_symbolic* symbolic_ = nullptr;
   klu_numeric* numeric_ = nullptr;
   int n_ = 0;
+  std::vector<int> column_start_, row_;  // the analysed pattern
+  long analyses_ = 0;
 };
 
 // One system's contact problem on the host, in local indices: what a Newton step reads and
@@ -112,6 +128,9 @@ struct NewtonSystem {
   std::vector<signed char> pinned;
   // Entries of the LU factors of every step so far (the steps' work; src/batch.cpp).
   long factor_entries = 0;
+  // Where the steps factorise: the system's own, kept from round to round (its analysis is
+  // reused while the pattern stays), or, if null, a new one per step.
+  KluFactor* factor = nullptr;
 
   int bodies() const { return static_cast<int>(inv_mass.size()); }
   int contacts() const { return static_cast<int>(i.size()); }
@@ -328,7 +347,9 @@ NewtonSystem::Step NewtonSystem::newton_step() {
     // its smallest eigenvalue is ~1/n^2 of the diagonal) and leaves the near-null modes damped.
     Eigen::SparseMatrix<double> regularised = A;
     for (int r = 0; r < n_unknowns; ++r) regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
-    KluFactor lu;
+    regularised.makeCompressed();  // (KLU reads compressed columns)
+    KluFactor own;
+    KluFactor& lu = factor != nullptr ? *factor : own;
     const bool factorised = lu.factorise(regularised);
     factor_entries += lu.entries();
     if (!factorised) return Step::Failed;

@@ -219,3 +219,39 @@ TEST(Newton, RoundCostCountsStepsAndFactors) {
   // The same factors per contact cost the same sweeps in a larger system.
   EXPECT_DOUBLE_EQ(NewtonPace::round_cost(3, 3000, 100), NewtonPace::round_cost(3, 30000, 1000));
 }
+
+// The factorisation keeps its analysis for the next matrix with the same pattern (and solves
+// it exactly as a fresh one would), and analyses a new pattern afresh.
+TEST(Newton, FactorReusesItsAnalysisWhileThePatternStays) {
+  const auto tridiagonal = [](int n, double diagonal, bool corner) {
+    std::vector<Eigen::Triplet<double>> t;
+    for (int r = 0; r < n; ++r) {
+      t.emplace_back(r, r, diagonal + r);
+      if (r > 0) t.emplace_back(r, r - 1, -1.0);
+      if (r + 1 < n) t.emplace_back(r, r + 1, -0.5);
+    }
+    if (corner) t.emplace_back(0, n - 1, 0.25);
+    Eigen::SparseMatrix<double> A(n, n);
+    A.setFromTriplets(t.begin(), t.end());
+    A.makeCompressed();
+    return A;
+  };
+  const int n = 40;
+  const Eigen::VectorXd b = Eigen::VectorXd::LinSpaced(n, -1.0, 2.0);
+  KluFactor kept;
+  ASSERT_TRUE(kept.factorise(tridiagonal(n, 4.0, false)));
+  for (double diagonal : {3.0, 5.0, 9.0}) {
+    const Eigen::SparseMatrix<double> A = tridiagonal(n, diagonal, false);
+    ASSERT_TRUE(kept.factorise(A));
+    KluFactor fresh;
+    ASSERT_TRUE(fresh.factorise(A));
+    const Eigen::VectorXd x = kept.solve(b), y = fresh.solve(b);
+    for (int r = 0; r < n; ++r) EXPECT_EQ(x(r), y(r)) << "row " << r;  // bit for bit
+    EXPECT_LT((A * x - b).norm(), 1e-12 * b.norm());
+  }
+  EXPECT_EQ(kept.analyses(), 1);
+  const Eigen::SparseMatrix<double> other = tridiagonal(n, 4.0, true);
+  ASSERT_TRUE(kept.factorise(other));
+  EXPECT_EQ(kept.analyses(), 2);
+  EXPECT_LT((other * kept.solve(b) - b).norm(), 1e-12 * b.norm());
+}
