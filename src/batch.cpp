@@ -120,9 +120,12 @@ struct Batch::Impl {
   void solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain);
   template <class Fx>
   void newton_round(const std::vector<int>& due);
-  // One wait short of the sweep cap, so that a step about to be capped still gets a round.
+  // The bounds of a system's wait for its next Newton round (NewtonPace), in sweeps:
+  // newton_every iterations (two sweeps each), and one wait short of the sweep cap, so that a
+  // step about to be capped still gets a round.
+  int shortest_newton_wait() const { return 2 * solver.newton_every; }
   int longest_newton_wait() const {
-    return std::max(2 * solver.newton_every, solver.max_sweeps - 2 * solver.newton_every);
+    return std::max(shortest_newton_wait(), solver.max_sweeps - shortest_newton_wait());
   }
   int colour(bool batch_list);
   void step();
@@ -227,7 +230,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
-  newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{2 * solver.newton_every});
+  newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{shortest_newton_wait()});
   newton_factor.resize(static_cast<std::size_t>(S));
   for (auto& f : newton_factor) f = std::make_unique<KluFactor>();
   host.failure = Kokkos::create_mirror_view(sys.failure);
@@ -399,7 +402,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   status[k].active = true;
   status[k].count = count;
   newton_steps[k] = 0;
-  newton_pace[k] = NewtonPace{2 * solver.newton_every};
+  newton_pace[k] = NewtonPace{shortest_newton_wait()};
   newton_factor[k] = std::make_unique<KluFactor>();
   last_stepped[k] = batch_steps;
 }
@@ -608,22 +611,20 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
                 local[static_cast<std::size_t>(incident(p * kIncident + a) - first * kSlots)]);
           ns.incident_start.push_back(static_cast<int>(ns.incident.size()));
         }
-        const long steps_before = newton_steps[su];
         const double before = ns.residual<Fx>();
         double residual = before;
-        for (int full = 0, n = 0; full < kNewtonSteps && n < kMaxSteps && residual > tolerance(s);
-             ++n) {
+        int steps = 0;  // taken (a failed one ends the round)
+        for (int full = 0; full < kNewtonSteps && steps < kMaxSteps && residual > tolerance(s);
+             ++steps) {
           const auto step = ns.newton_step<Fx>();
           if (step == NewtonSystem::Step::Failed) break;
           if (step == NewtonSystem::Step::Full) ++full;
           residual = ns.residual<Fx>();
-          ++newton_steps[su];
         }
-        newton_pace[su].after_round(
-            residual < 0.1 * before || !(residual > tolerance(s)),
-            NewtonPace::round_cost(static_cast<int>(newton_steps[su] - steps_before),
-                                   ns.factor_entries, ns.contacts()),
-            2 * solver.newton_every, longest);
+        newton_steps[su] += steps;
+        newton_pace[su].after_round(residual < 0.1 * before || !(residual > tolerance(s)),
+                                    NewtonPace::round_cost(steps, ns.factor_entries, ns.contacts()),
+                                    shortest_newton_wait(), longest);
 
         // Scatter the impulses and velocities back.
         for (int p = first; p < first + count; ++p) {

@@ -445,7 +445,9 @@ struct NewtonPace {
   // A round's cost in sweeps of its system: its steps (their classification, assembly, line
   // searches and residuals) and their factorisations, from timings of rounds against sweeps on
   // protocol A at Bo = 0 and 1e3 (docs/PERFORMANCE.md, "The pace of the rounds"): about 25
-  // sweeps a step, one per entry of the LU factors per contact, and 4 for gathering the system.
+  // sweeps a step, one per entry of the LU factors per contact, and 4 for gathering the system
+  // (fitted before each system kept its KLU analysis: since then a little high, which makes
+  // the budget below a little stricter).
   static double round_cost(int steps, long factor_entries, int contacts) {
     return 4.0 + 25.0 * steps + static_cast<double>(factor_entries) / std::max(contacts, 1);
   }
