@@ -58,7 +58,7 @@ struct Setup {
   // The program's defaults (params.hpp).
   double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
-  int max_sweeps = SolverSettings{}.max_sweeps;
+  int max_sweeps = default_max_sweeps(Protocol::A);
   int newton_every = SolverSettings{}.newton_every;
   bool rest_converged = RestSettings{}.converged;
   double region_radius = 0.0;  // protocol.region_radius; 0: the whole system relaxes
@@ -77,6 +77,7 @@ struct Setup {
     s.capture_radius = 2.0;
     s.time_step = 0.0028;
     s.tolerance = default_tolerance(Protocol::C);
+    s.max_sweeps = default_max_sweeps(Protocol::C);
     s.seeds = 8;
     return s;
   }
@@ -279,8 +280,9 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
     const double t = grid[k];
     if (k != at) add("tolerance=" + bench::json_number(t), [t](Setup& s) { s.tolerance = t; });
   }
-  for (int c : {100, 300, 1000, 5000})
-    add("max_sweeps=" + std::to_string(c), [c](Setup& s) { s.max_sweeps = c; });
+  for (int c : {100, 300, 1000, 2000, 5000})
+    if (c != base.max_sweeps)
+      add("max_sweeps=" + std::to_string(c), [c](Setup& s) { s.max_sweeps = c; });
   for (double f : {2.0, 0.5})
     add("time_step=" + bench::json_number(base.time_step * f),
         [f](Setup& s) { s.time_step *= f; });

@@ -180,7 +180,7 @@ struct BodyVelocity {
   KOKKOS_INLINE_FUNCTION void operator()(int p) const {
     const int s = part.system(p);
     if (part.cell(p) < 0) return;
-    if (only_unconverged && !sys.unconverged(s)) return;
+    if (only_unconverged && sys.unconverged(s) != 1) return;
     double vx = part.vfx(p), vy = part.vfy(p), w = part.wf(p);
     const double im = part.inv_mass(p), iI = part.inv_inertia(p), r = part.radius(p);
     const int n = part.n_incident(p);
@@ -236,7 +236,7 @@ struct JacobiContacts {
     if (j == kNoContact) return;
     const int i = c / kSlots;
     const int s = part.system(i);
-    if (!sys.unconverged(s)) return;
+    if (sys.unconverged(s) != 1) return;
     double dn, dt, dm;
     const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
     con.pn(c) += dn;
@@ -262,7 +262,7 @@ struct GaussSeidelContacts {
     const int j = con.partner(c);
     const int i = c / kSlots;
     const int s = part.system(i);
-    if (!sys.unconverged(s)) return;
+    if (sys.unconverged(s) != 1) return;
     double dn, dt, dm;
     const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
     if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
@@ -277,7 +277,7 @@ struct GaussSeidelContacts {
 // Gauss-Seidel in contact order within each system, one thread per system, alternating the
 // direction every sweep (symmetric Gauss-Seidel). Systems share nothing, so this is parallel
 // across the batch; within a system it needs no colouring. Each thread iterates its system to
-// convergence (or max_sweeps) in one launch: the system's contacts stay in cache, and nothing
+// convergence (or its sweep cap) in one launch: the system's contacts stay in cache, and nothing
 // is read back to the host between sweeps.
 template <class Fx>
 struct SequentialGaussSeidel {
@@ -286,7 +286,6 @@ struct SequentialGaussSeidel {
   ContactViews con;
   DView<int> sweeps;  // [S] sweeps of this step
   double omega;
-  int max_sweeps;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
@@ -296,7 +295,7 @@ struct SequentialGaussSeidel {
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
     const int first = range.first, end = range.end;
-    for (int sweep = 0; sweep < max_sweeps; ++sweep) {
+    for (int sweep = 0; sweep < sys.max_sweeps(s); ++sweep) {
       double worst = 0.0;
       if (sweep % 2 == 1) {
         for (int c = end - 1; c >= first; --c) apply(c, worst);
@@ -376,8 +375,7 @@ struct AcceleratedGaussSeidel {
   ContactViews con;
   DView<int> sweeps;  // [S] sweeps of this step
   double omega;
-  int max_sweeps;
-  DView<int> sweep_limit;  // [S] this launch's limit, below max_sweeps; empty: max_sweeps
+  DView<int> sweep_limit;  // [S] this launch's limit, below the system's cap; empty: the cap
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
@@ -389,8 +387,8 @@ struct AcceleratedGaussSeidel {
     // The first iteration of a launch restarts, so no direction is read.
     sys.gradient2(s) = 0.0;
     for (int c = range.first; c < range.end; ++c) keep_start(c);
-    const int limit =
-        sweep_limit.extent(0) > 0 ? kmath::imin(sweep_limit(s), max_sweeps) : max_sweeps;
+    const int cap = sys.max_sweeps(s);
+    const int limit = sweep_limit.extent(0) > 0 ? kmath::imin(sweep_limit(s), cap) : cap;
     while (sweeps(s) < limit)
       if (iterate(s, range.first, range.end)) return;
   }
@@ -440,7 +438,6 @@ struct ColouredAcceleratedGaussSeidel {
   DView<int> list, starts;
   int n_colours;
   double omega;
-  int max_sweeps;
 
   KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
     const int s = team.league_rank();
@@ -452,7 +449,7 @@ struct ColouredAcceleratedGaussSeidel {
                          [&](int c) { nncg_keep_start(con, c); });
     team.team_barrier();
     double previous = 0.0;  // the first iteration of a step restarts
-    for (int sweep = 0; sweep < max_sweeps; sweep += 2) {
+    for (int sweep = 0; sweep < sys.max_sweeps(s); sweep += 2) {
       double worst = 0.0;
       for (int k = 0; k < n_colours; ++k) worst = kmath::max(worst, colour_sweep(team, base, k));
       for (int k = n_colours - 1; k >= 0; --k)

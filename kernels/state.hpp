@@ -55,6 +55,7 @@ struct SystemViews {
       gravity_y, cohesive_force, cohesion_range, friction, rolling_friction, time_step,
       weight,     // weight: m g of a mean disk, the force unit of tolerances
       tolerance;  // solver tolerance [h m g]: a sweep whose largest impulse change is below it ends
+  DView<int> max_sweeps;  // solver sweep cap per step
   DView<int> floor_cohesion;
   // [S] counter-based random stream: key (seed, member) and the next draw index
   DView<std::uint64_t> seed, member, draws;
@@ -63,7 +64,8 @@ struct SystemViews {
   DView<int> grid_nx, grid_ny, cell_offset;
   // [S] status
   DView<int> active;           // 1: stepped by step()
-  DView<int> unconverged;      // 1: still iterating in the current step
+  DView<int> unconverged;      // 1: still iterating in the current step; 2: stopped at its sweep
+                               // cap (the host-loop solvers), not converged
   DView<int> failure;          // SystemFailure
   DView<double> sweep_change;  // max impulse change of the last sweep [h m g]
   DView<double> max_speed;     // max(|v|, R|w|) after the last step

@@ -73,6 +73,7 @@ struct Batch::Impl {
   DView<int> sweep_limit;       // [S] accelerated solver with Newton steps: this launch's limit
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
   std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
+  std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
   std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
@@ -124,8 +125,9 @@ struct Batch::Impl {
   // newton_every iterations (two sweeps each), and one wait short of the sweep cap, so that a
   // step about to be capped still gets a round.
   int shortest_newton_wait() const { return 2 * solver.newton_every; }
-  int longest_newton_wait() const {
-    return std::max(shortest_newton_wait(), solver.max_sweeps - shortest_newton_wait());
+  int longest_newton_wait(int s) const {
+    return std::max(shortest_newton_wait(), sweep_cap[static_cast<std::size_t>(s)] -
+                                                shortest_newton_wait());
   }
   int colour(bool batch_list);
   void step();
@@ -211,6 +213,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.time_step = alloc<double>("time_step", S);
   sys.weight = alloc<double>("weight", S);
   sys.tolerance = alloc<double>("tolerance", S);
+  sys.max_sweeps = alloc<int>("max_sweeps", S);
   sys.floor_cohesion = alloc<int>("floor_cohesion", S);
   sys.seed = alloc<std::uint64_t>("seed", S);
   sys.member = alloc<std::uint64_t>("member", S);
@@ -231,6 +234,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
   newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{shortest_newton_wait()});
+  sweep_cap.assign(static_cast<std::size_t>(S), solver.max_sweeps);
   newton_factor.resize(static_cast<std::size_t>(S));
   for (auto& f : newton_factor) f = std::make_unique<KluFactor>();
   host.failure = Kokkos::create_mirror_view(sys.failure);
@@ -349,6 +353,8 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   const double weight = pr.reference_mass() * pr.gravity;
   set(sys.weight, weight > 0.0 ? weight : 1.0);
   set(sys.tolerance, su.tolerance > 0.0 ? su.tolerance : solver.tolerance);
+  sweep_cap[k] = su.max_sweeps > 0 ? su.max_sweeps : solver.max_sweeps;
+  set(sys.max_sweeps, sweep_cap[k]);
   set(sys.floor_cohesion, pr.floor_cohesion ? 1 : 0);
   set(sys.seed, su.seed);
   set(sys.member, su.member);
@@ -431,8 +437,7 @@ void Batch::Impl::solve() {
   Kokkos::deep_copy(sweeps, 0);
   // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
-    const AcceleratedGaussSeidel<Fx> sweeper{sys, part, con, sweeps, omega, solver.max_sweeps,
-                                             DView<int>()};
+    const AcceleratedGaussSeidel<Fx> sweeper{sys, part, con, sweeps, omega, DView<int>()};
     if (solver.newton_every > 0) {
       solve_with_newton(sweeper);
       return;
@@ -444,7 +449,7 @@ void Batch::Impl::solve() {
   if (solver.kind == SolverKind::SequentialGaussSeidel) {
     Kokkos::parallel_for(
         "sequential_gauss_seidel", PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
-        SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega, solver.max_sweeps});
+        SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega});
     return;
   }
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
@@ -455,8 +460,7 @@ void Batch::Impl::solve() {
     Kokkos::parallel_for("coloured_accelerated_gauss_seidel",
                          Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO),
                          ColouredAcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, colour_list,
-                                                            system_colour_start, n_colours, omega,
-                                                            solver.max_sweeps});
+                                                            system_colour_start, n_colours, omega});
     return;
   }
   int n_colours = 0;
@@ -467,7 +471,9 @@ void Batch::Impl::solve() {
     Kokkos::deep_copy(hs, colour_start);
     colour_begin.assign(hs.data(), hs.data() + n_colours + 1);
   }
-  for (int sweep = 0; sweep < solver.max_sweeps; ++sweep) {
+  // Each system stops at its own cap (unconverged 2: stopped, not converged).
+  const int largest_cap = *std::max_element(sweep_cap.begin(), sweep_cap.end());
+  for (int sweep = 0; sweep < largest_cap; ++sweep) {
     if (jacobi) {
       Kokkos::parallel_for("jacobi_contacts", Kokkos::RangePolicy<ExecSpace>(0, n_contacts),
                            JacobiContacts<Fx>{sys, part, con, omega});
@@ -486,10 +492,12 @@ void Batch::Impl::solve() {
     Kokkos::parallel_reduce(
         "convergence", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
         KOKKOS_LAMBDA(int s, int& n) {
-          if (!sys_.active(s) || !sys_.unconverged(s)) return;
+          if (!sys_.active(s) || sys_.unconverged(s) != 1) return;
           sweeps(s) += 1;
           if (!(sys_.sweep_change(s) > sys_.tolerance(s))) {
             sys_.unconverged(s) = 0;
+          } else if (sweeps(s) >= sys_.max_sweeps(s)) {
+            sys_.unconverged(s) = 2;
           } else {
             ++n;
           }
@@ -511,10 +519,10 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   AcceleratedGaussSeidel<Fx> sweeper = plain;  // the same sweeps, stopping at sweep_limit
   sweeper.sweep_limit = sweep_limit;
   auto limit = Kokkos::create_mirror_view(sweep_limit);
-  const int longest = longest_newton_wait();
   for (int s = 0; s < n_systems; ++s) {
     const NewtonPace& pace = newton_pace[static_cast<std::size_t>(s)];
-    limit(s) = pace.skips_step(longest) ? solver.max_sweeps : pace.wait;
+    limit(s) = pace.skips_step(longest_newton_wait(s)) ? sweep_cap[static_cast<std::size_t>(s)]
+                                                      : pace.wait;
   }
   auto& unconverged = host.unconverged;
   auto& done = host.sweeps;
@@ -527,13 +535,13 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
     std::vector<int> due;
     for (int s = 0; s < n_systems; ++s)
       if (status[static_cast<std::size_t>(s)].active && unconverged(s) &&
-          done(s) < solver.max_sweeps)
+          done(s) < sweep_cap[static_cast<std::size_t>(s)])
         due.push_back(s);
     if (due.empty()) {  // every system converged or was capped
       for (int s = 0; s < n_systems; ++s)
         if (status[static_cast<std::size_t>(s)].active)
-          newton_pace[static_cast<std::size_t>(s)].step_done(unconverged(s) != 0,
-                                                             solver.max_sweeps);
+          newton_pace[static_cast<std::size_t>(s)].step_done(
+              unconverged(s) != 0, sweep_cap[static_cast<std::size_t>(s)]);
       return;
     }
     stage_done("solve");
@@ -550,7 +558,6 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
 template <class Fx>
 void Batch::Impl::newton_round(const std::vector<int>& due) {
   constexpr int kNewtonSteps = 3, kMaxSteps = 8;
-  const int longest = longest_newton_wait();
   const auto mirror = [](const auto& v) {
     return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
   };
@@ -624,7 +631,7 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
         newton_steps[su] += steps;
         newton_pace[su].after_round(residual < 0.1 * before || !(residual > tolerance(s)),
                                     NewtonPace::round_cost(steps, ns.factor_entries, ns.contacts()),
-                                    shortest_newton_wait(), longest);
+                                    shortest_newton_wait(), longest_newton_wait(s));
 
         // Scatter the impulses and velocities back.
         for (int p = first; p < first + count; ++p) {

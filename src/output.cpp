@@ -258,7 +258,8 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       attribute(g, "solver_kind",
                 std::string(solver_kind_name(scan.solver.kind)));
       if (scan.tolerance_given) attribute(g, "solver_tolerance", scan.solver.tolerance);
-      attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
+      if (scan.max_sweeps_given)
+        attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
       attribute(g, "solver_relaxation", scan.solver.relaxation);
       attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
       attribute(g, "solver_newton_every", static_cast<double>(scan.solver.newton_every));
@@ -290,6 +291,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       H5 g = group(file, point_name(pr.point.index));
       attribute(g, "protocol", protocol_name(pr.point.protocol));
       attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
+      attribute(g, "solver_max_sweeps", static_cast<double>(scan.max_sweeps(pr.point.protocol)));
       params(g, pr.point.params);
       attribute(g, "members", static_cast<double>(pr.members));
       attribute(g, "failed", static_cast<double>(pr.failed));

@@ -147,6 +147,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     su.seed = scan.seed;
     su.member = m.id;
     su.tolerance = scan.tolerance(m.protocol);
+    su.max_sweeps = scan.max_sweeps(m.protocol);
     return su;
   };
   for (const auto& m : members) {
@@ -175,7 +176,9 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       // For the largest region: the last round's radius (see start_region).
       rs.max_height =
           region_slot_height(rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1), tallest);
-      regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, scan.solver,
+      SolverSettings region_solver = scan.solver;  // regions hold protocol-A systems only
+      region_solver.max_sweeps = scan.max_sweeps(Protocol::A);
+      regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, region_solver,
                                           scan.rest);
       regions->set_timing(hooks.stage_seconds != nullptr);
     }

@@ -444,6 +444,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.tolerance_given = true;
         } else if (k == "max_sweeps") {
           scan.solver.max_sweeps = positive_int(v, key, 1, 100000000);
+          scan.max_sweeps_given = true;
         } else if (k == "relaxation") {
           scan.solver.relaxation = real(v, key, 0.01, 1.95);
         } else if (k == "mass_splitting") {

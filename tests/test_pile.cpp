@@ -4,8 +4,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "loosepack/batch.hpp"
 #include "tests/scenes.hpp"
@@ -320,6 +322,54 @@ TEST(Solver, ToleranceIsPerSystem) {
       EXPECT_NEAR(c.normal, n * mg, 1e-5 * n * mg);  // the floor carries the whole column
     }
     EXPECT_EQ(floor_contacts, 1);
+  }
+}
+
+// The sweep cap is per system (SystemSetup::max_sweeps; a scan gives each protocol its own
+// default): a column of 20 loaded from zero impulses needs far more than 10 sweeps to reach
+// 1e-8, so a system capped at 10 stops there unconverged, with the same state as when it runs
+// alone under a batch-wide cap of 10, while its neighbour converges as it does alone. Every
+// solver kind, and the accelerated one with Newton steps (whose rounds come only below the cap).
+TEST(Solver, SweepCapIsPerSystem) {
+  auto p = bare_params(20.0, 50.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  const int n = 20, cap = 10;
+  const std::pair<SolverKind, int> variants[] = {
+      {SolverKind::AcceleratedGaussSeidel, 0}, {SolverKind::AcceleratedGaussSeidel, 5},
+      {SolverKind::SequentialGaussSeidel, 0},  {SolverKind::ColouredAcceleratedGaussSeidel, 0},
+      {SolverKind::GaussSeidel, 0},            {SolverKind::Jacobi, 0}};
+  for (const auto& [kind, newton_every] : variants) {
+    SCOPED_TRACE(std::string(solver_kind_name(kind)) + " newton_every " +
+                 std::to_string(newton_every));
+    SolverSettings s;
+    s.kind = kind;
+    s.tolerance = 1e-8;
+    s.max_sweeps = 200000;
+    s.newton_every = newton_every;
+    auto alone = [&](int max_sweeps) {
+      SolverSettings t = s;
+      t.max_sweeps = max_sweeps;
+      auto b = std::make_unique<Batch>(std::vector<SystemSetup>{setup(p, column(n, 10.0))}, t);
+      b->step();
+      return b;
+    };
+    SystemSetup capped = setup(p, column(n, 10.0)), free = capped;
+    capped.max_sweeps = cap;
+    Batch batch({capped, free}, s);
+    batch.step();
+    const auto short_run = alone(cap), long_run = alone(s.max_sweeps);
+    EXPECT_EQ(batch.status(0).sweeps, cap);
+    EXPECT_FALSE(batch.status(0).converged);
+    EXPECT_EQ(batch.status(0).sweeps, short_run->status(0).sweeps);
+    EXPECT_EQ(batch.status(1).sweeps, long_run->status(0).sweeps);
+    EXPECT_TRUE(batch.status(1).converged);
+    EXPECT_GT(batch.status(1).sweeps, cap);
+    const auto a = batch.disks(0), b = short_run->disks(0);
+    for (int k = 0; k < n; ++k) {
+      EXPECT_EQ(a[k].vy, b[k].vy) << "disk " << k;
+      EXPECT_EQ(a[k].w, b[k].w) << "disk " << k;
+    }
   }
 }
 

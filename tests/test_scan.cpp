@@ -54,6 +54,19 @@ TEST(Scan, ToleranceIsTheProtocolDefaultUnlessSet) {
   EXPECT_EQ(set.tolerance(Protocol::C), 2e-4);
 }
 
+TEST(Scan, SweepCapIsTheProtocolDefaultUnlessSet) {
+  const auto plain = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n", "plain.toml");
+  EXPECT_FALSE(plain.max_sweeps_given);
+  EXPECT_EQ(plain.max_sweeps(Protocol::A), default_max_sweeps(Protocol::A));
+  EXPECT_EQ(plain.max_sweeps(Protocol::C), default_max_sweeps(Protocol::C));
+  EXPECT_LT(default_max_sweeps(Protocol::A), default_max_sweeps(Protocol::C));
+  const auto set = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n[solver]\nmax_sweeps = 777\n",
+                              "set.toml");
+  EXPECT_TRUE(set.max_sweeps_given);
+  EXPECT_EQ(set.max_sweeps(Protocol::A), 777);
+  EXPECT_EQ(set.max_sweeps(Protocol::C), 777);
+}
+
 TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {
   EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").solver.newton_every,
             SolverSettings{}.newton_every);

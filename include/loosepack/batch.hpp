@@ -35,6 +35,8 @@ struct SystemSetup {
   std::uint64_t member = 0;
   // Solver tolerance of this system [h m g]; 0: the batch's SolverSettings::tolerance.
   double tolerance = 0.0;
+  // Solver sweep cap per step of this system; 0: the batch's SolverSettings::max_sweeps.
+  int max_sweeps = 0;
 };
 
 // Contact force of one contact, in force units (impulse / h).
