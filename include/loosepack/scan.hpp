@@ -24,9 +24,9 @@ inline double default_tolerance(Protocol p) { return p == Protocol::A ? 1e-3 : 3
 
 // The solver's sweep cap per step a protocol runs with when the scan file sets none. From the
 // same study (docs/PERFORMANCE.md, "The sweep cap"): 300 for A, whose capped steps are stalls
-// that the next steps finish as well (Bo = 1e3, 24 R x 72 R: 1.3-1.5x faster than 2 000, the
-// observables within 0.4 sigma); 2 000 for C, where a lower cap leaves the collapse creeping
-// (300: 1.5x the sweeps).
+// that the next steps finish as well (Bo = 1e2 and 1e3, 24 R x 48-72 R: 1.3-1.5x faster than
+// 2 000, the observables within 0.7 sigma); 2 000 for C, where a lower cap leaves the collapse
+// creeping (300: 1.5x the sweeps).
 inline int default_max_sweeps(Protocol p) { return p == Protocol::A ? 300 : 2000; }
 
 // How the observables are measured (MODEL.md, "Observables").
