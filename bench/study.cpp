@@ -58,7 +58,7 @@ struct Setup {
   // The program's defaults (params.hpp).
   double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
-  int max_sweeps = default_max_sweeps(Protocol::A);
+  int max_sweeps = 0;  // 0: the protocol's default for the box (default_max_sweeps)
   int newton_every = SolverSettings{}.newton_every;
   bool rest_converged = RestSettings{}.converged;
   double region_radius = 0.0;  // protocol.region_radius; 0: the whole system relaxes
@@ -77,7 +77,6 @@ struct Setup {
     s.capture_radius = 2.0;
     s.time_step = 0.0028;
     s.tolerance = default_tolerance(Protocol::C);
-    s.max_sweeps = default_max_sweeps(Protocol::C);
     s.seeds = 8;
     return s;
   }
@@ -89,6 +88,16 @@ struct Setup {
     change(s);
     return s;
   }
+  // The sweep cap the ensemble runs with.
+  int cap() const {
+    if (max_sweeps > 0) return max_sweeps;
+    SystemParams p;
+    p.width = width;
+    p.height = height;
+    const Protocol pr = protocol == "A" ? Protocol::A : protocol == "B" ? Protocol::B : Protocol::C;
+    return default_max_sweeps(pr, p);
+  }
+
   std::string toml() const {
     std::ostringstream o;
     o.precision(17);
@@ -98,7 +107,7 @@ struct Setup {
       << "\ncapture_radius = " << capture_radius
       << "\nfriction = 0.3\nrolling_friction = " << rolling_friction
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
-      << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << max_sweeps
+      << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << cap()
       << "\nrelaxation = " << relaxation << "\nnewton_every = " << newton_every
       << "\n[rest]\nconverged = "
       << (rest_converged ? "true" : "false") << "\n[protocol]\nregion_radius = " << region_radius
@@ -118,7 +127,7 @@ struct Setup {
       << ", \"friction\": 0.3, \"rolling_friction\": " << bench::json_number(rolling_friction)
       << ", \"time_step\": " << bench::json_number(time_step)
       << ", \"solver\": " << bench::json_string(solver)
-      << ", \"tolerance\": " << bench::json_number(tolerance) << ", \"max_sweeps\": " << max_sweeps
+      << ", \"tolerance\": " << bench::json_number(tolerance) << ", \"max_sweeps\": " << cap()
       << ", \"relaxation\": " << bench::json_number(relaxation)
       << ", \"newton_every\": " << newton_every
       << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
@@ -281,7 +290,7 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
     if (k != at) add("tolerance=" + bench::json_number(t), [t](Setup& s) { s.tolerance = t; });
   }
   for (int c : {100, 300, 1000, 2000, 5000})
-    if (c != base.max_sweeps)
+    if (c != base.cap())
       add("max_sweeps=" + std::to_string(c), [c](Setup& s) { s.max_sweeps = c; });
   for (double f : {2.0, 0.5})
     add("time_step=" + bench::json_number(base.time_step * f),

@@ -852,6 +852,7 @@ int Batch::size() const { return impl_->n_systems; }
 const SystemParams& Batch::params(int s) const {
   return impl_->params.at(static_cast<std::size_t>(s));
 }
+int Batch::max_sweeps(int s) const { return impl_->sweep_cap.at(static_cast<std::size_t>(s)); }
 const SolverSettings& Batch::solver() const { return impl_->solver; }
 
 void Batch::step() { impl_->step(); }

@@ -291,7 +291,8 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       H5 g = group(file, point_name(pr.point.index));
       attribute(g, "protocol", protocol_name(pr.point.protocol));
       attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
-      attribute(g, "solver_max_sweeps", static_cast<double>(scan.max_sweeps(pr.point.protocol)));
+      attribute(g, "solver_max_sweeps",
+                static_cast<double>(scan.max_sweeps(pr.point.protocol, pr.point.params)));
       params(g, pr.point.params);
       attribute(g, "members", static_cast<double>(pr.members));
       attribute(g, "failed", static_cast<double>(pr.failed));

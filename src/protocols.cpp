@@ -107,7 +107,7 @@ struct Slot {
   long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
   bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
   long deposited = 0;
-  double filled = 0.0;  // height of the last deposited disk over H
+  double filled = 0.0;  // height of the highest deposited disk over H (the progress estimate)
   bool checking = false;      // Relax after a region came to rest: the whole system's rest check
   int quiet = 0;              // steps in a row with no disk above the wake speed (check)
   int rounds = 0;             // regions started for the current disk
@@ -147,7 +147,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     su.seed = scan.seed;
     su.member = m.id;
     su.tolerance = scan.tolerance(m.protocol);
-    su.max_sweeps = scan.max_sweeps(m.protocol);
+    su.max_sweeps = scan.max_sweeps(m.protocol, m.params);
     return su;
   };
   for (const auto& m : members) {
@@ -176,9 +176,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       // For the largest region: the last round's radius (see start_region).
       rs.max_height =
           region_slot_height(rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1), tallest);
-      SolverSettings region_solver = scan.solver;  // regions hold protocol-A systems only
-      region_solver.max_sweeps = scan.max_sweeps(Protocol::A);
-      regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, region_solver,
+      regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, scan.solver,
                                           scan.rest);
       regions->set_timing(hooks.stage_seconds != nullptr);
     }
@@ -307,7 +305,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   auto count_disk = [&](std::size_t k, const Deposit& d) {
     ++slots[k].deposited;
     ++prog.disks_deposited;
-    slots[k].filled = std::min(1.0, d.y / batch.params(static_cast<int>(k)).height);
+    // The highest so far, not the last: a disk landing in a valley of the rough surface would
+    // otherwise move the progress estimate backwards.
+    slots[k].filled = std::max(slots[k].filled,
+                               std::min(1.0, d.y / batch.params(static_cast<int>(k)).height));
   };
   for (;;) {
     // Ballistic deposition: one disk per slot and round.

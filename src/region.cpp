@@ -200,6 +200,7 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   su.params.height = top - y0 + 2.0 * pr.radius;
   su.capacity = I.settings.max_disks;
   su.tolerance = tolerance;
+  su.max_sweeps = whole.max_sweeps(s);
   for (std::size_t k = 0; k < sel.index.size(); ++k) {
     Disk d = disks[static_cast<std::size_t>(sel.index[k])];
     d.y -= y0;

@@ -54,17 +54,32 @@ TEST(Scan, ToleranceIsTheProtocolDefaultUnlessSet) {
   EXPECT_EQ(set.tolerance(Protocol::C), 2e-4);
 }
 
+// Protocol A's default sweep cap grows with the box, 0.2 per R^2 between 300 and 2 000 (small
+// deposits stall, larger ones converge slowly: docs/PERFORMANCE.md, "The sweep cap"); C keeps
+// 2 000; a cap in the file holds for every protocol and box.
 TEST(Scan, SweepCapIsTheProtocolDefaultUnlessSet) {
+  auto box = [](double width, double height) {
+    SystemParams p;
+    p.width = width;
+    p.height = height;
+    return p;
+  };
+  const auto small = box(24, 24), mid = box(40, 120), paper = box(200, 800);
   const auto plain = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n", "plain.toml");
   EXPECT_FALSE(plain.max_sweeps_given);
-  EXPECT_EQ(plain.max_sweeps(Protocol::A), default_max_sweeps(Protocol::A));
-  EXPECT_EQ(plain.max_sweeps(Protocol::C), default_max_sweeps(Protocol::C));
-  EXPECT_LT(default_max_sweeps(Protocol::A), default_max_sweeps(Protocol::C));
+  EXPECT_EQ(plain.max_sweeps(Protocol::A, small), 300);
+  EXPECT_EQ(plain.max_sweeps(Protocol::A, mid), 960);  // 0.2 x 40 x 120
+  EXPECT_EQ(plain.max_sweeps(Protocol::A, paper), 2000);
+  auto half_radius = mid;
+  half_radius.radius = 0.5;  // the same box in units of R^2 is four times the area
+  EXPECT_EQ(plain.max_sweeps(Protocol::A, half_radius), 2000);
+  for (const auto& p : {small, mid, paper}) EXPECT_EQ(plain.max_sweeps(Protocol::C, p), 2000);
   const auto set = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n[solver]\nmax_sweeps = 777\n",
                               "set.toml");
   EXPECT_TRUE(set.max_sweeps_given);
-  EXPECT_EQ(set.max_sweeps(Protocol::A), 777);
-  EXPECT_EQ(set.max_sweeps(Protocol::C), 777);
+  EXPECT_EQ(set.max_sweeps(Protocol::A, small), 777);
+  EXPECT_EQ(set.max_sweeps(Protocol::A, paper), 777);
+  EXPECT_EQ(set.max_sweeps(Protocol::C, small), 777);
 }
 
 TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {

@@ -95,6 +95,8 @@ class Batch {
 
   int size() const;
   const SystemParams& params(int s) const;
+  // The solver's sweep cap per step of system s (SystemSetup::max_sweeps, else the batch's).
+  int max_sweeps(int s) const;
   const SolverSettings& solver() const;
 
   // One time step of every active system.

@@ -1,5 +1,7 @@
 // A scan: the TOML file a user writes, validated and expanded into scan points and members.
 #pragma once
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -22,12 +24,19 @@ std::string protocol_name(Protocol p);
 // creeps longer before rest) and follows the tightly converged reference. B has no dynamics.
 inline double default_tolerance(Protocol p) { return p == Protocol::A ? 1e-3 : 3e-4; }
 
-// The solver's sweep cap per step a protocol runs with when the scan file sets none. From the
-// same study (docs/PERFORMANCE.md, "The sweep cap"): 300 for A, whose capped steps are stalls
-// that the next steps finish as well (Bo = 1e2 and 1e3, 24 R x 48-72 R: 1.3-1.5x faster than
-// 2 000, the observables within 0.7 sigma); 2 000 for C, where a lower cap leaves the collapse
-// creeping (300: 1.5x the sweeps).
-inline int default_max_sweeps(Protocol p) { return p == Protocol::A ? 300 : 2000; }
+// The solver's sweep cap per step a member runs with when the scan file sets none. From the
+// accuracy/time study and whole runs (docs/PERFORMANCE.md, "The sweep cap"): for A it grows with
+// the box, 0.2 sweeps per R^2 of width x height (about two per disk of a loose deposit), between
+// 300 and 2 000. In a small deposit a capped step is a stall that the next steps finish (24 R x
+// 48-72 R at Bo = 1e2 and 1e3: 300 is 1.3-1.5x faster than 2 000, the observables within 0.7
+// sigma); a larger one has steps that converge slowly and need more (40 R x 120 R, ~580 disks:
+// 300 took 1.6x the sweeps of 1 000). C keeps 2 000: a collapse stopped early creeps (300: 1.5x
+// the sweeps).
+inline int default_max_sweeps(Protocol p, const SystemParams& params) {
+  if (p != Protocol::A) return 2000;
+  const double area = params.width * params.height / (params.radius * params.radius);
+  return static_cast<int>(std::lround(std::clamp(0.2 * area, 300.0, 2000.0)));
+}
 
 // How the observables are measured (MODEL.md, "Observables").
 struct ObservableSettings {
@@ -84,9 +93,9 @@ struct Scan {
   double tolerance(Protocol p) const {
     return tolerance_given ? solver.tolerance : default_tolerance(p);
   }
-  // The sweep cap of a member of protocol p: the file's, else the protocol's default.
-  int max_sweeps(Protocol p) const {
-    return max_sweeps_given ? solver.max_sweeps : default_max_sweeps(p);
+  // The sweep cap of a member of protocol p with these parameters: the file's, else the default.
+  int max_sweeps(Protocol p, const SystemParams& params) const {
+    return max_sweeps_given ? solver.max_sweeps : default_max_sweeps(p, params);
   }
 };
 
