@@ -94,7 +94,8 @@ struct Setup {
     SystemParams p;
     p.width = width;
     p.height = height;
-    const Protocol pr = protocol == "A" ? Protocol::A : protocol == "B" ? Protocol::B : Protocol::C;
+    Protocol pr = Protocol::A;
+    protocol_from_name(protocol, pr);  // the study's own names, always valid
     return default_max_sweeps(pr, p);
   }
 

@@ -180,7 +180,7 @@ struct BodyVelocity {
   KOKKOS_INLINE_FUNCTION void operator()(int p) const {
     const int s = part.system(p);
     if (part.cell(p) < 0) return;
-    if (only_unconverged && sys.unconverged(s) != 1) return;
+    if (only_unconverged && sys.unconverged(s) != kIterating) return;
     double vx = part.vfx(p), vy = part.vfy(p), w = part.wf(p);
     const double im = part.inv_mass(p), iI = part.inv_inertia(p), r = part.radius(p);
     const int n = part.n_incident(p);
@@ -236,7 +236,7 @@ struct JacobiContacts {
     if (j == kNoContact) return;
     const int i = c / kSlots;
     const int s = part.system(i);
-    if (sys.unconverged(s) != 1) return;
+    if (sys.unconverged(s) != kIterating) return;
     double dn, dt, dm;
     const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
     con.pn(c) += dn;
@@ -262,7 +262,7 @@ struct GaussSeidelContacts {
     const int j = con.partner(c);
     const int i = c / kSlots;
     const int s = part.system(i);
-    if (sys.unconverged(s) != 1) return;
+    if (sys.unconverged(s) != kIterating) return;
     double dn, dt, dm;
     const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
     if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
@@ -294,8 +294,8 @@ struct SequentialGaussSeidel {
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
-    const int first = range.first, end = range.end;
-    for (int sweep = 0; sweep < sys.max_sweeps(s); ++sweep) {
+    const int first = range.first, end = range.end, cap = sys.max_sweeps(s);
+    for (int sweep = 0; sweep < cap; ++sweep) {
       double worst = 0.0;
       if (sweep % 2 == 1) {
         for (int c = end - 1; c >= first; --c) apply(c, worst);
@@ -449,7 +449,8 @@ struct ColouredAcceleratedGaussSeidel {
                          [&](int c) { nncg_keep_start(con, c); });
     team.team_barrier();
     double previous = 0.0;  // the first iteration of a step restarts
-    for (int sweep = 0; sweep < sys.max_sweeps(s); sweep += 2) {
+    const int cap = sys.max_sweeps(s);
+    for (int sweep = 0; sweep < cap; sweep += 2) {
       double worst = 0.0;
       for (int k = 0; k < n_colours; ++k) worst = kmath::max(worst, colour_sweep(team, base, k));
       for (int k = n_colours - 1; k >= 0; --k)

@@ -15,6 +15,11 @@ constexpr int kSlots = 8;
 // Contacts incident to one particle (owned and as partner).
 constexpr int kIncident = 14;
 constexpr int kNoContact = -2;
+// SystemViews::unconverged while a step's solve runs: 0 once converged (or for a system not
+// stepped), kIterating while it iterates, kStoppedAtCap when a host-loop solver (Jacobi,
+// coloured Gauss-Seidel) stopped it at its sweep cap without converging.
+constexpr int kIterating = 1;
+constexpr int kStoppedAtCap = 2;
 constexpr int kFloor = -1;
 
 // Why a system stopped being stepped.
@@ -64,8 +69,7 @@ struct SystemViews {
   DView<int> grid_nx, grid_ny, cell_offset;
   // [S] status
   DView<int> active;           // 1: stepped by step()
-  DView<int> unconverged;      // 1: still iterating in the current step; 2: stopped at its sweep
-                               // cap (the host-loop solvers), not converged
+  DView<int> unconverged;      // kIterating, kStoppedAtCap, or 0: converged (or not stepped)
   DView<int> failure;          // SystemFailure
   DView<double> sweep_change;  // max impulse change of the last sweep [h m g]
   DView<double> max_speed;     // max(|v|, R|w|) after the last step

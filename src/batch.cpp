@@ -471,7 +471,7 @@ void Batch::Impl::solve() {
     Kokkos::deep_copy(hs, colour_start);
     colour_begin.assign(hs.data(), hs.data() + n_colours + 1);
   }
-  // Each system stops at its own cap (unconverged 2: stopped, not converged).
+  // Each system stops at its own cap (kStoppedAtCap: not converged).
   const int largest_cap = *std::max_element(sweep_cap.begin(), sweep_cap.end());
   for (int sweep = 0; sweep < largest_cap; ++sweep) {
     if (jacobi) {
@@ -492,12 +492,12 @@ void Batch::Impl::solve() {
     Kokkos::parallel_reduce(
         "convergence", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
         KOKKOS_LAMBDA(int s, int& n) {
-          if (!sys_.active(s) || sys_.unconverged(s) != 1) return;
+          if (!sys_.active(s) || sys_.unconverged(s) != kIterating) return;
           sweeps(s) += 1;
           if (!(sys_.sweep_change(s) > sys_.tolerance(s))) {
             sys_.unconverged(s) = 0;
           } else if (sweeps(s) >= sys_.max_sweeps(s)) {
-            sys_.unconverged(s) = 2;
+            sys_.unconverged(s) = kStoppedAtCap;
           } else {
             ++n;
           }
@@ -743,7 +743,7 @@ void Batch::Impl::step() {
         const double r = sys_.radius(s);
         sys_.margin(s) = kmath::clamp(2.0 * h * (sys_.max_speed(s) + h * g), kMinMarginFactor * r,
                                       sys_.max_margin(s));
-        sys_.unconverged(s) = sys_.active(s);
+        sys_.unconverged(s) = sys_.active(s) ? kIterating : 0;
         sys_.sweep_change(s) = 0.0;
         sys_.max_speed(s) = sys_.active(s) ? 0.0 : sys_.max_speed(s);
       });

@@ -26,6 +26,15 @@ std::string protocol_name(Protocol p) {
   return "?";
 }
 
+bool protocol_from_name(const std::string& name, Protocol& p) {
+  for (Protocol q : {Protocol::A, Protocol::B, Protocol::C})
+    if (name == protocol_name(q)) {
+      p = q;
+      return true;
+    }
+  return false;
+}
+
 namespace {
 
 // Bounds that keep a valid scan's first consumers (members_of, member_capacity, the batch
@@ -397,11 +406,10 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           protocols.clear();
           auto one = [&](const toml::node& e) {
             auto s = e.as_string();
-            if (!s || (s->get() != "A" && s->get() != "B" && s->get() != "C"))
+            Protocol p;
+            if (!s || !protocol_from_name(s->get(), p))
               fail(file, e, key, "expected \"A\", \"B\" or \"C\"");
-            protocols.push_back(s->get() == "A"   ? Protocol::A
-                                : s->get() == "B" ? Protocol::B
-                                                  : Protocol::C);
+            protocols.push_back(p);
           };
           if (auto arr = v.as_array()) {
             if (arr->empty()) fail(file, v, key, "an axis needs at least one value");
@@ -571,11 +579,8 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       for (const auto& [k, v] : ex.keys) {
         if (k == "protocol") {
           auto str = v->as_string();
-          if (!str || (str->get() != "A" && str->get() != "B" && str->get() != "C"))
+          if (!str || !protocol_from_name(str->get(), sp.protocol))
             fail(file, *v, "point.protocol", "expected \"A\", \"B\" or \"C\"");
-          sp.protocol = str->get() == "A"   ? Protocol::A
-                        : str->get() == "B" ? Protocol::B
-                                            : Protocol::C;
         } else if (k == "floor_cohesion") {
           sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
         } else {

@@ -17,6 +17,8 @@ enum class Protocol {
   C,  // B, then gravity switched on: collapse to rest
 };
 std::string protocol_name(Protocol p);
+// The protocol named "A", "B" or "C"; false for any other name.
+bool protocol_from_name(const std::string& name, Protocol& p);
 
 // The solver tolerance [h m g] a protocol runs with when the scan file sets none. From the
 // accuracy/time study (docs/PERFORMANCE.md, "Accuracy against time"): 1e-3 for the slow
