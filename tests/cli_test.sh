@@ -51,6 +51,9 @@ grep -q "C across heights: dnu/nu_i grows with ln H  \[slope against ln H = " "$
   fail "claims.py does not judge the fit across heights: $(cat "$dir/claims.txt")"
 if grep -q "^FAIL" "$dir/claims.txt"; then [ "$rc" -eq 1 ]; else [ "$rc" -eq 0 ]; fi ||
   fail "claims.py exit code $rc does not match its verdicts"
+# The collapse's relative increase against H and nu_i, with the stored fits.
+/usr/bin/python3 "$repo/tools/plot.py" "$dir/an.h5" -o "$dir/fig_an" >/dev/null
+[ -s "$dir/fig_an/collapse_increase.png" ] || fail "plot.py did not draw collapse_increase.png"
 # `analyse` recomputes the fits from the aggregates the file stores: an unchanged file gets the
 # same fits; with the stored Delta y(y_i) means doubled (errors kept) and the old fits removed,
 # the weighted line's coefficients double; a non-HDF5 file is refused and left untouched.
@@ -88,4 +91,28 @@ msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)
 rc=$?
 set -e
 [ "$rc" -ne 0 ] || fail "plot.py accepted a non-HDF5 file"
+# A result file lacking a dataset, or an attribute, that a figure needs: plot.py names it.
+for what in dataset attribute; do
+  cp "$dir/good.h5" "$dir/lacks_$what.h5"
+  /usr/bin/python3 - "$dir/lacks_$what.h5" "$what" <<'EOF_PY'
+import sys, h5py
+with h5py.File(sys.argv[1], "r+") as f:
+    g = f["points/0000"]
+    if sys.argv[2] == "dataset":
+        del g["nu"]["mean"]
+    else:
+        del g.attrs["height"]
+EOF_PY
+  set +e
+  msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/lacks_$what.h5" -o "$dir/fig_lacks" 2>&1)
+  rc=$?
+  set -e
+  [ "$rc" -ne 0 ] || fail "plot.py accepted a file without a needed $what"
+  case $what in
+    dataset) want="lacks_dataset.h5: '/points/0000/nu/mean' is missing" ;;
+    attribute) want="lacks_attribute.h5: attribute 'height' of '/points/0000' is missing" ;;
+  esac
+  echo "$msg" | grep -qF "$want" || fail "plot.py message for a missing $what: $msg"
+  echo "$msg" | grep -q "Traceback" && fail "plot.py crashed on a missing $what: $msg"
+done
 echo "cli: all checks passed"

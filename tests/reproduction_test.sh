@@ -10,7 +10,8 @@ source "$(dirname "$0")/common.sh"
 "$exe" summary "$dir/claims.h5" > "$dir/summary.txt"
 grep -q "Delta y(y_e) = " "$dir/summary.txt" || fail "summary prints no avalanche-profile fit"
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/claims.h5" -o "$dir/fig" >/dev/null
-for f in density_profiles avalanche_profiles abs_dy_histograms deposition_density; do
+for f in density_profiles nu_lower_half avalanche_profiles abs_dy_histograms deposition_density \
+  event_sizes; do
   [ -s "$dir/fig/$f.png" ] || fail "plot.py did not write $f.png"
 done
 /usr/bin/python3 "$repo/tools/claims.py" "$dir/claims.h5" > "$dir/claims.txt" ||

@@ -9,7 +9,7 @@ predicted from it. When the file has them: nu_lower_half against the Bond number
 points), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
 distributions (protocol A), a picture of each snapshot with its compressive contact forces
 (run with --snapshots; the paper's fig. 1) and the trajectories of every k-th disk
-(observables.trajectory_every; the paper's fig. 4).
+(observables.trajectory_every; the paper's fig. 5).
 
 Uses Debian's python3-h5py and python3-matplotlib (scripts/install-deps.sh installs them).
 """
@@ -42,6 +42,14 @@ def need(group, name):
     return obj[()] if isinstance(obj, h5py.Dataset) else obj
 
 
+def attr(obj, name):
+    """An attribute that must be there; a clear message and exit otherwise."""
+    if name not in obj.attrs:
+        sys.exit(f"plot.py: {PATH}: attribute '{name}' of '{obj.name}' is missing "
+                 "(was the file written by an older loosepack?)")
+    return obj.attrs[name]
+
+
 def sem(group):
     """Standard errors for error bars: a bin with no estimate (one member) draws no bar."""
     e = np.asarray(need(group, "sem"), dtype=float)
@@ -53,13 +61,12 @@ def text(v):
 
 
 def label(g):
-    a = g.attrs
-    bo = a["bond_number"]
+    bo = attr(g, "bond_number")
     bo_s = "inf" if math.isinf(bo) else f"{bo:g}"
-    s = f"{text(a['protocol'])}, Bo={bo_s}"
-    if a["capture_radius"] != 1.0:
-        s += f", r_capt={a['capture_radius']:g}"
-    s += f", H={a['height']:g}"
+    s = f"{text(attr(g, 'protocol'))}, Bo={bo_s}"
+    if attr(g, "capture_radius") != 1.0:
+        s += f", r_capt={attr(g, 'capture_radius'):g}"
+    s += f", H={attr(g, 'height'):g}"
     return s
 
 
@@ -70,7 +77,7 @@ def fit_of(group, name):
     f = group[name]
     if f.attrs.get("valid", 0) == 0:
         return None
-    return f["coef"][()], f["error"][()]
+    return need(f, "coef"), need(f, "error")
 
 
 def poly(coef, x):
@@ -101,9 +108,9 @@ def nu_lower_half(points, out, written):
     if len(points) < 2:
         return
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    xs = [g.attrs["bond_number"] for g in points]
-    ys = [g.attrs["nu_lower_half_mean"] for g in points]
-    es = [g.attrs["nu_lower_half_sem"] for g in points]
+    xs = [attr(g, "bond_number") for g in points]
+    ys = [attr(g, "nu_lower_half_mean") for g in points]
+    es = [attr(g, "nu_lower_half_sem") for g in points]
     finite = [b for b in xs if b > 0 and not math.isinf(b)]
     lo = min(finite) / 10 if finite else 0.1
     hi = max(finite) * 10 if finite else 10
@@ -127,11 +134,11 @@ def avalanche_profiles(points, out, written):
                                fmt="o", ms=3, label=label(g), capsize=2)
             f = fit_of(a, "fit")
             if f is not None:
-                x = np.linspace(0, g.attrs["height"], 200)
+                x = np.linspace(0, attr(g, "height"), 200)
                 ax.plot(x, poly(f[0], x), "-", color=line[0].get_color(), lw=1)
             s = fit_of(a, "slice_parabola")
             if s is not None:
-                H = g.attrs["height"]
+                H = attr(g, "height")
                 x = np.linspace(0, H, 200)
                 ax.plot(x, -s[0][0] * x * (1 - x / H), ":", color=line[0].get_color(), lw=1)
         ax.set_xlabel(xl)
@@ -153,7 +160,7 @@ def abs_dy_histograms(points, out, written):
         line = ax.semilogy(centres, counts / norm, "o", ms=3, label=label(g))[0]
         if "shape_cut" in h:
             shape = h["shape_cut"]
-            pref = text(shape.attrs["preferred"])
+            pref = text(attr(shape, "preferred"))
             for model, style in (("gaussian", "-"), ("exponential", "--")):
                 f = fit_of(shape, model)
                 if f is None:
@@ -187,14 +194,14 @@ def deposition_density(points, out, written):
 
 
 def collapse_increase(f, points, out, written):
-    c = [g for g in points if text(g.attrs["protocol"]) == "C"]
+    c = [g for g in points if text(attr(g, "protocol")) == "C"]
     if len(c) < 2:
         return
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    H = [g.attrs["height"] for g in c]
-    ni = [g.attrs["nu_initial_mean"] for g in c]
-    inc = [g.attrs["relative_increase_mean"] for g in c]
-    err = [g.attrs["relative_increase_sem"] for g in c]
+    H = [attr(g, "height") for g in c]
+    ni = [attr(g, "nu_initial_mean") for g in c]
+    inc = [attr(g, "relative_increase_mean") for g in c]
+    err = [attr(g, "relative_increase_sem") for g in c]
     axes[0].errorbar(H, inc, yerr=err, fmt="o", capsize=3)
     axes[0].set_xscale("log")
     axes[0].set_xlabel("H [R]")
@@ -270,7 +277,7 @@ def snapshots(points, out, written):
 
 def structure(g, name, s, out, written):
     x, y, r = need(s, "x"), need(s, "y_e"), need(s, "radius")
-    W = g.attrs["width"]
+    W = attr(g, "width")
     failed = "failure" in s.attrs
     finite = np.isfinite(x) & np.isfinite(y)
     if failed:
@@ -297,9 +304,9 @@ def structure(g, name, s, out, written):
     if failed:
         ax.quiver(x[finite], y[finite], vx[finite], vy[finite], color="tab:blue", width=0.003)
         bad = np.where(~finite)[0]  # their place is lost: named in the title
-        why = s.attrs["failure"]
+        why = attr(s, "failure")
         why = why.decode() if isinstance(why, bytes) else str(why)
-        title = (f"{label(g)}, {name} (member {int(s.attrs['member'])}): "
+        title = (f"{label(g)}, {name} (member {int(attr(s, 'member'))}): "
                  f"{why}; disks with a non-finite state: {list(bad)[:10]}")
     ax.set_xlim(0, W)
     ax.set_ylim(0, top)
@@ -313,7 +320,7 @@ def trajectories(points, out, written):
         disk, x, y = need(t, "disk"), need(t, "x"), need(t, "y")
         if len(disk) == 0:
             continue
-        W = g.attrs["width"]
+        W = attr(g, "width")
         fig, ax = plt.subplots(figsize=(6, 6))
         for d in np.unique(disk):
             sel = disk == d
