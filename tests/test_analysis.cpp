@@ -186,3 +186,132 @@ lower_half_from = 8.0
   }
   EXPECT_GE(compared, 8);
 }
+
+// A synthetic protocol-A ensemble at three heights: disks deposited with the power-law density
+// nu_d(y_i) = A y_i^p end at the y_e of the slice model, Delta y(y_e) = -alpha y_e (1 - y_e/H),
+// whose curvature alpha/H falls like 1/H (the paper's fig. 7). Then the fitted parabola is
+// (0, -alpha, alpha/H) at every H, the fit across heights gives the exponent -1, the deposition
+// power law has the exponent p, and the final density predicted from it,
+// nu_d(y_i(y_e)) (1 - dDelta y/dy_e), is the measured one (change of variables).
+TEST(Analysis, AvalancheParabolaScalesLikeOneOverHeightAndPredictsTheFinalDensity) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "A"
+seeds = 16
+[system]
+width = 200.0
+height = [60.0, 120.0, 240.0]
+bond_number = 1000
+[observables]
+lower_half_from = 8.0
+)",
+                               "synthetic.toml");
+  const double alpha = 0.2, p = -0.15, q = p + 1.0, nu_mean = 0.4;
+  std::vector<MemberResult> results;
+  std::mt19937_64 rng(11);
+  for (const auto& m : members_of(scan)) {
+    const double W = m.params.width, H = m.params.height, lo = 1.0, hi = H - 1.0;
+    MemberResult r;
+    r.member = m;
+    const int n = static_cast<int>(nu_mean * W * (hi - lo) / M_PI);
+    std::uniform_real_distribution<double> ux(0.0, W), u(0.0, 1.0);
+    for (int k = 0; k < n; ++k) {
+      // Inverse of the cumulative distribution of y^p on [lo, hi].
+      const double yi = std::pow(std::pow(lo, q) + u(rng) * (std::pow(hi, q) - std::pow(lo, q)),
+                                 1.0 / q);
+      // y_i = y_e - Delta y(y_e) = (1 + alpha) y_e - (alpha/H) y_e^2, solved for y_e in [0, H].
+      const double c = alpha / H;
+      const double ye =
+          ((1.0 + alpha) - std::sqrt((1.0 + alpha) * (1.0 + alpha) - 4.0 * c * yi)) / (2.0 * c);
+      r.x.push_back(ux(rng));
+      r.y_i.push_back(yi);
+      r.y_e.push_back(ye);
+      r.radius.push_back(1.0);
+    }
+    results.push_back(std::move(r));
+  }
+  const auto points = aggregate(scan, results);
+  const Analysis an = analyse(scan, points);
+  ASSERT_EQ(an.points.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {
+    const double H = points[k].point.params.height;
+    const PointAnalysis& a = an.points[k];
+    ASSERT_TRUE(a.dy_by_ye.valid()) << "H " << H;
+    // Exact displacements: only the spread of y_e within a bin (a constant c w^2/12 in the mean
+    // of c y_e^2) separates the bin means from the parabola, so c1 and c2 come out within 1 %.
+    EXPECT_NEAR(a.dy_by_ye.coef[2], alpha / H, 0.01 * alpha / H) << "H " << H;
+    EXPECT_NEAR(a.dy_by_ye.coef[1], -alpha, 0.01 * alpha) << "H " << H;
+    ASSERT_TRUE(a.slice_parabola.valid());
+    EXPECT_NEAR(a.slice_parabola.coef[0], alpha, 0.01 * alpha) << "H " << H;
+    // The deposition density is random: its exponent within three of the fit's errors (and the
+    // error itself a few hundredths: the test resolves the exponent).
+    ASSERT_TRUE(a.deposition_power_law.valid());
+    EXPECT_NEAR(a.deposition_power_law.coef[1], p, 3.0 * a.deposition_power_law.error[1]);
+    EXPECT_LT(a.deposition_power_law.error[1], 0.05);
+    // The prediction against the measured strips: chi2 per strip about 1 when the prediction is
+    // right (0.7-2.3 over six random streams: the errors come from 16 members and neighbouring
+    // strips share disks); without the slope factor (1 - dDelta y/dy_e) it is tens.
+    int compared = 0;
+    double chi2 = 0.0;
+    for (std::size_t s = 0; s < points[k].nu.centre.size(); ++s) {
+      const double y = points[k].nu.centre[s];
+      if (!std::isfinite(a.nu_predicted[s]) || y < 10.0 || y > H - 10.0) continue;
+      const double z = (a.nu_predicted[s] - points[k].nu.mean[s]) / points[k].nu.sem[s];
+      chi2 += z * z;
+      ++compared;
+    }
+    EXPECT_GE(compared, static_cast<int>(H / 8.0)) << "H " << H;
+    EXPECT_LT(chi2 / compared, 3.0) << "H " << H;
+  }
+  // Across the heights: |c| = A H^p with p = -1 and A = alpha.
+  const Fit& f = an.scan.quadratic_vs_height;
+  ASSERT_TRUE(f.valid());
+  EXPECT_NEAR(f.coef[1], -1.0, 0.02);
+  EXPECT_NEAR(std::exp(f.coef[0]), alpha, 0.05 * alpha);
+}
+
+// Protocol C at three capture radii, with initial densities nu_i set per point and uniform
+// collapses of relative increase b = K nu_i^s: the fit of dnu/nu_i against the measured nu_i
+// across the points (the paper's fig. 17) recovers the exponent s.
+TEST(Analysis, RelativeIncreaseAgainstInitialDensityIsAPowerLaw) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "C"
+seeds = 8
+[system]
+width = 200.0
+height = 120.0
+bond_number = 1000
+capture_radius = [1.0, 1.5, 2.0]
+[observables]
+lower_half_from = 8.0
+)",
+                               "synthetic.toml");
+  const double nu_i[3] = {0.40, 0.33, 0.27}, K = 0.1, s = -1.64;
+  std::vector<MemberResult> results;
+  std::mt19937_64 rng(13);
+  for (const auto& m : members_of(scan)) {
+    const double ni = nu_i[m.point];
+    const double b = K * std::pow(ni / 0.33, s);
+    const double b_prime = b / (1.0 + b);  // y_e = (1 - b') y_i compresses by 1 + b
+    MemberResult r;
+    r.member = m;
+    const int n = static_cast<int>(ni * 200.0 * 118.0 / M_PI);
+    std::uniform_real_distribution<double> ux(0.0, 200.0), uy(1.0, 119.0);
+    for (int k = 0; k < n; ++k) {
+      const double yi = uy(rng);
+      r.x.push_back(ux(rng));
+      r.y_i.push_back(yi);
+      r.y_e.push_back((1.0 - b_prime) * yi);
+      r.radius.push_back(1.0);
+    }
+    results.push_back(std::move(r));
+  }
+  const auto points = aggregate(scan, results);
+  const Analysis an = analyse(scan, points);
+  const Fit& f = an.scan.increase_vs_nu_initial;
+  ASSERT_TRUE(f.valid());
+  EXPECT_NEAR(f.coef[1], s, 3.0 * f.error[1]);
+  EXPECT_LT(f.error[1], 0.3);
+  EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);
+}
