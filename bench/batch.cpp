@@ -47,16 +47,26 @@ struct Workload {
       << "\nbond_number = " << bond_number
       << "\nfriction = 0.3\nrolling_friction = 0.1\ncohesion_range = 0.01\n"
       << "time_step = " << (protocol == "C" ? 0.003 : 0.01) << "\n"
-      << "[solver]\ntolerance = 1e-3\nmax_sweeps = 1000\n"
+      << "[solver]\ntolerance = 1e-3\n"
       << "[observables]\nlower_half_from = " << std::min(4.0, height / 4.0) << "\n";
     return o.str();
+  }
+  // The sweep cap the scan gives these members (the protocol's default for the box).
+  int max_sweeps() const {
+    Protocol p = Protocol::A;
+    protocol_from_name(protocol, p);
+    SystemParams s;
+    s.width = width;
+    s.height = height;
+    return default_max_sweeps(p, s);
   }
   std::string json() const {
     return "\"workload\": {\"protocol\": " + bench::json_string(protocol) +
            ", \"width\": " + bench::json_number(width) +
            ", \"height\": " + bench::json_number(height) +
            ", \"bond_number\": " + bench::json_number(bond_number) +
-           ", \"solver\": \"accelerated_gauss_seidel\", \"tolerance\": 1e-3}";
+           ", \"solver\": \"accelerated_gauss_seidel\", \"tolerance\": 1e-3, \"max_sweeps\": " +
+           std::to_string(max_sweeps()) + "}";
   }
 };
 

@@ -279,7 +279,17 @@ int main(int argc, char** argv) {
   std::string scene = "both";
   std::vector<int> ns = {250, 500, 1000, 2000};
   double dt = 0.01;
-  for (int k = 1; k + 1 < argc; k += 2) {
+  auto usage = [] {
+    std::fprintf(stderr,
+                 "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] "
+                 "[--solver jacobi|gauss_seidel|sequential_gauss_seidel|"
+                 "accelerated_gauss_seidel|coloured_accelerated_gauss_seidel] [--tolerance T] "
+                 "[--max-sweeps N] [--rest converged|speed] [--regions R [--region-check K]]\n");
+    return 2;
+  };
+  for (int k = 1; k < argc; k += 2) {
+    if (k + 1 >= argc)  // every option takes a value
+      return usage();
     if (!std::strcmp(argv[k], "--scene"))
       scene = argv[k + 1];
     else if (!std::strcmp(argv[k], "--n"))
@@ -299,14 +309,8 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[k], "--rest") &&
              (!std::strcmp(argv[k + 1], "speed") || !std::strcmp(argv[k + 1], "converged")))
       g_rest.converged = !std::strcmp(argv[k + 1], "converged");
-    else {
-      std::fprintf(stderr,
-                   "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] "
-                   "[--solver jacobi|gauss_seidel|sequential_gauss_seidel|"
-                   "accelerated_gauss_seidel|coloured_accelerated_gauss_seidel] [--tolerance T] "
-                   "[--max-sweeps N] [--rest converged|speed] [--regions R [--region-check K]]\n");
-      return 2;
-    }
+    else
+      return usage();
   }
   SplitMix64 check{1001};
   const double x1 = kWidth * check.next(), x2 = kWidth * check.next(), x3 = kWidth * check.next();
@@ -315,6 +319,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "bench_scenes: SplitMix64 check values differ from the scene's\n");
     return 1;
   }
+  if (scene != "S1" && scene != "S2" && scene != "both") return usage();
   bool ok = true;
   if (scene == "S1" || scene == "both") ok = scene_s1(ns, dt) && ok;
   if (scene == "S2" || scene == "both")
