@@ -247,9 +247,18 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
     a.dy_by_yi = profile_fit(pr.dy_by_yi, degree);
     a.dy_by_ye = profile_fit(pr.dy_by_ye, degree);
     if (prot == Protocol::A) {
-      std::vector<double> x, y, s;
+      // The slice model without the top cut_top of the box: the paper's "crust", disks
+      // deposited last that have hardly moved (their bins' errors are tiny, and one such bin
+      // would pin the one-parameter fit to a = 0).
+      std::vector<double> x, y, s, xc, yc, sc;
       profile_points(pr.dy_by_ye, x, y, s);
-      a.slice_parabola = slice_parabola_fit(x, y, s, H);
+      for (std::size_t k = 0; k < x.size(); ++k) {
+        if (x[k] > H - obs.cut_top) continue;
+        xc.push_back(x[k]);
+        yc.push_back(y[k]);
+        sc.push_back(s[k]);
+      }
+      a.slice_parabola = slice_parabola_fit(xc, yc, sc, H);
     } else if (a.dy_by_ye.valid() && a.dy_by_yi.valid()) {
       const double b = -coef(a.dy_by_ye, 1), sb = err(a.dy_by_ye, 1);
       const double ae = coef(a.dy_by_ye, 0), sa = err(a.dy_by_ye, 0);

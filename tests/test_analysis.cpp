@@ -315,3 +315,48 @@ lower_half_from = 8.0
   EXPECT_LT(f.error[1], 0.3);
   EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);
 }
+
+// The slice model leaves out the top cut_top of the box: there the last-deposited disks (the
+// paper's "crust") have not moved, and a bin of them, with an error a thousand times smaller
+// than the others', would pin the one-parameter fit to a = 0.
+TEST(Analysis, SliceModelLeavesOutTheCrust) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "A"
+seeds = 8
+[system]
+width = 100.0
+height = 120.0
+bond_number = 1000
+[observables]
+lower_half_from = 4.0
+cut_top = 8.0
+)",
+                               "synthetic.toml");
+  const double alpha = 0.1, H = 120.0, crust = 6.0;
+  std::vector<MemberResult> results;
+  std::mt19937_64 rng(17);
+  std::normal_distribution<double> noise(0.0, 0.5), creep(0.0, 1e-4);
+  for (const auto& m : members_of(scan)) {
+    MemberResult r;
+    r.member = m;
+    std::uniform_real_distribution<double> ux(0.0, 100.0), uy(1.0, H - 1.0);
+    for (int k = 0; k < 1500; ++k) {
+      const double yi = uy(rng);
+      const double c = alpha / H;
+      double ye = ((1.0 + alpha) - std::sqrt((1.0 + alpha) * (1.0 + alpha) - 4.0 * c * yi)) /
+                  (2.0 * c);
+      ye = yi > H - crust ? yi + creep(rng) : ye + noise(rng);
+      r.x.push_back(ux(rng));
+      r.y_i.push_back(yi);
+      r.y_e.push_back(ye);
+      r.radius.push_back(1.0);
+    }
+    results.push_back(std::move(r));
+  }
+  const auto points = aggregate(scan, results);
+  const PointAnalysis a = analyse(scan, points).points.at(0);
+  ASSERT_TRUE(a.slice_parabola.valid());
+  EXPECT_NEAR(a.slice_parabola.coef[0], alpha, 3.0 * a.slice_parabola.error[0]);
+  EXPECT_LT(a.slice_parabola.error[0], 0.1 * alpha);
+}
