@@ -552,15 +552,26 @@ void print_summary(const std::string& path, std::ostream& out) {
     o << "  [chi2/dof " << double_attribute(file, object, "reduced_chi2") << "]";
     return o.str();
   };
+  // A power law A x^p, fitted as ln A + p ln x: the error of A is A times that of ln A.
+  auto power_text = [&](const std::string& object) {
+    if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
+    const auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
+    std::ostringstream o;
+    o << std::setprecision(3) << "A = " << std::exp(c[0]) << " +- " << std::exp(c[0]) * e[0]
+      << ", p = " << c[1] << " +- " << e[1] << "  [chi2/dof "
+      << double_attribute(file, object, "reduced_chi2") << "]";
+    return o.str();
+  };
   bool header = false;
   for (const auto& n : names) {
     const std::string yi = fit_text(n + "/avalanche_by_yi/fit", "y_i");
     const std::string ye = fit_text(n + "/avalanche_by_ye/fit", "y_e");
-    const std::string shape = exists(n + "/abs_dy_histogram/shape_cut")
-                                  ? string_attribute(file, n + "/abs_dy_histogram/shape_cut",
-                                                          "preferred")
-                                  : std::string("none");
-    if (yi.empty() && ye.empty() && shape == "none") continue;
+    auto verdict = [&](const char* which) {  // a histogram's preferred shape, or "none"
+      const std::string h = n + "/abs_dy_histogram/" + which;
+      return exists(h) ? string_attribute(file, h, "preferred") : std::string("none");
+    };
+    if (yi.empty() && ye.empty() && verdict("shape") == "none" && verdict("shape_cut") == "none")
+      continue;
     if (!header) out << "# fits (docs/OUTPUT.md, analysis)\n";
     header = true;
     out << n.substr(7) << ":\n";
@@ -576,28 +587,26 @@ void print_summary(const std::string& path, std::ostream& out) {
       auto c = [&](const char* a) { return double_attribute(file, n + "/collapse_identity", a); };
       out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error") << ", from b/(1+b): "
           << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
+          << "; a' = " << c("a_prime") << " +- " << c("a_prime_error") << ", from a/(1+b): "
+          << c("a_prime_predicted") << " +- " << c("a_prime_predicted_error")
           << "; -dDelta y/dy_e = " << c("slope_increase") << " +- " << c("slope_increase_error")
           << " vs dnu/nu_i = " << double_attribute(file, n, "relative_increase_mean")
           << " +- " << double_attribute(file, n, "relative_increase_sem") << "\n";
     }
+    const std::string nud = power_text(n + "/nu_deposition/power_law");
+    if (!nud.empty()) out << "  deposition density nu_d = A y_i^p: " << nud << "\n";
     const double rms = double_attribute(file, n + "/nu", "rms_deviation");
     if (std::isfinite(rms)) out << "  nu predicted from the deposition density: rms deviation " << rms << "\n";
-    if (shape != "none") {
-      const std::string h = n + "/abs_dy_histogram/shape_cut";
-      out << "  |Delta y| histogram (top and bottom cut): " << shape << " (chi2/dof gaussian "
+    for (const char* which : {"shape", "shape_cut"}) {
+      const std::string h = n + "/abs_dy_histogram/" + which, pref = verdict(which);
+      if (pref == "none") continue;
+      out << "  |Delta y| histogram" << (which == std::string("shape") ? "" : " (top and bottom cut)")
+          << ": " << pref << " (chi2/dof gaussian "
           << double_attribute(file, h + "/gaussian", "reduced_chi2") << ", exponential "
           << double_attribute(file, h + "/exponential", "reduced_chi2") << ")\n";
     }
   }
   // The fits across scan points, where the scan has the points for them.
-  auto power_text = [&](const std::string& object) {
-    if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
-    const auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
-    std::ostringstream o;
-    o << std::setprecision(3) << "A = " << std::exp(c[0]) << ", p = " << c[1] << " +- " << e[1]
-      << "  [chi2/dof " << double_attribute(file, object, "reduced_chi2") << "]";
-    return o.str();
-  };
   const std::string log_h = fit_text("analysis/increase_vs_log_height", "ln H");
   const std::string nu_i = power_text("analysis/increase_vs_nu_initial");
   const std::string c_h = power_text("analysis/quadratic_vs_height");

@@ -42,6 +42,12 @@ printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = [16, 2
 # Three heights of protocol C: the summary ends with the fit of dnu/nu_i against ln H.
 "$exe" summary "$dir/an.h5" | grep -A1 "^# fits across points" | grep -q "dnu/nu_i = (.*) ln H" ||
   fail "summary prints no fit across points"
+# Per point: the identity b' = b/(1+b) and a' = a/(1+b), and the deposition density's power law.
+"$exe" summary "$dir/an.h5" > "$dir/an_summary.txt"
+grep -q "b' = .*from b/(1+b): .*; a' = .*from a/(1+b): " "$dir/an_summary.txt" ||
+  fail "summary prints no coefficient identity: $(cat "$dir/an_summary.txt")"
+grep -q "deposition density nu_d = A y_i^p: A = .* +- .*, p = .* +- " "$dir/an_summary.txt" ||
+  fail "summary prints no deposition power law: $(cat "$dir/an_summary.txt")"
 # claims.py judges that fit too, and exits 1 exactly when it prints a FAIL.
 set +e
 /usr/bin/python3 "$repo/tools/claims.py" "$dir/an.h5" > "$dir/claims.txt"
