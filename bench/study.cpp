@@ -452,7 +452,7 @@ int main(int argc, char** argv) {
         std::vector<double> sides =
             tiny ? std::vector<double>{6.0, 8.0}
                  : (base.protocol == "A" ? std::vector<double>{16.0, 23.0, 32.0, 46.0}
-                                         : std::vector<double>{12.0, 24.0, 48.0, 120.0});
+                                         : std::vector<double>{12.0, 24.0, 48.0, 144.0});
         if (!sides_given.empty()) sides.assign(sides_given.begin(), sides_given.end());
         size(base, sides, budget_s);
       }
