@@ -12,15 +12,14 @@
 #include <utility>
 #include <vector>
 
+#include "loosepack_git_commit.hpp"
+
 #ifndef LOOSEPACK_COMPILER
 #define LOOSEPACK_COMPILER "unknown"
 #endif
 // All compile flags of the build (LOOSEPACK_CXX_FLAGS, set in the top CMakeLists.txt).
 #ifndef LOOSEPACK_CXX_FLAGS
 #define LOOSEPACK_CXX_FLAGS "unknown"
-#endif
-#ifndef LOOSEPACK_GIT_COMMIT
-#define LOOSEPACK_GIT_COMMIT "unknown"
 #endif
 
 namespace loosepack::bench {

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <type_traits>
 
+#include "loosepack_git_commit.hpp"
 #include "replace_file.hpp"
 
 namespace loosepack {

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "loosepack_git_commit.hpp"
 #include "replace_file.hpp"
 
 namespace loosepack {
