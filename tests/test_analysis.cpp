@@ -10,6 +10,42 @@
 
 using namespace loosepack;
 
+namespace {
+
+// A synthetic ensemble with known answers: for every member of the scan, count(m) disks of radius
+// 1 at uniform random x across the box (overlaps do not matter to the analysis), each deposited
+// at y_i and ending at y_e, (y_i, y_e) = disk(m, rng).
+template <class Count, class Disk>
+std::vector<MemberResult> synthetic_ensemble(const Scan& scan, std::uint64_t seed, Count count,
+                                             Disk disk) {
+  std::vector<MemberResult> results;
+  std::mt19937_64 rng(seed);
+  for (const auto& m : members_of(scan)) {
+    MemberResult r;
+    r.member = m;
+    std::uniform_real_distribution<double> ux(0.0, m.params.width);
+    const int n = count(m);
+    for (int k = 0; k < n; ++k) {
+      const auto [yi, ye] = disk(m, rng);
+      r.x.push_back(ux(rng));
+      r.y_i.push_back(yi);
+      r.y_e.push_back(ye);
+      r.radius.push_back(1.0);
+    }
+    results.push_back(std::move(r));
+  }
+  return results;
+}
+
+// The slice model's final height: y_i = y_e - Delta y(y_e) = (1 + alpha) y_e - (alpha/H) y_e^2,
+// solved for y_e in [0, H].
+double slice_model_final_height(double yi, double alpha, double H) {
+  const double c = alpha / H;
+  return ((1.0 + alpha) - std::sqrt((1.0 + alpha) * (1.0 + alpha) - 4.0 * c * yi)) / (2.0 * c);
+}
+
+}  // namespace
+
 // Noise-free data: the fit returns the generating coefficients.
 TEST(Analysis, PolynomialFitRecoversAParabola) {
   std::vector<double> x, y;
@@ -139,23 +175,14 @@ lower_half_from = 8.0
                                "synthetic.toml");
   const double a_prime = 1.9, b_prime = 0.39;
   const double b = b_prime / (1.0 - b_prime), a = a_prime / (1.0 - b_prime);
-  std::vector<MemberResult> results;
-  std::mt19937_64 rng(7);
-  for (const auto& m : members_of(scan)) {
-    MemberResult r;
-    r.member = m;
-    // Uniform random centres at volume fraction 0.35 (overlaps do not matter to the analysis).
-    const int n = static_cast<int>(0.35 * 200.0 * 118.0 / M_PI);
-    std::uniform_real_distribution<double> ux(0.0, 200.0), uy(1.0, 119.0);
-    for (int k = 0; k < n; ++k) {
-      const double yi = uy(rng);
-      r.x.push_back(ux(rng));
-      r.y_i.push_back(yi);
-      r.y_e.push_back(yi + a_prime - b_prime * yi);
-      r.radius.push_back(1.0);
-    }
-    results.push_back(std::move(r));
-  }
+  // Uniform random centres at volume fraction 0.35.
+  std::uniform_real_distribution<double> uy(1.0, 119.0);
+  const auto results = synthetic_ensemble(
+      scan, 7, [](const Member&) { return static_cast<int>(0.35 * 200.0 * 118.0 / M_PI); },
+      [&](const Member&, std::mt19937_64& rng) {
+        const double yi = uy(rng);
+        return std::pair(yi, yi + a_prime - b_prime * yi);
+      });
   const auto points = aggregate(scan, results);
   const Analysis an = analyse(scan, points);
   const PointAnalysis& p = an.points.at(0);
@@ -207,29 +234,18 @@ lower_half_from = 8.0
 )",
                                "synthetic.toml");
   const double alpha = 0.2, p = -0.15, q = p + 1.0, nu_mean = 0.4;
-  std::vector<MemberResult> results;
-  std::mt19937_64 rng(11);
-  for (const auto& m : members_of(scan)) {
-    const double W = m.params.width, H = m.params.height, lo = 1.0, hi = H - 1.0;
-    MemberResult r;
-    r.member = m;
-    const int n = static_cast<int>(nu_mean * W * (hi - lo) / M_PI);
-    std::uniform_real_distribution<double> ux(0.0, W), u(0.0, 1.0);
-    for (int k = 0; k < n; ++k) {
-      // Inverse of the cumulative distribution of y^p on [lo, hi].
-      const double yi = std::pow(std::pow(lo, q) + u(rng) * (std::pow(hi, q) - std::pow(lo, q)),
-                                 1.0 / q);
-      // y_i = y_e - Delta y(y_e) = (1 + alpha) y_e - (alpha/H) y_e^2, solved for y_e in [0, H].
-      const double c = alpha / H;
-      const double ye =
-          ((1.0 + alpha) - std::sqrt((1.0 + alpha) * (1.0 + alpha) - 4.0 * c * yi)) / (2.0 * c);
-      r.x.push_back(ux(rng));
-      r.y_i.push_back(yi);
-      r.y_e.push_back(ye);
-      r.radius.push_back(1.0);
-    }
-    results.push_back(std::move(r));
-  }
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const auto results = synthetic_ensemble(
+      scan, 11,
+      [&](const Member& m) {
+        return static_cast<int>(nu_mean * m.params.width * (m.params.height - 2.0) / M_PI);
+      },
+      [&](const Member& m, std::mt19937_64& rng) {
+        // Inverse of the cumulative distribution of y^p on [1, H - 1].
+        const double H = m.params.height, lo = std::pow(1.0, q), hi = std::pow(H - 1.0, q);
+        const double yi = std::pow(lo + u(rng) * (hi - lo), 1.0 / q);
+        return std::pair(yi, slice_model_final_height(yi, alpha, H));
+      });
   const auto points = aggregate(scan, results);
   const Analysis an = analyse(scan, points);
   ASSERT_EQ(an.points.size(), 3u);
@@ -288,25 +304,16 @@ lower_half_from = 8.0
 )",
                                "synthetic.toml");
   const double nu_i[3] = {0.40, 0.33, 0.27}, K = 0.1, s = -1.64;
-  std::vector<MemberResult> results;
-  std::mt19937_64 rng(13);
-  for (const auto& m : members_of(scan)) {
-    const double ni = nu_i[m.point];
-    const double b = K * std::pow(ni / 0.33, s);
-    const double b_prime = b / (1.0 + b);  // y_e = (1 - b') y_i compresses by 1 + b
-    MemberResult r;
-    r.member = m;
-    const int n = static_cast<int>(ni * 200.0 * 118.0 / M_PI);
-    std::uniform_real_distribution<double> ux(0.0, 200.0), uy(1.0, 119.0);
-    for (int k = 0; k < n; ++k) {
-      const double yi = uy(rng);
-      r.x.push_back(ux(rng));
-      r.y_i.push_back(yi);
-      r.y_e.push_back((1.0 - b_prime) * yi);
-      r.radius.push_back(1.0);
-    }
-    results.push_back(std::move(r));
-  }
+  std::uniform_real_distribution<double> uy(1.0, 119.0);
+  const auto results = synthetic_ensemble(
+      scan, 13,
+      [&](const Member& m) { return static_cast<int>(nu_i[m.point] * 200.0 * 118.0 / M_PI); },
+      [&](const Member& m, std::mt19937_64& rng) {
+        const double b = K * std::pow(nu_i[m.point] / 0.33, s);
+        const double b_prime = b / (1.0 + b);  // y_e = (1 - b') y_i compresses by 1 + b
+        const double yi = uy(rng);
+        return std::pair(yi, (1.0 - b_prime) * yi);
+      });
   const auto points = aggregate(scan, results);
   const Analysis an = analyse(scan, points);
   const Fit& f = an.scan.increase_vs_nu_initial;
@@ -334,26 +341,16 @@ cut_top = 8.0
 )",
                                "synthetic.toml");
   const double alpha = 0.1, H = 120.0, crust = 6.0;
-  std::vector<MemberResult> results;
-  std::mt19937_64 rng(17);
   std::normal_distribution<double> noise(0.0, 0.5), creep(0.0, 1e-4);
-  for (const auto& m : members_of(scan)) {
-    MemberResult r;
-    r.member = m;
-    std::uniform_real_distribution<double> ux(0.0, 100.0), uy(1.0, H - 1.0);
-    for (int k = 0; k < 1500; ++k) {
-      const double yi = uy(rng);
-      const double c = alpha / H;
-      double ye = ((1.0 + alpha) - std::sqrt((1.0 + alpha) * (1.0 + alpha) - 4.0 * c * yi)) /
-                  (2.0 * c);
-      ye = yi > H - crust ? yi + creep(rng) : ye + noise(rng);
-      r.x.push_back(ux(rng));
-      r.y_i.push_back(yi);
-      r.y_e.push_back(ye);
-      r.radius.push_back(1.0);
-    }
-    results.push_back(std::move(r));
-  }
+  std::uniform_real_distribution<double> uy(1.0, H - 1.0);
+  const auto results = synthetic_ensemble(
+      scan, 17, [](const Member&) { return 1500; },
+      [&](const Member&, std::mt19937_64& rng) {
+        const double yi = uy(rng);
+        const double ye = yi > H - crust ? yi + creep(rng)
+                                         : slice_model_final_height(yi, alpha, H) + noise(rng);
+        return std::pair(yi, ye);
+      });
   const auto points = aggregate(scan, results);
   const PointAnalysis a = analyse(scan, points).points.at(0);
   ASSERT_TRUE(a.slice_parabola.valid());
