@@ -46,6 +46,7 @@ struct Integrate {
     }
     const double speed = kmath::max(kmath::sqrt(v2), kmath::fabs(rw));
     Kokkos::atomic_fetch_max(&sys.max_speed(s), speed);
+    Kokkos::atomic_fetch_max(&sys.max_centre_speed(s), kmath::sqrt(v2));
   }
 };
 

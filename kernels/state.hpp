@@ -73,6 +73,7 @@ struct SystemViews {
   DView<int> failure;          // SystemFailure
   DView<double> sweep_change;  // max impulse change of the last sweep [h m g]
   DView<double> max_speed;     // max(|v|, R|w|) after the last step
+  DView<double> max_centre_speed;  // max |v| after the last step (RestSettings::spin false)
   DView<double> margin;        // contact detection margin of the current step
   DView<double> max_margin;    // its bound, which the grid cell leaves room for
   DView<double> gradient2;     // accelerated Gauss-Seidel: squared norm of the last iteration's change

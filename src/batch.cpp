@@ -78,7 +78,7 @@ struct Batch::Impl {
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
     DView<int>::HostMirror failure, unconverged, sweeps, count;
-    DView<double>::HostMirror max_speed;
+    DView<double>::HostMirror max_speed, max_centre_speed;
   } host;
   DView<int> request;       // [S] per-system requests of deposit and close_events
   DView<double> request_x;  // [S] given abscissae of deposit_at
@@ -227,6 +227,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.failure = alloc<int>("failure", S);
   sys.sweep_change = alloc<double>("sweep_change", S);
   sys.max_speed = alloc<double>("max_speed", S);
+  sys.max_centre_speed = alloc<double>("max_centre_speed", S);
   sys.margin = alloc<double>("margin", S);
   sys.max_margin = alloc<double>("max_margin", S);
   sys.gradient2 = alloc<double>("gradient2", S);
@@ -242,6 +243,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
   host.count = Kokkos::create_mirror_view(sys.count);
   host.max_speed = Kokkos::create_mirror_view(sys.max_speed);
+  host.max_centre_speed = Kokkos::create_mirror_view(sys.max_centre_speed);
   request = alloc<int>("request", S);
   request_x = alloc<double>("request_x", S);
   reply = alloc<double>("reply", 4 * S);
@@ -746,6 +748,7 @@ void Batch::Impl::step() {
         sys_.unconverged(s) = sys_.active(s) ? kIterating : 0;
         sys_.sweep_change(s) = 0.0;
         sys_.max_speed(s) = sys_.active(s) ? 0.0 : sys_.max_speed(s);
+        sys_.max_centre_speed(s) = sys_.active(s) ? 0.0 : sys_.max_centre_speed(s);
       });
   // Stage 2: neighbour grid (inactive systems get no cells: all later kernels skip them).
   build_grid(sys, part, grid, n_particles, n_cells);
@@ -803,6 +806,7 @@ void Batch::Impl::step() {
   auto& h_count = host.count;
   Kokkos::deep_copy(h_fail, sys.failure);
   Kokkos::deep_copy(h_speed, sys.max_speed);
+  Kokkos::deep_copy(host.max_centre_speed, sys.max_centre_speed);
   Kokkos::deep_copy(h_unconv, sys.unconverged);
   Kokkos::deep_copy(h_sweeps, sweeps_this_step);
   Kokkos::deep_copy(h_count, sys.count);
@@ -818,6 +822,7 @@ void Batch::Impl::step() {
     st.sweeps += h_sweeps(s);
     st.converged = h_unconv(s) == 0;
     st.max_speed = h_speed(s);
+    st.max_centre_speed = host.max_centre_speed(s);
     st.count = h_count(s);
     st.failure = static_cast<Failure>(h_fail(s));
     if (st.failure != Failure::None) {
@@ -825,7 +830,8 @@ void Batch::Impl::step() {
       deactivate = true;
       continue;
     }
-    const bool quiet = (st.converged || !rest.converged) && st.max_speed < rest.speed;
+    const double speed = rest.spin ? st.max_speed : st.max_centre_speed;
+    const bool quiet = (st.converged || !rest.converged) && speed < rest.speed;
     st.rest_steps = quiet ? st.rest_steps + 1 : 0;
     st.at_rest = st.rest_steps >= rest.steps;
   }

@@ -409,3 +409,34 @@ TEST(Rest, SpeedsAloneWhenConvergenceIsNotRequired) {
   }
   EXPECT_GT(capped_quiet, 0) << "no capped step below the rest speed: the test shows nothing";
 }
+
+// rest.spin = false (the standard scenes' rest criterion: disk centre speeds alone): a disk
+// spinning in place on a frictionless floor keeps its angular velocity for ever (no tangential
+// impulse, no rolling resistance) while its centre stays at rest. With spin it never comes to
+// rest; without, it does after rest.steps steps, and the status reports both speeds.
+TEST(Rest, CentreSpeedsAloneWhenSpinIsLeftOut) {
+  auto p = bare_params(20.0, 10.0);
+  p.friction = 0.0;
+  p.rolling_friction = 0.0;
+  Disk d;
+  d.x = 10.0;
+  d.y = 1.0;
+  d.w = 0.05;  // R |w| = 0.05, fifty times the rest speed
+  RestSettings with_spin, centres;
+  centres.spin = false;
+  Batch a({setup(p, {d})}, SolverSettings{}, with_spin);
+  Batch b({setup(p, {d})}, SolverSettings{}, centres);
+  a.set_active(0, true);
+  b.set_active(0, true);
+  for (int step = 0; step < 3 * centres.steps; ++step) {
+    a.step();
+    b.step();
+  }
+  const SystemStatus &sa = a.status(0), &sb = b.status(0);
+  EXPECT_NEAR(sa.max_speed, 0.05, 1e-9);           // the spin, unchanged
+  EXPECT_LT(sa.max_centre_speed, with_spin.speed);  // the centre at rest on the floor
+  EXPECT_FALSE(sa.at_rest);
+  EXPECT_EQ(sa.rest_steps, 0);
+  EXPECT_TRUE(sb.at_rest);
+  EXPECT_EQ(sb.rest_steps, 3 * centres.steps);
+}

@@ -65,7 +65,8 @@ struct SystemStatus {
   int last_sweeps = 0;    // sweeps of the last step
   long newton_steps = 0;  // Newton steps of the accelerated solver (src/newton.hpp), all steps
   bool converged = true;  // the last step's solve reached the tolerance
-  double max_speed = 0.0;
+  double max_speed = 0.0;         // max(|v|, R|w|) after the last step
+  double max_centre_speed = 0.0;  // max |v|
   int rest_steps = 0;  // consecutive steps below the rest speed with the solver converged
   bool at_rest = false;
 };

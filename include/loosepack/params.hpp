@@ -99,6 +99,9 @@ struct RestSettings {
   // false: speeds alone decide, as other engines' rest tests do (bench_scenes --rest speed); a
   // solve stopped by a sweep cap then still lets a system come to rest.
   bool converged = true;
+  // false: the centre speeds |v| alone, not R|w| (the standard scenes' rest criterion,
+  // shared/design/BENCH-SCENES.md; bench_scenes --rest speed).
+  bool spin = true;
 };
 
 }  // namespace loosepack
