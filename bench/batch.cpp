@@ -51,22 +51,13 @@ struct Workload {
       << "[observables]\nlower_half_from = " << std::min(4.0, height / 4.0) << "\n";
     return o.str();
   }
-  // The sweep cap the scan gives these members (the protocol's default for the box).
-  int max_sweeps() const {
-    Protocol p = Protocol::A;
-    protocol_from_name(protocol, p);
-    SystemParams s;
-    s.width = width;
-    s.height = height;
-    return default_max_sweeps(p, s);
-  }
   std::string json() const {
     return "\"workload\": {\"protocol\": " + bench::json_string(protocol) +
            ", \"width\": " + bench::json_number(width) +
            ", \"height\": " + bench::json_number(height) +
            ", \"bond_number\": " + bench::json_number(bond_number) +
            ", \"solver\": \"accelerated_gauss_seidel\", \"tolerance\": 1e-3, \"max_sweeps\": " +
-           std::to_string(max_sweeps()) + "}";
+           std::to_string(bench::default_cap(protocol, width, height)) + "}";
   }
 };
 

@@ -90,13 +90,7 @@ struct Setup {
   }
   // The sweep cap the ensemble runs with.
   int cap() const {
-    if (max_sweeps > 0) return max_sweeps;
-    SystemParams p;
-    p.width = width;
-    p.height = height;
-    Protocol pr = Protocol::A;
-    protocol_from_name(protocol, pr);  // the study's own names, always valid
-    return default_max_sweeps(pr, p);
+    return max_sweeps > 0 ? max_sweeps : bench::default_cap(protocol, width, height);
   }
 
   std::string toml() const {

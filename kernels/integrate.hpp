@@ -44,9 +44,9 @@ struct Integrate {
       Kokkos::atomic_exchange(&sys.failure(s), int(kNonFinite));
       return;
     }
-    const double speed = kmath::max(kmath::sqrt(v2), kmath::fabs(rw));
-    Kokkos::atomic_fetch_max(&sys.max_speed(s), speed);
-    Kokkos::atomic_fetch_max(&sys.max_centre_speed(s), kmath::sqrt(v2));
+    const double v = kmath::sqrt(v2);
+    Kokkos::atomic_fetch_max(&sys.max_speed(s), kmath::max(v, kmath::fabs(rw)));
+    Kokkos::atomic_fetch_max(&sys.max_centre_speed(s), v);
   }
 };
 

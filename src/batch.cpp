@@ -830,8 +830,7 @@ void Batch::Impl::step() {
       deactivate = true;
       continue;
     }
-    const double speed = rest.spin ? st.max_speed : st.max_centre_speed;
-    const bool quiet = (st.converged || !rest.converged) && speed < rest.speed;
+    const bool quiet = (st.converged || !rest.converged) && st.rest_speed(rest.spin) < rest.speed;
     st.rest_steps = quiet ? st.rest_steps + 1 : 0;
     st.at_rest = st.rest_steps >= rest.steps;
   }

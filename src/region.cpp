@@ -251,7 +251,8 @@ Regions::State Regions::poll(Batch& whole, int s) {
     I.end(s);  // nothing written back: the whole system relaxes from where it was
     return State::Overflow;
   }
-  if (!st.at_rest && !(st.max_speed > I.rest.speed)) return State::Running;  // nothing to grow
+  if (!st.at_rest && !(st.rest_speed(I.rest.spin) > I.rest.speed))
+    return State::Running;  // nothing to grow
   const std::vector<Disk> region = I.batch->disks(s);
   if (st.at_rest) {
     I.write_back(whole, s, region);
@@ -262,7 +263,7 @@ Regions::State Regions::poll(Batch& whole, int s) {
   bool grow = false;
   std::vector<Point> seeds = sl.seeds;
   for (std::size_t k = 0; k < region.size(); ++k) {
-    if (!sl.moving[k] || !(speed(region[k]) > I.rest.speed)) continue;
+    if (!sl.moving[k] || !(speed(region[k], I.rest.spin) > I.rest.speed)) continue;
     const Point p{region[k].x, region[k].y + sl.y0};
     seeds.push_back(p);
     if (sl.grid.distance(p.x, p.y) > sl.radius - kMargin * sl.radius) grow = true;

@@ -22,8 +22,12 @@ struct Disk {
   double y_deposit = 0.0;      // y_i: height at which the disk was deposited
 };
 
-// The speed the rest criterion compares with rest.speed: max(|v|, R |w|).
-inline double speed(const Disk& d) { return std::max(std::hypot(d.vx, d.vy), std::abs(d.radius * d.w)); }
+// The speed the rest criterion compares with rest.speed: max(|v|, R |w|), or |v| alone without
+// spin (RestSettings::spin).
+inline double speed(const Disk& d, bool spin = true) {
+  const double v = std::hypot(d.vx, d.vy);
+  return spin ? std::max(v, std::abs(d.radius * d.w)) : v;
+}
 
 struct SystemSetup {
   SystemParams params;
@@ -67,6 +71,8 @@ struct SystemStatus {
   bool converged = true;  // the last step's solve reached the tolerance
   double max_speed = 0.0;         // max(|v|, R|w|) after the last step
   double max_centre_speed = 0.0;  // max |v|
+  // The largest speed the rest criterion compares with rest.speed (RestSettings::spin).
+  double rest_speed(bool spin) const { return spin ? max_speed : max_centre_speed; }
   int rest_steps = 0;  // consecutive steps below the rest speed with the solver converged
   bool at_rest = false;
 };
