@@ -3,11 +3,13 @@
 // prints one JSON record per scene and N, to set beside other engines' records.
 //
 //   bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] [--solver KIND]
-//                [--tolerance T] [--max-sweeps N] [--newton K] [--rest converged|speed]
-//                [--regions R [--region-check K]]
+//                [--tolerance T] [--max-sweeps N] [--newton K] [--overlap-correction B]
+//                [--rest converged|speed] [--regions R [--region-check K]]
 // The defaults are the program's (scan defaults, our stricter rest test); --rest speed is the
 // scene's own rest test (disk centre speeds only), which a solve capped by --max-sweeps needs to
 // end at all. --newton K: solver.newton_every (0: NNCG alone, docs/MODEL.md, "Solvers").
+// --overlap-correction B: solver.overlap_correction (a fraction B of each overlap removed per
+// step by moving positions, velocities untouched; docs/MODEL.md).
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
@@ -118,6 +120,7 @@ bool default_settings() {
   const SolverSettings s;
   return g_solver.kind == s.kind && g_solver.tolerance == s.tolerance &&
          g_solver.max_sweeps == s.max_sweeps && g_solver.newton_every == s.newton_every &&
+         g_solver.overlap_correction == s.overlap_correction &&
          g_rest.converged && g_region_radius == 0.0;
 }
 
@@ -129,7 +132,7 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
       "\"phi_initial\": %s, \"phi_aux\": %s, \"h_top\": %s, \"h_mean\": %s, \"sim_time\": %s, "
       "\"max_overlap\": %s, \"n_capped\": %d, \"vmax_peak\": %s, \"setting\": \"%s\", "
       "\"params\": {\"dt\": %s, \"solver\": \"%s\", \"tolerance\": %g, \"max_sweeps\": %d, "
-      "\"newton_every\": %d, "
+      "\"newton_every\": %d, \"overlap_correction\": %s, "
       "\"rest\": \"%s\", \"region_radius\": %s, \"region_check_every\": %d}, "
       "\"notes\": \"contact dynamics, Kokkos %s; %s%s\", %s}\n",
       scene, n, num(wall).c_str(), steps, num(1000.0 * wall / n).c_str(), num(m.phi_final).c_str(),
@@ -137,7 +140,7 @@ void record(const char* scene, int n, double wall, long steps, const Measure& m,
       num(sim_time).c_str(), num(m.max_overlap).c_str(), capped, num(vmax).c_str(),
       default_settings() && dt == 0.01 ? "default" : "custom", num(dt).c_str(),
       solver_kind_name(g_solver.kind), g_solver.tolerance, g_solver.max_sweeps,
-      g_solver.newton_every,
+      g_solver.newton_every, num(g_solver.overlap_correction).c_str(),
       g_rest.converged ? "converged" : "speed", num(g_region_radius).c_str(), g_region_check,
       Kokkos::DefaultExecutionSpace::name(),
       g_rest.converged ? "rest also needs R|w| < 1e-3 and a converged solve"
@@ -288,7 +291,8 @@ int main(int argc, char** argv) {
                  "usage: bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] "
                  "[--solver jacobi|gauss_seidel|sequential_gauss_seidel|"
                  "accelerated_gauss_seidel|coloured_accelerated_gauss_seidel] [--tolerance T] "
-                 "[--max-sweeps N] [--newton K] [--rest converged|speed] "
+                 "[--max-sweeps N] [--newton K] [--overlap-correction B] "
+                 "[--rest converged|speed] "
                  "[--regions R [--region-check K]]\n");
     return 2;
   };
@@ -309,6 +313,9 @@ int main(int argc, char** argv) {
       g_solver.max_sweeps = std::atoi(argv[k + 1]);
     else if (!std::strcmp(argv[k], "--newton") && std::atoi(argv[k + 1]) >= 0)
       g_solver.newton_every = std::atoi(argv[k + 1]);
+    else if (!std::strcmp(argv[k], "--overlap-correction") && std::atof(argv[k + 1]) >= 0.0 &&
+             std::atof(argv[k + 1]) <= 1.0)
+      g_solver.overlap_correction = std::atof(argv[k + 1]);
     else if (!std::strcmp(argv[k], "--regions") && std::atof(argv[k + 1]) > 0.0)
       g_region_radius = std::atof(argv[k + 1]);
     else if (!std::strcmp(argv[k], "--region-check") && std::atoi(argv[k + 1]) > 0)

@@ -5,6 +5,13 @@
 
 namespace loosepack {
 
+// x wrapped into [0, L_x) after a move of less than one period.
+KOKKOS_INLINE_FUNCTION double wrap_periodic(double x, double width) {
+  if (x >= width) x -= width;
+  if (x < 0.0) x += width;
+  return x >= width ? 0.0 : x;  // -tiny + width rounds to width
+}
+
 struct FreeVelocity {
   SystemViews sys;
   ParticleViews part;
@@ -28,11 +35,7 @@ struct Integrate {
     const int s = part.system(p);
     if (sys.failure(s) == kContactOverflow || sys.failure(s) == kParticleOverflow) return;
     const double h = sys.time_step(s);
-    const double width = sys.width(s);
-    double x = part.x(p) + h * part.vx(p);
-    if (x >= width) x -= width;
-    if (x < 0.0) x += width;
-    if (x >= width) x = 0.0;  // -tiny + width rounds to width
+    const double x = wrap_periodic(part.x(p) + h * part.vx(p), sys.width(s));
     const double y = part.y(p) + h * part.vy(p);
     part.x(p) = x;
     part.y(p) = y;
@@ -47,6 +50,50 @@ struct Integrate {
     const double v = kmath::sqrt(v2);
     Kokkos::atomic_fetch_max(&sys.max_speed(s), kmath::max(v, kmath::fabs(rw)));
     Kokkos::atomic_fetch_max(&sys.max_centre_speed(s), v);
+  }
+};
+
+// Overlap correction (SolverSettings::overlap_correction, beta > 0): after the positions, each
+// contact of a system whose disks now overlap by delta is pushed apart along the line of centres
+// by beta delta (at most 0.2 R), split by the inverse masses, in one Gauss-Seidel pass over the
+// system's contacts. Positions only: velocities are left as they are, so no kinetic energy is
+// injected (shared/design/MODEL.md: resolve overlaps without adding kinetic energy), and an
+// overlap that a capped solve leaves decays by (1 - beta) per step instead of being held.
+struct OverlapCorrection {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  double beta;
+  KOKKOS_INLINE_FUNCTION void operator()(int s) const {
+    if (!sys.active(s) || sys.failure(s) != kOk) return;
+    const double width = sys.width(s);
+    const int first = sys.offset(s) * kSlots, end = (sys.offset(s) + sys.count(s)) * kSlots;
+    for (int c = first; c < end; ++c) {
+      const int q = con.partner(c);
+      if (q == kNoContact) continue;
+      const int p = c / kSlots;
+      const double wp = part.inv_mass(p);
+      if (q == kFloor) {
+        const double delta = part.radius(p) - part.y(p);
+        if (delta > 0.0 && wp > 0.0) part.y(p) += push(delta, part.radius(p));
+        continue;
+      }
+      const double wq = part.inv_mass(q);
+      if (!(wp + wq > 0.0)) continue;
+      const double dx = periodic_delta(part.x(q) - part.x(p), width);
+      const double dy = part.y(q) - part.y(p);
+      const double d = kmath::sqrt(dx * dx + dy * dy);
+      const double delta = part.radius(p) + part.radius(q) - d;
+      if (!(delta > 0.0) || !(d > 0.0)) continue;
+      const double move = push(delta, kmath::min(part.radius(p), part.radius(q))) / (d * (wp + wq));
+      part.x(p) = wrap_periodic(part.x(p) - wp * move * dx, width);
+      part.y(p) -= wp * move * dy;
+      part.x(q) = wrap_periodic(part.x(q) + wq * move * dx, width);
+      part.y(q) += wq * move * dy;
+    }
+  }
+  KOKKOS_INLINE_FUNCTION double push(double delta, double r) const {
+    return kmath::min(beta * delta, 0.2 * r);
   }
 };
 

@@ -264,6 +264,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       attribute(g, "solver_relaxation", scan.solver.relaxation);
       attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
       attribute(g, "solver_newton_every", static_cast<double>(scan.solver.newton_every));
+      attribute(g, "solver_overlap_correction", scan.solver.overlap_correction);
       attribute(g, "rest_speed", scan.rest.speed);
       attribute(g, "rest_steps", static_cast<double>(scan.rest.steps));
       attribute(g, "rest_converged", scan.rest.converged ? 1.0 : 0.0);

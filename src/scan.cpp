@@ -459,10 +459,12 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.solver.mass_splitting = as_bool(file, v, key);
         } else if (k == "newton_every") {
           scan.solver.newton_every = positive_int(v, key, 0, 100000000);
+        } else if (k == "overlap_correction") {
+          scan.solver.overlap_correction = real(v, key, 0.0, 1.0);
         } else {
           fail(file, v, key,
                "unknown key (allowed: kind, tolerance, max_sweeps, relaxation, mass_splitting, "
-               "newton_every)");
+               "newton_every, overlap_correction)");
         }
       });
     } else if (section == "rest") {

@@ -361,3 +361,80 @@ TEST(Validation, PyramidAcrossThePeriodicBoundary) {
     EXPECT_LT(a.x, p.width);
   }
 }
+
+// solver.overlap_correction = beta: after each step's positions, an overlap delta is reduced by
+// beta delta (at most 0.2 R) by moving positions alone. A disk pressed into the floor by gravity
+// stays at rest (the solve cancels gravity exactly: target u_n = 0 for an overlap), so its overlap
+// is delta0 (1 - beta)^n after n steps, and no speed appears: no kinetic energy is injected, as
+// a target u_n = -gap/h would (a speed delta0/h = 2). Without the correction the overlap is held.
+TEST(OverlapCorrection, FloorOverlapDecaysWithoutMotion) {
+  auto p = bare_params(20.0, 10.0);
+  Disk d;
+  d.x = 10.0;
+  const double delta0 = 0.02;
+  d.y = 1.0 - delta0;
+  for (const double beta : {0.0, 0.5}) {
+    SCOPED_TRACE(beta);
+    auto s = tight();
+    s.overlap_correction = beta;
+    Batch b({setup(p, {d})}, s);
+    b.set_active(0, true);
+    for (int n = 1; n <= 6; ++n) {
+      b.step();
+      const Disk e = b.disks(0)[0];
+      EXPECT_NEAR(1.0 - e.y, delta0 * std::pow(1.0 - beta, n), 1e-9) << "step " << n;
+      EXPECT_LT(speed(e), 1e-9) << "step " << n;
+      EXPECT_NEAR(e.x, d.x, 1e-12);
+    }
+  }
+}
+
+// Two disks overlapping by delta across the periodic boundary, no gravity, no velocities (a zero
+// solve): the correction moves them apart along the line of centres by beta delta in all, split
+// by the inverse masses (a fixed disk does not move), and wraps x into [0, L_x). A large overlap
+// is corrected by at most 0.2 R per step.
+TEST(OverlapCorrection, PairMovesApartByInverseMassAcrossThePeriodicBoundary) {
+  auto p = bare_params(20.0, 10.0);
+  p.gravity_on = false;
+  Disk a, b;
+  a.x = 0.5;
+  b.x = 18.8;  // minimum image at -1.2, left of a: centres 1.7 apart, overlap 0.3
+  a.y = b.y = 5.0;
+  struct Case {
+    bool a_fixed;
+    double beta, move_a, move_b;  // signed moves in x (a to the right, b to the left)
+  };
+  for (const Case& c : {Case{false, 0.4, 0.06, -0.06}, Case{true, 0.4, 0.0, -0.12},
+                        Case{false, 1.0, 0.1, -0.1}}) {
+    SCOPED_TRACE(c.beta);
+    a.fixed = c.a_fixed;
+    auto s = tight();
+    s.overlap_correction = c.beta;
+    Batch batch({setup(p, {a, b})}, s);
+    batch.set_active(0, true);
+    batch.step();
+    const auto d = batch.disks(0);
+    EXPECT_NEAR(d[0].x, a.x + c.move_a, 1e-12);
+    EXPECT_NEAR(d[1].x, b.x + c.move_b, 1e-12);
+    EXPECT_NEAR(d[0].y, 5.0, 1e-12);
+    EXPECT_NEAR(d[1].y, 5.0, 1e-12);
+    EXPECT_LT(speed(d[0]) + speed(d[1]), 1e-12);
+  }
+  // A mobile disk pushed across x = 0 by a fixed one: b at 0.3 (1.8 from a at 2.1, overlap 0.2)
+  // moves by 0.2 to x = 0.1; b at 0.1 (1.8 from a at 1.9) moves to -0.1, wrapped to L_x - 0.1.
+  a.fixed = true;
+  a.x = 2.1;
+  b.x = 0.3;
+  auto s = tight();
+  s.overlap_correction = 1.0;
+  Batch wrap({setup(p, {a, b})}, s);
+  wrap.set_active(0, true);
+  wrap.step();
+  EXPECT_NEAR(wrap.disks(0)[1].x, 0.1, 1e-12);
+  a.x = 1.9;
+  b.x = 0.1;
+  Batch across({setup(p, {a, b})}, s);
+  across.set_active(0, true);
+  across.step();
+  EXPECT_NEAR(across.disks(0)[1].x, 19.9, 1e-12);
+}

@@ -89,6 +89,12 @@ TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {
   EXPECT_EQ(parse_scan("[solver]\nnewton_every = 0\n", "off.toml").solver.newton_every, 0);
 }
 
+TEST(Scan, OverlapCorrectionIsOffUnlessSet) {
+  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").solver.overlap_correction, 0.0);
+  EXPECT_EQ(parse_scan("[solver]\noverlap_correction = 0.2\n", "on.toml").solver.overlap_correction,
+            0.2);
+}
+
 TEST(Scan, RestNeedsAConvergedSolveUnlessSet) {
   EXPECT_TRUE(parse_scan("[scan]\n", "plain.toml").rest.converged);
   EXPECT_FALSE(parse_scan("[rest]\nconverged = false\n", "speeds.toml").rest.converged);
@@ -110,6 +116,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[solver]\ntolerance = 2.0\n", "key 'solver.tolerance': value 2 outside the allowed range"},
       {"[solver]\nnewton_every = -1\n",
        "bad.toml:2:16: key 'solver.newton_every': expected an integer in [0,"},
+      {"[solver]\noverlap_correction = 1.5\n",
+       "bad.toml:2:22: key 'solver.overlap_correction': value 1.5 outside the allowed range [0, 1]"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",

@@ -90,6 +90,9 @@ struct SolverSettings {
   // accelerated_gauss_seidel: a nonsmooth Newton step (src/newton.hpp) after every this many
   // unconverged iterations (pairs of sweeps) of a step, on the host; 0: none.
   int newton_every = 5;
+  // Fraction beta of an overlap removed per step by moving positions apart, velocities untouched
+  // (kernels/integrate.hpp, OverlapCorrection); 0: none, an overlap is held as it is.
+  double overlap_correction = 0.0;
 };
 
 // When a system counts as at rest.
