@@ -913,6 +913,18 @@ void Batch::set_gravity(int s, bool on) {
   reset_rest(s);
 }
 
+Batch::SolverPace Batch::solver_pace(int s) const {
+  const NewtonPace& p = impl_->newton_pace.at(static_cast<std::size_t>(s));
+  return {p.wait, p.credit};
+}
+
+void Batch::set_solver_pace(int s, const SolverPace& pace) {
+  NewtonPace& p = impl_->newton_pace.at(static_cast<std::size_t>(s));
+  p.wait = std::clamp(pace.wait, impl_->shortest_newton_wait(), impl_->longest_newton_wait(s));
+  p.credit = pace.credit;
+  p.charged = 0.0;
+}
+
 const SystemStatus& Batch::status(int s) const {
   return impl_->status.at(static_cast<std::size_t>(s));
 }

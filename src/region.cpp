@@ -95,8 +95,8 @@ struct Regions::Impl {
   };
   std::vector<Slot> slots;
 
-  // Positions and velocities of the moving disks, and the impulses of every contact with a
-  // moving disk, back into the whole system (which keeps its impulses between fixed disks).
+  // Positions and velocities of the moving disks, the impulses of every contact with a moving
+  // disk (the whole system keeps its impulses between fixed disks), and the solver's pace.
   void write_back(Batch& whole, int s, const std::vector<Disk>& region) {
     const Slot& sl = slots[static_cast<std::size_t>(s)];
     std::vector<int> idx;
@@ -124,6 +124,7 @@ struct Regions::Impl {
       contacts.push_back(c);
     }
     whole.set_contacts(s, contacts);
+    whole.set_solver_pace(s, batch->solver_pace(s));
   }
   void end(int s) {
     Slot& sl = slots[static_cast<std::size_t>(s)];
@@ -228,6 +229,8 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
     contacts.push_back(c);
   }
   I.batch->set_contacts(s, contacts);
+  // The pace of the Newton rounds learned on this deposit so far, not afresh for every region.
+  I.batch->set_solver_pace(s, whole.solver_pace(s));
   I.batch->set_active(s, true);
   sl.running = true;
   sl.index = sel.index;

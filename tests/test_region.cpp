@@ -156,3 +156,65 @@ TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
 // A radius given to begin() replaces the settings' (the larger regions the protocol starts
 // where the check finds motion): radius 9 moves the new disk and the four below it.
 TEST(Region, AGivenRadiusReplacesTheSettingsRadius) { column_top_relaxes_in_its_region(9.0, 5); }
+
+// The pace of the Newton rounds (Batch::SolverPace) belongs to the deposit, not to one region:
+// a region starts from the whole system's pace and hands its own back, and only reset() starts
+// afresh. A column's new top disk relaxed in a region, with a sweep cap of 40 that some steps
+// reach (rest by speeds alone): with a fresh pace the region's steps take Newton rounds; with a
+// pace that has given up on them (the longest wait and a credit of -1e9) they take none, and
+// the whole system gets back that pace with the credit its capped steps earned (each capped
+// step adds a share of its sweeps: NewtonPace::step_done), so above -1e9.
+TEST(Region, TheNewtonPaceIsTheDepositsAndGoesBackToTheWholeSystem) {
+  const int n = 20;
+  auto p = bare_params(20.0, 60.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  SolverSettings solver;  // accelerated Gauss-Seidel with Newton rounds
+  solver.tolerance = 1e-10;
+  solver.max_sweeps = 40;
+  RestSettings rest;
+  rest.converged = false;
+  const int shortest = 2 * solver.newton_every, longest = solver.max_sweeps - shortest;
+  RegionSettings rs;
+  rs.radius = 9.0;
+  rs.max_disks = 64;
+  rs.max_height = 60.0;
+  struct Outcome {
+    long newton = 0;
+    int capped = 0;
+    Batch::SolverPace after;
+  };
+  auto relax_top = [&](const Batch::SolverPace* pace) {
+    Batch batch({setup(p, column(n, 10.0), 64)}, solver, rest);
+    EXPECT_EQ(batch.solver_pace(0).wait, shortest);
+    EXPECT_EQ(batch.solver_pace(0).credit, 0.0);
+    batch.run_to_rest(20000);
+    EXPECT_TRUE(batch.status(0).at_rest);
+    if (pace) batch.set_solver_pace(0, *pace);
+    const auto placed = batch.deposit_at({1}, {10.0}, DropRule::Touch);
+    Regions regions(1, {p}, rs, solver, rest);
+    EXPECT_TRUE(regions.begin(batch, 0, {{placed[0].x, placed[0].y}}, solver.tolerance));
+    Regions::State state = Regions::State::Running;
+    Outcome out;
+    for (int k = 0; k < 20000 && state == Regions::State::Running; ++k) {
+      regions.step();
+      out.newton = regions.status(0).newton_steps;
+      out.capped += regions.status(0).converged ? 0 : 1;
+      state = regions.poll(batch, 0);
+    }
+    EXPECT_EQ(state, Regions::State::Rested);
+    out.after = batch.solver_pace(0);
+    batch.reset(0, setup(p, column(n, 10.0), 64));  // a new system: afresh
+    EXPECT_EQ(batch.solver_pace(0).wait, shortest);
+    EXPECT_EQ(batch.solver_pace(0).credit, 0.0);
+    return out;
+  };
+  EXPECT_GT(relax_top(nullptr).newton, 0) << "the scene takes no rounds: it shows nothing";
+  const Batch::SolverPace given_up{1000000, -1e9};  // the wait is clamped to the longest
+  const Outcome o = relax_top(&given_up);
+  EXPECT_EQ(o.newton, 0);
+  ASSERT_GT(o.capped, 0) << "no capped step: the hand-back shows nothing";
+  EXPECT_EQ(o.after.wait, longest);
+  EXPECT_GT(o.after.credit, -1e9);
+  EXPECT_LT(o.after.credit, 0.0);
+}

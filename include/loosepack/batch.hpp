@@ -115,6 +115,16 @@ class Batch {
   // Put a new system into slot s (a finished member frees its slot for the next one). The
   // setup must fit the slot: capacity and grid cells no larger than the slot's.
   void reset(int s, const SystemSetup& setup);
+  // What the solver has learned about system s's steps: when its Newton rounds come
+  // (SolverSettings::newton_every; src/newton.hpp, NewtonPace). reset() starts it afresh; a
+  // system that goes on with other disks hands it on (the relaxation regions of one deposit
+  // take it from the whole system and give it back: src/region.cpp).
+  struct SolverPace {
+    int wait = 0;         // sweeps before a step's first round
+    double credit = 0.0;  // [sweeps] for rounds at the longest wait
+  };
+  SolverPace solver_pace(int s) const;
+  void set_solver_pace(int s, const SolverPace& pace);
   // Step until every active system is at rest or failed, or max_steps. Returns steps taken.
   long run_to_rest(long max_steps);
 
