@@ -73,6 +73,7 @@ int run(const RunOptions& o, Ranks& ranks) {
     return 2;
   }
   if (o.batch_size > 0) scan.batch_size = o.batch_size;
+  if (scan.batch_size == 0) scan.batch_size = default_batch_size();
   for (const auto& w : scan.warnings) say("warning: " + w);
   if (::access(directory_of(o.out_path).c_str(), W_OK) != 0) {
     say("cannot write into " + directory_of(o.out_path) + " (for " + o.out_path + ")");

@@ -2,6 +2,7 @@
 // and C (B, then collapse under gravity), each advancing a whole batch of members together.
 #include "loosepack/protocols.hpp"
 
+#include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -119,6 +120,8 @@ struct Slot {
 
 }  // namespace
 
+int default_batch_size() { return Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4; }
+
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
                                       const RunHooks& hooks) {
   std::vector<MemberResult> results(members.size());
@@ -154,7 +157,8 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     capacity = std::max(capacity, member_capacity(m.params));
     cells = std::max(cells, grid_cells_needed(setup_of(m)));
   }
-  const std::size_t n_slots = std::min(members.size(), static_cast<std::size_t>(scan.batch_size));
+  const int batch_size = scan.batch_size > 0 ? scan.batch_size : default_batch_size();
+  const std::size_t n_slots = std::min(members.size(), static_cast<std::size_t>(batch_size));
   std::vector<SystemSetup> setups;
   for (std::size_t k = 0; k < n_slots; ++k) setups.push_back(setup_of(members[k]));
   Batch batch(setups, scan.solver, scan.rest);

@@ -191,7 +191,6 @@ TEST(ProtocolA, DensityDecreasesWithHeightAtIntermediateBond) {
 [scan]
 protocol = "A"
 seeds = 16
-batch_size = 16
 [system]
 width = 24.0
 height = 72.0

@@ -5,6 +5,7 @@
 
 #include <cmath>
 
+#include "loosepack/protocols.hpp"
 #include "loosepack/scan.hpp"
 #include "tests/scan_errors.hpp"
 
@@ -87,6 +88,13 @@ TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {
             SolverSettings{}.newton_every);
   EXPECT_GT(SolverSettings{}.newton_every, 0);
   EXPECT_EQ(parse_scan("[solver]\nnewton_every = 0\n", "off.toml").solver.newton_every, 0);
+}
+
+// batch_size: 0 unless set, which run_members and the program read as default_batch_size().
+TEST(Scan, BatchSizeIsTheBackendsDefaultUnlessSet) {
+  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").batch_size, 0);
+  EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n", "seven.toml").batch_size, 7);
+  EXPECT_GE(default_batch_size(), 1);
 }
 
 TEST(Scan, OverlapCorrectionIsOffUnlessSet) {

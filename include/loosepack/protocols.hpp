@@ -71,7 +71,13 @@ struct RunHooks {
   std::vector<std::pair<std::string, double>>* stage_seconds = nullptr;
 };
 
-// Run the members on one batch of scan.batch_size slots: members of any protocol advance
+// Systems per batch where the scan sets none: 4 on a backend that runs one thread (Kokkos
+// Serial: a batch there runs nothing side by side and costs cache locality, so batches of small
+// systems cost more per member: docs/PERFORMANCE.md, "Batch scaling"), else 64 (OpenMP threads
+// or a GPU share the systems of a batch out; more systems balance them better).
+int default_batch_size();
+
+// Run the members on one batch of scan.batch_size slots (default_batch_size() if 0): members of any protocol advance
 // together, and a finished member's slot takes the next member. Returns the finished members
 // in the order given (all of them unless stopped).
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
