@@ -797,8 +797,7 @@ void Batch::Impl::step() {
   Kokkos::parallel_for("integrate", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        Integrate{sys, part});
   if (solver.overlap_correction > 0.0)
-    Kokkos::parallel_for("overlap_correction",
-                         PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
+    Kokkos::parallel_for("overlap_correction", PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
                          OverlapCorrection{sys, part, con, solver.overlap_correction});
   stage_done("integrate");
 

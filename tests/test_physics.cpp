@@ -404,8 +404,8 @@ TEST(OverlapCorrection, PairMovesApartByInverseMassAcrossThePeriodicBoundary) {
     bool a_fixed;
     double beta, move_a, move_b;  // signed moves in x (a to the right, b to the left)
   };
-  for (const Case& c : {Case{false, 0.4, 0.06, -0.06}, Case{true, 0.4, 0.0, -0.12},
-                        Case{false, 1.0, 0.1, -0.1}}) {
+  for (const Case& c :
+       {Case{false, 0.4, 0.06, -0.06}, Case{true, 0.4, 0.0, -0.12}, Case{false, 1.0, 0.1, -0.1}}) {
     SCOPED_TRACE(c.beta);
     a.fixed = c.a_fixed;
     auto s = tight();

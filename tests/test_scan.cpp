@@ -125,7 +125,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[solver]\nnewton_every = -1\n",
        "bad.toml:2:16: key 'solver.newton_every': expected an integer in [0,"},
       {"[solver]\noverlap_correction = 1.5\n",
-       "bad.toml:2:22: key 'solver.overlap_correction': value 1.5 outside the allowed range [0, 1]"},
+       "bad.toml:2:22: key 'solver.overlap_correction': value 1.5 outside the allowed range "
+       "[0, 1]"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",

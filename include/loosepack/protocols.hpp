@@ -77,9 +77,9 @@ struct RunHooks {
 // or a GPU share the systems of a batch out; more systems balance them better).
 int default_batch_size();
 
-// Run the members on one batch of scan.batch_size slots (default_batch_size() if 0): members of any protocol advance
-// together, and a finished member's slot takes the next member. Returns the finished members
-// in the order given (all of them unless stopped).
+// Run the members on one batch of scan.batch_size slots (default_batch_size() if 0): members of any
+// protocol advance together, and a finished member's slot takes the next member. Returns the
+// finished members in the order given (all of them unless stopped).
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
                                       const RunHooks& hooks = {});
 
