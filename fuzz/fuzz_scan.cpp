@@ -22,8 +22,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const loosepack::ScanError&) {
     return 0;
   }
-  // A valid scan: the invariants the rest of the program relies on.
-  if (scan.points.empty() || scan.seeds < 1 || scan.batch_size < 1) std::abort();
+  // A valid scan: the invariants the rest of the program relies on (batch_size 0: the
+  // backend's default, protocols.hpp).
+  if (scan.points.empty() || scan.seeds < 1 || scan.batch_size < 0) std::abort();
   const auto members = loosepack::members_of(scan);
   if (members.size() != scan.points.size() * static_cast<std::size_t>(scan.seeds)) std::abort();
   for (const auto& pt : scan.points) {
