@@ -67,8 +67,8 @@ struct OverlapCorrection {
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (!sys.active(s) || sys.failure(s) != kOk) return;
     const double width = sys.width(s);
-    const int first = sys.offset(s) * kSlots, end = (sys.offset(s) + sys.count(s)) * kSlots;
-    for (int c = first; c < end; ++c) {
+    const SlotRange range = system_slots(sys, s);
+    for (int c = range.first; c < range.end; ++c) {
       const int q = con.partner(c);
       if (q == kNoContact) continue;
       const int p = c / kSlots;

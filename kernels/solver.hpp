@@ -195,14 +195,6 @@ struct BodyVelocity {
   }
 };
 
-// The contact slots of system s: [first, end).
-struct SlotRange {
-  int first, end;
-};
-KOKKOS_INLINE_FUNCTION SlotRange system_slots(const SystemViews& sys, int s) {
-  return {sys.offset(s) * kSlots, (sys.offset(s) + sys.count(s)) * kSlots};
-}
-
 // One Gauss-Seidel update of contact slot c in place: the exact local solve, then its impulse
 // change applied to the two bodies at once; `worst` keeps the largest change [h m g].
 template <class Fx>

@@ -79,6 +79,14 @@ struct SystemViews {
   DView<double> gradient2;     // accelerated Gauss-Seidel: squared norm of the last iteration's change
 };
 
+// The contact slots of system s: [first, end).
+struct SlotRange {
+  int first, end;
+};
+KOKKOS_INLINE_FUNCTION SlotRange system_slots(const SystemViews& sys, int s) {
+  return {sys.offset(s) * kSlots, (sys.offset(s) + sys.count(s)) * kSlots};
+}
+
 struct ParticleViews {
   // [P]
   DView<int> system;  // owning system
