@@ -142,7 +142,9 @@ def avalanche_profiles(points, out, written):
                 x = np.linspace(0, H, 200)
                 ax.plot(x, -s[0][0] * x * (1 - x / H), ":", color=line[0].get_color(), lw=1)
         ax.set_xlabel(xl)
-    axes[0].set_ylabel("Delta y = y_e - y_i [R]  (lines: fits; dotted: slice model)")
+    axes[0].set_ylabel("Delta y = y_e - y_i [R]")
+    fig.suptitle("points: ensemble mean +- standard error; lines: fits; dotted: slice model",
+                 fontsize=9)
     axes[1].legend(fontsize=7)
     save(fig, out, "avalanche_profiles.png", written)
 
@@ -169,7 +171,8 @@ def abs_dy_histograms(points, out, written):
                 lw = 1.5 if model == pref else 0.7
                 ax.semilogy(x, np.exp(poly(f[0], x)) / norm, style, color=line.get_color(), lw=lw)
     ax.set_xlabel("|Delta y| [R] (bottom and top cut)")
-    ax.set_ylabel("fraction of disks (solid: Gaussian fit, dashed: exponential; bold: preferred)")
+    ax.set_ylabel("fraction of disks")
+    ax.set_title("solid: Gaussian fit, dashed: exponential; bold: preferred", fontsize=9)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7)
         ax.set_ylim(bottom=1e-5)
@@ -188,7 +191,8 @@ def deposition_density(points, out, written):
         if "predicted" in nu:
             ax.plot(need(nu, "centre"), need(nu, "predicted"), "-", color=line.get_color(), lw=1.5)
     ax.set_xlabel("y [R]")
-    ax.set_ylabel("volume fraction (dots: nu_d; points: nu; line: nu from nu_d)")
+    ax.set_ylabel("volume fraction")
+    ax.set_title("dotted: nu_d(y_i); points: nu(y); line: nu predicted from nu_d", fontsize=9)
     ax.legend(fontsize=6)
     save(fig, out, "deposition_density.png", written)
 
