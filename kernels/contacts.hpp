@@ -13,12 +13,10 @@ struct ContactBuild {
   ContactViews con;
   GridViews grid;
 
-  KOKKOS_INLINE_FUNCTION void add(int p, int& k, int partner, double nx, double ny, double gap,
-                                  double rc, double lower) const {
-    if (k >= kSlots) {
-      Kokkos::atomic_exchange(&sys.failure(part.system(p)), int(kContactOverflow));
-      return;
-    }
+  // Slot k of particle p becomes the pair (p, partner), warm-started with the impulses the same
+  // pair carried in the previous step.
+  KOKKOS_INLINE_FUNCTION void write(int p, int k, int partner, double nx, double ny, double gap,
+                                    double rc, double lower) const {
     const int c = p * kSlots + k;
     con.partner(c) = partner;
     con.nx(c) = nx;
@@ -40,7 +38,29 @@ struct ContactBuild {
     con.pn(c) = pn;
     con.pt(c) = pt;
     con.pm(c) = pm;
-    ++k;
+  }
+
+  // A candidate pair of p, k slots filled so far. When they are all taken, the kSlots nearest
+  // candidates keep them: a candidate beyond the reach of a system at rest (`keep`: the
+  // cohesion range plus the least margin) is only there for the motion margin, which assumes
+  // the largest speed in the system, so the furthest is dropped. The system fails only when a
+  // pair within `keep` (touching, held by cohesion, or about to be) would be dropped.
+  KOKKOS_INLINE_FUNCTION void add(int p, int& k, int partner, double nx, double ny, double gap,
+                                  double rc, double lower, double keep) const {
+    if (k < kSlots) {
+      write(p, k, partner, nx, ny, gap, rc, lower);
+      ++k;
+      return;
+    }
+    int far = 0;
+    for (int q = 1; q < kSlots; ++q)
+      if (con.gap(p * kSlots + q) > con.gap(p * kSlots + far)) far = q;
+    const double far_gap = con.gap(p * kSlots + far);
+    if (kmath::max(gap, far_gap) < keep) {
+      Kokkos::atomic_exchange(&sys.failure(part.system(p)), int(kContactOverflow));
+      return;
+    }
+    if (gap < far_gap) write(p, far, partner, nx, ny, gap, rc, lower);
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(int p) const {
@@ -51,6 +71,7 @@ struct ContactBuild {
       const double h = sys.time_step(s);
       const double dc = sys.cohesion_range(s);
       const double reach = dc + sys.margin(s);
+      const double keep = dc + kMinMarginFactor * sys.radius(s);
       const double fc_impulse = h * sys.cohesive_force(s);
       const double rp = part.radius(p);
       const double xp = part.x(p), yp = part.y(p);
@@ -58,7 +79,7 @@ struct ContactBuild {
       if (floor_gap < reach) {
         const double lower =
             (sys.floor_cohesion(s) && floor_gap < dc && fc_impulse > 0.0) ? -fc_impulse : 0.0;
-        add(p, k, kFloor, 0.0, -1.0, floor_gap, rp, lower);
+        add(p, k, kFloor, 0.0, -1.0, floor_gap, rp, lower, keep);
       }
       const int nx = sys.grid_nx(s), ny = sys.grid_ny(s);
       const int c0 = part.cell(p) - sys.cell_offset(s);
@@ -84,7 +105,7 @@ struct ContactBuild {
             // Exactly coincident centres have no line of centres: push along +y by convention.
             const double nxv = d > 0.0 ? dx * inv_d : 0.0;
             const double nyv = d > 0.0 ? dy * inv_d : 1.0;
-            add(p, k, q, nxv, nyv, gap, kmath::min(rp, rq), lower);
+            add(p, k, q, nxv, nyv, gap, kmath::min(rp, rq), lower, keep);
           }
         }
       }
@@ -92,7 +113,7 @@ struct ContactBuild {
     for (int q = k; q < kSlots; ++q) con.partner(p * kSlots + q) = kNoContact;
     // The particle's own slots open its incidence list (IncidentScatter adds the others).
     for (int q = 0; q < k; ++q) part.incident(p * kIncident + q) = p * kSlots + q;
-    part.n_incident(p) = k;  // k <= kSlots < kIncident (add refuses a ninth)
+    part.n_incident(p) = k;  // k <= kSlots < kIncident (add keeps the nearest kSlots)
   }
 };
 

@@ -15,6 +15,9 @@ constexpr int kSlots = 8;
 // Contacts incident to one particle (owned and as partner).
 constexpr int kIncident = 14;
 constexpr int kNoContact = -2;
+// The contact detection margin of a system at rest, times its mean radius: the least reach
+// beyond the cohesion range at which pairs become contacts (src/batch.cpp, stage 1).
+constexpr double kMinMarginFactor = 0.05;
 // SystemViews::unconverged while a step's solve runs: 0 once converged (or for a system not
 // stepped), kIterating while it iterates, kStoppedAtCap when a host-loop solver (Jacobi,
 // coloured Gauss-Seidel) stopped it at its sweep cap without converging.
@@ -68,15 +71,15 @@ struct SystemViews {
   DView<double> cell_size;
   DView<int> grid_nx, grid_ny, cell_offset;
   // [S] status
-  DView<int> active;           // 1: stepped by step()
-  DView<int> unconverged;      // kIterating, kStoppedAtCap, or 0: converged (or not stepped)
-  DView<int> failure;          // SystemFailure
-  DView<double> sweep_change;  // max impulse change of the last sweep [h m g]
-  DView<double> max_speed;     // max(|v|, R|w|) after the last step
+  DView<int> active;               // 1: stepped by step()
+  DView<int> unconverged;          // kIterating, kStoppedAtCap, or 0: converged (or not stepped)
+  DView<int> failure;              // SystemFailure
+  DView<double> sweep_change;      // max impulse change of the last sweep [h m g]
+  DView<double> max_speed;         // max(|v|, R|w|) after the last step
   DView<double> max_centre_speed;  // max |v| after the last step (RestSettings::spin false)
-  DView<double> margin;        // contact detection margin of the current step
-  DView<double> max_margin;    // its bound, which the grid cell leaves room for
-  DView<double> gradient2;     // accelerated Gauss-Seidel: squared norm of the last iteration's change
+  DView<double> margin;            // contact detection margin of the current step
+  DView<double> max_margin;        // its bound, which the grid cell leaves room for
+  DView<double> gradient2;  // accelerated Gauss-Seidel: squared norm of the last iteration's change
 };
 
 // The contact slots of system s: [first, end).

@@ -39,11 +39,10 @@ namespace {
 // Particle slots per chunk of the contact stage on the host: ~1.3 kB of contact and particle
 // state each, so a chunk is ~1 MB, half this machine's L2 (docs/PERFORMANCE.md, batch scaling).
 constexpr int kChunkSlots = 768;
-// Contact detection margin: 2 h (v_max + h g), between these bounds (times the mean radius).
-// The upper bound grows for tall systems, where a disk falling the height of the box moves more
-// than half a radius in two steps (see grid_shape).
+// Contact detection margin: 2 h (v_max + h g), between kMinMarginFactor (kernels/state.hpp) and
+// this bound (times the mean radius). The upper bound grows for tall systems, where a disk
+// falling the height of the box moves more than half a radius in two steps (see grid_shape).
 constexpr double kMaxMarginFactor = 0.5;
-constexpr double kMinMarginFactor = 0.05;
 
 template <class T>
 DView<T> alloc(const char* name, std::size_t n) {
@@ -69,8 +68,8 @@ struct Batch::Impl {
   GridViews grid;
   DView<int> colour_list, colour_start, colour_fill;
   DView<int> system_colour_start;  // [S * (colours + 1)] ColouredAcceleratedGaussSeidel's
-  DView<int> sweeps_this_step;  // [S]
-  DView<int> sweep_limit;       // [S] accelerated solver with Newton steps: this launch's limit
+  DView<int> sweeps_this_step;     // [S]
+  DView<int> sweep_limit;          // [S] accelerated solver with Newton steps: this launch's limit
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
   std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
   std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
@@ -126,8 +125,8 @@ struct Batch::Impl {
   // step about to be capped still gets a round.
   int shortest_newton_wait() const { return 2 * solver.newton_every; }
   int longest_newton_wait(int s) const {
-    return std::max(shortest_newton_wait(), sweep_cap[static_cast<std::size_t>(s)] -
-                                                shortest_newton_wait());
+    return std::max(shortest_newton_wait(),
+                    sweep_cap[static_cast<std::size_t>(s)] - shortest_newton_wait());
   }
   int colour(bool batch_list);
   void step();
@@ -148,8 +147,8 @@ GridShape grid_shape(const SystemSetup& su) {
   // 2 h (v_fall + h g) catches every contact of the next step.
   const double v_fall = std::sqrt(2.0 * std::abs(pr.gravity) * (pr.height + 2.0 * rmax));
   const double h = pr.time_step;
-  g.max_margin = std::max(kMaxMarginFactor * pr.radius,
-                          2.0 * h * (v_fall + h * std::abs(pr.gravity)));
+  g.max_margin =
+      std::max(kMaxMarginFactor * pr.radius, 2.0 * h * (v_fall + h * std::abs(pr.gravity)));
   g.cell = 2.0 * rmax + pr.cohesion_range + g.max_margin;
   g.nx = std::max(1, static_cast<int>(std::floor(pr.width / g.cell)));
   g.ny = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / g.cell)));
@@ -178,11 +177,10 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
     cells += std::max(su.grid_cells, grid_cells_needed(su));
   }
   if (particles > kMaxIndex || cells > kMaxIndex)
-    throw std::invalid_argument("Batch: " + std::to_string(S) + " systems need " +
-                                std::to_string(particles) + " disk slots and " +
-                                std::to_string(cells) + " grid cells, more than one batch " +
-                                "indexes (" + std::to_string(kMaxIndex) +
-                                "): use a smaller batch size");
+    throw std::invalid_argument(
+        "Batch: " + std::to_string(S) + " systems need " + std::to_string(particles) +
+        " disk slots and " + std::to_string(cells) + " grid cells, more than one batch " +
+        "indexes (" + std::to_string(kMaxIndex) + "): use a smaller batch size");
   for (std::size_t s = 0; s < S; ++s) {
     const auto& su = setups[s];
     slot_capacity[s] = std::max({su.capacity, static_cast<int>(su.disks.size()), 1});
@@ -449,9 +447,9 @@ void Batch::Impl::solve() {
     return;
   }
   if (solver.kind == SolverKind::SequentialGaussSeidel) {
-    Kokkos::parallel_for(
-        "sequential_gauss_seidel", PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
-        SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega});
+    Kokkos::parallel_for("sequential_gauss_seidel",
+                         PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
+                         SequentialGaussSeidel<Fx>{sys, part, con, sweeps, omega});
     return;
   }
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
@@ -524,7 +522,7 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   for (int s = 0; s < n_systems; ++s) {
     const NewtonPace& pace = newton_pace[static_cast<std::size_t>(s)];
     limit(s) = pace.skips_step(longest_newton_wait(s)) ? sweep_cap[static_cast<std::size_t>(s)]
-                                                      : pace.wait;
+                                                       : pace.wait;
   }
   auto& unconverged = host.unconverged;
   auto& done = host.sweeps;

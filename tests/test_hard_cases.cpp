@@ -222,9 +222,10 @@ TEST(HardCase, ColumnOf200CarriesWeights) {
     ++checked;
   }
   EXPECT_EQ(checked, n);
-  std::printf("column of %d, %s: converged in %d sweeps (one step from zero impulses), worst "
-              "force error %.3g m g (bound %.3g); %.2f s\n",
-              n, solver_kind_name(solver.kind), st.last_sweeps, worst, bound, seconds_since(t0));
+  std::printf(
+      "column of %d, %s: converged in %d sweeps (one step from zero impulses), worst "
+      "force error %.3g m g (bound %.3g); %.2f s\n",
+      n, solver_kind_name(solver.kind), st.last_sweeps, worst, bound, seconds_since(t0));
 }
 
 // The same column, one disk (the 100th) shifted by 1e-6 R sideways, without rolling friction:
@@ -271,11 +272,11 @@ TEST(HardCase, PerturbedColumnOf200TopplesAndSettles) {
   double top = 0.0;
   for (const auto& a : d) top = std::max(top, a.y + a.radius);
   const double overlap = batch.max_overlap(0);
-  std::printf("perturbed column of %d: toppled after %ld steps, top %.2f R after %ld more "
-              "(at rest: %d), %ld sweeps (%.1f per step), max overlap %.3g R; %.2f s\n",
-              n, toppled_after, top, steps, st.at_rest ? 1 : 0, st.sweeps,
-              static_cast<double>(st.sweeps) / std::max(1L, st.steps), overlap,
-              seconds_since(t0));
+  std::printf(
+      "perturbed column of %d: toppled after %ld steps, top %.2f R after %ld more "
+      "(at rest: %d), %ld sweeps (%.1f per step), max overlap %.3g R; %.2f s\n",
+      n, toppled_after, top, steps, st.at_rest ? 1 : 0, st.sweeps,
+      static_cast<double>(st.sweeps) / std::max(1L, st.steps), overlap, seconds_since(t0));
   EXPECT_LT(top, static_cast<double>(n));  // toppled: below half of 2 n R
   EXPECT_TRUE(st.at_rest) << "not at rest after " << steps << " steps";
   EXPECT_LT(overlap, p.cohesion_range);
@@ -320,6 +321,56 @@ TEST(HardCase, DepositAtBothEndsOfThePeriodicBox) {
       }
     }
   }
+}
+
+// A crowded disk: a large disk (R = 2) on the floor with ten small ones (R = 0.5) around it,
+// without gravity or friction, while a far disk moving at 20 R/sqrt(R/g) widens every pair's
+// detection margin to 2 h v = 0.4 R. The large disk owns the floor and all ten pairs (lower
+// index), more than its kSlots = 8 contact slots. Pairs beyond the reach of a system at rest
+// (d_c + 0.05 R: kernels/contacts.hpp) are only there for the margin, so the eight nearest
+// candidates keep the slots and the system goes on: its slots hold the floor, the touching
+// ring and the nearest far pair. Nine candidates within that reach are more than the slots
+// can hold: the system fails with ContactOverflow.
+TEST(HardCase, ACrowdedDiskKeepsItsNearestCandidates) {
+  auto crowd = [](const std::vector<double>& gaps) {
+    std::vector<Disk> d(1);
+    d[0].radius = 2.0;
+    d[0].x = 10.0;
+    d[0].y = 2.0;  // touching the floor
+    for (std::size_t k = 0; k < gaps.size(); ++k) {
+      const double angle = (-30.0 + 26.0 * static_cast<double>(k)) * M_PI / 180.0;
+      Disk a;
+      a.radius = 0.5;
+      a.x = 10.0 + (2.5 + gaps[k]) * std::cos(angle);
+      a.y = 2.0 + (2.5 + gaps[k]) * std::sin(angle);
+      d.push_back(a);
+    }
+    Disk fast;  // far from the crowd, and the fastest disk of the system
+    fast.x = 2.0;
+    fast.y = 15.0;
+    fast.vx = 20.0;
+    d.push_back(fast);
+    return d;
+  };
+  SystemParams p = bare_params(20.0, 20.0);
+  p.gravity_on = false;
+  const double touch = 1e-3;  // within d_c + 0.05 R = 0.06 R of a system at rest
+  const std::vector<double> spread = {0.35, touch, 0.2,   touch, touch,
+                                      0.1,  touch, touch, touch, 0.3};
+  const std::vector<double> packed = {touch, touch, 0.2,   touch, touch,
+                                      touch, touch, touch, touch, 0.3};
+  Batch batch({setup(p, crowd(spread)), setup(p, crowd(packed))});
+  for (int k = 0; k < 3; ++k) batch.step();  // the margin follows the last step's speeds
+  ASSERT_EQ(batch.status(0).failure, Failure::None);
+  ASSERT_GT(2.0 * p.time_step * batch.status(0).max_speed, 0.35 + p.cohesion_range);
+  std::vector<double> kept;
+  for (const auto& c : batch.contacts(0))
+    if (c.i == 0) kept.push_back(c.j < 0 ? -1.0 : spread[static_cast<std::size_t>(c.j - 1)]);
+  std::sort(kept.begin(), kept.end());
+  // The floor (-1), the six touching disks and the nearest far one (0.1 R); 0.2-0.35 R dropped.
+  const std::vector<double> expected = {-1.0, touch, touch, touch, touch, touch, touch, 0.1};
+  EXPECT_EQ(kept, expected);
+  EXPECT_EQ(batch.status(1).failure, Failure::ContactOverflow);
 }
 
 // Exactly touching (gap 0), exactly above each other, and at the cohesion range's edge, without
@@ -414,7 +465,8 @@ TEST(HardCase, OneDiskEmptyAndFullSystems) {
   for (int k = 0; k < 1000; ++k) batch.step();
   for (int s = 0; s < batch.size(); ++s) {
     ASSERT_EQ(batch.status(s).failure, Failure::None) << "system " << s;
-    expect_in_domain(batch.disks(s), batch.params(s), p.cohesion_range, "system " + std::to_string(s));
+    expect_in_domain(batch.disks(s), batch.params(s), p.cohesion_range,
+                     "system " + std::to_string(s));
   }
   EXPECT_EQ(batch.disks(0).size(), 1u);
   // Resting on the floor: with relaxation omega < 1 one contact is solved to the tolerance, not
@@ -452,8 +504,7 @@ void expect_pile_at_rest(const SystemParams& p, const SolverSettings& solver, in
   const double overlap = batch.max_overlap(0);
   std::printf("%-28s at rest %d after %6ld steps, %7.1f sweeps/step, overlap %.2g R, %.2f s\n",
               what.c_str(), st.at_rest ? 1 : 0, steps,
-              static_cast<double>(st.sweeps) / std::max(1L, st.steps), overlap,
-              seconds_since(t0));
+              static_cast<double>(st.sweeps) / std::max(1L, st.steps), overlap, seconds_since(t0));
   EXPECT_TRUE(st.at_rest) << what << ": not at rest after " << steps << " steps";
   EXPECT_LT(overlap, p.cohesion_range) << what;
   expect_in_domain(d, p, p.cohesion_range, what);
@@ -545,10 +596,11 @@ TEST(HardCase, ValidatorRefusesUnsupportedParameters) {
   scan_errors::expect_refused(cases);
   // The edges of the ranges are accepted.
   // (h = 0.1 with H = 20: 2 h (sqrt(2 g 22) + h g) = 1.35 R, within the 1.4 R of detection.)
-  EXPECT_NO_THROW(parse_scan("[system]\nbond_number = [0, 1e-3, 1e8, \"inf\"]\ntime_step = 0.1\n"
-                             "height = 20\nfriction = [0, 1e6]\nrolling_friction = 0\n"
-                             "[observables]\nlower_half_from = 2\n",
-                             "ok.toml"));
+  EXPECT_NO_THROW(
+      parse_scan("[system]\nbond_number = [0, 1e-3, 1e8, \"inf\"]\ntime_step = 0.1\n"
+                 "height = 20\nfriction = [0, 1e6]\nrolling_friction = 0\n"
+                 "[observables]\nlower_half_from = 2\n",
+                 "ok.toml"));
 }
 
 // A disk falling through a tall box lands without a missed impact: at h = 0.045 a fall of 98 R
@@ -581,6 +633,7 @@ TEST(HardCase, FallThroughATallBoxIsCaught) {
   const auto out = batch.disks(0);
   EXPECT_LT(batch.max_overlap(0), p.cohesion_range);
   EXPECT_NEAR(out[1].y, 3.0, p.cohesion_range);
-  for (int k = 2; k < 10; ++k) EXPECT_NEAR(out[static_cast<std::size_t>(k)].y, 1.0, p.cohesion_range);
+  for (int k = 2; k < 10; ++k)
+    EXPECT_NEAR(out[static_cast<std::size_t>(k)].y, 1.0, p.cohesion_range);
   expect_in_domain(out, p, p.cohesion_range, "fall through a tall box");
 }
