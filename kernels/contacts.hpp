@@ -1,6 +1,7 @@
 // Contact detection: every pair (and disk-floor pair) whose gap is below the cohesion range
 // plus a motion margin becomes a contact slot of its lower-index particle, warm-started with
-// the impulses the same pair carried in the previous step.
+// the impulses the same pair carried in the previous step; a disk with more candidates than
+// its kSlots keeps the nearest (ContactBuild::add).
 #pragma once
 #include "kernels/contact_law.hpp"
 #include "kernels/grid.hpp"
