@@ -87,21 +87,94 @@ Fit basis_fit(const std::vector<double>& x, const std::vector<double>& y,
   return linear_least_squares(A, b, s, weighted);
 }
 
-// Usable bins of an avalanche profile.
-void profile_points(const BinnedStat& b, std::vector<double>& x, std::vector<double>& y,
-                    std::vector<double>& s) {
-  for (std::size_t k = 0; k < b.centre.size(); ++k) {
-    if (!(b.count[k] >= kMinBinCount) || !(b.sem[k] > 0.0) || !std::isfinite(b.mean[k])) continue;
-    x.push_back(b.position[k]);
-    y.push_back(b.mean[k]);
-    s.push_back(b.sem[k]);
+// The usable bins of an avalanche profile (their positions below x_max).
+std::vector<std::size_t> profile_bins(const BinnedStat& b, double x_max) {
+  std::vector<std::size_t> out;
+  for (std::size_t k = 0; k < b.centre.size(); ++k)
+    if (b.count[k] >= kMinBinCount && b.sem[k] > 0.0 && std::isfinite(b.mean[k]) &&
+        b.position[k] <= x_max)
+      out.push_back(k);
+  return out;
+}
+
+// An avalanche-profile fit Delta y = sum_j basis_j(y) c_j with ensemble errors. The coefficients
+// come from an unweighted fit to the pooled bin means: weighting by the bins' standard errors
+// lets the bins that barely move (the bottom at large Bond numbers, the crust), whose errors are
+// near zero, pin the fit (docs/REPRODUCTION.md, "The weighted profile fits are biased"). The
+// errors come from a jackknife over members: each member with samples is left out in turn, the
+// pooled bin means and positions are recomputed without it, and the same bins are refitted;
+// var c_j = (n - 1)/n sum_m (c_j(m) - mean c_j)^2. Without per-member rows (a file of an older
+// program) the errors come from the residual scatter. chi2 is against the bins' standard errors:
+// a goodness-of-fit figure only.
+Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
+                 const std::function<double(double, int)>& basis) {
+  const std::vector<std::size_t> bins = profile_bins(b, x_max);
+  std::vector<double> x, y;
+  for (std::size_t u : bins) {
+    x.push_back(b.position[u]);
+    y.push_back(b.mean[u]);
   }
+  Fit f = basis_fit(x, y, {}, k, basis);
+  if (!f.valid()) return f;
+  auto model = [&](const std::vector<double>& c, double v) {
+    double m = 0.0;
+    for (int j = 0; j < k; ++j) m += c[static_cast<std::size_t>(j)] * basis(v, j);
+    return m;
+  };
+  f.chi2 = 0.0;
+  for (std::size_t u : bins) {
+    const double z = (b.mean[u] - model(f.coef, b.position[u])) / b.sem[u];
+    f.chi2 += z * z;
+  }
+  const std::size_t n_bins = b.centre.size();
+  auto row_ok = [&](const std::vector<double>& r) { return r.size() == n_bins; };
+  std::vector<std::vector<double>> replicas;
+  for (std::size_t m = 0; m < b.member_count.size(); ++m) {
+    const auto& mc = b.member_count[m];
+    if (!row_ok(mc) || m >= b.member_mean.size() || !row_ok(b.member_mean[m]) ||
+        m >= b.member_position.size() || !row_ok(b.member_position[m]))
+      return f;  // malformed rows: keep the residual-scatter errors
+    double samples = 0.0;
+    for (double c : mc) samples += c;
+    if (!(samples > 0.0)) continue;  // a failed member: not in the pooled means
+    std::vector<double> xr, yr;
+    for (std::size_t u : bins) {
+      const double c = mc[u], rest = b.count[u] - c;
+      if (!(rest > 0.0)) continue;
+      if (c > 0.0) {
+        xr.push_back((b.position[u] * b.count[u] - b.member_position[m][u] * c) / rest);
+        yr.push_back((b.mean[u] * b.count[u] - b.member_mean[m][u] * c) / rest);
+      } else {
+        xr.push_back(b.position[u]);
+        yr.push_back(b.mean[u]);
+      }
+    }
+    const Fit r = basis_fit(xr, yr, {}, k, basis);
+    if (!r.valid()) {  // a member without whom the bins do not determine the fit
+      std::fill(f.error.begin(), f.error.end(), kNaN);
+      return f;
+    }
+    replicas.push_back(r.coef);
+  }
+  if (replicas.size() < 2) return f;
+  const auto n = static_cast<double>(replicas.size());
+  for (std::size_t j = 0; j < f.coef.size(); ++j) {
+    double mean = 0.0, ss = 0.0;
+    for (const auto& c : replicas) mean += c[j] / n;
+    for (const auto& c : replicas) ss += (c[j] - mean) * (c[j] - mean);
+    f.error[j] = std::sqrt((n - 1.0) / n * ss);
+  }
+  return f;
+}
+
+double power(double v, int j) { return std::pow(v, j); }
+
+std::function<double(double, int)> slice_basis(double H) {
+  return [H](double y, int) { return -y * (1.0 - y / H); };
 }
 
 Fit profile_fit(const BinnedStat& b, int degree) {
-  std::vector<double> x, y, s;
-  profile_points(b, x, y, s);
-  return polynomial_fit(x, y, s, degree);
+  return ensemble_fit(b, std::numeric_limits<double>::infinity(), degree + 1, power);
 }
 
 double coef(const Fit& f, std::size_t k) { return k < f.coef.size() ? f.coef[k] : 0.0; }
@@ -152,7 +225,7 @@ double Fit::reduced_chi2() const { return dof > 0 ? chi2 / dof : kNaN; }
 
 Fit polynomial_fit(const std::vector<double>& x, const std::vector<double>& y,
                    const std::vector<double>& sigma, int degree) {
-  return basis_fit(x, y, sigma, degree + 1, [](double v, int j) { return std::pow(v, j); });
+  return basis_fit(x, y, sigma, degree + 1, power);
 }
 
 double polynomial(const Fit& f, double x) {
@@ -166,7 +239,7 @@ double polynomial(const Fit& f, double x) {
 
 Fit slice_parabola_fit(const std::vector<double>& ye, const std::vector<double>& dy,
                        const std::vector<double>& sigma, double H) {
-  return basis_fit(ye, dy, sigma, 1, [H](double y, int) { return -y * (1.0 - y / H); });
+  return basis_fit(ye, dy, sigma, 1, slice_basis(H));
 }
 
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
@@ -248,17 +321,8 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
     a.dy_by_ye = profile_fit(pr.dy_by_ye, degree);
     if (prot == Protocol::A) {
       // The slice model without the top cut_top of the box: the paper's "crust", disks
-      // deposited last that have hardly moved (their bins' errors are tiny, and one such bin
-      // would pin the one-parameter fit to a = 0).
-      std::vector<double> x, y, s, xc, yc, sc;
-      profile_points(pr.dy_by_ye, x, y, s);
-      for (std::size_t k = 0; k < x.size(); ++k) {
-        if (x[k] > H - obs.cut_top) continue;
-        xc.push_back(x[k]);
-        yc.push_back(y[k]);
-        sc.push_back(s[k]);
-      }
-      a.slice_parabola = slice_parabola_fit(xc, yc, sc, H);
+      // deposited last that have hardly moved, which the slice model does not describe.
+      a.slice_parabola = ensemble_fit(pr.dy_by_ye, H - obs.cut_top, 1, slice_basis(H));
     } else if (a.dy_by_ye.valid() && a.dy_by_yi.valid()) {
       const double b = -coef(a.dy_by_ye, 1), sb = err(a.dy_by_ye, 1);
       const double ae = coef(a.dy_by_ye, 0), sa = err(a.dy_by_ye, 0);
@@ -285,15 +349,17 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
         s.push_back(pr.nu_deposition.sem[k]);
       }
       a.deposition_power_law = power_law_fit(x, y, s);
-      std::vector<double> bx, by, bs;
-      profile_points(pr.dy_by_ye, bx, by, bs);
-      if (a.deposition_power_law.valid() && a.dy_by_ye.valid() && !x.empty() && !bx.empty()) {
+      const std::vector<std::size_t> bins =
+          profile_bins(pr.dy_by_ye, std::numeric_limits<double>::infinity());
+      if (a.deposition_power_law.valid() && a.dy_by_ye.valid() && !x.empty() && !bins.empty()) {
+        const double y_lo = pr.dy_by_ye.position[bins.front()];
+        const double y_hi = pr.dy_by_ye.position[bins.back()];
         const double lnA = coef(a.deposition_power_law, 0), p = coef(a.deposition_power_law, 1);
         double sum2 = 0.0;
         int n = 0;
         for (std::size_t k = 0; k < pr.nu.centre.size(); ++k) {
           const double ye = pr.nu.centre[k];
-          if (ye < bx.front() || ye > bx.back()) continue;
+          if (ye < y_lo || ye > y_hi) continue;
           const double yi = ye - polynomial(a.dy_by_ye, ye);
           if (yi < x.front() || yi > x.back()) continue;
           const double slope = coef(a.dy_by_ye, 1) + 2.0 * coef(a.dy_by_ye, 2) * ye;

@@ -78,17 +78,18 @@ EnsembleProfile ensemble(const std::vector<std::vector<double>>& rows,
   return e;
 }
 
-// Avalanche profile: Delta y binned by `key` (y_i or y_e), pooled over members, with the
-// standard error of the bin mean estimated from the scatter of the member means.
-BinnedStat binned(const std::vector<const MemberResult*>& ok, bool by_initial, double bin,
+// Avalanche profile: Delta y binned by `key` (y_i or y_e), pooled over the members that did not
+// fail, with the standard error of the bin mean estimated from the scatter of the member means,
+// and one row per member (failed ones included, empty) of the per-member bin statistics.
+BinnedStat binned(const std::vector<const MemberResult*>& members, bool by_initial, double bin,
                   int n_bins) {
   BinnedStat b;
   const auto N = static_cast<std::size_t>(n_bins);
   std::vector<double> sum(N, 0.0), sum2(N, 0.0), cnt(N, 0.0), keys(N, 0.0);
   std::vector<std::vector<double>> member_means(N);
-  for (const auto* r : ok) {
-    std::vector<double> ms(N, 0.0), mc(N, 0.0);
-    for (std::size_t k = 0; k < r->y_e.size(); ++k) {
+  for (const auto* r : members) {
+    std::vector<double> ms(N, 0.0), mk(N, 0.0), mc(N, 0.0);
+    for (std::size_t k = 0; r->ok() && k < r->y_e.size(); ++k) {
       const double key = by_initial ? r->y_i[k] : r->y_e[k];
       const int j = static_cast<int>(std::floor(key / bin));
       if (j < 0 || j >= n_bins) continue;
@@ -99,10 +100,17 @@ BinnedStat binned(const std::vector<const MemberResult*>& ok, bool by_initial, d
       keys[u] += key;
       cnt[u] += 1.0;
       ms[u] += dy;
+      mk[u] += key;
       mc[u] += 1.0;
     }
-    for (std::size_t u = 0; u < N; ++u)
+    for (std::size_t u = 0; u < N; ++u) {
       if (mc[u] > 0.0) member_means[u].push_back(ms[u] / mc[u]);
+      ms[u] = mc[u] > 0.0 ? ms[u] / mc[u] : kNaN;
+      mk[u] = mc[u] > 0.0 ? mk[u] / mc[u] : kNaN;
+    }
+    b.member_mean.push_back(std::move(ms));
+    b.member_position.push_back(std::move(mk));
+    b.member_count.push_back(std::move(mc));
   }
   for (std::size_t u = 0; u < N; ++u) {
     b.centre.push_back((static_cast<double>(u) + 0.5) * bin);
@@ -136,12 +144,13 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
     const double H = p.height;
     const int n_strips = std::max(1, static_cast<int>(std::ceil(H / obs.strip_width)));
     const int n_bins = std::max(1, static_cast<int>(std::ceil(H / obs.bin_width)));
-    std::vector<const MemberResult*> ok;
+    std::vector<const MemberResult*> all, ok;
     std::vector<std::vector<double>> nu_rows, nud_rows;
     std::vector<double> lower_half, abs_dy_means, nu_i, nu_f, rel;
     for (const auto& r : results) {
       if (r.member.point != pt.index) continue;
       ++pr.members;
+      all.push_back(&r);
       const double top = deposit_top(r.y_e, r.radius);
       pr.m_disks.push_back(static_cast<double>(r.y_e.size()));
       pr.m_top.push_back(top);
@@ -193,8 +202,8 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
     pr.nu_initial = mean_sem(nu_i);
     pr.nu_final = mean_sem(nu_f);
     pr.relative_increase = mean_sem(rel);
-    pr.dy_by_yi = binned(ok, true, obs.bin_width, n_bins);
-    pr.dy_by_ye = binned(ok, false, obs.bin_width, n_bins);
+    pr.dy_by_yi = binned(all, true, obs.bin_width, n_bins);
+    pr.dy_by_ye = binned(all, false, obs.bin_width, n_bins);
 
     // |Delta y| histograms: all disks, and without the bottom and top of the final deposit.
     double max_abs = 0.0;

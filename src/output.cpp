@@ -39,6 +39,10 @@ void check(herr_t e, const std::string& what) {
   if (e < 0) throw std::runtime_error("HDF5: cannot " + what);
 }
 
+H5 open_group(hid_t parent, const std::string& name) {
+  return H5(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose, "open group " + name);
+}
+
 H5 group(hid_t parent, const std::string& name) {
   return H5(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
             "create group " + name);
@@ -52,6 +56,23 @@ void dataset(hid_t parent, const std::string& name, const std::vector<double>& v
          H5Dclose, "create dataset " + name);
   if (n > 0)
     check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
+          "write dataset " + name);
+}
+
+// Rows of equal length as a 2-D dataset [rows x columns].
+void dataset(hid_t parent, const std::string& name, const std::vector<std::vector<double>>& rows) {
+  const hsize_t dims[2] = {rows.size(), rows.empty() ? 0 : rows.front().size()};
+  std::vector<double> flat;
+  for (const auto& r : rows) {
+    if (r.size() != dims[1]) throw std::logic_error("dataset " + name + ": rows of unequal length");
+    flat.insert(flat.end(), r.begin(), r.end());
+  }
+  H5 space(H5Screate_simple(2, dims, nullptr), H5Sclose, "create dataspace");
+  H5 set(H5Dcreate2(parent, name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT,
+                    H5P_DEFAULT),
+         H5Dclose, "create dataset " + name);
+  if (!flat.empty())
+    check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, flat.data()),
           "write dataset " + name);
 }
 
@@ -89,12 +110,24 @@ const Field<BinnedStat> kBinnedFields[] = {
     {"centre", &BinnedStat::centre}, {"position", &BinnedStat::position},
     {"mean", &BinnedStat::mean},     {"stddev", &BinnedStat::stddev},
     {"count", &BinnedStat::count},   {"sem", &BinnedStat::sem}};
+// Per-member rows of a binned statistic: 2-D datasets [members x bins].
+const std::pair<const char*, std::vector<std::vector<double>> BinnedStat::*> kBinnedMemberFields[] =
+    {{"member_position", &BinnedStat::member_position},
+     {"member_mean", &BinnedStat::member_mean},
+     {"member_count", &BinnedStat::member_count}};
 
 // A group `name` with one dataset per field of v.
 template <class T, std::size_t N>
 void fields(hid_t parent, const std::string& name, const T& v, const Field<T> (&list)[N]) {
   H5 g = group(parent, name);
   for (const auto& [field, member] : list) dataset(g, field, v.*member);
+}
+
+// An avalanche profile: its fields and its per-member rows.
+void binned_stat(hid_t parent, const std::string& name, const BinnedStat& b) {
+  fields(parent, name, b, kBinnedFields);
+  H5 g = open_group(parent, name);
+  for (const auto& [field, member] : kBinnedMemberFields) dataset(g, field, b.*member);
 }
 
 void params(hid_t g, const SystemParams& p) {
@@ -135,10 +168,6 @@ void histogram_shape(hid_t parent, const std::string& name, const HistogramShape
   attribute(g, "gaussian_width", h.gaussian_width);
   fit(g, "exponential", h.exponential);
   fit(g, "gaussian", h.gaussian);
-}
-
-H5 open_group(hid_t parent, const std::string& name) {
-  return H5(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose, "open group " + name);
 }
 
 // The analysis of one point (docs/OUTPUT.md, "Analysis"): fits inside the groups of the data
@@ -305,8 +334,8 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
       dataset(g, "nu/depth", depth);
       fields(g, "nu_deposition", pr.nu_deposition, kProfileFields);
-      fields(g, "avalanche_by_yi", pr.dy_by_yi, kBinnedFields);
-      fields(g, "avalanche_by_ye", pr.dy_by_ye, kBinnedFields);
+      binned_stat(g, "avalanche_by_yi", pr.dy_by_yi);
+      binned_stat(g, "avalanche_by_ye", pr.dy_by_ye);
       {
         H5 h = group(g, "abs_dy_histogram");
         dataset(h, "edges", pr.abs_dy_edges);
@@ -378,6 +407,25 @@ std::vector<double> doubles(hid_t loc, const std::string& name) {
   return v;
 }
 
+// A 2-D dataset as its rows.
+std::vector<std::vector<double>> rows(hid_t loc, const std::string& name) {
+  H5 set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+  H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
+  hsize_t dims[2] = {0, 0};
+  if (H5Sget_simple_extent_ndims(space) != 2)
+    throw std::runtime_error("dataset " + name + " is not two-dimensional");
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  std::vector<double> flat(static_cast<std::size_t>(dims[0] * dims[1]));
+  if (!flat.empty())
+    check(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, flat.data()),
+          "read dataset " + name);
+  std::vector<std::vector<double>> out;
+  for (hsize_t r = 0; r < dims[0]; ++r)
+    out.emplace_back(flat.begin() + static_cast<std::ptrdiff_t>(r * dims[1]),
+                     flat.begin() + static_cast<std::ptrdiff_t>((r + 1) * dims[1]));
+  return out;
+}
+
 double double_attribute(hid_t loc, const std::string& object, const std::string& name) {
   H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
        "open attribute " + object + "@" + name);
@@ -423,8 +471,16 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
   pr.mean_abs_dy = scalar_of("mean_abs_dy");
   read("nu", pr.nu, kProfileFields);
   read("nu_deposition", pr.nu_deposition, kProfileFields);
-  read("avalanche_by_yi", pr.dy_by_yi, kBinnedFields);
-  read("avalanche_by_ye", pr.dy_by_ye, kBinnedFields);
+  for (auto [name, b] : {std::pair("avalanche_by_yi", &pr.dy_by_yi),
+                         std::pair("avalanche_by_ye", &pr.dy_by_ye)}) {
+    read(name, *b, kBinnedFields);
+    for (const auto& [field, member] : kBinnedMemberFields) {
+      // Files of programs before the per-member rows lack them: the fits then take their
+      // errors from the residual scatter.
+      const std::string path = std::string(name) + "/" + field;
+      if (H5Lexists(g, path.c_str(), H5P_DEFAULT) > 0) (*b).*member = rows(g, path);
+    }
+  }
   pr.abs_dy_edges = doubles(g, "abs_dy_histogram/edges");
   pr.abs_dy_counts = doubles(g, "abs_dy_histogram/counts");
   pr.abs_dy_counts_cut = doubles(g, "abs_dy_histogram/counts_cut");

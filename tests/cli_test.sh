@@ -62,7 +62,7 @@ if grep -q "^FAIL" "$dir/claims.txt"; then [ "$rc" -eq 1 ]; else [ "$rc" -eq 0 ]
 [ -s "$dir/fig_an/collapse_increase.png" ] || fail "plot.py did not draw collapse_increase.png"
 # `analyse` recomputes the fits from the aggregates the file stores: an unchanged file gets the
 # same fits; with the stored Delta y(y_i) means doubled (errors kept) and the old fits removed,
-# the weighted line's coefficients double; a non-HDF5 file is refused and left untouched.
+# the line's coefficients double; a non-HDF5 file is refused and left untouched.
 "$exe" analyse "$dir/an.h5" -o "$dir/an2.h5"
 /usr/bin/python3 "$repo/tests/h5_equal.py" "$dir/an.h5" "$dir/an2.h5" >/dev/null ||
   fail "analyse changed the fits of an unchanged file"
@@ -82,6 +82,29 @@ assert a[fit].attrs["valid"] == 1 and b[fit].attrs["valid"] == 1
 assert len(a[fit]["coef"]) == 2, a[fit]["coef"][:]
 assert np.allclose(b[fit]["coef"][:], 2 * a[fit]["coef"][:], rtol=1e-9, atol=0), (a[fit]["coef"][:], b[fit]["coef"][:])
 assert "analysis/increase_vs_log_height" in b
+EOF_PY
+# A file of a program before the per-member rows of the avalanche profiles: the same
+# coefficients (they come from the pooled bin means), errors from the residual scatter.
+/usr/bin/python3 - "$dir/an.h5" "$dir/an_old.h5" <<'EOF_PY'
+import shutil, sys, h5py
+shutil.copy(sys.argv[1], sys.argv[2])
+with h5py.File(sys.argv[2], "r+") as f:
+    for p in f["points"].values():
+        for name in ("avalanche_by_yi", "avalanche_by_ye"):
+            for field in ("member_position", "member_mean", "member_count"):
+                del p[name][field]
+EOF_PY
+"$exe" analyse "$dir/an_old.h5"
+/usr/bin/python3 - "$dir/an.h5" "$dir/an_old.h5" <<'EOF_PY' || fail "analyse of a file without member rows"
+import sys, h5py, numpy as np
+a, b = (h5py.File(p, "r") for p in sys.argv[1:])
+for name in a["points"]:
+    for key in ("avalanche_by_yi/fit", "avalanche_by_ye/fit"):
+        fa, fb = a["points"][name][key], b["points"][name][key]
+        if not fa.attrs["valid"]:
+            continue
+        assert np.allclose(fb["coef"][:], fa["coef"][:], rtol=1e-12, atol=1e-15), key
+        assert np.all(np.isfinite(fb["error"][:]) & (fb["error"][:] > 0)), key
 EOF_PY
 cp "$dir/bad.toml" "$dir/bad_copy.toml"
 set +e

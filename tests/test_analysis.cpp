@@ -323,9 +323,123 @@ lower_half_from = 8.0
   EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);
 }
 
+// The errors of a profile fit are a jackknife over members. When every member has its disks at
+// the same y_e (so every bin has the same position and count in every member), the pooled bin
+// means are the averages of the members' bin means and the unweighted fit is linear in them:
+// the pooled fit's coefficients are the means of the members' own fits, and the jackknife error
+// is exactly the standard error of those across members, sqrt(sum (c_m - mean c)^2 / (n (n-1))).
+// Each member here has its own curvature, so that error is the member-to-member scatter.
+TEST(Analysis, ProfileErrorsAreAJackknifeOverMembers) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "A"
+seeds = 6
+[system]
+width = 40.0
+height = 80.0
+bond_number = 100
+[observables]
+lower_half_from = 4.0
+bin_width = 4.0
+)",
+                               "synthetic.toml");
+  const double H = 80.0;
+  const int n = 800;
+  int k = 0;  // disk index within the member
+  std::normal_distribution<double> noise(0.0, 0.2), spread(0.0, 0.3);
+  std::vector<double> alpha;  // each member's slice-model coefficient
+  const auto results = synthetic_ensemble(
+      scan, 23,
+      [&](const Member&) {
+        k = 0;
+        alpha.push_back(0.0);
+        return n;
+      },
+      [&](const Member&, std::mt19937_64& rng) {
+        if (k == 0) alpha.back() = 0.15 * (1.0 + spread(rng));
+        const double ye = 1.0 + (k++ + 0.5) * (H - 2.0) / n;
+        return std::pair(ye + alpha.back() * ye * (1.0 - ye / H) + noise(rng), ye);
+      });
+  const auto points = aggregate(scan, results);
+  const BinnedStat& b = points.at(0).dy_by_ye;
+  ASSERT_EQ(b.member_mean.size(), 6u);
+  // The members' own unweighted fits to their bin means.
+  std::vector<std::vector<double>> member_coef;
+  for (std::size_t m = 0; m < b.member_mean.size(); ++m) {
+    const Fit f = polynomial_fit(b.member_position[m], b.member_mean[m], {}, 2);
+    ASSERT_TRUE(f.valid());
+    member_coef.push_back(f.coef);
+  }
+  const Fit fit = analyse(scan, points).points.at(0).dy_by_ye;
+  ASSERT_TRUE(fit.valid());
+  ASSERT_EQ(fit.points, 20);  // every bin is used, so the members' fits use the same bins
+  for (std::size_t j = 0; j < 3; ++j) {
+    double mean = 0.0, ss = 0.0;
+    for (const auto& c : member_coef) mean += c[j] / 6.0;
+    for (const auto& c : member_coef) ss += (c[j] - mean) * (c[j] - mean);
+    const double sem = std::sqrt(ss / (6.0 * 5.0));
+    EXPECT_NEAR(fit.coef[j], mean, 1e-9 * (std::fabs(mean) + sem)) << "coefficient " << j;
+    EXPECT_NEAR(fit.error[j], sem, 1e-6 * sem) << "coefficient " << j;
+  }
+  // The curvature is -alpha/H with alpha the members' mean, within the error.
+  double mean_alpha = 0.0;
+  for (double a : alpha) mean_alpha += a / 6.0;
+  EXPECT_NEAR(fit.coef[2], mean_alpha / H, 4.0 * fit.error[2]);
+}
+
+// A profile whose lower half does not move (Delta y = 0 up to a creep of 1e-5 R) and whose upper
+// half does, Delta y = -alpha (y_e - H/2) (1 - y_e/H) with disk noise 0.3 R. The still bins have
+// errors ten thousand times smaller than the moving ones'. A weighted fit passes through them
+// and bends away from the moving half; the program's fit is the unweighted one through every
+// bin mean, whatever their errors.
+TEST(Analysis, BinsThatDoNotMoveDoNotPinTheProfileFit) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "A"
+seeds = 8
+[system]
+width = 40.0
+height = 80.0
+bond_number = 1000
+[observables]
+lower_half_from = 4.0
+bin_width = 4.0
+)",
+                               "synthetic.toml");
+  const double H = 80.0, alpha = 0.4;
+  std::normal_distribution<double> noise(0.0, 0.3), creep(0.0, 1e-5);
+  std::uniform_real_distribution<double> uy(1.0, H - 1.0);
+  const auto results = synthetic_ensemble(
+      scan, 29, [](const Member&) { return 1000; },
+      [&](const Member&, std::mt19937_64& rng) {
+        const double ye = uy(rng);
+        const double dy = ye < 0.5 * H ? creep(rng)
+                                       : -alpha * (ye - 0.5 * H) * (1.0 - ye / H) + noise(rng);
+        return std::pair(ye - dy, ye);
+      });
+  const auto points = aggregate(scan, results);
+  const BinnedStat& b = points.at(0).dy_by_ye;
+  std::vector<double> x, y, s;
+  for (std::size_t k = 0; k < b.centre.size(); ++k) {
+    x.push_back(b.position[k]);
+    y.push_back(b.mean[k]);
+    s.push_back(b.sem[k]);
+  }
+  const Fit unweighted = polynomial_fit(x, y, {}, 2);
+  const Fit weighted = polynomial_fit(x, y, s, 2);
+  const Fit fit = analyse(scan, points).points.at(0).dy_by_ye;
+  ASSERT_TRUE(fit.valid() && unweighted.valid() && weighted.valid());
+  ASSERT_EQ(fit.points, 20);
+  for (std::size_t j = 0; j < 3; ++j)
+    EXPECT_NEAR(fit.coef[j], unweighted.coef[j], 1e-9 * std::fabs(unweighted.coef[j]));
+  // The case the test is about: the weighted curvature is far from the unweighted one.
+  EXPECT_GT(std::fabs(weighted.coef[2] - unweighted.coef[2]), 5.0 * fit.error[2]);
+  // The goodness of fit is against the bins' errors: the still bins make it huge.
+  EXPECT_GT(fit.reduced_chi2(), 100.0);
+}
+
 // The slice model leaves out the top cut_top of the box: there the last-deposited disks (the
-// paper's "crust") have not moved, and a bin of them, with an error a thousand times smaller
-// than the others', would pin the one-parameter fit to a = 0.
+// paper's "crust") have not moved, which the slice model does not describe.
 TEST(Analysis, SliceModelLeavesOutTheCrust) {
   const auto scan = parse_scan(R"(
 [scan]

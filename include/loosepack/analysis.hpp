@@ -13,7 +13,9 @@ namespace loosepack {
 // A least-squares fit. coef[k] and error[k]: the k-th parameter and its standard error. With
 // per-point standard errors (weighted fit) the errors come from them and are scaled up by
 // sqrt(chi2 / dof) where that exceeds one (the data scatter more than their errors say);
-// without them, from the residual scatter.
+// without them, from the residual scatter. The avalanche-profile fits of PointAnalysis are
+// unweighted, with errors from a jackknife over members and chi2 against the bins' standard
+// errors (src/analysis.cpp, ensemble_fit).
 struct Fit {
   std::vector<double> coef, error;
   double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
