@@ -103,9 +103,9 @@ std::vector<std::size_t> profile_bins(const BinnedStat& b, double x_max) {
 // near zero, pin the fit (docs/REPRODUCTION.md, "The weighted profile fits are biased"). The
 // errors come from a jackknife over members: each member with samples is left out in turn, the
 // pooled bin means and positions are recomputed without it, and the same bins are refitted;
-// var c_j = (n - 1)/n sum_m (c_j(m) - mean c_j)^2. Without per-member rows (a file of an older
-// program) the errors come from the residual scatter. chi2 is against the bins' standard errors:
-// a goodness-of-fit figure only.
+// var c_j = (n - 1)/n sum_m (c_j(m) - mean c_j)^2. chi2 is that of the residuals of the bins
+// against their jackknife errors (below). Without per-member rows (a file of an older program)
+// the errors come from the residual scatter and chi2 is against the bins' standard errors.
 Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
                  const std::function<double(double, int)>& basis) {
   const std::vector<std::size_t> bins = profile_bins(b, x_max);
@@ -116,19 +116,20 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
   }
   Fit f = basis_fit(x, y, {}, k, basis);
   if (!f.valid()) return f;
-  auto model = [&](const std::vector<double>& c, double v) {
+  auto residual = [&](const std::vector<double>& c, double xv, double yv) {
     double m = 0.0;
-    for (int j = 0; j < k; ++j) m += c[static_cast<std::size_t>(j)] * basis(v, j);
-    return m;
+    for (int j = 0; j < k; ++j) m += c[static_cast<std::size_t>(j)] * basis(xv, j);
+    return yv - m;
   };
+  // Without per-member rows: chi2 against the bins' standard errors.
   f.chi2 = 0.0;
   for (std::size_t u : bins) {
-    const double z = (b.mean[u] - model(f.coef, b.position[u])) / b.sem[u];
+    const double z = residual(f.coef, b.position[u], b.mean[u]) / b.sem[u];
     f.chi2 += z * z;
   }
   const std::size_t n_bins = b.centre.size();
   auto row_ok = [&](const std::vector<double>& r) { return r.size() == n_bins; };
-  std::vector<std::vector<double>> replicas;
+  std::vector<std::vector<double>> coefs, residuals;  // per replica; residuals per bin of `bins`
   for (std::size_t m = 0; m < b.member_count.size(); ++m) {
     const auto& mc = b.member_count[m];
     if (!row_ok(mc) || m >= b.member_mean.size() || !row_ok(b.member_mean[m]) ||
@@ -138,31 +139,54 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
     for (double c : mc) samples += c;
     if (!(samples > 0.0)) continue;  // a failed member: not in the pooled means
     std::vector<double> xr, yr;
-    for (std::size_t u : bins) {
+    std::vector<std::size_t> used;  // index into `bins`
+    for (std::size_t i = 0; i < bins.size(); ++i) {
+      const std::size_t u = bins[i];
       const double c = mc[u], rest = b.count[u] - c;
       if (!(rest > 0.0)) continue;
-      if (c > 0.0) {
-        xr.push_back((b.position[u] * b.count[u] - b.member_position[m][u] * c) / rest);
-        yr.push_back((b.mean[u] * b.count[u] - b.member_mean[m][u] * c) / rest);
-      } else {
-        xr.push_back(b.position[u]);
-        yr.push_back(b.mean[u]);
-      }
+      used.push_back(i);
+      xr.push_back(c > 0.0 ? (b.position[u] * b.count[u] - b.member_position[m][u] * c) / rest
+                           : b.position[u]);
+      yr.push_back(c > 0.0 ? (b.mean[u] * b.count[u] - b.member_mean[m][u] * c) / rest
+                           : b.mean[u]);
     }
     const Fit r = basis_fit(xr, yr, {}, k, basis);
     if (!r.valid()) {  // a member without whom the bins do not determine the fit
       std::fill(f.error.begin(), f.error.end(), kNaN);
+      f.chi2 = kNaN;
       return f;
     }
-    replicas.push_back(r.coef);
+    coefs.push_back(r.coef);
+    std::vector<double> res(bins.size(), kNaN);
+    for (std::size_t i = 0; i < used.size(); ++i)
+      res[used[i]] = residual(r.coef, xr[i], yr[i]);
+    residuals.push_back(std::move(res));
   }
-  if (replicas.size() < 2) return f;
-  const auto n = static_cast<double>(replicas.size());
-  for (std::size_t j = 0; j < f.coef.size(); ++j) {
-    double mean = 0.0, ss = 0.0;
-    for (const auto& c : replicas) mean += c[j] / n;
-    for (const auto& c : replicas) ss += (c[j] - mean) * (c[j] - mean);
-    f.error[j] = std::sqrt((n - 1.0) / n * ss);
+  // Jackknife standard error of each entry of the replicas' vectors (NaN entries skipped).
+  auto jackknife = [](const std::vector<std::vector<double>>& reps, std::size_t j) {
+    double n = 0.0, mean = 0.0, ss = 0.0;
+    for (const auto& v : reps)
+      if (std::isfinite(v[j])) {
+        n += 1.0;
+        mean += v[j];
+      }
+    if (n < 2.0) return kNaN;
+    mean /= n;
+    for (const auto& v : reps)
+      if (std::isfinite(v[j])) ss += (v[j] - mean) * (v[j] - mean);
+    return std::sqrt((n - 1.0) / n * ss);
+  };
+  if (coefs.size() < 2) return f;
+  for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife(coefs, j);
+  // chi2 of the residuals against their own jackknife errors. The bins' standard errors are
+  // strongly correlated (a member that moved more moved more in every bin), so chi2 against
+  // them says little; the residuals' errors have the fitted common modes taken out.
+  f.chi2 = 0.0;
+  for (std::size_t i = 0; i < bins.size(); ++i) {
+    const double e = jackknife(residuals, i);
+    if (!(e > 0.0)) continue;
+    const double z = residual(f.coef, b.position[bins[i]], b.mean[bins[i]]) / e;
+    f.chi2 += z * z;
   }
   return f;
 }

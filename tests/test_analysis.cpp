@@ -385,6 +385,12 @@ bin_width = 4.0
   double mean_alpha = 0.0;
   for (double a : alpha) mean_alpha += a / 6.0;
   EXPECT_NEAR(fit.coef[2], mean_alpha / H, 4.0 * fit.error[2]);
+  // Every member's profile is a parabola, so the residuals are the disks' noise, and chi2 is
+  // against their jackknife errors: its expectation per degree of freedom is about
+  // (n-1)/(n-3) = 5/3 (an error estimated from 6 members). Against the bins' standard errors,
+  // which hold the members' different curvatures, it would be far below 1.
+  EXPECT_GT(fit.reduced_chi2(), 0.5);
+  EXPECT_LT(fit.reduced_chi2(), 4.0);
 }
 
 // A profile whose lower half does not move (Delta y = 0 up to a creep of 1e-5 R) and whose upper
