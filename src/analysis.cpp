@@ -27,8 +27,8 @@ Fit linear_least_squares(const Eigen::MatrixXd& A, const Eigen::VectorXd& y,
     f.dof = -1;
     return f;
   }
-  Eigen::VectorXd w = weighted ? Eigen::VectorXd(sigma.array().inverse())
-                               : Eigen::VectorXd::Ones(n);
+  Eigen::VectorXd w =
+      weighted ? Eigen::VectorXd(sigma.array().inverse()) : Eigen::VectorXd::Ones(n);
   const Eigen::MatrixXd Aw = w.asDiagonal() * A;
   const Eigen::VectorXd yw = w.asDiagonal() * y;
   // QR of the weighted design matrix, not the normal equations: a bin whose error is tiny
@@ -87,13 +87,25 @@ Fit basis_fit(const std::vector<double>& x, const std::vector<double>& y,
   return linear_least_squares(A, b, s, weighted);
 }
 
-// The usable bins of an avalanche profile (their positions below x_max).
+// The usable bins of an avalanche profile (their positions below x_max). Where the file has
+// per-member rows, a bin is usable only if every member that did not fail has disks in it: above
+// the lowest member's top, the pooled mean holds only the members that reach higher (after a
+// collapse, those that collapsed less), and it bends away from every member's own profile.
 std::vector<std::size_t> profile_bins(const BinnedStat& b, double x_max) {
   std::vector<std::size_t> out;
-  for (std::size_t k = 0; k < b.centre.size(); ++k)
-    if (b.count[k] >= kMinBinCount && b.sem[k] > 0.0 && std::isfinite(b.mean[k]) &&
-        b.position[k] <= x_max)
-      out.push_back(k);
+  for (std::size_t k = 0; k < b.centre.size(); ++k) {
+    if (!(b.count[k] >= kMinBinCount && b.sem[k] > 0.0 && std::isfinite(b.mean[k]) &&
+          b.position[k] <= x_max))
+      continue;
+    bool every_member = true;
+    for (const auto& row : b.member_count) {
+      if (row.size() != b.centre.size()) continue;  // malformed: ensemble_fit ignores the rows
+      double samples = 0.0;
+      for (double c : row) samples += c;
+      every_member = every_member && (samples == 0.0 || row[k] > 0.0);  // 0: a failed member
+    }
+    if (every_member) out.push_back(k);
+  }
   return out;
 }
 
@@ -147,8 +159,7 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
       used.push_back(i);
       xr.push_back(c > 0.0 ? (b.position[u] * b.count[u] - b.member_position[m][u] * c) / rest
                            : b.position[u]);
-      yr.push_back(c > 0.0 ? (b.mean[u] * b.count[u] - b.member_mean[m][u] * c) / rest
-                           : b.mean[u]);
+      yr.push_back(c > 0.0 ? (b.mean[u] * b.count[u] - b.member_mean[m][u] * c) / rest : b.mean[u]);
     }
     const Fit r = basis_fit(xr, yr, {}, k, basis);
     if (!r.valid()) {  // a member without whom the bins do not determine the fit
@@ -158,8 +169,7 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
     }
     coefs.push_back(r.coef);
     std::vector<double> res(bins.size(), kNaN);
-    for (std::size_t i = 0; i < used.size(); ++i)
-      res[used[i]] = residual(r.coef, xr[i], yr[i]);
+    for (std::size_t i = 0; i < used.size(); ++i) res[used[i]] = residual(r.coef, xr[i], yr[i]);
     residuals.push_back(std::move(res));
   }
   // Jackknife standard error of each entry of the replicas' vectors (NaN entries skipped).
@@ -177,10 +187,15 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
     return std::sqrt((n - 1.0) / n * ss);
   };
   if (coefs.size() < 2) return f;
+  const auto n = static_cast<double>(coefs.size());
   for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife(coefs, j);
   // chi2 of the residuals against their own jackknife errors. The bins' standard errors are
   // strongly correlated (a member that moved more moved more in every bin), so chi2 against
   // them says little; the residuals' errors have the fitted common modes taken out.
+  // An error estimated from n members inflates the expectation of z^2 by (n-1)/(n-3) (normal
+  // residuals: E[1/s^2] = (n-1)/((n-3) sigma^2)); chi2 is scaled back by its inverse, so that a
+  // model that fits has chi2/dof near 1 at any n. With 3 or fewer members there is no such
+  // expectation, and no chi2 (NaN).
   f.chi2 = 0.0;
   for (std::size_t i = 0; i < bins.size(); ++i) {
     const double e = jackknife(residuals, i);
@@ -188,6 +203,7 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
     const double z = residual(f.coef, b.position[bins[i]], b.mean[bins[i]]) / e;
     f.chi2 += z * z;
   }
+  f.chi2 *= n > 3.0 ? (n - 3.0) / (n - 1.0) : kNaN;
   return f;
 }
 
@@ -278,8 +294,8 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
   return polynomial_fit(lx, ly, ls, 1);
 }
 
-HistogramShape histogram_shape(const std::vector<double>& edges,
-                               const std::vector<double>& counts, double min_count) {
+HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
+                               double min_count) {
   HistogramShape h;
   h.preferred = "none";
   std::vector<double> x, n, lx, ln, ls;
@@ -329,8 +345,8 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
     PointAnalysis a;
     const Protocol prot = pr.point.protocol;
     const double H = pr.point.params.height;
-    const bool moves = prot == Protocol::C ||
-                       (prot == Protocol::A && std::isfinite(pr.point.params.bond_number));
+    const bool moves =
+        prot == Protocol::C || (prot == Protocol::A && std::isfinite(pr.point.params.bond_number));
     a.abs_dy = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts);
     a.abs_dy_cut = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut);
     a.nu_predicted.assign(pr.nu.centre.size(), kNaN);
@@ -357,8 +373,7 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
       a.b_prime_predicted = b / (1.0 + b);
       a.b_prime_predicted_error = sb / ((1.0 + b) * (1.0 + b));
       a.a_prime_predicted = ae / (1.0 + b);
-      a.a_prime_predicted_error =
-          std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
+      a.a_prime_predicted_error = std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
       a.slope_increase = b;
       a.slope_increase_error = sb;
     }

@@ -103,8 +103,10 @@ void scalar(hid_t obj, const std::string& name, const Scalar& s) {
 template <class T>
 using Field = std::pair<const char*, std::vector<double> T::*>;
 const Field<EnsembleProfile> kProfileFields[] = {
-    {"centre", &EnsembleProfile::centre},   {"mean", &EnsembleProfile::mean},
-    {"sem", &EnsembleProfile::sem},         {"members", &EnsembleProfile::members},
+    {"centre", &EnsembleProfile::centre},
+    {"mean", &EnsembleProfile::mean},
+    {"sem", &EnsembleProfile::sem},
+    {"members", &EnsembleProfile::members},
     {"rel_fluctuation", &EnsembleProfile::rel_fluctuation}};
 const Field<BinnedStat> kBinnedFields[] = {
     {"centre", &BinnedStat::centre}, {"position", &BinnedStat::position},
@@ -285,8 +287,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
     attribute(file, "batch_size", static_cast<double>(scan.batch_size));
     {
       H5 g = group(file, "settings");
-      attribute(g, "solver_kind",
-                std::string(solver_kind_name(scan.solver.kind)));
+      attribute(g, "solver_kind", std::string(solver_kind_name(scan.solver.kind)));
       if (scan.tolerance_given) attribute(g, "solver_tolerance", scan.solver.tolerance);
       if (scan.max_sweeps_given)
         attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
@@ -471,8 +472,8 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
   pr.mean_abs_dy = scalar_of("mean_abs_dy");
   read("nu", pr.nu, kProfileFields);
   read("nu_deposition", pr.nu_deposition, kProfileFields);
-  for (auto [name, b] : {std::pair("avalanche_by_yi", &pr.dy_by_yi),
-                         std::pair("avalanche_by_ye", &pr.dy_by_ye)}) {
+  for (auto [name, b] :
+       {std::pair("avalanche_by_yi", &pr.dy_by_yi), std::pair("avalanche_by_ye", &pr.dy_by_ye)}) {
     read(name, *b, kBinnedFields);
     for (const auto& [field, member] : kBinnedMemberFields) {
       // Files of programs before the per-member rows lack them: the fits then take their
@@ -643,25 +644,27 @@ void print_summary(const std::string& path, std::ostream& out) {
     }
     if (exists(n + "/collapse_identity")) {
       auto c = [&](const char* a) { return double_attribute(file, n + "/collapse_identity", a); };
-      out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error") << ", from b/(1+b): "
-          << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
-          << "; a' = " << c("a_prime") << " +- " << c("a_prime_error") << ", from a/(1+b): "
-          << c("a_prime_predicted") << " +- " << c("a_prime_predicted_error")
+      out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error")
+          << ", from b/(1+b): " << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
+          << "; a' = " << c("a_prime") << " +- " << c("a_prime_error")
+          << ", from a/(1+b): " << c("a_prime_predicted") << " +- " << c("a_prime_predicted_error")
           << "; -dDelta y/dy_e = " << c("slope_increase") << " +- " << c("slope_increase_error")
-          << " vs dnu/nu_i = " << double_attribute(file, n, "relative_increase_mean")
-          << " +- " << double_attribute(file, n, "relative_increase_sem") << "\n";
+          << " vs dnu/nu_i = " << double_attribute(file, n, "relative_increase_mean") << " +- "
+          << double_attribute(file, n, "relative_increase_sem") << "\n";
     }
     const std::string nud = power_text(n + "/nu_deposition/power_law");
     if (!nud.empty()) out << "  deposition density nu_d = A y_i^p: " << nud << "\n";
     const double rms = double_attribute(file, n + "/nu", "rms_deviation");
-    if (std::isfinite(rms)) out << "  nu predicted from the deposition density: rms deviation " << rms << "\n";
+    if (std::isfinite(rms))
+      out << "  nu predicted from the deposition density: rms deviation " << rms << "\n";
     for (const char* which : {"shape", "shape_cut"}) {
       const std::string h = n + "/abs_dy_histogram/" + which, pref = verdict(which);
       if (pref == "none") continue;
-      out << "  |Delta y| histogram" << (which == std::string("shape") ? "" : " (top and bottom cut)")
-          << ": " << pref << " (chi2/dof gaussian "
-          << double_attribute(file, h + "/gaussian", "reduced_chi2") << ", exponential "
-          << double_attribute(file, h + "/exponential", "reduced_chi2") << ")\n";
+      out << "  |Delta y| histogram"
+          << (which == std::string("shape") ? "" : " (top and bottom cut)") << ": " << pref
+          << " (chi2/dof gaussian " << double_attribute(file, h + "/gaussian", "reduced_chi2")
+          << ", exponential " << double_attribute(file, h + "/exponential", "reduced_chi2")
+          << ")\n";
     }
   }
   // The fits across scan points, where the scan has the points for them.

@@ -386,9 +386,9 @@ bin_width = 4.0
   for (double a : alpha) mean_alpha += a / 6.0;
   EXPECT_NEAR(fit.coef[2], mean_alpha / H, 4.0 * fit.error[2]);
   // Every member's profile is a parabola, so the residuals are the disks' noise, and chi2 is
-  // against their jackknife errors: its expectation per degree of freedom is about
-  // (n-1)/(n-3) = 5/3 (an error estimated from 6 members). Against the bins' standard errors,
-  // which hold the members' different curvatures, it would be far below 1.
+  // against their jackknife errors (scaled by (n-3)/(n-1) for errors estimated from n = 6
+  // members): about 1 per degree of freedom. Against the bins' standard errors, which hold the
+  // members' different curvatures, it would be far below 1.
   EXPECT_GT(fit.reduced_chi2(), 0.5);
   EXPECT_LT(fit.reduced_chi2(), 4.0);
 }
@@ -419,8 +419,8 @@ bin_width = 4.0
       scan, 29, [](const Member&) { return 1000; },
       [&](const Member&, std::mt19937_64& rng) {
         const double ye = uy(rng);
-        const double dy = ye < 0.5 * H ? creep(rng)
-                                       : -alpha * (ye - 0.5 * H) * (1.0 - ye / H) + noise(rng);
+        const double dy =
+            ye < 0.5 * H ? creep(rng) : -alpha * (ye - 0.5 * H) * (1.0 - ye / H) + noise(rng);
         return std::pair(ye - dy, ye);
       });
   const auto points = aggregate(scan, results);
@@ -442,6 +442,36 @@ bin_width = 4.0
   EXPECT_GT(std::fabs(weighted.coef[2] - unweighted.coef[2]), 5.0 * fit.error[2]);
   // The goodness of fit is against the bins' errors: the still bins make it huge.
   EXPECT_GT(fit.reduced_chi2(), 100.0);
+}
+
+// A bin enters the profile fits only where every member has disks: one member of four reaches
+// only y_e = 40 (as after a deep collapse), so of the 20 bins of 4 R the 10 below 40 are used.
+TEST(Analysis, ProfileFitsUseTheBinsEveryMemberReaches) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "A"
+seeds = 4
+[system]
+width = 40.0
+height = 80.0
+bond_number = 100
+[observables]
+lower_half_from = 4.0
+bin_width = 4.0
+)",
+                               "synthetic.toml");
+  std::normal_distribution<double> noise(0.0, 0.2);
+  const auto results = synthetic_ensemble(
+      scan, 31, [](const Member&) { return 1000; },
+      [&](const Member& m, std::mt19937_64& rng) {
+        const double top = m.seed_index == 0 ? 40.0 : 79.0;
+        const double ye = std::uniform_real_distribution<double>(1.0, top)(rng);
+        return std::pair(ye + 0.1 * ye * (1.0 - ye / 80.0) + noise(rng), ye);
+      });
+  const auto points = aggregate(scan, results);
+  const Fit fit = analyse(scan, points).points.at(0).dy_by_ye;
+  ASSERT_TRUE(fit.valid());
+  EXPECT_EQ(fit.points, 10);
 }
 
 // The slice model leaves out the top cut_top of the box: there the last-deposited disks (the
@@ -467,8 +497,8 @@ cut_top = 8.0
       scan, 17, [](const Member&) { return 1500; },
       [&](const Member&, std::mt19937_64& rng) {
         const double yi = uy(rng);
-        const double ye = yi > H - crust ? yi + creep(rng)
-                                         : slice_model_final_height(yi, alpha, H) + noise(rng);
+        const double ye =
+            yi > H - crust ? yi + creep(rng) : slice_model_final_height(yi, alpha, H) + noise(rng);
         return std::pair(yi, ye);
       });
   const auto points = aggregate(scan, results);

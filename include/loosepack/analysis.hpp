@@ -51,8 +51,8 @@ struct HistogramShape {
   double decay_length = 0.0, gaussian_mean = 0.0, gaussian_width = 0.0;
   std::string preferred;  // "gaussian", "exponential", "neither", or "none" (too few bins)
 };
-HistogramShape histogram_shape(const std::vector<double>& edges,
-                               const std::vector<double>& counts, double min_count = 5.0);
+HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
+                               double min_count = 5.0);
 
 struct PointAnalysis {
   // Avalanche profiles: parabolas (protocol A) or lines (C): Delta y = c0 + c1 y (+ c2 y^2).

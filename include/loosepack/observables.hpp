@@ -21,13 +21,13 @@ double deposit_top(const std::vector<double>& y, const std::vector<double>& r);
 struct BinnedStat {
   std::vector<double> centre;
   std::vector<double> position;  // mean key (y_i or y_e) of the samples in the bin: fits use it
-  std::vector<double> mean;    // pooled over all samples of all members
-  std::vector<double> stddev;  // pooled standard deviation of the samples
-  std::vector<double> count;   // samples
-  std::vector<double> sem;     // standard error of the mean from member-to-member scatter
-  // The same per member: one row per member of the point, in the order of members/seed_index (a failed member's
-  // row has count 0 and NaN means), one entry per bin. The fits' jackknife errors leave one
-  // row out at a time. Empty in a file of an older program.
+  std::vector<double> mean;      // pooled over all samples of all members
+  std::vector<double> stddev;    // pooled standard deviation of the samples
+  std::vector<double> count;     // samples
+  std::vector<double> sem;       // standard error of the mean from member-to-member scatter
+  // The same per member: one row per member of the point, in the order of members/seed_index (a
+  // failed member's row has count 0 and NaN means), one entry per bin. The fits' jackknife errors
+  // leave one row out at a time. Empty in a file of an older program.
   std::vector<std::vector<double>> member_position, member_mean, member_count;
 };
 
