@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <string>
 
 #include "loosepack/analysis.hpp"
 #include "loosepack/protocols.hpp"
@@ -42,6 +43,15 @@ std::vector<MemberResult> synthetic_ensemble(const Scan& scan, std::uint64_t see
 double slice_model_final_height(double yi, double alpha, double H) {
   const double c = alpha / H;
   return ((1.0 + alpha) - std::sqrt((1.0 + alpha) * (1.0 + alpha) - 4.0 * c * yi)) / (2.0 * c);
+}
+
+// Protocol A in a 40 R x 80 R box with 4 R profile bins: `seeds` members at Bond number `bo`.
+Scan profile_scan(int seeds, int bo) {
+  return parse_scan(
+      "[scan]\nprotocol = \"A\"\nseeds = " + std::to_string(seeds) +
+          "\n[system]\nwidth = 40.0\nheight = 80.0\nbond_number = " + std::to_string(bo) +
+          "\n[observables]\nlower_half_from = 4.0\nbin_width = 4.0\n",
+      "synthetic.toml");
 }
 
 }  // namespace
@@ -330,19 +340,7 @@ lower_half_from = 8.0
 // is exactly the standard error of those across members, sqrt(sum (c_m - mean c)^2 / (n (n-1))).
 // Each member here has its own curvature, so that error is the member-to-member scatter.
 TEST(Analysis, ProfileErrorsAreAJackknifeOverMembers) {
-  const auto scan = parse_scan(R"(
-[scan]
-protocol = "A"
-seeds = 6
-[system]
-width = 40.0
-height = 80.0
-bond_number = 100
-[observables]
-lower_half_from = 4.0
-bin_width = 4.0
-)",
-                               "synthetic.toml");
+  const auto scan = profile_scan(6, 100);
   const double H = 80.0;
   const int n = 800;
   int k = 0;  // disk index within the member
@@ -399,19 +397,7 @@ bin_width = 4.0
 // and bends away from the moving half; the program's fit is the unweighted one through every
 // bin mean, whatever their errors.
 TEST(Analysis, BinsThatDoNotMoveDoNotPinTheProfileFit) {
-  const auto scan = parse_scan(R"(
-[scan]
-protocol = "A"
-seeds = 8
-[system]
-width = 40.0
-height = 80.0
-bond_number = 1000
-[observables]
-lower_half_from = 4.0
-bin_width = 4.0
-)",
-                               "synthetic.toml");
+  const auto scan = profile_scan(8, 1000);
   const double H = 80.0, alpha = 0.4;
   std::normal_distribution<double> noise(0.0, 0.3), creep(0.0, 1e-5);
   std::uniform_real_distribution<double> uy(1.0, H - 1.0);
@@ -440,26 +426,14 @@ bin_width = 4.0
     EXPECT_NEAR(fit.coef[j], unweighted.coef[j], 1e-9 * std::fabs(unweighted.coef[j]));
   // The case the test is about: the weighted curvature is far from the unweighted one.
   EXPECT_GT(std::fabs(weighted.coef[2] - unweighted.coef[2]), 5.0 * fit.error[2]);
-  // The goodness of fit is against the bins' errors: the still bins make it huge.
+  // The still bins sit off the parabola by far more than their residuals' jackknife errors.
   EXPECT_GT(fit.reduced_chi2(), 100.0);
 }
 
 // A bin enters the profile fits only where every member has disks: one member of four reaches
 // only y_e = 40 (as after a deep collapse), so of the 20 bins of 4 R the 10 below 40 are used.
 TEST(Analysis, ProfileFitsUseTheBinsEveryMemberReaches) {
-  const auto scan = parse_scan(R"(
-[scan]
-protocol = "A"
-seeds = 4
-[system]
-width = 40.0
-height = 80.0
-bond_number = 100
-[observables]
-lower_half_from = 4.0
-bin_width = 4.0
-)",
-                               "synthetic.toml");
+  const auto scan = profile_scan(4, 100);
   std::normal_distribution<double> noise(0.0, 0.2);
   const auto results = synthetic_ensemble(
       scan, 31, [](const Member&) { return 1000; },
