@@ -112,7 +112,7 @@ std::vector<std::size_t> profile_bins(const BinnedStat& b, double x_max) {
 // An avalanche-profile fit Delta y = sum_j basis_j(y) c_j with ensemble errors. The coefficients
 // come from an unweighted fit to the pooled bin means: weighting by the bins' standard errors
 // lets the bins that barely move (the bottom at large Bond numbers, the crust), whose errors are
-// near zero, pin the fit (docs/REPRODUCTION.md, "The weighted profile fits are biased"). The
+// near zero, pin the fit (docs/REPRODUCTION.md, "The weighted profile fits were biased"). The
 // errors come from a jackknife over members: each member with samples is left out in turn, the
 // pooled bin means and positions are recomputed without it, and the same bins are refitted;
 // var c_j = (n - 1)/n sum_m (c_j(m) - mean c_j)^2. chi2 is that of the residuals of the bins

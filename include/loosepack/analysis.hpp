@@ -14,8 +14,8 @@ namespace loosepack {
 // per-point standard errors (weighted fit) the errors come from them and are scaled up by
 // sqrt(chi2 / dof) where that exceeds one (the data scatter more than their errors say);
 // without them, from the residual scatter. The avalanche-profile fits of PointAnalysis are
-// unweighted, with errors from a jackknife over members and chi2 against the bins' standard
-// errors (src/analysis.cpp, ensemble_fit).
+// unweighted, through the bins every member reaches, with errors from a jackknife over members
+// and chi2 of the residuals against their jackknife errors (src/analysis.cpp, ensemble_fit).
 struct Fit {
   std::vector<double> coef, error;
   double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
