@@ -18,8 +18,8 @@ namespace {
 // A region grows when a moving disk comes this fraction of its radius near its edge.
 constexpr double kMargin = 0.4;
 
-// Seeds binned in square cells of edge `cutoff` (periodic in x): the distance from a point to
-// the nearest seed, exact whenever it is below the cutoff.
+// Seeds binned in square cells of edge `cutoff` (periodic in x): the (squared) distance from a
+// point to the nearest seed, exact whenever it is below the cutoff.
 class SeedGrid {
  public:
   SeedGrid() = default;
@@ -29,18 +29,24 @@ class SeedGrid {
     for (std::size_t k = 0; k < seeds.size(); ++k)
       cells_[key(column(seeds[k].x), row(seeds[k].y))].push_back(static_cast<int>(k));
   }
-  double distance(double x, double y) const {
+  // The smallest squared distance from (x, y) to a seed, or some squared distance at most
+  // `enough` as soon as one is found (callers that only compare with a threshold pass its
+  // square). Exact whenever it is below the cutoff squared; infinity when no seed is that near.
+  double nearest_squared(double x, double y, double enough) const {
     double best = std::numeric_limits<double>::infinity();
     const int cx = column(x), cy = row(y);
     const int ncols = nx_ < 3 ? nx_ : 3;
+    static constexpr int kOrder[3] = {0, -1, 1};  // the point's own cell first
     for (int e = 0; e < ncols; ++e) {
-      const int col = nx_ < 3 ? e : (cx - 1 + e + nx_) % nx_;
-      for (int ry = cy - 1; ry <= cy + 1; ++ry) {
-        const auto it = cells_.find(key(col, ry));
+      const int col = nx_ < 3 ? e : (cx + kOrder[e] + nx_) % nx_;
+      for (int dy_cell : kOrder) {
+        const auto it = cells_.find(key(col, cy + dy_cell));
         if (it == cells_.end()) continue;
         for (int k : it->second) {
           const auto& p = seeds_[static_cast<std::size_t>(k)];
-          best = std::min(best, std::hypot(periodic_delta(x - p.x, width_), y - p.y));
+          const double dx = periodic_delta(x - p.x, width_), dy = y - p.y;
+          best = std::min(best, dx * dx + dy * dy);
+          if (best <= enough) return best;
         }
       }
     }
@@ -65,15 +71,15 @@ class SeedGrid {
 }  // namespace
 
 RegionSelection select_region(const std::vector<Disk>& disks,
-                              const std::vector<Regions::Point>& seeds, double width,
-                              double radius, double reach) {
+                              const std::vector<Regions::Point>& seeds, double width, double radius,
+                              double reach) {
   const SeedGrid grid(seeds, width, radius + reach);
   RegionSelection out;
   for (std::size_t k = 0; k < disks.size(); ++k) {
-    const double d = grid.distance(disks[k].x, disks[k].y);
-    if (d > radius + reach) continue;
+    const double d2 = grid.nearest_squared(disks[k].x, disks[k].y, radius * radius);
+    if (d2 > (radius + reach) * (radius + reach)) continue;
     out.index.push_back(static_cast<int>(k));
-    out.moving.push_back(d <= radius && !disks[k].fixed ? 1 : 0);
+    out.moving.push_back(d2 <= radius * radius && !disks[k].fixed ? 1 : 0);
   }
   return out;
 }
@@ -113,7 +119,8 @@ struct Regions::Impl {
     whole.set_disks(s, idx, out);
     std::vector<ContactForce> contacts;
     for (const auto& c : whole.contacts(s))
-      if (!moved[static_cast<std::size_t>(c.i)] && (c.j < 0 || !moved[static_cast<std::size_t>(c.j)]))
+      if (!moved[static_cast<std::size_t>(c.i)] &&
+          (c.j < 0 || !moved[static_cast<std::size_t>(c.j)]))
         contacts.push_back(c);
     for (auto c : batch->contacts(s)) {
       if (!sl.moving[static_cast<std::size_t>(c.i)] &&
@@ -179,8 +186,7 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   // Contact reach of a moving disk: the largest detection margin a region's grid allows.
   const double g = std::abs(pr.gravity);
   const double v_fall = std::sqrt(2.0 * g * I.settings.max_height);
-  const double margin =
-      std::max(0.5 * pr.radius, 2.0 * pr.time_step * (v_fall + pr.time_step * g));
+  const double margin = std::max(0.5 * pr.radius, 2.0 * pr.time_step * (v_fall + pr.time_step * g));
   const double reach = 2.0 * rmax + pr.cohesion_range + margin;
   if (!(radius > 0.0)) radius = I.settings.radius;
   const RegionSelection sel = select_region(disks, seeds, pr.width, radius, reach);
@@ -264,14 +270,17 @@ Regions::State Regions::poll(Batch& whole, int s) {
   }
   // Grow when a moving disk is in the margin; the new seeds are every moving disk.
   bool grow = false;
-  std::vector<Point> seeds = sl.seeds;
+  std::vector<Point> fresh;
+  const double inner = (1.0 - kMargin) * sl.radius;
   for (std::size_t k = 0; k < region.size(); ++k) {
     if (!sl.moving[k] || !(speed(region[k], I.rest.spin) > I.rest.speed)) continue;
     const Point p{region[k].x, region[k].y + sl.y0};
-    seeds.push_back(p);
-    if (sl.grid.distance(p.x, p.y) > sl.radius - kMargin * sl.radius) grow = true;
+    fresh.push_back(p);
+    if (!grow && sl.grid.nearest_squared(p.x, p.y, inner * inner) > inner * inner) grow = true;
   }
   if (!grow) return State::Running;
+  std::vector<Point> seeds = sl.seeds;
+  seeds.insert(seeds.end(), fresh.begin(), fresh.end());
   I.write_back(whole, s, region);
   I.end(s);
   return begin(whole, s, seeds, sl.tolerance, sl.radius) ? State::Running : State::Overflow;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 
 #include "loosepack/region.hpp"
@@ -57,6 +58,47 @@ TEST(Region, SelectsByDistanceToTheNearestSeed) {
   EXPECT_TRUE(std::is_sorted(sel.index.begin(), sel.index.end()));
   // Disks across the periodic boundary (x near 40) are within the radius of x = 2.
   EXPECT_NE(std::find(moving.begin(), moving.end(), 38), moving.end());  // x = 39
+}
+
+// The same rule with many seeds scattered over several cells of the seed grid, against the
+// distance to every seed: the search that stops at the first seed near enough must not change
+// which disks move or are held.
+TEST(Region, SelectionMatchesEverySeedsDistance) {
+  const double width = 40.0, height = 60.0, radius = 6.0, reach = 2.5;
+  std::uint64_t state = 12345;
+  auto uniform = [&state]() {  // a fixed LCG: the scene is the same on every platform
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) / 9007199254740992.0;
+  };
+  std::vector<Disk> disks(400);
+  for (auto& d : disks) {
+    d.x = width * uniform();
+    d.y = height * uniform();
+    d.fixed = uniform() < 0.1;
+  }
+  std::vector<Regions::Point> seeds(30);
+  for (auto& p : seeds) p = {width * uniform(), height * uniform()};
+  const RegionSelection sel = select_region(disks, seeds, width, radius, reach);
+  std::vector<int> expect_moving, expect_fixed;
+  for (int k = 0; k < static_cast<int>(disks.size()); ++k) {
+    double d = 1e300;
+    for (const auto& p : seeds) {
+      double dx = std::fmod(disks[k].x - p.x + 1.5 * width, width) - 0.5 * width;
+      d = std::min(d, std::sqrt(dx * dx + (disks[k].y - p.y) * (disks[k].y - p.y)));
+    }
+    if (d <= radius && !disks[k].fixed)
+      expect_moving.push_back(k);
+    else if (d <= radius + reach)
+      expect_fixed.push_back(k);
+  }
+  std::vector<int> moving, fixed;
+  for (std::size_t k = 0; k < sel.index.size(); ++k)
+    (sel.moving[k] ? moving : fixed).push_back(sel.index[k]);
+  EXPECT_EQ(moving, expect_moving);
+  EXPECT_EQ(fixed, expect_fixed);
+  EXPECT_GT(moving.size(), 50u);  // the scene exercises all three outcomes
+  EXPECT_GT(fixed.size(), 20u);
+  EXPECT_LT(sel.index.size(), disks.size());
 }
 
 // set_disks and set_contacts write what disks() and contacts() read back.
