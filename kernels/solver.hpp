@@ -266,6 +266,29 @@ struct GaussSeidelContacts {
   }
 };
 
+// The number of contact slots disk p owns that hold a contact. ContactBuild fills a disk's
+// slots from its first and marks the rest empty, so a loop over a system's contacts can stop
+// at each disk's first empty slot instead of testing all kSlots.
+KOKKOS_INLINE_FUNCTION int owned_contacts(const ContactViews& con, int p) {
+  int k = 0;
+  while (k < kSlots && con.partner(p * kSlots + k) != kNoContact) ++k;
+  return k;
+}
+
+// f(c) for every contact slot of disks [first, end) that holds a contact, in slot order
+// (for_contacts) or in the reverse order (for_contacts_reverse).
+template <class F>
+KOKKOS_INLINE_FUNCTION void for_contacts(const ContactViews& con, int first, int end, F&& f) {
+  for (int p = first; p < end; ++p)
+    for (int c = p * kSlots, e = c + owned_contacts(con, p); c < e; ++c) f(c);
+}
+template <class F>
+KOKKOS_INLINE_FUNCTION void for_contacts_reverse(const ContactViews& con, int first, int end,
+                                                 F&& f) {
+  for (int p = end - 1; p >= first; --p)
+    for (int c = p * kSlots + owned_contacts(con, p) - 1; c >= p * kSlots; --c) f(c);
+}
+
 // Gauss-Seidel in contact order within each system, one thread per system, alternating the
 // direction every sweep (symmetric Gauss-Seidel). Systems share nothing, so this is parallel
 // across the batch; within a system it needs no colouring. Each thread iterates its system to
@@ -285,15 +308,15 @@ struct SequentialGaussSeidel {
 
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
-    const SlotRange range = system_slots(sys, s);
-    const int first = range.first, end = range.end, cap = sys.max_sweeps(s);
+    const int first = sys.offset(s), end = sys.offset(s) + sys.count(s);  // its disks
+    const int cap = sys.max_sweeps(s);
     for (int sweep = 0; sweep < cap; ++sweep) {
       double worst = 0.0;
-      if (sweep % 2 == 1) {
-        for (int c = end - 1; c >= first; --c) apply(c, worst);
-      } else {
-        for (int c = first; c < end; ++c) apply(c, worst);
-      }
+      auto update = [&](int c) { apply(c, worst); };
+      if (sweep % 2 == 1)
+        for_contacts_reverse(con, first, end, update);
+      else
+        for_contacts(con, first, end, update);
       sweeps(s) += 1;
       if (!(worst > sys.tolerance(s))) {  // a NaN system stops; the integrate guard fails it
         sys.unconverged(s) = 0;
@@ -375,36 +398,38 @@ struct AcceleratedGaussSeidel {
 
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
-    const SlotRange range = system_slots(sys, s);
+    const int first = sys.offset(s), end = sys.offset(s) + sys.count(s);  // its disks
     // The first iteration of a launch restarts, so no direction is read.
     sys.gradient2(s) = 0.0;
-    for (int c = range.first; c < range.end; ++c) keep_start(c);
+    for_contacts(con, first, end, [&](int c) { keep_start(c); });
     const int cap = sys.max_sweeps(s);
     const int limit = sweep_limit.extent(0) > 0 ? kmath::imin(sweep_limit(s), cap) : cap;
     while (sweeps(s) < limit)
-      if (iterate(s, range.first, range.end)) return;
+      if (iterate(s, first, end)) return;
   }
 
-  // One iteration (a symmetric pair of sweeps and the NNCG step); true once converged.
+  // One iteration (a symmetric pair of sweeps and the NNCG step) over the contacts of disks
+  // [first, end); true once converged.
   KOKKOS_INLINE_FUNCTION bool iterate(int s, int first, int end) const {
     double worst = 0.0;
-    for (int c = first; c < end; ++c) apply(c, worst);
-    for (int c = end - 1; c >= first; --c) apply(c, worst);
+    auto update = [&](int c) { apply(c, worst); };
+    for_contacts(con, first, end, update);
+    for_contacts_reverse(con, first, end, update);
     sweeps(s) += 2;
     if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
       sys.unconverged(s) = 0;
       return true;
     }
     double g2 = 0.0;
-    for (int c = first; c < end; ++c) g2 += nncg_change2(con, c);
+    for_contacts(con, first, end, [&](int c) { g2 += nncg_change2(con, c); });
     const double previous = sys.gradient2(s);
     sys.gradient2(s) = g2;
     const double beta = nncg_beta(previous, g2);
-    for (int c = first; c < end; ++c) {
+    for_contacts(con, first, end, [&](int c) {
       double sn, st, sm;
       if (nncg_step(con, c, beta, sn, st, sm))
         apply_impulse_change(part, con, c, c / kSlots, con.partner(c), sn, st, sm);
-    }
+    });
     return false;
   }
 
