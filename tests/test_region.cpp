@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
+#include <utility>
+#include <vector>
 
 #include "loosepack/region.hpp"
 #include "tests/scenes.hpp"
@@ -21,6 +23,35 @@ SolverSettings accurate() {
   s.tolerance = 1e-8;
   s.max_sweeps = 200000;
   return s;
+}
+
+// The selection rule by brute force: a disk moves iff its distance to the nearest seed
+// (minimum image in x) is at most the radius and it is not fixed, is held iff that distance is
+// at most radius + reach otherwise, and is left out beyond. Returns {moving, held} indices.
+std::pair<std::vector<int>, std::vector<int>> selection_by_every_seed(
+    const std::vector<Disk>& disks, const std::vector<Regions::Point>& seeds, double width,
+    double radius, double reach) {
+  std::vector<int> moving, held;
+  for (int k = 0; k < static_cast<int>(disks.size()); ++k) {
+    double d = 1e300;
+    for (const auto& p : seeds) {
+      const double dx = std::fmod(disks[k].x - p.x + 1.5 * width, width) - 0.5 * width;
+      d = std::min(d, std::hypot(dx, disks[k].y - p.y));
+    }
+    if (d <= radius && !disks[k].fixed)
+      moving.push_back(k);
+    else if (d <= radius + reach)
+      held.push_back(k);
+  }
+  return {moving, held};
+}
+
+// A selection split into its {moving, held} disk indices.
+std::pair<std::vector<int>, std::vector<int>> split(const RegionSelection& sel) {
+  std::vector<int> moving, held;
+  for (std::size_t k = 0; k < sel.index.size(); ++k)
+    (sel.moving[k] ? moving : held).push_back(sel.index[k]);
+  return {moving, held};
 }
 
 }  // namespace
@@ -39,22 +70,12 @@ TEST(Region, SelectsByDistanceToTheNearestSeed) {
   disks[3].fixed = true;  // a support: never moves
   const std::vector<Regions::Point> seeds = {{2.0, 5.0}, {2.0, 12.0}};
   const RegionSelection sel = select_region(disks, seeds, width, radius, reach);
-  std::vector<int> expect_moving, expect_fixed;
-  for (int k = 0; k < 40; ++k) {
-    double dx = disks[k].x - 2.0;
-    if (dx > 0.5 * width) dx -= width;
-    if (dx < -0.5 * width) dx += width;
-    const double d = std::abs(dx);  // the seed at y = 12 is further from every disk
-    if (d <= radius && !disks[k].fixed)
-      expect_moving.push_back(k);
-    else if (d <= radius + reach)
-      expect_fixed.push_back(k);
-  }
-  std::vector<int> moving, fixed;
-  for (std::size_t k = 0; k < sel.index.size(); ++k)
-    (sel.moving[k] ? moving : fixed).push_back(sel.index[k]);
+  const auto [moving, fixed] = split(sel);
+  const auto [expect_moving, expect_fixed] =
+      selection_by_every_seed(disks, seeds, width, radius, reach);
   EXPECT_EQ(moving, expect_moving);
   EXPECT_EQ(fixed, expect_fixed);
+  EXPECT_EQ(fixed, std::vector<int>({3, 8, 9, 33, 34}));  // x = 4 (fixed), 9, 10, 34, 35
   EXPECT_TRUE(std::is_sorted(sel.index.begin(), sel.index.end()));
   // Disks across the periodic boundary (x near 40) are within the radius of x = 2.
   EXPECT_NE(std::find(moving.begin(), moving.end(), 38), moving.end());  // x = 39
@@ -79,21 +100,9 @@ TEST(Region, SelectionMatchesEverySeedsDistance) {
   std::vector<Regions::Point> seeds(30);
   for (auto& p : seeds) p = {width * uniform(), height * uniform()};
   const RegionSelection sel = select_region(disks, seeds, width, radius, reach);
-  std::vector<int> expect_moving, expect_fixed;
-  for (int k = 0; k < static_cast<int>(disks.size()); ++k) {
-    double d = 1e300;
-    for (const auto& p : seeds) {
-      double dx = std::fmod(disks[k].x - p.x + 1.5 * width, width) - 0.5 * width;
-      d = std::min(d, std::sqrt(dx * dx + (disks[k].y - p.y) * (disks[k].y - p.y)));
-    }
-    if (d <= radius && !disks[k].fixed)
-      expect_moving.push_back(k);
-    else if (d <= radius + reach)
-      expect_fixed.push_back(k);
-  }
-  std::vector<int> moving, fixed;
-  for (std::size_t k = 0; k < sel.index.size(); ++k)
-    (sel.moving[k] ? moving : fixed).push_back(sel.index[k]);
+  const auto [moving, fixed] = split(sel);
+  const auto [expect_moving, expect_fixed] =
+      selection_by_every_seed(disks, seeds, width, radius, reach);
   EXPECT_EQ(moving, expect_moving);
   EXPECT_EQ(fixed, expect_fixed);
   EXPECT_GT(moving.size(), 50u);  // the scene exercises all three outcomes
