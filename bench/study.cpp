@@ -14,13 +14,17 @@
 //                     against the reference in nu_lower_half, in the nu(y) profile (rms), in the
 //                     avalanche profile Delta y(y_e) (rms) and the largest overlap of the final
 //                     packings. tools/pareto.py draws the Pareto plot from these records.
+//   --study cost      the time per member of protocols A (Bond numbers 0 to 1e3, two sizes), C
+//                     and B against expected_cost, the a-priori cost that the progress ETA and
+//                     the sharding over MPI ranks use: seconds per unit of each, and the spread
+//                     of that ratio over the scenes (how far off the model is).
 //
 // Every member of an ensemble is keyed by (scan seed, member id), so all settings deposit the
 // same sequence of drop abscissae; the deposits still differ once the dynamics differ (the
 // packing is chaotic), so an error is only resolved where it exceeds the statistical noise
 // that each record states (`*_noise`: the standard errors of both ensembles combined).
 //
-//   bench_study --study effects|size|accuracy [--tiny] [--seeds N] [--budget S]
+//   bench_study --study effects|size|accuracy|cost [--tiny] [--seeds N] [--budget S]
 //               [--protocol A|C] [--match TEXT] [--sides S1,S2,...]
 //               [--regions R [--region-check K]] [--newton K]
 // --newton: solver.newton_every of every ensemble (0: NNCG alone; docs/MODEL.md, "Solvers").
@@ -372,9 +376,59 @@ void size(Setup base, const std::vector<double>& sides, double budget_s) {
   print("size_fit", base, o.str());
 }
 
+// expected_cost against the measured time per member over scenes that span what a scan may hold:
+// protocol A from cohesionless to Bo = 1e3 (each with the examples' time step), A's box made
+// wider and taller, C's collapse at r_capt = 1 and 2, ballistic deposition.
+void cost(double budget_s, bool tiny, int seeds) {
+  const Setup a = Setup().variant("", [&](Setup& s) { s.seeds = seeds > 0 ? seeds : 2; });
+  std::vector<Setup> v;
+  for (double bo : {0.0, 1.0, 10.0, 100.0, 1000.0})
+    v.push_back(a.variant("A Bo=" + bench::json_number(bo), [&](Setup& s) {
+      s.bond_number = bo;
+      s.time_step = bo < 50.0 ? 0.01 : (bo < 500.0 ? 0.009 : 0.0028);
+    }));
+  if (!tiny) {
+    v.push_back(v[0].variant("A Bo=0 twice as wide", [](Setup& s) { s.width *= 2.0; }));
+    v.push_back(v[0].variant("A Bo=0 twice as tall", [](Setup& s) { s.height *= 2.0; }));
+    v.push_back(v[4].variant("A Bo=1000 taller, wider", [](Setup& s) { s.width = 40.0, s.height = 60.0; }));
+  }
+  Setup c = Setup::collapse();
+  c.seeds = a.seeds;
+  v.push_back(c.variant("C r_capt=2", [](Setup& s) { s.width = s.height = 48.0; }));
+  if (!tiny)
+    v.push_back(c.variant("C r_capt=1", [](Setup& s) {
+      s.width = 40.0, s.height = 60.0, s.capture_radius = 1.0;
+    }));
+  v.push_back(a.variant("B", [](Setup& s) { s.protocol = "B", s.width = s.height = 48.0; }));
+  std::vector<double> ratios;
+  for (Setup s : v) {
+    if (tiny) s.width = s.height = 8.0;
+    const Outcome o = run(s, budget_s);
+    const Scan scan = parse_scan(s.toml(), "bench_study.toml");
+    const double expected = expected_cost(members_of(scan).front());
+    const double per = o.wall / std::max(1, o.members);
+    const double ratio = per / expected;
+    if (!o.over_budget && o.members > 0 && ratio > 0.0) ratios.push_back(ratio);
+    print("cost", s,
+          outcome_json(o) + ", \"time_per_member_s\": " + bench::json_number(per) +
+              ", \"expected_cost\": " + bench::json_number(expected) +
+              ", \"seconds_per_unit\": " + bench::json_number(ratio));
+  }
+  // The spread as a factor: largest over smallest seconds per unit, and the geometric mean.
+  double log_sum = 0.0;
+  for (double r : ratios) log_sum += std::log(r);
+  const auto mm = std::minmax_element(ratios.begin(), ratios.end());
+  std::ostringstream o;
+  o << "\"scenes\": " << ratios.size() << ", \"seconds_per_unit_geometric_mean\": "
+    << bench::json_number(ratios.empty() ? NAN : std::exp(log_sum / ratios.size()))
+    << ", \"spread_factor\": "
+    << bench::json_number(ratios.empty() ? NAN : *mm.second / *mm.first);
+  print("cost_summary", a.variant("summary", [](Setup&) {}), o.str());
+}
+
 int usage() {
   std::fprintf(stderr,
-               "usage: bench_study --study effects|size|accuracy [--tiny] [--seeds N] "
+               "usage: bench_study --study effects|size|accuracy|cost [--tiny] [--seeds N] "
                "[--budget S] [--protocol A|C] [--match TEXT] [--sides S1,S2,...] "
                "[--regions R [--region-check K]] [--newton K]\n");
   return 2;
@@ -419,7 +473,8 @@ int main(int argc, char** argv) {
       return usage();
     }
   }
-  if (study != "effects" && study != "size" && study != "accuracy") return usage();
+  if (study != "effects" && study != "size" && study != "accuracy" && study != "cost")
+    return usage();
   if (!protocol.empty() && protocol != "A" && protocol != "C") return usage();
   auto bases = [&]() {
     std::vector<Setup> b;
@@ -435,6 +490,10 @@ int main(int argc, char** argv) {
     return b;
   };
   try {
+    if (study == "cost") {
+      cost(budget_s, tiny, seeds);
+      return 0;
+    }
     for (Setup base : bases()) {
       if (study == "effects") {
         effects(base, budget_s);

@@ -45,13 +45,18 @@ bool ballistic(const Member& m) {
   return m.protocol != Protocol::A || std::isinf(m.params.bond_number);
 }
 
-// The parts of expected_cost.
-double ballistic_cost(const SystemParams& p) { return 2e4 * p.width * p.height; }
+// The parts of expected_cost, in units of about 0.2 microseconds of one core of the AMD EPYC
+// VM the project is developed on (docs/PERFORMANCE.md, "What a member costs").
+double ballistic_cost(const SystemParams& p) { return p.width * p.height; }
+// Cohesion shortens the relaxation after each deposit: the simulated time a disk takes to come
+// to rest falls from ~5 sqrt(R/g) at Bo = 0 to ~0.25 at Bo = 1e3 once avalanches set in (steps
+// x h per disk at 40 R x 60 R; docs/PERFORMANCE.md, "What a member costs").
+double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_number / 4.0, -0.55); }
 double slow_cost(const SystemParams& p) {
-  return p.width * p.height * p.height * p.height / p.time_step;
+  return p.width * p.height * p.height * p.height * relaxation_time(p) / p.time_step;
 }
 double collapse_cost(const SystemParams& p) {
-  return 100.0 * p.width * p.height * p.height / p.time_step;
+  return p.width * p.height * p.height / p.time_step;
 }
 
 }  // namespace

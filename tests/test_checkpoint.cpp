@@ -138,6 +138,7 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
 TEST(Checkpoint, ShardsBalanceExpectedCost) {
   Scan scan = parse_scan(
       "[scan]\nseeds = 1\n[[point]]\nprotocol = \"A\"\nwidth = 40\nheight = 40\n"
+      "bond_number = 0\n"
       "[[point]]\nprotocol = \"C\"\nwidth = 20\nheight = 20\n[[point]]\nprotocol = \"C\"\n"
       "width = 20\nheight = 20\n[[point]]\nprotocol = \"B\"\nwidth = 20\nheight = 20\n"
       "[observables]\nlower_half_from = 2\n",
@@ -145,7 +146,7 @@ TEST(Checkpoint, ShardsBalanceExpectedCost) {
   const auto members = members_of(scan);
   const auto shards = shard_members(members, 2);
   ASSERT_EQ(shards.size(), 2u);
-  // A: 40 * 40^3 / h against C: 100 * 20 * 20^2 / h each: A alone outweighs the rest.
+  // A at Bo = 0: 40 * 40^3 / h against C: 20 * 20^2 / h each: A alone outweighs the rest.
   EXPECT_GT(expected_cost(members[0]),
             expected_cost(members[1]) + expected_cost(members[2]) + expected_cost(members[3]));
   EXPECT_EQ(shards[0], std::vector<std::size_t>({0}));
@@ -156,4 +157,32 @@ TEST(Checkpoint, ShardsBalanceExpectedCost) {
     for (auto k : s) ++seen[k];
   EXPECT_EQ(seen, std::vector<int>(members.size(), 1));
   EXPECT_EQ(shard_members({}, 4).size(), 4u);
+}
+
+// Cohesion shortens the relaxation after each deposit: at the same box and time step a
+// protocol-A member expects less the larger the Bond number. Bo = 0 against Bo = 1e3: the
+// simulated time per disk, steps x h / disks, measured 5.3 against 0.21-0.25 sqrt(R/g) at
+// 40 R wide and H = 60-180 (docs/PERFORMANCE.md, "What a member costs"), a factor of 21-25.
+TEST(Checkpoint, ExpectedCostFallsWithTheBondNumber) {
+  auto member = [](double bo, double width, double height) {
+    Member m;
+    m.protocol = Protocol::A;
+    m.params.bond_number = bo;
+    m.params.width = width;
+    m.params.height = height;
+    m.params.time_step = 0.0028;
+    return m;
+  };
+  double before = std::numeric_limits<double>::infinity();
+  for (double bo : {0.0, 1.0, 10.0, 100.0, 1000.0}) {
+    const double c = expected_cost(member(bo, 40.0, 60.0));
+    EXPECT_LT(c, before) << "Bo = " << bo;
+    before = c;
+  }
+  const double ratio = expected_cost(member(0.0, 40.0, 60.0)) / expected_cost(member(1e3, 40.0, 60.0));
+  EXPECT_GT(ratio, 15.0);
+  EXPECT_LT(ratio, 35.0);
+  // Taller and wider boxes expect more.
+  EXPECT_GT(expected_cost(member(1e3, 40.0, 120.0)), expected_cost(member(1e3, 40.0, 60.0)));
+  EXPECT_GT(expected_cost(member(1e3, 80.0, 60.0)), expected_cost(member(1e3, 40.0, 60.0)));
 }

@@ -85,9 +85,12 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 
 // Rough cost of a member in arbitrary units, for progress estimates and for sharding members
 // over MPI ranks: slow deposition needs of order n^2 sweeps for a deposit n disks tall, so a
-// protocol-A member costs ~ width * height^3 / time step; a collapse ~ width * height^2 / time
-// step (about one slow deposition at H = 100); ballistic deposition ~ width * height (2 % of a
-// slow deposition at H = 100).
+// protocol-A member costs ~ width * height^3 / time step, times the time a deposit takes to come
+// to rest, which falls with the Bond number like (1 + Bo/4)^-0.55 (1 at Bo = 0, 0.05 at
+// Bo = 1e3); a collapse ~ width * height^2 / time step (a slow deposition of the same size at
+// Bo = 0 costs height times more); ballistic deposition ~ width * height (negligible beside
+// either). Calibrated on members of this machine, and right within a factor of a few only:
+// docs/PERFORMANCE.md, "What a member costs".
 double expected_cost(const Member& m);
 
 // Splits members over `ranks` so that the expected costs balance (largest first, each to the
