@@ -390,15 +390,15 @@ void cost(double budget_s, bool tiny, int seeds) {
   if (!tiny) {
     v.push_back(v[0].variant("A Bo=0 twice as wide", [](Setup& s) { s.width *= 2.0; }));
     v.push_back(v[0].variant("A Bo=0 twice as tall", [](Setup& s) { s.height *= 2.0; }));
-    v.push_back(v[4].variant("A Bo=1000 taller, wider", [](Setup& s) { s.width = 40.0, s.height = 60.0; }));
+    v.push_back(
+        v[4].variant("A Bo=1000 taller, wider", [](Setup& s) { s.width = 40.0, s.height = 60.0; }));
   }
   Setup c = Setup::collapse();
   c.seeds = a.seeds;
   v.push_back(c.variant("C r_capt=2", [](Setup& s) { s.width = s.height = 48.0; }));
   if (!tiny)
-    v.push_back(c.variant("C r_capt=1", [](Setup& s) {
-      s.width = 40.0, s.height = 60.0, s.capture_radius = 1.0;
-    }));
+    v.push_back(c.variant(
+        "C r_capt=1", [](Setup& s) { s.width = 40.0, s.height = 60.0, s.capture_radius = 1.0; }));
   v.push_back(a.variant("B", [](Setup& s) { s.protocol = "B", s.width = s.height = 48.0; }));
   std::vector<double> ratios;
   for (Setup s : v) {
@@ -421,8 +421,7 @@ void cost(double budget_s, bool tiny, int seeds) {
   std::ostringstream o;
   o << "\"scenes\": " << ratios.size() << ", \"seconds_per_unit_geometric_mean\": "
     << bench::json_number(ratios.empty() ? NAN : std::exp(log_sum / ratios.size()))
-    << ", \"spread_factor\": "
-    << bench::json_number(ratios.empty() ? NAN : *mm.second / *mm.first);
+    << ", \"spread_factor\": " << bench::json_number(ratios.empty() ? NAN : *mm.second / *mm.first);
   print("cost_summary", a.variant("summary", [](Setup&) {}), o.str());
 }
 

@@ -55,9 +55,7 @@ double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_num
 double slow_cost(const SystemParams& p) {
   return p.width * p.height * p.height * p.height * relaxation_time(p) / p.time_step;
 }
-double collapse_cost(const SystemParams& p) {
-  return p.width * p.height * p.height / p.time_step;
-}
+double collapse_cost(const SystemParams& p) { return p.width * p.height * p.height / p.time_step; }
 
 }  // namespace
 

@@ -179,7 +179,8 @@ TEST(Checkpoint, ExpectedCostFallsWithTheBondNumber) {
     EXPECT_LT(c, before) << "Bo = " << bo;
     before = c;
   }
-  const double ratio = expected_cost(member(0.0, 40.0, 60.0)) / expected_cost(member(1e3, 40.0, 60.0));
+  const double ratio =
+      expected_cost(member(0.0, 40.0, 60.0)) / expected_cost(member(1e3, 40.0, 60.0));
   EXPECT_GT(ratio, 15.0);
   EXPECT_LT(ratio, 35.0);
   // Taller and wider boxes expect more.
