@@ -57,6 +57,16 @@ grep -q "C across heights: dnu/nu_i grows with ln H  \[slope against ln H = " "$
   fail "claims.py does not judge the fit across heights: $(cat "$dir/claims.txt")"
 if grep -q "^FAIL" "$dir/claims.txt"; then [ "$rc" -eq 1 ]; else [ "$rc" -eq 0 ]; fi ||
   fail "claims.py exit code $rc does not match its verdicts"
+# Ballistic deposition (A at Bo = inf, as in the default job): nothing moves, so no claim speaks
+# about it (the histogram of abs(Delta y) = 0 is no Gaussian), and claims.py says so.
+printf '[scan]\nprotocol = "A"\nseeds = 2\n[system]\nwidth = 12\nheight = 12\nbond_number = "inf"\n[observables]\nlower_half_from = 2\n' > "$dir/inf.toml"
+"$exe" run "$dir/inf.toml" -o "$dir/inf.h5" -q
+set +e
+msg=$(/usr/bin/python3 "$repo/tools/claims.py" "$dir/inf.h5" 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "no scan point the claims speak about" ||
+  fail "claims.py on a ballistic deposit (exit code $rc): $msg"
 # The collapse's relative increase against H and nu_i, with the stored fits.
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/an.h5" -o "$dir/fig_an" >/dev/null
 [ -s "$dir/fig_an/collapse_increase.png" ] || fail "plot.py did not draw collapse_increase.png"
