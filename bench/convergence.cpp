@@ -112,19 +112,36 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  // A solve that reached its cap, or whose floor does not carry the column's weight, fails the
+  // run (exit 1) after its record. The bound: a sweep that changes no impulse by more than tol h
+  // m g can still leave an error of the change over (1 - rho), rho the iteration's contraction,
+  // 1 - O(1/n^2) on a column of n: an absolute error O(n^2 tol) in the floor's impulse of n m g,
+  // so a relative one O(n tol) (measured: at most 2 n tol over every solver and start,
+  // bench/results/convergence-2026-11-23.jsonl).
+  int bad = 0;
   for (const Variant& variant : kSolvers)
     for (bool warm : {false, true})
       for (int n : sizes) {
         const Record r = run(variant, n, warm, tolerance, max_sweeps);
+        const bool capped = r.sweeps >= max_sweeps;
+        const double bound = 4.0 * (warm ? n + 1 : n) * tolerance;
+        if (capped || !(std::fabs(r.error) <= bound)) {
+          std::fprintf(stderr,
+                       "bench_convergence: %s (newton_every %d), %s start, n = %d: %s, floor "
+                       "force error %.3e (bound 4 n tol = %.3e)\n",
+                       solver_kind_name(variant.kind), variant.newton_every, warm ? "warm" : "cold",
+                       n, capped ? "capped" : "not capped", r.error, bound);
+          ++bad;
+        }
         std::printf(
             "{\"study\": \"column_convergence\", \"solver\": \"%s\", \"newton_every\": %d, "
             "\"start\": \"%s\", \"n\": %d, \"tolerance\": %g, \"sweeps\": %ld, "
             "\"newton_steps\": %ld, \"capped\": %s, \"bottom_force_rel_error\": %.3e, "
             "\"wall_s\": %.4f, %s}\n",
             solver_kind_name(variant.kind), variant.newton_every, warm ? "warm" : "cold", n,
-            tolerance, r.sweeps, r.newton_steps, r.sweeps >= max_sweeps ? "true" : "false",
-            r.error, r.seconds, bench::Environment().json().c_str());
+            tolerance, r.sweeps, r.newton_steps, capped ? "true" : "false", r.error, r.seconds,
+            bench::Environment().json().c_str());
         std::fflush(stdout);
       }
-  return 0;
+  return bad > 0 ? 1 : 0;
 }

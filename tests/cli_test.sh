@@ -4,7 +4,7 @@
 # re-analysis of a result file.
 source "$(dirname "$0")/common.sh"
 
-"$exe" --help | grep -q "run" || fail "--help does not list run"
+"$exe" --help | grep -qE "^ +run +Run a scan file" || fail "--help does not list run"
 "$exe" run --help | grep -q -- "--output" || fail "run --help does not list --output"
 
 printf '[system]\nwidth = 20\nfriction = -0.5\n' > "$dir/bad.toml"

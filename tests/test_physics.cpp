@@ -61,11 +61,14 @@ TEST(Validation, ColumnJacobiMatchesWeights) {
   for (int k = 0; k < 10; ++k) batch.step();
   ASSERT_TRUE(batch.status(0).converged);
   const double mg = p.reference_mass() * p.gravity;
+  int seen = 0;  // the floor's contact and the n - 1 between neighbours
   for (const auto& c : batch.contacts(0)) {
     if (c.j >= 0 && c.j != c.i + 1) continue;
+    ++seen;
     const int upper = c.j < 0 ? c.i : c.j;
     EXPECT_NEAR(c.normal, (n - upper) * mg, 1e-6 * (n - upper) * mg);
   }
+  EXPECT_EQ(seen, n);
   std::printf("column of %d, Jacobi: %ld sweeps over 10 steps\n", n, batch.status(0).sweeps);
 }
 
@@ -261,11 +264,14 @@ TEST(Validation, CantileverHoldsIffJSquaredAtMostMuRBo) {
     if (j * j <= mu_r * bo) {
       EXPECT_LT(std::fabs(tip), 1e-6) << j << " disks should hold";
       // Root contact: moment j^2 m g R and shear j m g.
+      int roots = 0;
       for (const auto& c : batch.contacts(0)) {
         if (c.j != -1) continue;
+        ++roots;
         EXPECT_NEAR(std::fabs(c.moment), j * j * 1.0, 1e-6 * j * j);
         EXPECT_NEAR(std::fabs(c.tangential), j * 1.0, 1e-6 * j);
       }
+      EXPECT_EQ(roots, 1) << j << " disks";
     } else {
       EXPECT_GT(tip, 0.1) << j << " disks should fall";
     }

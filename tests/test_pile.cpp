@@ -218,10 +218,13 @@ TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
     batch.step();
     EXPECT_TRUE(batch.status(0).converged);
     const double mg = p.reference_mass() * p.gravity;
+    int floor_contacts = 0;
     for (const auto& c : batch.contacts(0)) {
       if (c.j >= 0) continue;
+      ++floor_contacts;
       EXPECT_NEAR(c.normal, n * mg, 1e-4 * n * mg);
     }
+    EXPECT_EQ(floor_contacts, 1);
     return static_cast<double>(batch.status(0).sweeps);
   };
   const double gs40 = sweeps_for(SolverKind::SequentialGaussSeidel, 40);
@@ -256,7 +259,9 @@ TEST(Solver, NewtonStepsLoadAColumnInAFixedNumberOfSweeps) {
     batch.step();
     EXPECT_TRUE(batch.status(0).converged);
     const double mg = p.reference_mass() * p.gravity;
-    for (const auto& c : batch.contacts(0)) {
+    const auto contacts = batch.contacts(0);
+    EXPECT_EQ(contacts.size(), static_cast<std::size_t>(n));  // the floor and n - 1 neighbours
+    for (const auto& c : contacts) {
       const int above = c.j < 0 ? n : n - c.j;  // disks resting on contact c
       EXPECT_NEAR(c.normal, above * mg, 1e-6 * n * mg) << "n = " << n << ", contact " << c.i;
       EXPECT_NEAR(c.tangential, 0.0, 1e-6 * n * mg);
