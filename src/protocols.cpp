@@ -116,6 +116,10 @@ struct Slot {
   int quiet = 0;              // steps in a row with no disk above the wake speed (check)
   int rounds = 0;             // regions started for the current disk
   bool event_capped = false;  // the current disk's relaxation hit max_relax_time
+  // A: the disk's region came to rest where the whole system is not checked; its event closes
+  // with the next disk (nothing moves in between), or after the final check when the box is full.
+  bool event_open = false;
+  bool final_check = false;  // the whole system's check after an unchecked last disk
   long region_steps = 0, region_sweeps = 0;  // the slot's region counters when the member began
   Clock::time_point start;
   MemberResult result;
@@ -298,11 +302,13 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     sl.quiet = st.max_speed < wake ? sl.quiet + 1 : 0;
   };
   const int every = scan.observables.trajectory_every;
-  auto sample = [&](std::size_t k, double when) {
+  // Trajectory samples of the slot's first `count` disks (all by default).
+  auto sample = [&](std::size_t k, double when, std::size_t count = static_cast<std::size_t>(-1)) {
     if (every <= 0) return;
     MemberResult& r = slots[k].result;
     const auto disks = batch.disks(static_cast<int>(k));
-    for (std::size_t d = 0; d < disks.size(); d += static_cast<std::size_t>(every)) {
+    for (std::size_t d = 0; d < std::min(count, disks.size());
+         d += static_cast<std::size_t>(every)) {
       r.trajectory_time.push_back(when);
       r.trajectory_disk.push_back(static_cast<double>(d));
       r.trajectory_x.push_back(disks[d].x);
@@ -316,6 +322,31 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     // otherwise move the progress estimate backwards.
     slots[k].filled = std::max(slots[k].filled,
                                std::min(1.0, d.y / batch.params(static_cast<int>(k)).height));
+  };
+  // Closes the avalanche events of the slots in `closing` (A): what moved since the disk was
+  // placed, a trajectory sample of the disks deposited so far; then the next disk, or, after the
+  // final check, the member's end.
+  auto close = [&](const std::vector<char>& closing) {
+    const auto aval = batch.close_events(closing, threshold);
+    for (std::size_t k = 0; k < n_slots; ++k) {
+      if (!closing[k]) continue;
+      Slot& sl = slots[k];
+      AvalancheEvent ev;
+      ev.moved = aval[k].moved;
+      ev.downward = aval[k].downward;
+      ev.steps = sl.steps;
+      ev.capped = sl.event_capped;
+      sl.result.capped += ev.capped ? 1 : 0;
+      sl.result.events.push_back(ev);
+      sample(k, static_cast<double>(sl.deposited), static_cast<std::size_t>(sl.deposited));
+      sl.event_open = false;
+      if (sl.final_check) {
+        finish(k);
+        continue;
+      }
+      sl.phase = Phase::Deposit;
+      batch.set_active(static_cast<int>(k), false);
+    }
   };
   for (;;) {
     // Ballistic deposition: one disk per slot and round.
@@ -345,8 +376,30 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     auto [ma, any_a] = mask_of(Phase::Deposit);
     if (any_a) {
       const auto placed = batch.deposit(ma, DropRule::Touch);
+      // The open events close now: the new disk has not moved, the others have not since. When
+      // the box is full the whole system is checked first, and that check belongs to the event.
+      std::vector<char> open(n_slots, 0);
+      bool any_open = false;
       for (std::size_t k = 0; k < n_slots; ++k) {
-        if (!ma[k]) continue;
+        Slot& sl = slots[k];
+        if (!ma[k] || !sl.event_open) continue;
+        const int s = static_cast<int>(k);
+        if (placed[k].placed || batch.status(s).failure != Failure::None) {
+          open[k] = 1;
+          any_open = true;
+        } else {
+          sl.final_check = true;
+          sl.phase = Phase::Relax;
+          sl.checking = true;
+          sl.quiet = 0;
+          sl.cap = sl.steps + static_cast<long>(std::ceil(scan.protocol.max_relax_time /
+                                                          batch.params(s).time_step));
+          batch.set_active(s, true);
+        }
+      }
+      if (any_open) close(open);
+      for (std::size_t k = 0; k < n_slots; ++k) {
+        if (!ma[k] || slots[k].final_check) continue;
         const int s = static_cast<int>(k);
         if (placed[k].placed && batch.status(s).failure == Failure::None) {
           count_disk(k, placed[k]);
@@ -399,11 +452,12 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
           sl.event_capped = true;
           closing[k] = 1;
           any_closing = true;
-        } else if (state == Regions::State::Rested &&
+        } else if (state == Regions::State::Rested && !sl.final_check &&
                    sl.deposited % scan.protocol.region_check_every != 0) {
           sl.event_capped = false;
-          closing[k] = 1;
-          any_closing = true;
+          sl.event_open = true;
+          sl.phase = Phase::Deposit;
+          batch.set_active(s, false);
         } else {  // rested, and the whole system's rest is checked; or the region overflowed
           sl.phase = Phase::Relax;
           sl.checking = state == Regions::State::Rested;
@@ -444,22 +498,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         any_closing = true;
       }
     }
-    if (!any_closing) continue;
-    const auto aval = batch.close_events(closing, threshold);
-    for (std::size_t k = 0; k < n_slots; ++k) {
-      if (!closing[k]) continue;
-      Slot& sl = slots[k];
-      AvalancheEvent ev;
-      ev.moved = aval[k].moved;
-      ev.downward = aval[k].downward;
-      ev.steps = sl.steps;
-      ev.capped = sl.event_capped;
-      sl.result.capped += ev.capped ? 1 : 0;
-      sl.result.events.push_back(ev);
-      sample(k, static_cast<double>(sl.deposited));
-      sl.phase = Phase::Deposit;
-      batch.set_active(static_cast<int>(k), false);
-    }
+    if (any_closing) close(closing);
   }
   if (hooks.stage_seconds) {
     *hooks.stage_seconds = batch.stage_seconds();

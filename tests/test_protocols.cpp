@@ -60,6 +60,27 @@ std::pair<double, double> floor_force_and_weight(const MemberResult& r) {
   return {floor, weight};
 }
 
+// Protocol A with observables.trajectory_every = every: each sampled disk's trajectory starts
+// once it is deposited and ends where the disk ends.
+void expect_trajectories_end_at_final_positions(const MemberResult& r, std::size_t every) {
+  ASSERT_FALSE(r.trajectory_time.empty());
+  for (std::size_t d = 0; d < r.y_e.size(); d += every) {
+    double last_t = -1, x = 0, y = 0, first_t = 1e300;
+    for (std::size_t k = 0; k < r.trajectory_time.size(); ++k) {
+      if (r.trajectory_disk[k] != static_cast<double>(d)) continue;
+      first_t = std::min(first_t, r.trajectory_time[k]);
+      if (r.trajectory_time[k] >= last_t) {
+        last_t = r.trajectory_time[k];
+        x = r.trajectory_x[k];
+        y = r.trajectory_y[k];
+      }
+    }
+    EXPECT_EQ(x, r.x[d]) << "disk " << d;
+    EXPECT_EQ(y, r.y_e[d]) << "disk " << d;
+    EXPECT_GE(first_t, static_cast<double>(d + 1));  // sampled only once deposited
+  }
+}
+
 // One scan text run twice: in batches of one system and in batches of `many`.
 struct BatchedRuns {
   Scan one, many;
@@ -378,30 +399,85 @@ lower_half_from = 1.0
   ASSERT_TRUE(r.ok());
   const auto [floor, weight] = floor_force_and_weight(r);
   EXPECT_NEAR(floor, weight, 1e-3 * weight);
-  ASSERT_FALSE(r.trajectory_time.empty());
-  for (std::size_t d = 0; d < r.y_e.size(); d += 3) {
-    double last_t = -1, x = 0, y = 0, first_t = 1e300;
-    for (std::size_t k = 0; k < r.trajectory_time.size(); ++k) {
-      if (r.trajectory_disk[k] != static_cast<double>(d)) continue;
-      first_t = std::min(first_t, r.trajectory_time[k]);
-      if (r.trajectory_time[k] >= last_t) {
-        last_t = r.trajectory_time[k];
-        x = r.trajectory_x[k];
-        y = r.trajectory_y[k];
-      }
-    }
-    EXPECT_EQ(x, r.x[d]) << "disk " << d;
-    EXPECT_EQ(y, r.y_e[d]) << "disk " << d;
-    EXPECT_GE(first_t, static_cast<double>(d + 1));  // sampled only once deposited
-  }
+  expect_trajectories_end_at_final_positions(r, 3);
+}
+
+// system.polydispersity = sigma (docs/MODEL.md): radii uniform on R (1 +- sqrt(3) sigma), so
+// their mean is R and their standard deviation sigma R. Over N radii the mean's standard error
+// is sigma / sqrt(N), the standard deviation's sigma sqrt((kurtosis - 1) / (4 N)) with the
+// uniform distribution's kurtosis 1.8; both are checked to 4 standard errors, the range to its
+// bounds (the lowest and highest 1 % of it each hold a radius but with probability
+// 0.99^N < 1e-13 at N > 3000). Masses go as r^2: at rest the floor of a cohesionless
+// polydisperse deposit carries sum r_i^2 m g.
+TEST(Polydispersity, RadiiHaveTheirMeanAndSigmaAndMassesGoAsRSquared) {
+  const double sigma = 0.2, half = std::sqrt(3.0) * sigma;
+  const auto deposit = scan_of(R"(
+[scan]
+protocol = "B"
+seeds = 4
+[system]
+width = 100.0
+height = 100.0
+polydispersity = 0.2
+[observables]
+lower_half_from = 1.0
+)");
+  const auto ballistic = run_members(deposit, members_of(deposit));
+  std::vector<double> r;
+  for (const auto& m : ballistic) r.insert(r.end(), m.radius.begin(), m.radius.end());
+  const double n = static_cast<double>(r.size());
+  ASSERT_GT(n, 3000.0);
+  double sum = 0.0, lo = 1e300, hi = -1e300;
+  for (double x : r) sum += x, lo = std::min(lo, x), hi = std::max(hi, x);
+  const double mean = sum / n;
+  double ss = 0.0;
+  for (double x : r) ss += (x - mean) * (x - mean);
+  const double sd = std::sqrt(ss / (n - 1.0));
+  EXPECT_NEAR(mean, 1.0, 4.0 * sigma / std::sqrt(n));
+  EXPECT_NEAR(sd, sigma, 4.0 * sigma * std::sqrt(0.8 / (4.0 * n)));
+  EXPECT_GE(lo, 1.0 - half);
+  EXPECT_LE(hi, 1.0 + half);
+  EXPECT_LT(lo, 1.0 - half + 0.02 * half);
+  EXPECT_GT(hi, 1.0 + half - 0.02 * half);
+
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 1
+[system]
+width = 12.0
+height = 12.0
+bond_number = 0
+polydispersity = 0.3
+[solver]
+tolerance = 1e-5
+max_sweeps = 20000
+[observables]
+lower_half_from = 1.0
+)");
+  const auto pile = run_members(scan, members_of(scan)).at(0);
+  ASSERT_TRUE(pile.ok());
+  const auto [floor, weight] = floor_force_and_weight(pile);
+  // Equal masses would give the number of disks; these radii set sum r^2 apart from it, so the
+  // floor's load tells the two apart.
+  const double equal_masses = static_cast<double>(pile.radius.size());
+  ASSERT_GT(std::fabs(weight - equal_masses), 1e-2 * weight);
+  EXPECT_NEAR(floor, weight, 1e-3 * weight);
 }
 
 // Relaxation regions (protocol.region_radius), the whole system checked after every disk: every
 // disk's event is recorded, nothing fails, and at the end the floor carries the whole weight
 // (the impulses written back from the regions and the whole system's check together balance
 // the deposit), as without regions.
+// The same with the check after every 4th disk only (protocol.region_check_every, as the tall
+// fig. 7 runs do every 10th): when the last disk is not one of them, the whole system is
+// checked once more, so the deposit still ends at rest carrying its weight (without that
+// check the contacts outside the last region kept their earlier forces: the floor of one
+// member carried 40 of its 42 disks' weight). Trajectories end at the final positions.
 TEST(Regions, DepositEndsAtRestCarryingItsWeight) {
-  const auto scan = scan_of(R"(
+  for (const char* check_every : {"1", "4"}) {
+    SCOPED_TRACE(std::string("region_check_every = ") + check_every);
+    const auto scan = scan_of(std::string(R"(
 [scan]
 protocol = "A"
 seeds = 2
@@ -414,20 +490,25 @@ tolerance = 1e-5
 max_sweeps = 20000
 [protocol]
 region_radius = 5
+region_check_every = )") + check_every +
+                              R"(
 [observables]
 lower_half_from = 1.0
+trajectory_every = 3
 )");
-  const auto results = run_members(scan, members_of(scan));
-  ASSERT_EQ(results.size(), 2u);
-  for (const auto& r : results) {
-    ASSERT_TRUE(r.ok());
-    EXPECT_EQ(r.events.size(), r.y_e.size());
-    EXPECT_GT(r.y_e.size(), 20u);
-    const auto [floor, weight] = floor_force_and_weight(r);
-    EXPECT_NEAR(floor, weight, 1e-3 * weight);
-    for (std::size_t a = 0; a < r.y_e.size(); ++a) {
-      EXPECT_GT(r.y_e[a], r.radius[a] - 1e-3);
-      EXPECT_LT(r.y_e[a], 16.0 + r.radius[a]);
+    const auto results = run_members(scan, members_of(scan));
+    ASSERT_EQ(results.size(), 2u);
+    for (const auto& r : results) {
+      ASSERT_TRUE(r.ok());
+      EXPECT_EQ(r.events.size(), r.y_e.size());
+      EXPECT_GT(r.y_e.size(), 20u);
+      const auto [floor, weight] = floor_force_and_weight(r);
+      EXPECT_NEAR(floor, weight, 1e-3 * weight);
+      for (std::size_t a = 0; a < r.y_e.size(); ++a) {
+        EXPECT_GT(r.y_e[a], r.radius[a] - 1e-3);
+        EXPECT_LT(r.y_e[a], 16.0 + r.radius[a]);
+      }
+      expect_trajectories_end_at_final_positions(r, 3);
     }
   }
 }
