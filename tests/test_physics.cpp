@@ -180,7 +180,8 @@ TEST(Validation, SlidingDiskStartsRollingAtTwoThirdsV0) {
   EXPECT_NEAR(e[0].x - 100.0, x_expected, 0.02 * x_expected);
 }
 
-// 5. Cohesive chain hanging from a ceiling (the floor, with gravity reversed).
+// 5. Cohesive chain hanging from a ceiling (the floor, with gravity reversed), and without the
+// floor's cohesion.
 TEST(Validation, HangingChainHoldsIffNAtMostBo) {
   const double bo = 5.0;
   for (int n : {5, 6}) {
@@ -199,6 +200,21 @@ TEST(Validation, HangingChainHoldsIffNAtMostBo) {
       EXPECT_GT(gap, 10.0 * p.cohesion_range) << n << " disks should fall";
     }
   }
+  // system.floor_cohesion = false: the ceiling does not attract, so even a chain of n <= Bo
+  // falls off it, whole (in free fall its disks press on nothing, so their cohesion holds them).
+  auto p = bare_params(20.0, 30.0);
+  p.bond_number = bo;
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  p.gravity_dir_y = 1.0;
+  p.floor_cohesion = false;
+  Batch batch({setup(p, column(3, 10.0))}, tight());
+  for (int k = 0; k < 200; ++k) batch.step();
+  const auto d = batch.disks(0);
+  EXPECT_GT(d[0].y - d[0].radius, 10.0 * p.cohesion_range) << "the chain should fall";
+  for (int a = 1; a < 3; ++a)
+    EXPECT_LT(d[a].y - d[a - 1].y - d[a].radius - d[a - 1].radius, p.cohesion_range)
+        << "the chain should stay whole";
 }
 
 // 6. Pull-off barrier: escape iff v > sqrt(2 F_c d_c / m_n), approached as h shrinks.
