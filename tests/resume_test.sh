@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Checkpoint and resume: a run killed with SIGKILL and resumed, and one stopped with SIGTERM and
-# resumed, both give output identical to an uninterrupted run (tests/h5_equal.py), members
-# finished before the interruption are not computed again, and a checkpoint that does not
-# belong to the scan, or is corrupt, is refused.
+# Checkpoint and resume: a run killed with SIGKILL and resumed, and ones stopped with SIGTERM
+# and SIGINT and resumed, all give output identical to an uninterrupted run (tests/h5_equal.py),
+# members finished before the interruption are not computed again, and a checkpoint that does
+# not belong to the scan, or is corrupt, is refused.
 source "$(dirname "$0")/common.sh"
 cd "$dir"
 
@@ -50,6 +50,13 @@ interrupt TERM t.h5 t.log
 [ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat t.log)"
 grep -q "continue with: loosepack run s.toml -o t.h5 --resume" t.log || fail "message: $(cat t.log)"
 [ ! -e t.h5 ] || fail "an interrupted run wrote an output file"
+# SIGINT (Ctrl-C) likewise, resumed to the same file.
+interrupt INT i.h5 i.log
+[ "$rc" -eq 130 ] || fail "SIGINT exit code $rc: $(cat i.log)"
+grep -q "interrupted by SIGINT" i.log || fail "message: $(cat i.log)"
+[ ! -e i.h5 ] || fail "an interrupted run wrote an output file"
+"$exe" run s.toml -o i.h5 --batch-size 1 --resume -q
+same full.h5 i.h5
 # A checkpoint of another scan file is refused, and so is a corrupt one.
 cp s.toml edited.toml
 sed -i 's/seeds = 4/seeds = 4 # edited/' edited.toml
