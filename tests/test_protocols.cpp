@@ -166,6 +166,12 @@ lower_half_from = 3.0
   EXPECT_GT(n0, n2);
   EXPECT_GT(n2, ninf);
   // Bo = 0: disks move down after deposition (rolling into place); Bo = inf: nothing moves.
+  // On a flat layer of touching disks, a disk dropped at a uniform offset dx in (0, R) from the
+  // nearest one lands on it at sin(theta) = dx / 2R, at 2R cos(theta) above its centre, and rolls
+  // down to a pocket, sqrt(3) R above the layer: on average 2R int_0^1 sqrt(1 - u^2/4) du -
+  // sqrt(3) R = 0.18 R. The bound 0.1 R leaves room for a rough surface.
+  std::printf("mean abs(Delta y): Bo=0 %.3f, Bo=1e2 %.3f\n", points[0].mean_abs_dy.mean,
+              points[1].mean_abs_dy.mean);
   EXPECT_GT(points[0].mean_abs_dy.mean, 0.1);
   EXPECT_EQ(points[2].mean_abs_dy.mean, 0.0);
   // every deposition of A closes one avalanche event
@@ -286,7 +292,7 @@ lower_half_from = 4.0
   EXPECT_LT(b, 0.0);  // higher disks fall further
   EXPECT_GT(p.relative_increase.mean, 0.0);
   const double err = std::sqrt(se * se + p.relative_increase.sem * p.relative_increase.sem);
-  EXPECT_NEAR(p.relative_increase.mean, -b, 3.0 * err + 0.02);
+  EXPECT_NEAR(p.relative_increase.mean, -b, 3.0 * err);
 }
 
 // The same scan gives identical results whatever the batch size.
