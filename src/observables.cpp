@@ -38,8 +38,8 @@ double deposit_top(const std::vector<double>& y, const std::vector<double>& r) {
 }
 
 namespace {
-
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+}  // namespace
 
 Scalar mean_sem(const std::vector<double>& v) {
   Scalar s;
@@ -59,6 +59,8 @@ Scalar mean_sem(const std::vector<double>& v) {
   s.sem = std::sqrt(var / s.n);
   return s;
 }
+
+namespace {
 
 // Columns of per-member profiles -> mean, standard error, relative fluctuation per entry.
 EnsembleProfile ensemble(const std::vector<std::vector<double>>& rows,

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -195,13 +196,7 @@ static Scalar band_difference(const std::vector<MemberResult>& results, double w
     d.push_back(band_volume_fraction(r.y_e, r.radius, width, lo, mid) -
                 band_volume_fraction(r.y_e, r.radius, width, mid, hi));
   }
-  Scalar s;
-  s.n = static_cast<int>(d.size());
-  for (double v : d) s.mean += v / s.n;
-  double var = 0.0;
-  for (double v : d) var += (v - s.mean) * (v - s.mean) / (s.n - 1);
-  s.sem = std::sqrt(var / s.n);
-  return s;
+  return mean_sem(d);
 }
 
 // Protocol A at an intermediate Bond number: the deposit is denser below than above, because
@@ -433,18 +428,15 @@ lower_half_from = 1.0
   for (const auto& m : ballistic) r.insert(r.end(), m.radius.begin(), m.radius.end());
   const double n = static_cast<double>(r.size());
   ASSERT_GT(n, 3000.0);
-  double sum = 0.0, lo = 1e300, hi = -1e300;
-  for (double x : r) sum += x, lo = std::min(lo, x), hi = std::max(hi, x);
-  const double mean = sum / n;
-  double ss = 0.0;
-  for (double x : r) ss += (x - mean) * (x - mean);
-  const double sd = std::sqrt(ss / (n - 1.0));
-  EXPECT_NEAR(mean, 1.0, 4.0 * sigma / std::sqrt(n));
+  const Scalar m = mean_sem(r);
+  const double sd = m.sem * std::sqrt(n);
+  const auto [lo, hi] = std::minmax_element(r.begin(), r.end());
+  EXPECT_NEAR(m.mean, 1.0, 4.0 * sigma / std::sqrt(n));
   EXPECT_NEAR(sd, sigma, 4.0 * sigma * std::sqrt(0.8 / (4.0 * n)));
-  EXPECT_GE(lo, 1.0 - half);
-  EXPECT_LE(hi, 1.0 + half);
-  EXPECT_LT(lo, 1.0 - half + 0.02 * half);
-  EXPECT_GT(hi, 1.0 + half - 0.02 * half);
+  EXPECT_GE(*lo, 1.0 - half);
+  EXPECT_LE(*hi, 1.0 + half);
+  EXPECT_LT(*lo, 1.0 - half + 0.02 * half);
+  EXPECT_GT(*hi, 1.0 + half - 0.02 * half);
 
   const auto scan = scan_of(R"(
 [scan]

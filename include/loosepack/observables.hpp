@@ -42,6 +42,10 @@ struct Scalar {
   int n = 0;
 };
 
+// Mean and standard error of the mean of the values that are not NaN (n of them; NaN mean and
+// error when there are none, NaN error when there is one).
+Scalar mean_sem(const std::vector<double>& v);
+
 struct PointResult {
   ScanPoint point;
   int members = 0, failed = 0;
