@@ -52,8 +52,19 @@ double ballistic_cost(const SystemParams& p) { return p.width * p.height; }
 // to rest falls from ~5 sqrt(R/g) at Bo = 0 to ~0.25 at Bo = 1e3 once avalanches set in (steps
 // x h per disk at 40 R x 60 R; docs/PERFORMANCE.md, "What a member costs").
 double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_number / 4.0, -0.55); }
+// How the cost grows with the height: a deposit H tall costs ~ H^q. A disk rolls over a surface
+// that grows with the deposit, and the avalanches of a cohesive deposit grow with the height
+// above them, so q grows with the Bond number: from members' progress over time, 2.2-2.6 at
+// Bo <= 10, 2.8-3.2 at Bo = 1e2 and 3.6-5.4 at Bo = 1e3 (docs/PERFORMANCE.md, "What a member
+// costs"). The boxes tau was fitted on were 60 R tall, so the cost is W H^3 tau / h there.
+double height_exponent(const SystemParams& p) {
+  return 2.5 + 2.0 * p.bond_number / (p.bond_number + 300.0);
+}
 double slow_cost(const SystemParams& p) {
-  return p.width * p.height * p.height * p.height * relaxation_time(p) / p.time_step;
+  const double reference_height = 60.0;
+  return p.width * std::pow(reference_height, 3.0) *
+         std::pow(p.height / reference_height, height_exponent(p)) * relaxation_time(p) /
+         p.time_step;
 }
 double collapse_cost(const SystemParams& p) { return p.width * p.height * p.height / p.time_step; }
 
@@ -282,7 +293,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       else if (sl.phase == Phase::Ballistic)
         running += ballistic_cost(p) * sl.filled;
       else
-        running += sl.filled * sl.filled * sl.filled * slow_cost(p);
+        running += std::pow(sl.filled, height_exponent(p)) * slow_cost(p);
     }
     prog.fraction = (done_weight + running) / total_weight;
     hooks.progress(prog);

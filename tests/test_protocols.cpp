@@ -29,9 +29,10 @@ struct TempDir {
   std::string operator/(const std::string& name) const { return path + "/" + name; }
 };
 
-std::vector<PointResult> run(const Scan& scan) {
-  return aggregate(scan, run_members(scan, members_of(scan)));
-}
+// Every member of a scan, run in the scan's batches.
+std::vector<MemberResult> run_all(const Scan& scan) { return run_members(scan, members_of(scan)); }
+
+std::vector<PointResult> run(const Scan& scan) { return aggregate(scan, run_all(scan)); }
 
 // Least-squares slope of y against x, with its standard error.
 std::pair<double, double> slope(const std::vector<double>& x, const std::vector<double>& y) {
@@ -91,8 +92,8 @@ BatchedRuns run_alone_and_batched(const std::string& text, int many) {
   BatchedRuns r{scan_of(text), scan_of(text), {}, {}};
   r.one.batch_size = 1;
   r.many.batch_size = many;
-  r.alone = run_members(r.one, members_of(r.one));
-  r.batched = run_members(r.many, members_of(r.many));
+  r.alone = run_all(r.one);
+  r.batched = run_all(r.many);
   return r;
 }
 }  // namespace
@@ -220,7 +221,7 @@ bond_number = 100
 [observables]
 lower_half_from = 4.0
 )");
-  const auto results = run_members(scan, members_of(scan));
+  const auto results = run_all(scan);
   const Scalar d = band_difference(results, 24.0, 6.0, 30.0, 54.0);
   std::printf("Bo = 1e2: nu[6, 30) - nu[30, 54) = %.4f +- %.4f (%d members)\n", d.mean, d.sem,
               d.n);
@@ -245,7 +246,7 @@ bond_number = 0
 [observables]
 lower_half_from = 4.0
 )");
-  const auto results = run_members(scan, members_of(scan));
+  const auto results = run_all(scan);
   const Scalar d = band_difference(results, 24.0, 8.0, 22.0, 36.0);
   double lower = 0.0;
   for (const auto& r : results) lower += band_volume_fraction(r.y_e, r.radius, 24.0, 8.0, 36.0) / 4;
@@ -344,7 +345,7 @@ capture_radius = [1.0, 2.0]
 [observables]
 lower_half_from = 3.0
 )");
-  const auto members = run_members(scan, members_of(scan));
+  const auto members = run_all(scan);
   const auto points = aggregate(scan, members);
   const TempDir dir;
   const std::string path = dir / "out.h5";
@@ -396,7 +397,7 @@ max_sweeps = 20000
 trajectory_every = 3
 lower_half_from = 1.0
 )");
-  const auto r = run_members(scan, members_of(scan)).at(0);
+  const auto r = run_all(scan).at(0);
   ASSERT_TRUE(r.ok());
   const auto [floor, weight] = floor_force_and_weight(r);
   EXPECT_NEAR(floor, weight, 1e-3 * weight);
@@ -423,7 +424,7 @@ polydispersity = 0.2
 [observables]
 lower_half_from = 1.0
 )");
-  const auto ballistic = run_members(deposit, members_of(deposit));
+  const auto ballistic = run_all(deposit);
   std::vector<double> r;
   for (const auto& m : ballistic) r.insert(r.end(), m.radius.begin(), m.radius.end());
   const double n = static_cast<double>(r.size());
@@ -453,7 +454,7 @@ max_sweeps = 20000
 [observables]
 lower_half_from = 1.0
 )");
-  const auto pile = run_members(scan, members_of(scan)).at(0);
+  const auto pile = run_all(scan).at(0);
   ASSERT_TRUE(pile.ok());
   const auto [floor, weight] = floor_force_and_weight(pile);
   // Equal masses would give the number of disks; these radii set sum r^2 apart from it, so the
@@ -494,7 +495,7 @@ region_check_every = )") + check_every +
 lower_half_from = 1.0
 trajectory_every = 3
 )");
-    const auto results = run_members(scan, members_of(scan));
+    const auto results = run_all(scan);
     ASSERT_EQ(results.size(), 2u);
     for (const auto& r : results) {
       ASSERT_TRUE(r.ok());
@@ -564,7 +565,7 @@ max_unconverged_time = 0.505
 [observables]
 lower_half_from = 2.0
 )");
-  const auto results = run_members(scan, members_of(scan));
+  const auto results = run_all(scan);
   ASSERT_EQ(results.size(), 1u);
   const auto& r = results[0];
   EXPECT_EQ(r.failure, Failure::Unconverged);

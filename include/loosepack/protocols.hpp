@@ -84,13 +84,14 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
                                       const RunHooks& hooks = {});
 
 // Rough cost of a member in arbitrary units, for progress estimates and for sharding members
-// over MPI ranks: slow deposition needs of order n^2 sweeps for a deposit n disks tall, so a
-// protocol-A member costs ~ width * height^3 / time step, times the time a deposit takes to come
-// to rest, which falls with the Bond number like (1 + Bo/4)^-0.55 (1 at Bo = 0, 0.05 at
-// Bo = 1e3); a collapse ~ width * height^2 / time step (a slow deposition of the same size at
-// Bo = 0 costs height times more); ballistic deposition ~ width * height (negligible beside
-// either). Calibrated on members of this machine, and right within a factor of a few only:
-// docs/PERFORMANCE.md, "What a member costs".
+// over MPI ranks: a protocol-A member costs ~ width * height^q / time step, times the time a
+// deposit takes to come to rest, which falls with the Bond number like (1 + Bo/4)^-0.55 (1 at
+// Bo = 0, 0.05 at Bo = 1e3); q grows with the Bond number, from 2.5 without cohesion to 4 at
+// Bo = 1e3 (avalanches grow with the height above them), and a running member's share done is
+// the cost of a member as tall as its deposit so far; a collapse ~ width * height^2 / time
+// step; ballistic deposition ~ width * height (negligible beside either). Calibrated on members
+// of this machine, and right within a factor of a few only: docs/PERFORMANCE.md, "What a member
+// costs".
 double expected_cost(const Member& m);
 
 // Splits members over `ranks` so that the expected costs balance (largest first, each to the
