@@ -159,11 +159,8 @@ TEST(Checkpoint, ShardsBalanceExpectedCost) {
   EXPECT_EQ(shard_members({}, 4).size(), 4u);
 }
 
-// Cohesion shortens the relaxation after each deposit: at the same box and time step a
-// protocol-A member expects less the larger the Bond number. Bo = 0 against Bo = 1e3: the
-// simulated time per disk, steps x h / disks, measured 5.3 against 0.21-0.25 sqrt(R/g) at
-// 40 R wide and H = 60-180 (docs/PERFORMANCE.md, "What a member costs"), a factor of 21-25.
 namespace {
+// A protocol-A member of the given Bond number and box, at the time step of Bo = 1e3.
 Member deposit_member(double bo, double width, double height) {
   Member m;
   m.protocol = Protocol::A;
@@ -175,21 +172,26 @@ Member deposit_member(double bo, double width, double height) {
 }
 }  // namespace
 
+// Cohesion shortens the relaxation after each deposit: at the same box and time step a
+// protocol-A member expects less the larger the Bond number. Bo = 0 against Bo = 1e3: the
+// simulated time per disk, steps x h / disks, measured 5.3 against 0.21-0.25 sqrt(R/g) at
+// 40 R wide and H = 60-180 (docs/PERFORMANCE.md, "What a member costs"), a factor of 21-25.
 TEST(Checkpoint, ExpectedCostFallsWithTheBondNumber) {
-  const auto member = deposit_member;
   double before = std::numeric_limits<double>::infinity();
   for (double bo : {0.0, 1.0, 10.0, 100.0, 1000.0}) {
-    const double c = expected_cost(member(bo, 40.0, 60.0));
+    const double c = expected_cost(deposit_member(bo, 40.0, 60.0));
     EXPECT_LT(c, before) << "Bo = " << bo;
     before = c;
   }
-  const double ratio =
-      expected_cost(member(0.0, 40.0, 60.0)) / expected_cost(member(1e3, 40.0, 60.0));
+  const double ratio = expected_cost(deposit_member(0.0, 40.0, 60.0)) /
+                       expected_cost(deposit_member(1e3, 40.0, 60.0));
   EXPECT_GT(ratio, 15.0);
   EXPECT_LT(ratio, 35.0);
   // Taller and wider boxes expect more.
-  EXPECT_GT(expected_cost(member(1e3, 40.0, 120.0)), expected_cost(member(1e3, 40.0, 60.0)));
-  EXPECT_GT(expected_cost(member(1e3, 80.0, 60.0)), expected_cost(member(1e3, 40.0, 60.0)));
+  EXPECT_GT(expected_cost(deposit_member(1e3, 40.0, 120.0)),
+            expected_cost(deposit_member(1e3, 40.0, 60.0)));
+  EXPECT_GT(expected_cost(deposit_member(1e3, 80.0, 60.0)),
+            expected_cost(deposit_member(1e3, 40.0, 60.0)));
 }
 
 // A deposit H tall costs ~ H^q, and q grows with the Bond number (avalanches grow with the
