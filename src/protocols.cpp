@@ -45,7 +45,7 @@ bool ballistic(const Member& m) {
   return m.protocol != Protocol::A || std::isinf(m.params.bond_number);
 }
 
-// The parts of expected_cost, in units of about 0.2 microseconds of one core of the AMD EPYC
+// The parts of expected_cost, in units of about 0.1 microseconds of one core of the AMD EPYC
 // VM the project is developed on (docs/PERFORMANCE.md, "What a member costs").
 double ballistic_cost(const SystemParams& p) { return p.width * p.height; }
 // Cohesion shortens the relaxation after each deposit: the simulated time a disk takes to come
