@@ -329,6 +329,42 @@ lower_half_from = 2.0
     }
 }
 
+// The progress fraction behind the ETA: it never falls (a running member counts the share of its
+// expected cost that a member as tall as its deposit so far would cost, and a finished one counts
+// whole), it moves while members run, not only when they finish, and it ends at 1.
+TEST(Progress, FractionNeverFallsAndEndsAtOne) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = ["A", "B", "C"]
+seeds = 2
+batch_size = 2
+[system]
+width = 12.0
+height = 16.0
+bond_number = 50
+[observables]
+lower_half_from = 2.0
+)");
+  std::vector<Progress> seen;
+  RunHooks hooks;
+  hooks.progress = [&](const Progress& p) { seen.push_back(p); };
+  run_members(scan, members_of(scan), hooks);
+  ASSERT_FALSE(seen.empty());
+  std::size_t distinct = 1;
+  for (std::size_t k = 1; k < seen.size(); ++k) {
+    EXPECT_GE(seen[k].fraction, seen[k - 1].fraction - 1e-12) << "report " << k;
+    EXPECT_GE(seen[k].members_done, seen[k - 1].members_done);
+    if (seen[k].fraction > seen[k - 1].fraction + 1e-12) ++distinct;
+  }
+  EXPECT_GE(seen.front().fraction, 0.0);
+  EXPECT_NEAR(seen.back().fraction, 1.0, 1e-12);
+  EXPECT_EQ(seen.back().members_done, 6);
+  // More rises than members: the fraction rises while members run (every new disk of A that
+  // tops the deposit, every ballistic disk), not only when one finishes.
+  EXPECT_GT(distinct, 6u * 4);
+  std::printf("%zu progress reports, %zu rises\n", seen.size(), distinct);
+}
+
 // The output file holds what was computed; a rewrite replaces it whole, and a failed write
 // raises and leaves no temporary file behind. (That a refused run leaves an earlier file
 // untouched is checked on the command line, tests/cli_test.sh.)
