@@ -447,6 +447,17 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
     }
     out.scan.quadratic_vs_height = power_law_fit(x, y, s);
   }
+  {  // The paper's 1/H follows from a profile H f(y/H): a slice model whose a does not change.
+    std::vector<double> x, y, s;
+    for (std::size_t k : group_varying(points, Protocol::A, Varying::Height)) {
+      const Fit& f = out.points[k].slice_parabola;
+      if (!f.valid() || f.coef.empty() || !(f.coef[0] > 0.0)) continue;
+      x.push_back(points[k].point.params.height);
+      y.push_back(f.coef[0]);
+      s.push_back(f.error[0]);
+    }
+    if (x.size() >= 3) out.scan.slice_vs_height = power_law_fit(x, y, s);
+  }
   return out;
 }
 

@@ -227,6 +227,7 @@ void scan_analysis(hid_t file, const ScanAnalysis& s) {
   fit(g, "increase_vs_log_height", s.increase_vs_log_height);
   fit(g, "increase_vs_nu_initial", s.increase_vs_nu_initial);
   fit(g, "quadratic_vs_height", s.quadratic_vs_height);
+  fit(g, "slice_vs_height", s.slice_vs_height);
 }
 
 std::string point_name(int k) {
@@ -671,11 +672,13 @@ void print_summary(const std::string& path, std::ostream& out) {
   const std::string log_h = fit_text("analysis/increase_vs_log_height", "ln H");
   const std::string nu_i = power_text("analysis/increase_vs_nu_initial");
   const std::string c_h = power_text("analysis/quadratic_vs_height");
-  if (log_h.empty() && nu_i.empty() && c_h.empty()) return;
+  const std::string a_h = power_text("analysis/slice_vs_height");
+  if (log_h.empty() && nu_i.empty() && c_h.empty() && a_h.empty()) return;
   out << "# fits across points\n";
   if (!log_h.empty()) out << "  dnu/nu_i = " << log_h << "\n";
   if (!nu_i.empty()) out << "  dnu/nu_i = A nu_i^p: " << nu_i << "\n";
   if (!c_h.empty()) out << "  abs(c2) of Delta y(y_e) = A H^p: " << c_h << "\n";
+  if (!a_h.empty()) out << "  slice model a = A H^p: " << a_h << "\n";
 }
 
 }  // namespace loosepack

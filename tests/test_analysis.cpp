@@ -294,6 +294,11 @@ lower_half_from = 8.0
   ASSERT_TRUE(f.valid());
   EXPECT_NEAR(f.coef[1], -1.0, 0.02);
   EXPECT_NEAR(std::exp(f.coef[0]), alpha, 0.05 * alpha);
+  // And the slice model's a is alpha at every height: exponent 0.
+  const Fit& fa = an.scan.slice_vs_height;
+  ASSERT_TRUE(fa.valid());
+  EXPECT_NEAR(fa.coef[1], 0.0, 0.02);
+  EXPECT_NEAR(std::exp(fa.coef[0]), alpha, 0.05 * alpha);
 }
 
 // Protocol C at three capture radii, with initial densities nu_i set per point and uniform

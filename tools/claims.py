@@ -37,7 +37,8 @@ except ImportError as e:  # pragma: no cover
 
 
 def fail_missing(path, name):
-    sys.exit(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack?)")
+    sys.exit(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
+             f"`loosepack analyse {path}` adds the current analysis to a file of an older one)")
 
 
 def fit(group, path):
@@ -108,6 +109,8 @@ def check_scan(f, path):
     claims = (
         ("quadratic_vs_height", "A across heights: curvature c2 of Delta y(y_e) scales like 1/H",
          lambda p, e: abs(p + 1) <= 2 * e, "exponent p of abs(c2) = A H^p"),
+        ("slice_vs_height", "A across heights: the slice model's a stays fixed (Delta y = H f(y/H))",
+         lambda p, e: abs(p) <= 2 * e, "exponent p of a = A H^p"),
         ("increase_vs_log_height", "C across heights: dnu/nu_i grows with ln H",
          lambda p, e: p > 2 * e, "slope against ln H"),
         ("increase_vs_nu_initial", "C across capture radii: dnu/nu_i falls with nu_i (power law)",
