@@ -359,7 +359,7 @@ lower_half_from = 2.0
   EXPECT_GE(seen.front().fraction, 0.0);
   EXPECT_NEAR(seen.back().fraction, 1.0, 1e-12);
   EXPECT_EQ(seen.back().members_done, 6);
-  // More rises than members: the fraction rises while members run (every new disk of A that
+  // Over four rises per member: the fraction rises while members run (every new disk of A that
   // tops the deposit, every ballistic disk), not only when one finishes.
   EXPECT_GT(distinct, 6u * 4);
   std::printf("%zu progress reports, %zu rises\n", seen.size(), distinct);
