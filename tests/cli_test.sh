@@ -67,9 +67,15 @@ rc=$?
 set -e
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "no scan point the claims speak about" ||
   fail "claims.py on a ballistic deposit (exit code $rc): $msg"
+# Protocol A at two heights: the profiles scaled by H (the paper's fig. 7).
+printf '[scan]\nprotocol = "A"\nseeds = 2\n[system]\nwidth = 12\nheight = [12, 16]\nbond_number = 50\n[observables]\nlower_half_from = 2\n' > "$dir/ah.toml"
+"$exe" run "$dir/ah.toml" -o "$dir/ah.h5" -q
+/usr/bin/python3 "$repo/tools/plot.py" "$dir/ah.h5" -o "$dir/fig_ah" >/dev/null
+[ -s "$dir/fig_ah/scaled_avalanche_profiles.png" ] || fail "plot.py did not draw scaled_avalanche_profiles.png"
 # The collapse's relative increase against H and nu_i, with the stored fits.
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/an.h5" -o "$dir/fig_an" >/dev/null
 [ -s "$dir/fig_an/collapse_increase.png" ] || fail "plot.py did not draw collapse_increase.png"
+[ ! -e "$dir/fig_an/scaled_avalanche_profiles.png" ] || fail "plot.py scaled protocol-C profiles"
 # `analyse` recomputes the fits from the aggregates the file stores: an unchanged file gets the
 # same fits; with the stored Delta y(y_i) means doubled (errors kept) and the old fits removed,
 # the line's coefficients double; a non-HDF5 file is refused and left untouched.

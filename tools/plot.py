@@ -6,7 +6,8 @@
 Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
 histograms with the Gaussian and exponential fits, deposition density with the final density
 predicted from it. When the file has them: nu_lower_half against the Bond number (several
-points), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
+points), protocol-A profiles of several heights scaled by H with c2 and the slice model's a
+against H (the paper's fig. 7), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
 distributions (protocol A), a picture of each snapshot with its compressive contact forces
 (run with --snapshots; the paper's fig. 1) and the trajectories of every k-th disk
 (observables.trajectory_every; the paper's fig. 5).
@@ -197,6 +198,55 @@ def deposition_density(points, out, written):
     save(fig, out, "deposition_density.png", written)
 
 
+def scaled_avalanche_profiles(f, points, out, written):
+    """The paper's fig. 7: protocol-A profiles of several heights with both axes over H (a
+    profile H f(y/H) collapses), beside the curvature c2 and the slice model's a against H."""
+    a_pts = [g for g in points if text(attr(g, "protocol")) == "A"
+             and not math.isinf(attr(g, "bond_number"))]
+    if len({attr(g, "height") for g in a_pts}) < 2:
+        return
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    H, c2, c2e, sa, sae = [], [], [], [], []
+    for g in a_pts:
+        a = need(g, "avalanche_by_ye")
+        h = attr(g, "height")
+        x = need(a, "position") if "position" in a else need(a, "centre")
+        line = axes[0].errorbar(np.asarray(x) / h, np.asarray(need(a, "mean")) / h,
+                                yerr=np.asarray(sem(a)) / h, fmt="o", ms=3, capsize=2,
+                                label=label(g))
+        s = fit_of(a, "slice_parabola")
+        if s is not None:
+            u = np.linspace(0, 1, 200)
+            axes[0].plot(u, -s[0][0] * u * (1 - u), ":", color=line[0].get_color(), lw=1)
+            if s[0][0] > 0:
+                H.append(h), sa.append(s[0][0]), sae.append(s[1][0])
+        fit = fit_of(a, "fit")
+        if fit is not None and len(fit[0]) > 2 and fit[0][2] != 0:
+            c2.append((h, abs(fit[0][2]), fit[1][2]))
+    axes[0].set_xlabel("y_e / H")
+    axes[0].set_ylabel("Delta y / H")
+    axes[0].set_title("scaled by H (dotted: slice model)", fontsize=9)
+    axes[0].legend(fontsize=7)
+    if c2:
+        axes[1].errorbar([c[0] for c in c2], [c[1] for c in c2], yerr=[c[2] for c in c2],
+                         fmt="o", capsize=3, label="abs(c2) of Delta y(y_e)")
+    if H:
+        axes[1].errorbar(H, sa, yerr=sae, fmt="s", capsize=3, label="slice model a")
+    an = f["analysis"] if "analysis" in f else None
+    hs = np.linspace(min(attr(g, "height") for g in a_pts), max(attr(g, "height") for g in a_pts))
+    for key, name in (("quadratic_vs_height", "c2"), ("slice_vs_height", "a")):
+        fit = fit_of(an, key) if an is not None else None
+        if fit is not None:
+            axes[1].plot(hs, np.exp(fit[0][0]) * hs ** fit[0][1], "-", lw=1,
+                         label=f"{name} ~ H^({fit[0][1]:.2f} +- {fit[1][1]:.2f})")
+    axes[1].set_xscale("log")
+    axes[1].set_yscale("log")
+    axes[1].set_xlabel("H [R]")
+    axes[1].set_title("paper: c2 ~ 1/H, a fixed", fontsize=9)
+    axes[1].legend(fontsize=7)
+    save(fig, out, "scaled_avalanche_profiles.png", written)
+
+
 def collapse_increase(f, points, out, written):
     c = [g for g in points if text(attr(g, "protocol")) == "C"]
     if len(c) < 2:
@@ -367,6 +417,7 @@ def main():
         avalanche_profiles(points, out, written)
         abs_dy_histograms(points, out, written)
         deposition_density(points, out, written)
+        scaled_avalanche_profiles(f, points, out, written)
         collapse_increase(f, points, out, written)
         event_sizes(points, out, written)
         snapshots(points, out, written)
