@@ -26,6 +26,7 @@ try:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
     from matplotlib.collections import LineCollection, PatchCollection
     from matplotlib.patches import Circle
 except ImportError as e:  # pragma: no cover
@@ -81,6 +82,12 @@ def fit_of(group, name):
     return need(f, "coef"), need(f, "error")
 
 
+def bin_positions(a):
+    """Each bin at the mean position of its disks, where the fits put it (older files: the
+    bin centres)."""
+    return need(a, "position") if "position" in a else need(a, "centre")
+
+
 def poly(coef, x):
     return sum(c * x ** k for k, c in enumerate(coef))
 
@@ -129,9 +136,7 @@ def avalanche_profiles(points, out, written):
                         (axes[1], "avalanche_by_ye", "y_e [R]")):
         for g in points:
             a = need(g, key)
-            # Each bin at the mean position of its disks, where the fits put it.
-            x = need(a, "position") if "position" in a else need(a, "centre")
-            line = ax.errorbar(x, need(a, "mean"), yerr=sem(a),
+            line = ax.errorbar(bin_positions(a), need(a, "mean"), yerr=sem(a),
                                fmt="o", ms=3, label=label(g), capsize=2)
             f = fit_of(a, "fit")
             if f is not None:
@@ -198,20 +203,29 @@ def deposition_density(points, out, written):
     save(fig, out, "deposition_density.png", written)
 
 
+# The parameters that must agree for profiles of different heights to be compared.
+SAME_BUT_HEIGHT = ("bond_number", "capture_radius", "cohesion_range", "friction",
+                   "rolling_friction", "polydispersity", "width", "floor_cohesion", "time_step")
+
+
 def scaled_avalanche_profiles(f, points, out, written):
     """The paper's fig. 7: protocol-A profiles of several heights with both axes over H (a
-    profile H f(y/H) collapses), beside the curvature c2 and the slice model's a against H."""
-    a_pts = [g for g in points if text(attr(g, "protocol")) == "A"
-             and not math.isinf(attr(g, "bond_number"))]
+    profile H f(y/H) collapses), beside the curvature c2 and the slice model's a against H.
+    Drawn for the largest group of protocol-A points that differ only in their height."""
+    groups = {}
+    for g in points:
+        if text(attr(g, "protocol")) == "A" and not math.isinf(attr(g, "bond_number")):
+            key = tuple(float(g.attrs[k]) for k in SAME_BUT_HEIGHT if k in g.attrs)
+            groups.setdefault(key, []).append(g)
+    a_pts = max(groups.values(), key=lambda v: len({attr(g, "height") for g in v}), default=[])
     if len({attr(g, "height") for g in a_pts}) < 2:
         return
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    H, c2, c2e, sa, sae = [], [], [], [], []
+    c2, sa = [], []  # (H, value, error) of the curvature and of the slice model's a
     for g in a_pts:
         a = need(g, "avalanche_by_ye")
         h = attr(g, "height")
-        x = need(a, "position") if "position" in a else need(a, "centre")
-        line = axes[0].errorbar(np.asarray(x) / h, np.asarray(need(a, "mean")) / h,
+        line = axes[0].errorbar(np.asarray(bin_positions(a)) / h, np.asarray(need(a, "mean")) / h,
                                 yerr=np.asarray(sem(a)) / h, fmt="o", ms=3, capsize=2,
                                 label=label(g))
         s = fit_of(a, "slice_parabola")
@@ -219,7 +233,7 @@ def scaled_avalanche_profiles(f, points, out, written):
             u = np.linspace(0, 1, 200)
             axes[0].plot(u, -s[0][0] * u * (1 - u), ":", color=line[0].get_color(), lw=1)
             if s[0][0] > 0:
-                H.append(h), sa.append(s[0][0]), sae.append(s[1][0])
+                sa.append((h, s[0][0], s[1][0]))
         fit = fit_of(a, "fit")
         if fit is not None and len(fit[0]) > 2 and fit[0][2] != 0:
             c2.append((h, abs(fit[0][2]), fit[1][2]))
@@ -227,11 +241,10 @@ def scaled_avalanche_profiles(f, points, out, written):
     axes[0].set_ylabel("Delta y / H")
     axes[0].set_title("scaled by H (dotted: slice model)", fontsize=9)
     axes[0].legend(fontsize=7)
-    if c2:
-        axes[1].errorbar([c[0] for c in c2], [c[1] for c in c2], yerr=[c[2] for c in c2],
-                         fmt="o", capsize=3, label="abs(c2) of Delta y(y_e)")
-    if H:
-        axes[1].errorbar(H, sa, yerr=sae, fmt="s", capsize=3, label="slice model a")
+    for pts, fmt, name in ((c2, "o", "abs(c2) of Delta y(y_e)"), (sa, "s", "slice model a")):
+        if pts:
+            axes[1].errorbar(*zip(*[(h, v) for h, v, _ in pts]), yerr=[e for _, _, e in pts],
+                             fmt=fmt, capsize=3, label=name)
     an = f["analysis"] if "analysis" in f else None
     hs = np.linspace(min(attr(g, "height") for g in a_pts), max(attr(g, "height") for g in a_pts))
     for key, name in (("quadratic_vs_height", "c2"), ("slice_vs_height", "a")):
@@ -241,6 +254,9 @@ def scaled_avalanche_profiles(f, points, out, written):
                          label=f"{name} ~ H^({fit[0][1]:.2f} +- {fit[1][1]:.2f})")
     axes[1].set_xscale("log")
     axes[1].set_yscale("log")
+    heights = sorted({attr(g, "height") for g in a_pts})
+    axes[1].set_xticks(heights, [f"{h:g}" for h in heights])
+    axes[1].xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     axes[1].set_xlabel("H [R]")
     axes[1].set_title("paper: c2 ~ 1/H, a fixed", fontsize=9)
     axes[1].legend(fontsize=7)
