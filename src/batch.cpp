@@ -1122,6 +1122,113 @@ std::vector<ContactForce> Batch::contacts(int s) const {
   return out;
 }
 
+Batch::SystemState Batch::state(int s) const {
+  auto& I = *impl_;
+  const auto k = static_cast<std::size_t>(s);
+  SystemState out;
+  out.status = I.status.at(k);
+  out.disks = disks(s);
+  const int first = I.offsets[k], count = out.status.count;
+  auto host = [](const auto& v, std::pair<int, int> range) {
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
+  };
+  const auto disk_range = std::make_pair(first, first + count);
+  for (auto [to, from] : {std::make_pair(&out.y_mark, I.part.y_mark),
+                          std::make_pair(&out.inv_mass, I.part.inv_mass),
+                          std::make_pair(&out.inv_inertia, I.part.inv_inertia)}) {
+    const auto h = host(from, disk_range);
+    to->assign(h.data(), h.data() + count);
+  }
+  // The buffers that hold the system's last impulses (see contacts()).
+  const bool other = (I.batch_steps - I.last_stepped[k]) % 2 == 1;
+  const auto range = std::make_pair(first * kSlots, (first + count) * kSlots);
+  const auto partner = host(other ? I.con.prev_partner : I.con.partner, range);
+  const auto pn = host(other ? I.con.prev_pn : I.con.pn, range);
+  const auto pt = host(other ? I.con.prev_pt : I.con.pt, range);
+  const auto pm = host(other ? I.con.prev_pm : I.con.pm, range);
+  for (int c = 0; c < count * kSlots; ++c) {
+    if (partner(c) == kNoContact) continue;
+    out.slot.push_back(c);
+    out.partner.push_back(partner(c) == kFloor ? -1 : partner(c) - first);
+    out.pn.push_back(pn(c));
+    out.pt.push_back(pt(c));
+    out.pm.push_back(pm(c));
+  }
+  const auto one = std::make_pair(s, s + 1);
+  out.draws = host(I.sys.draws, one)(0);
+  out.speed = host(I.sys.max_speed, one)(0);
+  out.centre_speed = host(I.sys.max_centre_speed, one)(0);
+  out.gravity_on = I.params[k].gravity_on;
+  out.status.newton_steps = I.newton_steps[k];
+  out.pace = solver_pace(s);
+  return out;
+}
+
+void Batch::restore(int s, const SystemState& state) {
+  auto& I = *impl_;
+  const auto k = static_cast<std::size_t>(s);
+  const int count = I.status.at(k).count;
+  const std::size_t n = state.slot.size();
+  const auto disks = state.disks.size();
+  if (static_cast<int>(disks) != count || state.y_mark.size() != disks ||
+      state.inv_mass.size() != disks || state.inv_inertia.size() != disks ||
+      state.status.count != count || state.partner.size() != n || state.pn.size() != n ||
+      state.pt.size() != n || state.pm.size() != n)
+    throw std::invalid_argument("Batch::restore: the state does not fit system " +
+                                std::to_string(s) + " (reset it with the state's disks first)");
+  const int first = I.offsets[k];
+  auto put = [&](const DView<double>& v, auto f) {
+    auto sub = Kokkos::subview(v, std::make_pair(first, first + count));
+    auto h = Kokkos::create_mirror_view(sub);
+    for (int a = 0; a < count; ++a) h(a) = f(a);
+    Kokkos::deep_copy(sub, h);
+  };
+  // reset() wraps x into the box, which may round it, and computes the masses on the host
+  // (deposited disks got theirs on the device).
+  put(I.part.x, [&](int a) { return state.disks[static_cast<std::size_t>(a)].x; });
+  for (auto [to, from] : {std::make_pair(I.part.y_mark, &state.y_mark),
+                          std::make_pair(I.part.inv_mass, &state.inv_mass),
+                          std::make_pair(I.part.inv_inertia, &state.inv_inertia)})
+    put(to, [&](int a) { return (*from)[static_cast<std::size_t>(a)]; });
+  // The impulses go where the next step's warm start reads them (as set_contacts).
+  const auto range = std::make_pair(first * kSlots, (first + I.slot_capacity[k]) * kSlots);
+  auto partner = Kokkos::create_mirror_view(Kokkos::subview(I.con.partner, range));
+  auto pn = Kokkos::create_mirror_view(Kokkos::subview(I.con.pn, range));
+  auto pt = Kokkos::create_mirror_view(Kokkos::subview(I.con.pt, range));
+  auto pm = Kokkos::create_mirror_view(Kokkos::subview(I.con.pm, range));
+  Kokkos::deep_copy(partner, kNoContact);
+  for (std::size_t c = 0; c < n; ++c) {
+    const int slot = state.slot[c], j = state.partner[c];
+    if (slot < 0 || slot >= count * kSlots || j < -1 || j >= count)
+      throw std::invalid_argument("Batch::restore: contact slot " + std::to_string(slot) +
+                                  " with partner " + std::to_string(j) + " is not in system " +
+                                  std::to_string(s));
+    partner(slot) = j < 0 ? kFloor : first + j;
+    pn(slot) = state.pn[c];
+    pt(slot) = state.pt[c];
+    pm(slot) = state.pm[c];
+  }
+  Kokkos::deep_copy(Kokkos::subview(I.con.partner, range), partner);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
+  I.last_stepped[k] = I.batch_steps;
+  auto set = [s](const auto& view, auto value) {
+    Kokkos::deep_copy(Kokkos::subview(view, s), value);
+  };
+  set(I.sys.draws, state.draws);
+  set(I.sys.max_speed, state.speed);
+  set(I.sys.max_centre_speed, state.centre_speed);
+  set_gravity(s, state.gravity_on);
+  I.status[k] = state.status;
+  I.newton_steps[k] = state.status.newton_steps;
+  NewtonPace& pace = I.newton_pace[k];
+  pace.wait = state.pace.wait;
+  pace.credit = state.pace.credit;
+  pace.charged = 0.0;
+  I.upload_status_active();
+}
+
 double Batch::max_overlap(int s) const {
   const auto d = disks(s);
   const double width = params(s).width;

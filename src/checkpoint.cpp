@@ -39,9 +39,11 @@ class Writer {
     const auto* p = reinterpret_cast<const char*>(&v);
     out_.append(p, sizeof(T));
   }
-  void put(const std::vector<double>& v) {
+  template <class T>
+  void put(const std::vector<T>& v) {
+    static_assert(std::is_trivially_copyable<T>::value, "plain values only");
     put<std::uint64_t>(v.size());
-    out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+    out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
   }
 
  private:
@@ -60,12 +62,13 @@ class Reader {
     at_ += sizeof(T);
     return v;
   }
-  std::vector<double> doubles() {
+  template <class T = double>
+  std::vector<T> vec() {
     const auto n = get<std::uint64_t>();
-    if (n > (in_.size() - at_) / sizeof(double)) fail("a vector runs past the end");
-    std::vector<double> v(n);
-    std::memcpy(v.data(), in_.data() + at_, n * sizeof(double));
-    at_ += n * sizeof(double);
+    if (n > (in_.size() - at_) / sizeof(T)) fail("a vector runs past the end");
+    std::vector<T> v(n);
+    std::memcpy(v.data(), in_.data() + at_, n * sizeof(T));
+    at_ += n * sizeof(T);
     return v;
   }
   std::size_t at() const { return at_; }
@@ -124,7 +127,7 @@ MemberResult decode(Reader& in, const std::vector<Member>& members) {
   r.wall_time = in.get<double>();
   for (auto* v : {&r.x, &r.y_i, &r.y_e, &r.radius, &r.vx, &r.vy, &r.w, &r.trajectory_time,
                   &r.trajectory_disk, &r.trajectory_x, &r.trajectory_y})
-    *v = in.doubles();
+    *v = in.vec();
   const auto n_events = in.get<std::uint64_t>();
   for (std::uint64_t k = 0; k < n_events; ++k) {
     AvalancheEvent e;
@@ -146,13 +149,94 @@ MemberResult decode(Reader& in, const std::vector<Member>& members) {
   return r;
 }
 
-std::vector<MemberResult> decode_from(Reader& in, const std::vector<Member>& members,
-                                      std::size_t end) {
+std::vector<MemberResult> decode_from(Reader& in, const std::vector<Member>& members) {
   const auto n = in.get<std::uint64_t>();
   std::vector<MemberResult> out;
   for (std::uint64_t k = 0; k < n; ++k) out.push_back(decode(in, members));
-  if (in.at() != end) in.fail("unexpected bytes after the last member");
   return out;
+}
+
+// A running member's snapshot: its result so far, its stage and its system.
+void encode(Writer& w, const MemberSnapshot& snap) {
+  encode(w, snap.result);
+  w.put<std::int32_t>(snap.phase);
+  const MemberStage& st = snap.stage;
+  for (long v : {st.steps, st.cap, st.unconverged, st.deposited}) w.put<std::int64_t>(v);
+  w.put<double>(st.filled);
+  for (bool b : {st.gave_up, st.checking, st.event_capped, st.event_open, st.final_check})
+    w.put<std::uint8_t>(b ? 1 : 0);
+  w.put<std::int32_t>(st.quiet);
+  w.put<std::int32_t>(st.rounds);
+  const Batch::SystemState& sys = snap.system;
+  std::vector<double> disk;
+  std::vector<std::uint8_t> flags;
+  for (const Disk& d : sys.disks) {
+    disk.insert(disk.end(), {d.x, d.y, d.theta, d.vx, d.vy, d.w, d.radius, d.y_deposit});
+    flags.push_back(static_cast<std::uint8_t>((d.fixed ? 1 : 0) | (d.lock_rotation ? 2 : 0)));
+  }
+  w.put(disk);
+  w.put(flags);
+  for (const auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia, &sys.pn, &sys.pt, &sys.pm})
+    w.put(*v);
+  w.put(sys.slot);
+  w.put(sys.partner);
+  w.put<std::uint64_t>(sys.draws);
+  w.put<double>(sys.speed);
+  w.put<double>(sys.centre_speed);
+  w.put<std::uint8_t>(sys.gravity_on ? 1 : 0);
+  const SystemStatus& ss = sys.status;
+  for (bool b : {ss.active, ss.converged, ss.at_rest}) w.put<std::uint8_t>(b ? 1 : 0);
+  w.put<std::int32_t>(static_cast<std::int32_t>(ss.failure));
+  for (int v : {ss.count, ss.last_sweeps, ss.rest_steps}) w.put<std::int32_t>(v);
+  for (long v : {ss.steps, ss.sweeps, ss.newton_steps}) w.put<std::int64_t>(v);
+  w.put<double>(ss.max_speed);
+  w.put<double>(ss.max_centre_speed);
+  w.put<std::int32_t>(sys.pace.wait);
+  w.put<double>(sys.pace.credit);
+}
+
+MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
+  MemberSnapshot snap;
+  snap.result = decode(in, members);
+  snap.phase = in.get<std::int32_t>();
+  MemberStage& st = snap.stage;
+  for (long* v : {&st.steps, &st.cap, &st.unconverged, &st.deposited}) *v = in.get<std::int64_t>();
+  st.filled = in.get<double>();
+  for (bool* b : {&st.gave_up, &st.checking, &st.event_capped, &st.event_open, &st.final_check})
+    *b = in.get<std::uint8_t>() != 0;
+  st.quiet = in.get<std::int32_t>();
+  st.rounds = in.get<std::int32_t>();
+  Batch::SystemState& sys = snap.system;
+  const auto disk = in.vec();
+  const auto flags = in.vec<std::uint8_t>();
+  if (disk.size() != 8 * flags.size()) in.fail("the disks of a running member do not match");
+  for (std::size_t k = 0; k < flags.size(); ++k) {
+    const double* d = disk.data() + 8 * k;
+    Disk a;
+    a.x = d[0], a.y = d[1], a.theta = d[2], a.vx = d[3], a.vy = d[4], a.w = d[5];
+    a.radius = d[6], a.y_deposit = d[7];
+    a.fixed = (flags[k] & 1) != 0;
+    a.lock_rotation = (flags[k] & 2) != 0;
+    sys.disks.push_back(a);
+  }
+  for (auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia, &sys.pn, &sys.pt, &sys.pm})
+    *v = in.vec();
+  sys.slot = in.vec<int>();
+  sys.partner = in.vec<int>();
+  sys.draws = in.get<std::uint64_t>();
+  sys.speed = in.get<double>();
+  sys.centre_speed = in.get<double>();
+  sys.gravity_on = in.get<std::uint8_t>() != 0;
+  SystemStatus& ss = sys.status;
+  for (bool* b : {&ss.active, &ss.converged, &ss.at_rest}) *b = in.get<std::uint8_t>() != 0;
+  ss.failure = static_cast<Failure>(in.get<std::int32_t>());
+  for (int* v : {&ss.count, &ss.last_sweeps, &ss.rest_steps}) *v = in.get<std::int32_t>();
+  for (long* v : {&ss.steps, &ss.sweeps, &ss.newton_steps}) *v = in.get<std::int64_t>();
+  ss.max_speed = in.get<double>();
+  ss.max_centre_speed = in.get<double>();
+  sys.pace.wait = in.get<std::int32_t>();
+  sys.pace.credit = in.get<double>();
+  return snap;
 }
 
 }  // namespace
@@ -173,7 +257,9 @@ std::string encode_members(const std::vector<MemberResult>& results) {
 std::vector<MemberResult> decode_members(const std::string& bytes, const Scan& scan,
                                          const std::string& what) {
   Reader in(bytes, 0, what);
-  return decode_from(in, members_of(scan), bytes.size());
+  auto out = decode_from(in, members_of(scan));
+  if (in.at() != bytes.size()) in.fail("unexpected bytes after the last member");
+  return out;
 }
 
 std::string checkpoint_directory(const std::string& output_path) {
@@ -185,12 +271,15 @@ std::string checkpoint_part(const std::string& directory, int generation, int ra
 }
 
 void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
-                           const std::vector<MemberResult>& results) {
+                           const std::vector<MemberResult>& results,
+                           const std::vector<MemberSnapshot>& running) {
   std::string bytes(kMagic, sizeof kMagic);
   Writer w(bytes);
   w.put<std::uint32_t>(kByteOrder);
   w.put<std::uint64_t>(fingerprint);
   bytes += encode_members(results);
+  w.put<std::uint64_t>(running.size());
+  for (const auto& snap : running) encode(w, snap);
   w.put<std::uint64_t>(fnv1a(bytes.data(), bytes.size()));
   replace_file(file, [&](const std::string& tmp) {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
@@ -215,6 +304,7 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   const auto members = members_of(scan);
   const auto fingerprint = scan_fingerprint(scan);
   std::map<std::uint64_t, MemberResult> finished;
+  std::map<std::uint64_t, std::pair<int, MemberSnapshot>> running;  // the latest generation's
   for (const auto& file : files) {
     const std::string what = "checkpoint " + file;
     std::ifstream f(file, std::ios::binary);
@@ -239,16 +329,25 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
       throw CheckpointError(what + " belongs to another scan file or another loosepack build "
                             "(the scan was edited, or the program rebuilt, since): restore them, "
                             "or delete " + directory + " to start the run again");
-    for (auto& r : decode_from(in, members, body)) {
+    for (auto& r : decode_from(in, members)) {
       const auto id = r.member.id;
       finished.emplace(id, std::move(r));
     }
     int generation = 0;
     std::sscanf(fs::path(file).filename().string().c_str(), "part-%d-", &generation);
+    const auto n_running = in.get<std::uint64_t>();
+    for (std::uint64_t k = 0; k < n_running; ++k) {
+      auto snap = decode_snapshot(in, members);
+      auto& latest = running[snap.result.member.id];
+      if (generation >= latest.first) latest = {generation, std::move(snap)};
+    }
+    if (in.at() != body) in.fail("unexpected bytes after the last member");
     out.generation = std::max(out.generation, generation);
     ++out.parts;
   }
   for (auto& [id, r] : finished) out.members.push_back(std::move(r));
+  for (auto& [id, snap] : running)
+    if (!finished.count(id)) out.running.push_back(std::move(snap.second));
   return out;
 }
 

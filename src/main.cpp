@@ -10,6 +10,7 @@
 #include <ctime>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <set>
 
 #include "loosepack/checkpoint.hpp"
@@ -122,6 +123,10 @@ int run(const RunOptions& o, Ranks& ranks) {
   std::vector<Member> todo;
   for (const auto& m : members)
     if (!resumed.count(m.id)) todo.push_back(m);
+  // Members that had started go on from their snapshots (every rank has them all).
+  std::vector<MemberSnapshot> started;
+  for (auto& snap : ck.running)
+    if (selected.count(snap.result.member.id)) started.push_back(std::move(snap));
   const auto shards = shard_members(todo, ranks.size());
   std::vector<Member> mine;
   for (std::size_t k : shards[static_cast<std::size_t>(ranks.rank())]) mine.push_back(todo[k]);
@@ -140,17 +145,21 @@ int run(const RunOptions& o, Ranks& ranks) {
     if (o.resume)
       std::cerr << "loosepack: resuming from " << ck_dir << ": " << resumed.size() << " of "
                 << members.size() << " members finished, computing the other " << todo.size()
-                << "\n";
+                << " (" << started.size() << " of them from where they were)\n";
   }
 
-  // Checkpoint parts of this run: this rank's members finished so far.
+  // Checkpoint parts of this run: this rank's members finished so far, and the latest snapshot
+  // of each of its running members.
   const std::string part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
   const auto fingerprint = scan_fingerprint(scan);
   std::vector<MemberResult> fresh;
+  std::map<std::uint64_t, MemberSnapshot> running;
   auto checkpoint = [&]() {
-    if (fresh.empty()) return;
+    if (fresh.empty() && running.empty()) return;
     std::filesystem::create_directories(ck_dir);
-    write_checkpoint_part(part, fingerprint, fresh);
+    std::vector<MemberSnapshot> snaps;
+    for (const auto& [id, snap] : running) snaps.push_back(snap);
+    write_checkpoint_part(part, fingerprint, fresh, snaps);
   };
 
   RunInfo info;
@@ -200,16 +209,26 @@ int run(const RunOptions& o, Ranks& ranks) {
       ranks.send_progress(p, false);
     }
   };
+  auto checkpoint_due = [&]() { return seconds_since(last_checkpoint) >= o.checkpoint_every; };
   hooks.finished = [&](const MemberResult& r) {
     fresh.push_back(r);
-    if (seconds_since(last_checkpoint) >= o.checkpoint_every) {
+    running.erase(r.member.id);
+    if (o.checkpoint_every <= 0.0) {
       checkpoint();
       last_checkpoint = Clock::now();
     }
   };
+  // Running members are saved every --checkpoint-every seconds (not after every member: a
+  // snapshot of a tall deposit is as large as a finished member).
+  hooks.snapshot_wanted = [&]() { return o.checkpoint_every > 0.0 && checkpoint_due(); };
+  hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
+    for (auto& snap : snaps) running[snap.result.member.id] = std::move(snap);
+    checkpoint();
+    last_checkpoint = Clock::now();
+  };
   std::vector<MemberResult> computed;
   try {
-    computed = run_members(scan, mine, hooks);
+    computed = run_members(scan, mine, hooks, started);
     // With several ranks the gather below may wait long for the others: save this share now.
     if (g_signal || ranks.size() > 1) checkpoint();
   } catch (const std::exception& e) {
@@ -245,7 +264,8 @@ int run(const RunOptions& o, Ranks& ranks) {
   }
   if (g_signal) {
     say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
-        ": finished members are saved in " + ck_dir + "; continue with: loosepack run " +
+        ": finished members, and where the running ones were, are saved in " + ck_dir +
+        "; continue with: loosepack run " +
         o.scan_path + " -o " + o.out_path + " --resume");
     return 128 + static_cast<int>(g_signal);
   }

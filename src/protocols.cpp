@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -114,23 +115,9 @@ constexpr int kMaxRegionRounds = 4;
 // many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).
 constexpr double kWakeFactor = 3.0;
 
-struct Slot {
+struct Slot : MemberStage {
   Phase phase = Phase::Empty;
   std::size_t member = 0;
-  long steps = 0;  // steps of the current relaxation or collapse
-  long cap = 0;    // their cap
-  long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
-  bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
-  long deposited = 0;
-  double filled = 0.0;  // height of the highest deposited disk over H (the progress estimate)
-  bool checking = false;      // Relax after a region came to rest: the whole system's rest check
-  int quiet = 0;              // steps in a row with no disk above the wake speed (check)
-  int rounds = 0;             // regions started for the current disk
-  bool event_capped = false;  // the current disk's relaxation hit max_relax_time
-  // A: the disk's region came to rest where the whole system is not checked; its event closes
-  // with the next disk (nothing moves in between), or after the final check when the box is full.
-  bool event_open = false;
-  bool final_check = false;  // the whole system's check after an unchecked last disk
   long region_steps = 0, region_sweeps = 0;  // the slot's region counters when the member began
   Clock::time_point start;
   MemberResult result;
@@ -141,7 +128,8 @@ struct Slot {
 int default_batch_size() { return Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4; }
 
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
-                                      const RunHooks& hooks) {
+                                      const RunHooks& hooks,
+                                      const std::vector<MemberSnapshot>& resume) {
   std::vector<MemberResult> results(members.size());
   std::vector<char> done(members.size(), 0);
   if (members.empty()) return results;
@@ -218,6 +206,8 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     batch.set_active(s, false);
     return true;
   };
+  std::map<std::uint64_t, const MemberSnapshot*> snapshot_of;
+  for (const auto& snap : resume) snapshot_of[snap.result.member.id] = &snap;
   std::size_t next = 0;
   Progress prog;
   prog.members_total = static_cast<int>(members.size());
@@ -234,15 +224,78 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     }
     sl = Slot{};
     sl.member = next++;
-    if (sl.member >= n_slots) batch.reset(s, setup_of(members[sl.member]));
-    sl.phase = ballistic(members[sl.member]) ? Phase::Ballistic : Phase::Deposit;
+    const Member& m = members[sl.member];
     sl.start = Clock::now();
-    sl.result.member = members[sl.member];
     if (regions) {
       sl.region_steps = regions->steps(s);
       sl.region_sweeps = regions->sweeps(s);
     }
-    batch.set_active(s, false);
+    const auto from = snapshot_of.find(m.id);
+    if (from == snapshot_of.end()) {
+      if (sl.member >= n_slots) batch.reset(s, setup_of(m));
+      sl.phase = ballistic(m) ? Phase::Ballistic : Phase::Deposit;
+      sl.result.member = m;
+      batch.set_active(s, false);
+      return;
+    }
+    // Go on from the snapshot: taken at the top of the loop below, where this member goes on.
+    const MemberSnapshot& snap = *from->second;
+    const auto phase = static_cast<Phase>(snap.phase);
+    if (phase != Phase::Ballistic && phase != Phase::Collapse && phase != Phase::Deposit &&
+        phase != Phase::Relax)
+      throw std::invalid_argument("the snapshot of member " + std::to_string(m.id) +
+                                  " has no phase a member goes on from");
+    SystemSetup su = setup_of(m);
+    su.disks = snap.system.disks;
+    batch.reset(s, su);
+    batch.restore(s, snap.system);
+    static_cast<MemberStage&>(sl) = snap.stage;
+    sl.phase = phase;
+    sl.result = snap.result;
+    sl.result.member = m;
+    sl.start -= std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(snap.result.wall_time));
+    sl.region_steps -= snap.result.steps;
+    sl.region_sweeps -= snap.result.sweeps;
+  };
+  // Snapshots of running members for checkpoints (RunHooks::snapshots): those asked for, taken
+  // slot by slot when each can be, and handed over when every running member has one.
+  bool snapshots_wanted = false;
+  std::vector<MemberSnapshot> taken;
+  auto take_snapshots = [&](bool stopping) {
+    if (!hooks.snapshots) return;
+    if (!snapshots_wanted && hooks.snapshot_wanted && hooks.snapshot_wanted()) {
+      snapshots_wanted = true;
+      taken.clear();
+    }
+    if (!snapshots_wanted && !stopping) return;
+    bool all = true;
+    for (std::size_t k = 0; k < n_slots; ++k) {
+      const Slot& sl = slots[k];
+      if (sl.phase == Phase::Empty) continue;
+      const std::uint64_t id = members[sl.member].id;
+      if (std::any_of(taken.begin(), taken.end(),
+                      [&](const MemberSnapshot& t) { return t.result.member.id == id; }))
+        continue;
+      if (sl.phase == Phase::Region) {  // its region's system is not in the snapshot
+        all = false;
+        continue;
+      }
+      const int s = static_cast<int>(k);
+      MemberSnapshot snap;
+      snap.result = sl.result;
+      snap.result.steps = regions ? regions->steps(s) - sl.region_steps : 0;
+      snap.result.sweeps = regions ? regions->sweeps(s) - sl.region_sweeps : 0;
+      snap.result.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
+      snap.phase = static_cast<int>(sl.phase);
+      snap.stage = sl;
+      snap.system = batch.state(s);
+      taken.push_back(std::move(snap));
+    }
+    if (!all && !stopping) return;
+    hooks.snapshots(std::move(taken));
+    taken.clear();
+    snapshots_wanted = false;
   };
   auto finish = [&](std::size_t k) {
     Slot& sl = slots[k];
@@ -268,6 +321,11 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.w.push_back(d.w);
     }
     r.contacts = batch.contacts(s);
+    taken.erase(std::remove_if(taken.begin(), taken.end(),
+                               [&](const MemberSnapshot& t) {
+                                 return t.result.member.id == r.member.id;
+                               }),
+                taken.end());
     done_weight += expected_cost(members[sl.member]);
     if (hooks.finished) hooks.finished(r);
     results[sl.member] = std::move(r);
@@ -360,6 +418,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     }
   };
   for (;;) {
+    // Every member goes on from here after a snapshot: none is inside a step.
+    const bool stopping = hooks.stop && *hooks.stop;
+    take_snapshots(stopping);
+    if (stopping) break;
     // Ballistic deposition: one disk per slot and round.
     auto [mb, any_b] = mask_of(Phase::Ballistic);
     if (any_b) {
@@ -434,7 +496,6 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     }
     report();
     if (!busy) break;
-    if (hooks.stop && *hooks.stop) break;
     if (!dynamic) continue;
     batch.step();
     if (regions) regions->step();

@@ -7,6 +7,9 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <map>
+#include <algorithm>
+#include <csignal>
 #include <unistd.h>
 
 #include "loosepack/checkpoint.hpp"
@@ -209,4 +212,114 @@ TEST(Checkpoint, ExpectedCostGrowsWithTheHeightAsMeasured) {
                       expected_cost(deposit_member(1e3, 40.0, 120.0));
   EXPECT_GT(bo1k, std::pow(1.5, 3.6));
   EXPECT_LT(bo1k, std::pow(1.5, 5.4));
+}
+
+namespace {
+// Everything a finished member records but its wall time, bit for bit.
+void expect_same_member(const MemberResult& a, const MemberResult& b) {
+  SCOPED_TRACE("member " + std::to_string(a.member.id));
+  EXPECT_EQ(a.member.id, b.member.id);
+  EXPECT_EQ(a.failure, b.failure);
+  EXPECT_EQ(a.steps, b.steps);
+  EXPECT_EQ(a.sweeps, b.sweeps);
+  EXPECT_EQ(a.capped, b.capped);
+  for (auto f : {&MemberResult::x, &MemberResult::y_i, &MemberResult::y_e, &MemberResult::radius,
+                 &MemberResult::trajectory_time, &MemberResult::trajectory_disk,
+                 &MemberResult::trajectory_x, &MemberResult::trajectory_y})
+    EXPECT_TRUE(same_bits(a.*f, b.*f));
+  ASSERT_EQ(a.events.size(), b.events.size());
+  for (std::size_t k = 0; k < a.events.size(); ++k) {
+    EXPECT_EQ(a.events[k].moved, b.events[k].moved) << "event " << k;
+    EXPECT_TRUE(same_bits({a.events[k].downward}, {b.events[k].downward})) << "event " << k;
+    EXPECT_EQ(a.events[k].steps, b.events[k].steps) << "event " << k;
+    EXPECT_EQ(a.events[k].capped, b.events[k].capped) << "event " << k;
+  }
+  ASSERT_EQ(a.contacts.size(), b.contacts.size());
+  for (std::size_t k = 0; k < a.contacts.size(); ++k) {
+    const auto &p = a.contacts[k], &q = b.contacts[k];
+    EXPECT_EQ(p.i, q.i);
+    EXPECT_EQ(p.j, q.j);
+    EXPECT_TRUE(same_bits({p.nx, p.ny, p.gap, p.normal, p.tangential, p.moment},
+                          {q.nx, q.ny, q.gap, q.normal, q.tangential, q.moment}))
+        << "contact " << k;
+  }
+}
+}  // namespace
+
+// A member stopped while it runs goes on from its snapshot as if it had never stopped. A scan of
+// cohesive deposits relaxed in regions with a whole-system check every third disk (A), slow
+// deposits without cohesion (A) and collapses (C), with trajectories, on batches of 2: a
+// snapshot of every running member is asked for before every step; the run is stopped five
+// times, each time saved to a checkpoint part and read back, and resumed on batches of 3. Every
+// member's result equals the uninterrupted run's bit for bit.
+TEST(Checkpoint, RunningMembersGoOnBitForBit) {
+  const Scan scan = parse_scan(
+      "[scan]\nseeds = 2\nbatch_size = 2\n"
+      "[[point]]\nprotocol = \"A\"\nwidth = 16\nheight = 20\nbond_number = 1000\n"
+      "time_step = 0.0028\n"
+      "[[point]]\nprotocol = \"A\"\nwidth = 8\nheight = 8\nbond_number = 0\n"
+      "[[point]]\nprotocol = \"C\"\nwidth = 12\nheight = 16\nbond_number = 30\n"
+      "[protocol]\nregion_radius = 5\nregion_check_every = 3\n"
+      "[observables]\nlower_half_from = 2\ntrajectory_every = 3\n",
+      "test.toml");
+  const auto members = members_of(scan);
+  long sets = 0;
+  RunHooks counting;
+  counting.snapshot_wanted = [] { return true; };
+  counting.snapshots = [&](std::vector<MemberSnapshot>) { ++sets; };
+  const auto straight = run_members(scan, members, counting);
+  ASSERT_EQ(straight.size(), members.size());
+  ASSERT_GT(sets, 50);
+
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("loosepack-running-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string part = checkpoint_part(dir.string(), 1, 0);
+  Scan resumed_scan = scan;
+  resumed_scan.batch_size = 3;
+  std::vector<MemberResult> done;
+  std::vector<MemberSnapshot> started;
+  int stops = 0;
+  bool went_on_moving = false, went_on_resting = false;
+  while (done.size() < members.size()) {
+    ASSERT_LT(stops, 10);
+    std::vector<Member> todo;
+    for (const auto& m : members)
+      if (std::none_of(done.begin(), done.end(),
+                       [&](const MemberResult& r) { return r.member.id == m.id; }))
+        todo.push_back(m);
+    // As `loosepack run` keeps them: the latest snapshot of each member still running.
+    std::map<std::uint64_t, MemberSnapshot> latest;
+    for (const auto& s : started) latest[s.result.member.id] = s;
+    volatile std::sig_atomic_t stop = 0;
+    long n = 0;
+    RunHooks hooks;
+    hooks.stop = &stop;
+    hooks.snapshot_wanted = [] { return true; };
+    hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
+      for (auto& s : snaps) latest[s.result.member.id] = std::move(s);
+      if (++n == sets / 10) stop = 1;
+    };
+    hooks.finished = [&](const MemberResult& r) { latest.erase(r.member.id); };
+    for (auto& r : run_members(stops == 0 ? scan : resumed_scan, todo, hooks, started))
+      done.push_back(std::move(r));
+    std::vector<MemberSnapshot> snaps;
+    for (auto& [id, s] : latest) snaps.push_back(std::move(s));
+    write_checkpoint_part(part, scan_fingerprint(scan), done, snaps);
+    const auto ck = read_checkpoint(dir.string(), scan);
+    ASSERT_EQ(ck.members.size(), done.size());
+    started = ck.running;
+    for (const auto& s : started)
+      (s.system.status.active ? went_on_moving : went_on_resting) = true;
+    if (done.size() < members.size()) ++stops;
+  }
+  std::filesystem::remove_all(dir);
+  EXPECT_GE(stops, 4);
+  // Some members went on inside a relaxation or collapse, some between two disks.
+  EXPECT_TRUE(went_on_moving);
+  EXPECT_TRUE(went_on_resting);
+  std::sort(done.begin(), done.end(), [](const MemberResult& a, const MemberResult& b) {
+    return a.member.id < b.member.id;
+  });
+  for (std::size_t k = 0; k < members.size(); ++k) expect_same_member(straight[k], done[k]);
 }

@@ -162,6 +162,30 @@ class Batch {
   // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s.
   double max_overlap(int s) const;
 
+  // Everything system s carries from one step to the next, bit for bit: disks, the heights its
+  // current avalanche event began at, the impulses its next step is warm-started from, its
+  // random stream, gravity, status and solver pace. What a checkpoint of a running member keeps.
+  struct SystemState {
+    std::vector<Disk> disks;
+    // Per disk: the height its current avalanche event began at, its inverse mass and inertia.
+    std::vector<double> y_mark, inv_mass, inv_inertia;
+    // Contact slots in use: slot (disk * slots per disk + k), partner (local disk; -1: the
+    // floor) and the impulses normal, tangential and rolling.
+    std::vector<int> slot, partner;
+    std::vector<double> pn, pt, pm;
+    std::uint64_t draws = 0;  // random draws taken
+    double speed = 0.0, centre_speed = 0.0;  // the speeds the next step's margin comes from
+    bool gravity_on = true;
+    SystemStatus status;
+    SolverPace pace;
+  };
+  SystemState state(int s) const;
+  // Continues system s from `state`, taken from a system of the same setup: reset(s, setup)
+  // with setup.disks = state.disks first, then restore(s, state) puts back what reset derives
+  // (positions bit for bit, marks, impulses, stream, counters). The system's steps from here
+  // are those the system of the state would have taken.
+  void restore(int s, const SystemState& state);
+
   // Public only because CUDA's extended lambdas (in the kernels of batch.cpp) may not be defined
   // inside a class of private access; nothing outside batch.cpp can use it.
   struct Impl;

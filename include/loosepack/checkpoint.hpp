@@ -35,15 +35,18 @@ std::string checkpoint_directory(const std::string& output_path);
 std::string checkpoint_part(const std::string& directory, int generation, int rank);
 
 // Writes one part atomically (temporary file, then rename): header with the fingerprint,
-// the encoded members, and a checksum of all of it.
+// the encoded members, snapshots of the running members, and a checksum of all of it.
 void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
-                           const std::vector<MemberResult>& results);
+                           const std::vector<MemberResult>& results,
+                           const std::vector<MemberSnapshot>& running = {});
 
-// Every finished member in the directory's parts (each member once, in member order) and the
-// highest generation found (0 when the directory has no parts). Throws CheckpointError for a
-// part of another scan or program, or a corrupt or truncated part.
+// Every finished member in the directory's parts (each member once, in member order), the
+// latest snapshot (from the highest generation) of every member not finished, and the highest
+// generation found (0 when the directory has no parts). Throws CheckpointError for a part of
+// another scan or program, or a corrupt or truncated part.
 struct CheckpointContents {
   std::vector<MemberResult> members;
+  std::vector<MemberSnapshot> running;
   int generation = 0;
   int parts = 0;
 };

@@ -48,6 +48,36 @@ struct MemberResult {
   bool ok() const { return failure == Failure::None; }
 };
 
+// Where a running member stands in its protocol, apart from its system: the counters of its
+// batch slot (src/protocols.cpp).
+struct MemberStage {
+  long steps = 0;        // steps of the current relaxation or collapse
+  long cap = 0;          // their cap
+  long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
+  bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
+  long deposited = 0;
+  double filled = 0.0;   // height of the highest deposited disk over H (the progress estimate)
+  bool checking = false;  // A: a whole system's relaxation after a region is its rest check
+  int quiet = 0;          // steps in a row with no disk above the wake speed (check)
+  int rounds = 0;         // relaxation regions started for the current disk
+  bool event_capped = false;  // the current disk's relaxation hit max_relax_time
+  // A: the disk's region came to rest where the whole system is not checked; its event closes
+  // with the next disk (nothing moves in between), or after the final check when the box is full.
+  bool event_open = false;
+  bool final_check = false;  // the whole system's check after an unchecked last disk
+};
+
+// A running member where it can stop and go on bit for bit: a checkpoint of a member that has
+// not finished. Taken between steps, never while a relaxation region runs.
+struct MemberSnapshot {
+  // What it has recorded so far; steps and sweeps: those of its relaxation regions so far;
+  // wall_time: its time so far.
+  MemberResult result;
+  int phase = 0;  // what its slot is doing (src/protocols.cpp)
+  MemberStage stage;
+  Batch::SystemState system;
+};
+
 // Reported periodically during a run (and after the last member) for progress messages.
 struct Progress {
   int members_done = 0;
@@ -69,6 +99,11 @@ struct RunHooks {
   const volatile std::sig_atomic_t* stop = nullptr;
   // Receives the wall time per named stage of the batch step.
   std::vector<std::pair<std::string, double>>* stage_seconds = nullptr;
+  // Checkpoints of running members. When `snapshot_wanted` returns true the run takes a
+  // snapshot of every running member at its next point where it can (not while a relaxation
+  // region runs) and hands them to `snapshots` together; at a stop, those it can take at once.
+  std::function<bool()> snapshot_wanted;
+  std::function<void(std::vector<MemberSnapshot>)> snapshots;
 };
 
 // Systems per batch where the scan sets none: 4 on a backend that runs one thread (Kokkos
@@ -79,9 +114,11 @@ int default_batch_size();
 
 // Run the members on one batch of scan.batch_size slots (default_batch_size() if 0): members of any
 // protocol advance together, and a finished member's slot takes the next member. Returns the
-// finished members in the order given (all of them unless stopped).
+// finished members in the order given (all of them unless stopped). A member with a snapshot in
+// `resume` goes on from it.
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
-                                      const RunHooks& hooks = {});
+                                      const RunHooks& hooks = {},
+                                      const std::vector<MemberSnapshot>& resume = {});
 
 // Rough cost of a member in arbitrary units, for progress estimates and for sharding members
 // over MPI ranks: a protocol-A member costs ~ width * height^q / time step, times the time a
