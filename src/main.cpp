@@ -343,7 +343,8 @@ int main(int argc, char** argv) {
                     "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/)");
   run_cmd
       ->add_option("--checkpoint-every", o.checkpoint_every,
-                   "seconds between checkpoints of finished members (0: after every member)")
+                   "seconds between checkpoints of finished members and of where the running ones are "
+                   "(0: after every member, running ones not saved)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e9));
   run_cmd->add_option("--member", o.member, "run only this member (id as printed for a failure)")

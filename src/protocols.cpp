@@ -274,12 +274,17 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       const Slot& sl = slots[k];
       if (sl.phase == Phase::Empty) continue;
       const std::uint64_t id = members[sl.member].id;
-      if (std::any_of(taken.begin(), taken.end(),
-                      [&](const MemberSnapshot& t) { return t.result.member.id == id; }))
-        continue;
+      const auto have = std::find_if(taken.begin(), taken.end(), [&](const MemberSnapshot& t) {
+        return t.result.member.id == id;
+      });
       if (sl.phase == Phase::Region) {  // its region's system is not in the snapshot
-        all = false;
+        all = all && have != taken.end();
         continue;
+      }
+      // At a stop the latest state of every member that can give one.
+      if (have != taken.end()) {
+        if (!stopping) continue;
+        taken.erase(have);
       }
       const int s = static_cast<int>(k);
       MemberSnapshot snap;

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Checkpoint and resume: a run killed with SIGKILL and resumed, and ones stopped with SIGTERM
 # and SIGINT and resumed, all give output identical to an uninterrupted run (tests/h5_equal.py),
-# members finished before the interruption are not computed again, and a checkpoint that does
-# not belong to the scan, or is corrupt, is refused.
+# members finished before the interruption are not computed again, a member interrupted while
+# it runs goes on from where it was, and a checkpoint that does not belong to the scan, or is
+# corrupt, is refused.
 source "$(dirname "$0")/common.sh"
 cd "$dir"
 
@@ -70,4 +71,32 @@ msg=$("$exe" run s.toml -o c.h5 --resume 2>&1) && fail "a truncated checkpoint w
 echo "$msg" | grep -q "corrupt or truncated" || fail "message: $msg"
 "$exe" run s.toml -o t.h5 --batch-size 2 --resume -q
 same full.h5 t.h5
+
+# A member stopped while it runs goes on from where it was: one protocol-A member of a few
+# seconds, checkpointed every half second, stopped with SIGTERM once a checkpoint holds it and
+# resumed, gives the uninterrupted run's file, depositing only the disks it had not.
+printf '[scan]\nname = "running"\nprotocol = "A"\nseeds = 1\n[system]\nwidth = 24\nheight = 32\nbond_number = 10\n[observables]\nlower_half_from = 2\n' > r.toml
+whole=$("$exe" run r.toml -o r_full.h5 2>&1 | sed -n 's/.* 1\/1 members, \([0-9]*\) disks deposited.*/\1/p')
+"$exe" run r.toml -o r.h5 --checkpoint-every 0.5 >r.log 2>&1 &
+pid=$!
+for _ in $(seq 1 1000); do
+  ls r.h5.checkpoint/*.bin >/dev/null 2>&1 && break
+  sleep 0.02
+done
+ls r.h5.checkpoint/*.bin >/dev/null 2>&1 || fail "no checkpoint of the running member appeared"
+sleep 0.7
+kill -TERM "$pid"
+set +e
+wait "$pid"
+rc=$?
+set -e
+[ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat r.log)"
+grep -q "where the running ones were, are saved" r.log || fail "message: $(cat r.log)"
+"$exe" run r.toml -o r.h5 --resume >r_resume.log 2>&1
+grep -q "0 of 1 members finished, computing the other 1 (1 of them from where they were)" \
+  r_resume.log || fail "no resume of the running member: $(cat r_resume.log)"
+rest=$(sed -n 's/.* 1\/1 members, \([0-9]*\) disks deposited.*/\1/p' r_resume.log)
+[ -n "$whole" ] && [ -n "$rest" ] && [ "$rest" -lt "$whole" ] ||
+  fail "the resumed member deposited ${rest:-?} disks, a whole run ${whole:-?}"
+same r_full.h5 r.h5
 echo "resume: all checks passed"
