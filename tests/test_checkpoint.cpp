@@ -65,6 +65,35 @@ bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
          (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
 
+// A running member's snapshot with every field set (its system is not a real one).
+MemberSnapshot snapshot(const Scan& scan, std::size_t id) {
+  MemberSnapshot snap;
+  snap.result = filled(scan, id);
+  snap.phase = 3;
+  snap.stage.steps = 17;
+  snap.stage.deposited = 2;
+  snap.stage.filled = 0.25;
+  snap.stage.event_open = true;
+  Batch::SystemState& sys = snap.system;
+  sys.disks.resize(2);
+  sys.disks[1].x = -0.0;
+  sys.disks[1].fixed = true;
+  sys.y_mark = {1.0, 3.0};
+  sys.inv_mass = {1.0, 0.0};
+  sys.inv_inertia = {2.0, 0.0};
+  sys.slot = {8};
+  sys.partner = {0};
+  sys.pn = {0.5};
+  sys.pt = {-0.25};
+  sys.pm = {1e-9};
+  sys.draws = 4;
+  sys.status.count = 2;
+  sys.status.steps = 40;
+  sys.pace.wait = 12;
+  sys.pace.credit = -3.5;
+  return snap;
+}
+
 }  // namespace
 
 TEST(Checkpoint, MembersRoundTripBitForBit) {
@@ -100,16 +129,32 @@ TEST(Checkpoint, MembersRoundTripBitForBit) {
   }
 }
 
-// Every truncation and every single flipped byte of a checkpoint part is refused with a
-// CheckpointError naming the file: never a crash, never silently used.
+// A part with a finished and a running member reads back; every truncation and every single
+// flipped byte of it is refused with a CheckpointError naming the file: never a crash, never
+// silently used.
 TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   const Scan scan = small_scan();
   const auto dir = std::filesystem::temp_directory_path() /
                    ("loosepack-ckpt-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string part = checkpoint_part(dir.string(), 1, 0);
-  write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)});
-  ASSERT_EQ(read_checkpoint(dir.string(), scan).members.size(), 1u);
+  write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)}, {snapshot(scan, 2)});
+  const auto ck = read_checkpoint(dir.string(), scan);
+  ASSERT_EQ(ck.members.size(), 1u);
+  ASSERT_EQ(ck.running.size(), 1u);
+  const MemberSnapshot& back = ck.running[0];
+  EXPECT_EQ(back.result.member.id, 2u);
+  EXPECT_EQ(back.phase, 3);
+  EXPECT_EQ(back.stage.steps, 17);
+  EXPECT_TRUE(back.stage.event_open);
+  ASSERT_EQ(back.system.disks.size(), 2u);
+  EXPECT_TRUE(std::signbit(back.system.disks[1].x));
+  EXPECT_TRUE(back.system.disks[1].fixed);
+  EXPECT_EQ(back.system.slot, std::vector<int>({8}));
+  EXPECT_EQ(back.system.pm, std::vector<double>({1e-9}));
+  EXPECT_EQ(back.system.draws, 4u);
+  EXPECT_EQ(back.system.status.steps, 40);
+  EXPECT_EQ(back.system.pace.credit, -3.5);
   std::ifstream f(part, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   auto refused = [&](const std::string& damaged) {

@@ -1,5 +1,6 @@
-// Finished members as bytes: the checkpoint files of an interrupted run and the messages that
-// carry results between MPI ranks use the same encoding (layout in docs/OUTPUT.md).
+// Finished members as bytes: the checkpoint files of an interrupted run (with snapshots of the
+// members still running) and the messages that carry results between MPI ranks use the same
+// encoding (layout in docs/OUTPUT.md).
 #pragma once
 #include <cstdint>
 #include <stdexcept>
