@@ -218,8 +218,8 @@ int run(const RunOptions& o, Ranks& ranks) {
       last_checkpoint = Clock::now();
     }
   };
-  // Running members are saved every --checkpoint-every seconds (not after every member: a
-  // snapshot of a tall deposit is as large as a finished member).
+  // Running members are saved every --checkpoint-every seconds and at a stop (with 0, only at
+  // a stop: a snapshot of a tall deposit is as large as a finished member).
   hooks.snapshot_wanted = [&]() { return o.checkpoint_every > 0.0 && checkpoint_due(); };
   hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
     for (auto& snap : snaps) running[snap.result.member.id] = std::move(snap);
@@ -344,7 +344,7 @@ int main(int argc, char** argv) {
   run_cmd
       ->add_option("--checkpoint-every", o.checkpoint_every,
                    "seconds between checkpoints of finished members and of where the running ones are "
-                   "(0: after every member, running ones not saved)")
+                   "(0: after every member, running ones only at a stop)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e9));
   run_cmd->add_option("--member", o.member, "run only this member (id as printed for a failure)")
