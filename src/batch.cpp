@@ -1146,6 +1146,7 @@ Batch::SystemState Batch::state(int s) const {
   const auto pn = host(other ? I.con.prev_pn : I.con.pn, range);
   const auto pt = host(other ? I.con.prev_pt : I.con.pt, range);
   const auto pm = host(other ? I.con.prev_pm : I.con.pm, range);
+  const auto nx = host(I.con.nx, range), ny = host(I.con.ny, range), gap = host(I.con.gap, range);
   for (int c = 0; c < count * kSlots; ++c) {
     if (partner(c) == kNoContact) continue;
     out.slot.push_back(c);
@@ -1153,6 +1154,9 @@ Batch::SystemState Batch::state(int s) const {
     out.pn.push_back(pn(c));
     out.pt.push_back(pt(c));
     out.pm.push_back(pm(c));
+    out.nx.push_back(nx(c));
+    out.ny.push_back(ny(c));
+    out.gap.push_back(gap(c));
   }
   const auto one = std::make_pair(s, s + 1);
   out.draws = host(I.sys.draws, one)(0);
@@ -1170,10 +1174,13 @@ void Batch::restore(int s, const SystemState& state) {
   const int count = I.status.at(k).count;
   const std::size_t n = state.slot.size();
   const auto disks = state.disks.size();
-  if (static_cast<int>(disks) != count || state.y_mark.size() != disks ||
-      state.inv_mass.size() != disks || state.inv_inertia.size() != disks ||
-      state.status.count != count || state.partner.size() != n || state.pn.size() != n ||
-      state.pt.size() != n || state.pm.size() != n)
+  bool fits =
+      static_cast<int>(disks) == count && state.status.count == count && state.partner.size() == n;
+  for (const auto* v : {&state.y_mark, &state.inv_mass, &state.inv_inertia})
+    fits = fits && v->size() == disks;
+  for (const auto* v : {&state.pn, &state.pt, &state.pm, &state.nx, &state.ny, &state.gap})
+    fits = fits && v->size() == n;
+  if (!fits)
     throw std::invalid_argument("Batch::restore: the state does not fit system " +
                                 std::to_string(s) + " (reset it with the state's disks first)");
   const int first = I.offsets[k];
@@ -1196,6 +1203,12 @@ void Batch::restore(int s, const SystemState& state) {
   auto pn = Kokkos::create_mirror_view(Kokkos::subview(I.con.pn, range));
   auto pt = Kokkos::create_mirror_view(Kokkos::subview(I.con.pt, range));
   auto pm = Kokkos::create_mirror_view(Kokkos::subview(I.con.pm, range));
+  auto nx =
+      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.nx, range));
+  auto ny =
+      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.ny, range));
+  auto gap =
+      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.gap, range));
   Kokkos::deep_copy(partner, kNoContact);
   for (std::size_t c = 0; c < n; ++c) {
     const int slot = state.slot[c], j = state.partner[c];
@@ -1207,11 +1220,17 @@ void Batch::restore(int s, const SystemState& state) {
     pn(slot) = state.pn[c];
     pt(slot) = state.pt[c];
     pm(slot) = state.pm[c];
+    nx(slot) = state.nx[c];
+    ny(slot) = state.ny[c];
+    gap(slot) = state.gap[c];
   }
   Kokkos::deep_copy(Kokkos::subview(I.con.partner, range), partner);
   Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
   Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
   Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
+  Kokkos::deep_copy(Kokkos::subview(I.con.nx, range), nx);
+  Kokkos::deep_copy(Kokkos::subview(I.con.ny, range), ny);
+  Kokkos::deep_copy(Kokkos::subview(I.con.gap, range), gap);
   I.last_stepped[k] = I.batch_steps;
   auto set = [s](const auto& view, auto value) {
     Kokkos::deep_copy(Kokkos::subview(view, s), value);
@@ -1222,10 +1241,7 @@ void Batch::restore(int s, const SystemState& state) {
   set_gravity(s, state.gravity_on);
   I.status[k] = state.status;
   I.newton_steps[k] = state.status.newton_steps;
-  NewtonPace& pace = I.newton_pace[k];
-  pace.wait = state.pace.wait;
-  pace.credit = state.pace.credit;
-  pace.charged = 0.0;
+  set_solver_pace(s, state.pace);
   I.upload_status_active();
 }
 

@@ -1,6 +1,7 @@
 // Encoding of finished members, and checkpoint part files built on it.
 #include "loosepack/checkpoint.hpp"
 
+#include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -159,7 +160,7 @@ std::vector<MemberResult> decode_from(Reader& in, const std::vector<Member>& mem
 // A running member's snapshot: its result so far, its stage and its system.
 void encode(Writer& w, const MemberSnapshot& snap) {
   encode(w, snap.result);
-  w.put<std::int32_t>(snap.phase);
+  w.put<std::int32_t>(static_cast<std::int32_t>(snap.phase));
   const MemberStage& st = snap.stage;
   for (long v : {st.steps, st.cap, st.unconverged, st.deposited}) w.put<std::int64_t>(v);
   w.put<double>(st.filled);
@@ -176,7 +177,8 @@ void encode(Writer& w, const MemberSnapshot& snap) {
   }
   w.put(disk);
   w.put(flags);
-  for (const auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia, &sys.pn, &sys.pt, &sys.pm})
+  for (const auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia, &sys.pn, &sys.pt, &sys.pm,
+                        &sys.nx, &sys.ny, &sys.gap})
     w.put(*v);
   w.put(sys.slot);
   w.put(sys.partner);
@@ -198,7 +200,8 @@ void encode(Writer& w, const MemberSnapshot& snap) {
 MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
   MemberSnapshot snap;
   snap.result = decode(in, members);
-  snap.phase = in.get<std::int32_t>();
+  snap.phase = static_cast<MemberPhase>(in.get<std::int32_t>());
+  if (!goes_on_from(snap.phase)) in.fail("a running member in no phase it can go on from");
   MemberStage& st = snap.stage;
   for (long* v : {&st.steps, &st.cap, &st.unconverged, &st.deposited}) *v = in.get<std::int64_t>();
   st.filled = in.get<double>();
@@ -219,7 +222,8 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
     a.lock_rotation = (flags[k] & 2) != 0;
     sys.disks.push_back(a);
   }
-  for (auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia, &sys.pn, &sys.pt, &sys.pm})
+  for (auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia, &sys.pn, &sys.pt, &sys.pm, &sys.nx,
+                  &sys.ny, &sys.gap})
     *v = in.vec();
   sys.slot = in.vec<int>();
   sys.partner = in.vec<int>();
@@ -236,13 +240,28 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
   ss.max_centre_speed = in.get<double>();
   sys.pace.wait = in.get<std::int32_t>();
   sys.pace.credit = in.get<double>();
+  // What Batch::restore needs of a state, checked now rather than when the member gets a slot.
+  const std::size_t disks = sys.disks.size(), n = sys.slot.size();
+  bool fits =
+      ss.count == static_cast<int>(disks) && ss.failure == Failure::None && sys.partner.size() == n;
+  for (const auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia})
+    fits = fits && v->size() == disks;
+  for (const auto* v : {&sys.pn, &sys.pt, &sys.pm, &sys.nx, &sys.ny, &sys.gap})
+    fits = fits && v->size() == n;
+  for (std::size_t c = 0; c < n; ++c)
+    fits = fits && sys.slot[c] >= 0 && sys.partner[c] >= -1 &&
+           sys.partner[c] < static_cast<int>(disks);
+  if (!fits)
+    in.fail("the state of running member " + std::to_string(snap.result.member.id) +
+            " does not hold together");
   return snap;
 }
 
 }  // namespace
 
 std::uint64_t scan_fingerprint(const Scan& scan) {
-  const std::string program = std::string(LOOSEPACK_VERSION) + " " + LOOSEPACK_GIT_COMMIT;
+  const std::string program = std::string(LOOSEPACK_VERSION) + " " + LOOSEPACK_GIT_COMMIT + " " +
+                              Kokkos::DefaultExecutionSpace::name();
   return fnv1a(scan.text.data(), scan.text.size(), fnv1a(program.data(), program.size()));
 }
 

@@ -209,22 +209,24 @@ int run(const RunOptions& o, Ranks& ranks) {
       ranks.send_progress(p, false);
     }
   };
-  auto checkpoint_due = [&]() { return seconds_since(last_checkpoint) >= o.checkpoint_every; };
   hooks.finished = [&](const MemberResult& r) {
     fresh.push_back(r);
     running.erase(r.member.id);
-    if (o.checkpoint_every <= 0.0) {
+    if (seconds_since(last_checkpoint) >= o.checkpoint_every) {
       checkpoint();
       last_checkpoint = Clock::now();
     }
   };
   // Running members are saved every --checkpoint-every seconds and at a stop (with 0, only at
   // a stop: a snapshot of a tall deposit is as large as a finished member).
-  hooks.snapshot_wanted = [&]() { return o.checkpoint_every > 0.0 && checkpoint_due(); };
+  auto last_snapshots = t0;
+  hooks.snapshot_wanted = [&]() {
+    return o.checkpoint_every > 0.0 && seconds_since(last_snapshots) >= o.checkpoint_every;
+  };
   hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
     for (auto& snap : snaps) running[snap.result.member.id] = std::move(snap);
     checkpoint();
-    last_checkpoint = Clock::now();
+    last_snapshots = last_checkpoint = Clock::now();
   };
   std::vector<MemberResult> computed;
   try {
@@ -259,7 +261,7 @@ int run(const RunOptions& o, Ranks& ranks) {
   }
   if (g_signal && ranks.size() == 1 && !std::filesystem::exists(ck_dir)) {
     say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
-        " before any member finished: nothing to save; start the run again");
+        " before anything could be saved; start the run again");
     return 128 + static_cast<int>(g_signal);
   }
   if (g_signal) {

@@ -98,15 +98,7 @@ std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& m
 
 namespace {
 
-// What a batch slot is doing.
-enum class Phase {
-  Empty,      // no member left for it
-  Ballistic,  // B and C (and A at Bo = inf): one disk per round, no dynamics
-  Collapse,   // C after its deposit: gravity on, dynamics until rest
-  Deposit,    // A: the next disk goes in this round
-  Relax,      // A: dynamics of the whole system until rest after the last disk
-  Region,     // A: dynamics of a relaxation region around the last disk until rest
-};
+using Phase = MemberPhase;
 
 // Relaxation regions that end at rest and then find motion in the whole system start a new
 // region around it at most this many times per disk; then the whole system relaxes.
@@ -114,6 +106,9 @@ constexpr int kMaxRegionRounds = 4;
 // The check of the whole system after a region finds motion where a disk is faster than this
 // many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).
 constexpr double kWakeFactor = 3.0;
+// After a stop, the run goes on at most this long [s] for snapshots of the members inside
+// relaxation regions (a batch system's grace period after SIGTERM is usually 30 s or more).
+constexpr double kStopGrace = 10.0;
 
 struct Slot : MemberStage {
   Phase phase = Phase::Empty;
@@ -159,7 +154,12 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     su.max_sweeps = scan.max_sweeps(m.protocol, m.params);
     return su;
   };
-  for (const auto& m : members) {
+  // Slots and regions are sized for every member of the scan, not only those of this run: a
+  // region's reach depends on the tallest (src/region.cpp), and a member's result must not
+  // depend on which members share its run (MPI shards, resumed runs).
+  std::vector<Member> sized = members_of(scan);
+  sized.insert(sized.end(), members.begin(), members.end());
+  for (const auto& m : sized) {
     capacity = std::max(capacity, member_capacity(m.params));
     cells = std::max(cells, grid_cells_needed(setup_of(m)));
   }
@@ -174,7 +174,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   if (scan.protocol.region_radius > 0.0) {
     std::vector<SystemParams> slow;
     double tallest = 0.0;
-    for (const auto& m : members)
+    for (const auto& m : sized)
       if (!ballistic(m)) {
         slow.push_back(m.params);
         tallest = std::max(tallest, m.params.height);
@@ -240,9 +240,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     }
     // Go on from the snapshot: taken at the top of the loop below, where this member goes on.
     const MemberSnapshot& snap = *from->second;
-    const auto phase = static_cast<Phase>(snap.phase);
-    if (phase != Phase::Ballistic && phase != Phase::Collapse && phase != Phase::Deposit &&
-        phase != Phase::Relax)
+    if (!goes_on_from(snap.phase))
       throw std::invalid_argument("the snapshot of member " + std::to_string(m.id) +
                                   " has no phase a member goes on from");
     SystemSetup su = setup_of(m);
@@ -250,7 +248,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     batch.reset(s, su);
     batch.restore(s, snap.system);
     static_cast<MemberStage&>(sl) = snap.stage;
-    sl.phase = phase;
+    sl.phase = snap.phase;
     sl.result = snap.result;
     sl.result.member = m;
     sl.start -= std::chrono::duration_cast<Clock::duration>(
@@ -259,16 +257,19 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     sl.region_sweeps -= snap.result.sweeps;
   };
   // Snapshots of running members for checkpoints (RunHooks::snapshots): those asked for, taken
-  // slot by slot when each can be, and handed over when every running member has one.
+  // slot by slot when each can be, and handed over when every running member has one. At a
+  // stop, the latest of every member that can give one, and the run goes on (for at most
+  // kStopGrace) until the members inside relaxation regions have left them. True when handed
+  // over.
   bool snapshots_wanted = false;
   std::vector<MemberSnapshot> taken;
-  auto take_snapshots = [&](bool stopping) {
-    if (!hooks.snapshots) return;
-    if (!snapshots_wanted && hooks.snapshot_wanted && hooks.snapshot_wanted()) {
+  auto take_snapshots = [&](bool stopping, bool last_chance) {
+    if (!hooks.snapshots) return true;
+    if (!snapshots_wanted && (stopping || (hooks.snapshot_wanted && hooks.snapshot_wanted()))) {
       snapshots_wanted = true;
       taken.clear();
     }
-    if (!snapshots_wanted && !stopping) return;
+    if (!snapshots_wanted) return false;
     bool all = true;
     for (std::size_t k = 0; k < n_slots; ++k) {
       const Slot& sl = slots[k];
@@ -277,11 +278,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       const auto have = std::find_if(taken.begin(), taken.end(), [&](const MemberSnapshot& t) {
         return t.result.member.id == id;
       });
-      if (sl.phase == Phase::Region) {  // its region's system is not in the snapshot
+      if (!goes_on_from(sl.phase)) {
         all = all && have != taken.end();
         continue;
       }
-      // At a stop the latest state of every member that can give one.
       if (have != taken.end()) {
         if (!stopping) continue;
         taken.erase(have);
@@ -292,15 +292,16 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       snap.result.steps = regions ? regions->steps(s) - sl.region_steps : 0;
       snap.result.sweeps = regions ? regions->sweeps(s) - sl.region_sweeps : 0;
       snap.result.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
-      snap.phase = static_cast<int>(sl.phase);
+      snap.phase = sl.phase;
       snap.stage = sl;
       snap.system = batch.state(s);
       taken.push_back(std::move(snap));
     }
-    if (!all && !stopping) return;
+    if (!all && !last_chance) return false;
     hooks.snapshots(std::move(taken));
     taken.clear();
     snapshots_wanted = false;
+    return true;
   };
   auto finish = [&](std::size_t k) {
     Slot& sl = slots[k];
@@ -422,11 +423,17 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       batch.set_active(static_cast<int>(k), false);
     }
   };
+  Clock::time_point stopped{};
   for (;;) {
     // Every member goes on from here after a snapshot: none is inside a step.
-    const bool stopping = hooks.stop && *hooks.stop;
-    take_snapshots(stopping);
-    if (stopping) break;
+    if (hooks.stop && *hooks.stop) {
+      if (stopped == Clock::time_point{}) stopped = Clock::now();
+      const bool last_chance =
+          std::chrono::duration<double>(Clock::now() - stopped).count() >= kStopGrace;
+      if (take_snapshots(true, last_chance)) break;
+    } else {
+      take_snapshots(false, false);
+    }
     // Ballistic deposition: one disk per slot and round.
     auto [mb, any_b] = mask_of(Phase::Ballistic);
     if (any_b) {

@@ -69,7 +69,7 @@ bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
 MemberSnapshot snapshot(const Scan& scan, std::size_t id) {
   MemberSnapshot snap;
   snap.result = filled(scan, id);
-  snap.phase = 3;
+  snap.phase = MemberPhase::Deposit;
   snap.stage.steps = 17;
   snap.stage.deposited = 2;
   snap.stage.filled = 0.25;
@@ -86,6 +86,9 @@ MemberSnapshot snapshot(const Scan& scan, std::size_t id) {
   sys.pn = {0.5};
   sys.pt = {-0.25};
   sys.pm = {1e-9};
+  sys.nx = {0.0};
+  sys.ny = {-1.0};
+  sys.gap = {2e-3};
   sys.draws = 4;
   sys.status.count = 2;
   sys.status.steps = 40;
@@ -144,7 +147,7 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   ASSERT_EQ(ck.running.size(), 1u);
   const MemberSnapshot& back = ck.running[0];
   EXPECT_EQ(back.result.member.id, 2u);
-  EXPECT_EQ(back.phase, 3);
+  EXPECT_EQ(back.phase, MemberPhase::Deposit);
   EXPECT_EQ(back.stage.steps, 17);
   EXPECT_TRUE(back.stage.event_open);
   ASSERT_EQ(back.system.disks.size(), 2u);
@@ -152,6 +155,7 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   EXPECT_TRUE(back.system.disks[1].fixed);
   EXPECT_EQ(back.system.slot, std::vector<int>({8}));
   EXPECT_EQ(back.system.pm, std::vector<double>({1e-9}));
+  EXPECT_EQ(back.system.gap, std::vector<double>({2e-3}));
   EXPECT_EQ(back.system.draws, 4u);
   EXPECT_EQ(back.system.status.steps, 40);
   EXPECT_EQ(back.system.pace.credit, -3.5);
@@ -342,11 +346,11 @@ TEST(Checkpoint, RunningMembersGoOnBitForBit) {
     hooks.stop = &stop;
     hooks.progress = [&](const Progress&) { ++n; };
     hooks.snapshot_wanted = [&] { return n % 16 == 0; };
-    // Stopped after the first set of snapshots past an eighth of the rounds (a stop at any
-    // round could find a member inside a relaxation region every time, which would not go on).
+    // Stopped after the first set of snapshots past a sixteenth of the rounds; the stop then
+    // takes fresh snapshots, waiting for members inside relaxation regions to leave them.
     hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
       for (auto& s : snaps) latest[s.result.member.id] = std::move(s);
-      if (n >= rounds / 8) stop = 1;
+      if (n >= rounds / 16) stop = 1;
     };
     hooks.finished = [&](const MemberResult& r) { latest.erase(r.member.id); };
     for (auto& r : run_members(stops == 0 ? scan : resumed_scan, todo, hooks, started))

@@ -170,9 +170,10 @@ class Batch {
     // Per disk: the height its current avalanche event began at, its inverse mass and inertia.
     std::vector<double> y_mark, inv_mass, inv_inertia;
     // Contact slots in use: slot (disk * slots per disk + k), partner (local disk; -1: the
-    // floor) and the impulses normal, tangential and rolling.
+    // floor), the impulses normal, tangential and rolling, and the geometry of the last step
+    // (normal and gap: what contacts() reports before the next step).
     std::vector<int> slot, partner;
-    std::vector<double> pn, pt, pm;
+    std::vector<double> pn, pt, pm, nx, ny, gap;
     std::uint64_t draws = 0;  // random draws taken
     double speed = 0.0, centre_speed = 0.0;  // the speeds the next step's margin comes from
     bool gravity_on = true;

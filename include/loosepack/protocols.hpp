@@ -48,6 +48,22 @@ struct MemberResult {
   bool ok() const { return failure == Failure::None; }
 };
 
+// What a batch slot is doing.
+enum class MemberPhase {
+  Empty,      // no member left for it
+  Ballistic,  // B and C (and A at Bo = inf): one disk per round, no dynamics
+  Collapse,   // C after its deposit: gravity on, dynamics until rest
+  Deposit,    // A: the next disk goes in this round
+  Relax,      // A: dynamics of the whole system until rest after the last disk
+  Region,     // A: dynamics of a relaxation region around the last disk until rest
+};
+// The phases a member can be snapshotted in, and go on from: all but Empty and Region (the
+// system of a relaxation region is not in the snapshot).
+inline bool goes_on_from(MemberPhase p) {
+  return p == MemberPhase::Ballistic || p == MemberPhase::Collapse || p == MemberPhase::Deposit ||
+         p == MemberPhase::Relax;
+}
+
 // Where a running member stands in its protocol, apart from its system: the counters of its
 // batch slot (src/protocols.cpp).
 struct MemberStage {
@@ -73,7 +89,7 @@ struct MemberSnapshot {
   // What it has recorded so far; steps and sweeps: those of its relaxation regions so far;
   // wall_time: its time so far.
   MemberResult result;
-  int phase = 0;  // what its slot is doing (src/protocols.cpp)
+  MemberPhase phase = MemberPhase::Deposit;
   MemberStage stage;
   Batch::SystemState system;
 };
@@ -95,13 +111,15 @@ struct RunHooks {
   // Called with each member as it finishes (in finishing order), e.g. to checkpoint it.
   std::function<void(const MemberResult&)> finished;
   // When this becomes nonzero (a signal handler sets it), the run returns at the end of the
-  // current step with the members finished so far; the others are dropped.
+  // current step with the members finished so far (with `snapshots`, once it has handed over
+  // those of the running members: below); the others are dropped.
   const volatile std::sig_atomic_t* stop = nullptr;
   // Receives the wall time per named stage of the batch step.
   std::vector<std::pair<std::string, double>>* stage_seconds = nullptr;
   // Checkpoints of running members. When `snapshot_wanted` returns true the run takes a
   // snapshot of every running member at its next point where it can (not while a relaxation
-  // region runs) and hands them to `snapshots` together; at a stop, those it can take at once.
+  // region runs) and hands them to `snapshots` together. At a stop it takes the latest it can
+  // and goes on, for at most 10 seconds, until every running member has one.
   std::function<bool()> snapshot_wanted;
   std::function<void(std::vector<MemberSnapshot>)> snapshots;
 };
