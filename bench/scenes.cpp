@@ -120,8 +120,8 @@ bool default_settings() {
   const SolverSettings s;
   return g_solver.kind == s.kind && g_solver.tolerance == s.tolerance &&
          g_solver.max_sweeps == s.max_sweeps && g_solver.newton_every == s.newton_every &&
-         g_solver.overlap_correction == s.overlap_correction &&
-         g_rest.converged && g_region_radius == 0.0;
+         g_solver.overlap_correction == s.overlap_correction && g_rest.converged &&
+         g_region_radius == 0.0;
 }
 
 void record(const char* scene, int n, double wall, long steps, const Measure& m, double phi_i,

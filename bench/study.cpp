@@ -108,8 +108,8 @@ struct Setup {
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
       << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << cap()
       << "\nrelaxation = " << relaxation << "\nnewton_every = " << newton_every
-      << "\n[rest]\nconverged = "
-      << (rest_converged ? "true" : "false") << "\n[protocol]\nregion_radius = " << region_radius
+      << "\n[rest]\nconverged = " << (rest_converged ? "true" : "false")
+      << "\n[protocol]\nregion_radius = " << region_radius
       << "\nregion_check_every = " << region_check_every
       << "\n[observables]\nlower_half_from = " << std::min(4.0, height / 4.0)
       << "\nstrip_width = 3.97\nbin_width = 4.0\n";
@@ -131,8 +131,7 @@ struct Setup {
       << ", \"newton_every\": " << newton_every
       << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
       << ", \"region_radius\": " << bench::json_number(region_radius)
-      << ", \"region_check_every\": " << region_check_every << ", \"seeds\": " << seeds
-      << "}";
+      << ", \"region_check_every\": " << region_check_every << ", \"seeds\": " << seeds << "}";
     return o.str();
   }
 };
@@ -200,10 +199,9 @@ std::string outcome_json(const Outcome& o) {
   std::ostringstream f;
   f << "\"wall_s\": " << bench::json_number(o.wall)
     << ", \"core_share\": " << bench::json_number(o.core_share)
-    << ", \"over_budget\": " << (o.over_budget ? "true" : "false")
-    << ", \"members\": " << o.members << ", \"failed\": " << o.failed
-    << ", \"capped\": " << o.capped << ", \"disks\": " << o.disks << ", \"steps\": " << o.steps
-    << ", \"sweeps\": " << o.sweeps
+    << ", \"over_budget\": " << (o.over_budget ? "true" : "false") << ", \"members\": " << o.members
+    << ", \"failed\": " << o.failed << ", \"capped\": " << o.capped << ", \"disks\": " << o.disks
+    << ", \"steps\": " << o.steps << ", \"sweeps\": " << o.sweeps
     << ", \"wall_per_member_s\": " << bench::json_number(o.wall / std::max(1, o.members))
     << ", \"disks_per_member\": "
     << bench::json_number(static_cast<double>(o.disks) / std::max(1, o.members))
@@ -255,14 +253,13 @@ std::string error_json(const Setup& s, const Outcome& o, const Outcome& ref) {
   const auto nu = rms_difference(p.nu.mean, p.nu.sem, r.nu.mean, r.nu.sem, in_bulk);
   // Delta y(y_e): every bin holding samples in both runs.
   auto has_samples = [&](std::size_t k) {
-    return k < p.dy_by_ye.count.size() && k < r.dy_by_ye.count.size() &&
-           p.dy_by_ye.count[k] > 0 && r.dy_by_ye.count[k] > 0;
+    return k < p.dy_by_ye.count.size() && k < r.dy_by_ye.count.size() && p.dy_by_ye.count[k] > 0 &&
+           r.dy_by_ye.count[k] > 0;
   };
   const auto dy =
       rms_difference(p.dy_by_ye.mean, p.dy_by_ye.sem, r.dy_by_ye.mean, r.dy_by_ye.sem, has_samples);
   std::ostringstream f;
-  f << "\"reference_wall_s\": " << bench::json_number(ref.wall)
-    << ", \"error_nu_lower_half\": "
+  f << "\"reference_wall_s\": " << bench::json_number(ref.wall) << ", \"error_nu_lower_half\": "
     << bench::json_number(std::abs(p.nu_lower_half.mean - r.nu_lower_half.mean))
     << ", \"error_nu_lower_half_noise\": "
     << bench::json_number(std::hypot(p.nu_lower_half.sem, r.nu_lower_half.sem))
@@ -276,13 +273,16 @@ std::string error_json(const Setup& s, const Outcome& o, const Outcome& ref) {
 // The settings of the accuracy study around a protocol's defaults.
 std::vector<Setup> accuracy_settings(const Setup& base) {
   std::vector<Setup> v;
-  auto add = [&](const std::string& label, auto change) { v.push_back(base.variant(label, change)); };
+  auto add = [&](const std::string& label, auto change) {
+    v.push_back(base.variant(label, change));
+  };
   add("default", [](Setup&) {});
   // Two half-decade steps either side of the protocol's default tolerance.
   const std::vector<double> grid = {3e-2, 1e-2, 3e-3, 1e-3, 3e-4, 1e-4, 3e-5, 1e-5};
   std::size_t at = 0;
   for (std::size_t k = 1; k < grid.size(); ++k)
-    if (std::abs(std::log(grid[k] / base.tolerance)) < std::abs(std::log(grid[at] / base.tolerance)))
+    if (std::abs(std::log(grid[k] / base.tolerance)) <
+        std::abs(std::log(grid[at] / base.tolerance)))
       at = k;
   for (std::size_t k = at >= 2 ? at - 2 : 0; k <= std::min(at + 2, grid.size() - 1); ++k) {
     const double t = grid[k];
@@ -292,8 +292,7 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
     if (c != base.cap())
       add("max_sweeps=" + std::to_string(c), [c](Setup& s) { s.max_sweeps = c; });
   for (double f : {2.0, 0.5})
-    add("time_step=" + bench::json_number(base.time_step * f),
-        [f](Setup& s) { s.time_step *= f; });
+    add("time_step=" + bench::json_number(base.time_step * f), [f](Setup& s) { s.time_step *= f; });
   for (double w : {0.6, 0.8, 1.0, 1.2, 1.5})
     if (w != base.relaxation)
       add("relaxation=" + bench::json_number(w), [w](Setup& s) { s.relaxation = w; });
@@ -337,8 +336,9 @@ void effects(const Setup& base, double budget_s) {
   for (const Setup& s : v) {
     const Outcome o = run(s, budget_s);
     if (s.label == "all effects") t_all = o.wall;
-    print("effects", s,
-          outcome_json(o) + ", \"time_saved_fraction\": " + bench::json_number(1.0 - o.wall / t_all));
+    print(
+        "effects", s,
+        outcome_json(o) + ", \"time_saved_fraction\": " + bench::json_number(1.0 - o.wall / t_all));
   }
 }
 
@@ -349,16 +349,15 @@ void size(Setup base, const std::vector<double>& sides, double budget_s) {
   std::vector<double> n, t;
   for (double side : sides) {
     const bool square = base.protocol == "A";
-    const Setup s = base.variant((square ? "side=" : "width=") + bench::json_number(side),
-                                 [&](Setup& v) {
-                                   v.width = side;
-                                   if (square) v.height = side;
-                                 });
+    const Setup s =
+        base.variant((square ? "side=" : "width=") + bench::json_number(side), [&](Setup& v) {
+          v.width = side;
+          if (square) v.height = side;
+        });
     const Outcome o = run(s, budget_s);
     const double disks = static_cast<double>(o.disks) / std::max(1, o.members);
     const double per = o.wall / std::max(1, o.members);
-    print("size", s,
-          outcome_json(o) + ", \"time_per_system_s\": " + bench::json_number(per));
+    print("size", s, outcome_json(o) + ", \"time_per_system_s\": " + bench::json_number(per));
     if (!o.over_budget && o.members > 0) {
       n.push_back(disks);
       t.push_back(per);
@@ -366,8 +365,8 @@ void size(Setup base, const std::vector<double>& sides, double budget_s) {
   }
   const Fit f = power_law_fit(n, t, {});
   std::ostringstream o;
-  o << "\"points\": " << n.size() << ", \"exponent\": "
-    << bench::json_number(f.valid() ? f.coef[1] : NAN)
+  o << "\"points\": " << n.size()
+    << ", \"exponent\": " << bench::json_number(f.valid() ? f.coef[1] : NAN)
     << ", \"exponent_error\": " << bench::json_number(f.valid() ? f.error[1] : NAN)
     << ", \"prefactor_s\": " << bench::json_number(f.valid() ? std::exp(f.coef[0]) : NAN)
     << ", \"n_min\": " << bench::json_number(n.empty() ? NAN : n.front())

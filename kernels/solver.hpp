@@ -22,9 +22,11 @@ struct RelativeVelocity {
 
 // Relative velocities at a contact with normal (nx, ny) between body i and body j (velocities
 // v, spin w, radius r), or the floor (floor: j's terms absent, at rest).
-KOKKOS_INLINE_FUNCTION RelativeVelocity contact_relative_velocity(
-    double nx, double ny, double vxi, double vyi, double wi, double ri, bool floor, double vxj,
-    double vyj, double wj, double rj) {
+KOKKOS_INLINE_FUNCTION RelativeVelocity contact_relative_velocity(double nx, double ny, double vxi,
+                                                                  double vyi, double wi, double ri,
+                                                                  bool floor, double vxj,
+                                                                  double vyj, double wj,
+                                                                  double rj) {
   double dvx = -vxi, dvy = -vyi;
   double spin = ri * wi;
   double om = -wi;
@@ -59,11 +61,11 @@ struct ContactImpulse {
 
 // What the local solve of one contact reads besides its impulses and relative velocity.
 struct LocalProblem {
-  double gap, h;           // gap at the start of the step, time step
-  double wn, wa, wb, wc;   // local Delassus entries (ContactMobility)
-  double lower;            // -h F_c for a cohesive contact, else 0
-  double friction;         // mu
-  double rolling_lever;    // mu_r R_c
+  double gap, h;          // gap at the start of the step, time step
+  double wn, wa, wb, wc;  // local Delassus entries (ContactMobility)
+  double lower;           // -h F_c for a cohesive contact, else 0
+  double friction;        // mu
+  double rolling_lever;   // mu_r R_c
 };
 
 // The exact local solve of one contact with everything else fixed: normal first, then the
@@ -87,8 +89,7 @@ KOKKOS_INLINE_FUNCTION ContactImpulse local_impulse(const ContactImpulse& p0,
     double pt = p0.pt, pm = p0.pm;
     const double bound_r = Fx::Rolling ? q.rolling_lever * shifted : 0.0;
     if (Fx::Rolling && bound_r > 0.0 && q.wb > 0.0) {
-      solve_friction_rolling(p0.pt, p0.pm, u.ut, u.om, q.wa, q.wb, q.wc, bound_t, bound_r, pt,
-                             pm);
+      solve_friction_rolling(p0.pt, p0.pm, u.ut, u.om, q.wa, q.wb, q.wc, bound_t, bound_r, pt, pm);
     } else {
       // No rolling resistance here: the moment goes to zero, which shifts u_t by -c pm0.
       pt = solve_friction(p0.pt, u.ut - q.wc * p0.pm, q.wa, bound_t);
@@ -112,9 +113,9 @@ KOKKOS_INLINE_FUNCTION double impulse_change(double dn, double dt, double dm, do
 // The local problem of contact slot c of system s.
 KOKKOS_INLINE_FUNCTION LocalProblem local_problem(const SystemViews& sys, const ContactViews& con,
                                                   int s, int c) {
-  return {con.gap(c),  sys.time_step(s), con.wn(c),   con.wa(c),
-          con.wb(c),   con.wc(c),        con.lower(c), sys.friction(s),
-          sys.rolling_friction(s) * con.rc(c)};
+  return {con.gap(c),   sys.time_step(s), con.wn(c),
+          con.wa(c),    con.wb(c),        con.wc(c),
+          con.lower(c), sys.friction(s),  sys.rolling_friction(s) * con.rc(c)};
 }
 
 // One exact local solve of contact c with everything else fixed; returns the impulse change
@@ -416,7 +417,8 @@ struct AcceleratedGaussSeidel {
     for_contacts(con, first, end, update);
     for_contacts_reverse(con, first, end, update);
     sweeps(s) += 2;
-    if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
+    if (!(worst >
+          sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
       sys.unconverged(s) = 0;
       return true;
     }
@@ -473,7 +475,8 @@ struct ColouredAcceleratedGaussSeidel {
       for (int k = n_colours - 1; k >= 0; --k)
         worst = kmath::max(worst, colour_sweep(team, base, k));
       Kokkos::single(Kokkos::PerTeam(team), [&]() { sweeps(s) += 2; });
-      if (!(worst > sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
+      if (!(worst >
+            sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
         Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.unconverged(s) = 0; });
         return;
       }
@@ -511,8 +514,7 @@ struct ColouredAcceleratedGaussSeidel {
   // Writes the system's contact slots into list[range], grouped by colour (in slot order within
   // a colour), and the colour boundaries into starts[base ...]: one team scan per colour, whose
   // extra last element writes where the next colour begins.
-  KOKKOS_INLINE_FUNCTION void group_by_colour(const Member& team, SlotRange range,
-                                              int base) const {
+  KOKKOS_INLINE_FUNCTION void group_by_colour(const Member& team, SlotRange range, int base) const {
     Kokkos::single(Kokkos::PerTeam(team), [&]() { starts(base) = range.first; });
     team.team_barrier();
     for (int k = 0; k < n_colours; ++k) {

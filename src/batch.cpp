@@ -1133,9 +1133,9 @@ Batch::SystemState Batch::state(int s) const {
     return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
   };
   const auto disk_range = std::make_pair(first, first + count);
-  for (auto [to, from] : {std::make_pair(&out.y_mark, I.part.y_mark),
-                          std::make_pair(&out.inv_mass, I.part.inv_mass),
-                          std::make_pair(&out.inv_inertia, I.part.inv_inertia)}) {
+  for (auto [to, from] :
+       {std::make_pair(&out.y_mark, I.part.y_mark), std::make_pair(&out.inv_mass, I.part.inv_mass),
+        std::make_pair(&out.inv_inertia, I.part.inv_inertia)}) {
     const auto h = host(from, disk_range);
     to->assign(h.data(), h.data() + count);
   }

@@ -345,9 +345,11 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
     if (in.get<std::uint32_t>() != kByteOrder)
       throw CheckpointError(what + " was written on a machine of another byte order");
     if (in.get<std::uint64_t>() != fingerprint)
-      throw CheckpointError(what + " belongs to another scan file or another loosepack build "
+      throw CheckpointError(what +
+                            " belongs to another scan file or another loosepack build "
                             "(the scan was edited, or the program rebuilt, since): restore them, "
-                            "or delete " + directory + " to start the run again");
+                            "or delete " +
+                            directory + " to start the run again");
     for (auto& r : decode_from(in, members)) {
       const auto id = r.member.id;
       finished.emplace(id, std::move(r));

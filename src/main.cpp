@@ -235,8 +235,8 @@ int run(const RunOptions& o, Ranks& ranks) {
     if (g_signal || ranks.size() > 1) checkpoint();
   } catch (const std::exception& e) {
     std::cerr << "loosepack: "
-              << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "")
-              << e.what() << "\n";
+              << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "") << e.what()
+              << "\n";
     ranks.abort(1);  // the other ranks would wait for this one forever
     return 1;
   }
@@ -267,8 +267,7 @@ int run(const RunOptions& o, Ranks& ranks) {
   if (g_signal) {
     say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
         ": finished members, and where the running ones were, are saved in " + ck_dir +
-        "; continue with: loosepack run " +
-        o.scan_path + " -o " + o.out_path + " --resume");
+        "; continue with: loosepack run " + o.scan_path + " -o " + o.out_path + " --resume");
     return 128 + static_cast<int>(g_signal);
   }
 
@@ -285,9 +284,8 @@ int run(const RunOptions& o, Ranks& ranks) {
     say(e.what());
     return 1;
   }
-  std::sort(results.begin(), results.end(), [](const MemberResult& a, const MemberResult& b) {
-    return a.member.id < b.member.id;
-  });
+  std::sort(results.begin(), results.end(),
+            [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   info.end_time = utc_now();
   info.wall_seconds = seconds_since(t0);
   int failed = 0;
@@ -329,8 +327,9 @@ int main(int argc, char** argv) {
   RunOptions o;
   std::string summary_path;
   auto* run_cmd = app.add_subcommand(
-      "run", "Run a scan file and write one HDF5 result file (under mpirun: members sharded over "
-             "the ranks, rank 0 writes)");
+      "run",
+      "Run a scan file and write one HDF5 result file (under mpirun: members sharded over "
+      "the ranks, rank 0 writes)");
   run_cmd->add_option("scan", o.scan_path, "scan file (TOML)")
       ->required()
       ->check(CLI::ExistingFile);
@@ -344,9 +343,10 @@ int main(int argc, char** argv) {
   run_cmd->add_flag("--resume", o.resume,
                     "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/)");
   run_cmd
-      ->add_option("--checkpoint-every", o.checkpoint_every,
-                   "seconds between checkpoints of finished members and of where the running ones are "
-                   "(0: after every member, running ones only at a stop)")
+      ->add_option(
+          "--checkpoint-every", o.checkpoint_every,
+          "seconds between checkpoints of finished members and of where the running ones are "
+          "(0: after every member, running ones only at a stop)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1e9));
   run_cmd->add_option("--member", o.member, "run only this member (id as printed for a failure)")
@@ -357,8 +357,9 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   std::string analyse_path, analyse_out;
   auto* an_cmd = app.add_subcommand(
-      "analyse", "Recompute the fits of a result file from the aggregates it stores (a file of "
-                 "an older program gets the current analysis without a rerun)");
+      "analyse",
+      "Recompute the fits of a result file from the aggregates it stores (a file of "
+      "an older program gets the current analysis without a rerun)");
   an_cmd->add_option("file", analyse_path, "result file (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);

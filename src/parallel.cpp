@@ -47,8 +47,8 @@ std::vector<std::string> Ranks::gather(const std::string& mine) const {
     std::uint64_t n = mine.size();
     MPI_Send(&n, 1, MPI_UINT64_T, 0, kTagSize, MPI_COMM_WORLD);
     for (std::uint64_t at = 0; at < n; at += kChunk)
-      MPI_Send(mine.data() + at, static_cast<int>(std::min(kChunk, n - at)), MPI_BYTE, 0,
-               kTagChunk, MPI_COMM_WORLD);
+      MPI_Send(mine.data() + at, static_cast<int>(std::min(kChunk, n - at)), MPI_BYTE, 0, kTagChunk,
+               MPI_COMM_WORLD);
     return out;
   }
   out.push_back(mine);
@@ -80,8 +80,8 @@ void Ranks::send_progress(const Progress& p, bool final) {
   }
   pending_->message.progress = p;
   pending_->message.final = final ? 1 : 0;
-  MPI_Isend(&pending_->message, sizeof(ProgressMessage), MPI_BYTE, 0, kTagProgress,
-            MPI_COMM_WORLD, &pending_->request);
+  MPI_Isend(&pending_->message, sizeof(ProgressMessage), MPI_BYTE, 0, kTagProgress, MPI_COMM_WORLD,
+            &pending_->request);
 }
 
 void Ranks::receive_progress(std::vector<Progress>& latest, std::vector<char>& final,

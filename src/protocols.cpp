@@ -77,8 +77,7 @@ double expected_cost(const Member& m) {
   return slow_cost(m.params);
 }
 
-std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members,
-                                                    int ranks) {
+std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members, int ranks) {
   std::vector<std::vector<std::size_t>> out(static_cast<std::size_t>(std::max(1, ranks)));
   std::vector<std::size_t> order(members.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
@@ -87,8 +86,8 @@ std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& m
   });
   std::vector<double> load(out.size(), 0.0);
   for (std::size_t k : order) {
-    const auto r = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) -
-                                            load.begin());
+    const auto r =
+        static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
     load[r] += expected_cost(members[k]);
     out[r].push_back(k);
   }
@@ -186,8 +185,8 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       // For the largest region: the last round's radius (see start_region).
       rs.max_height =
           region_slot_height(rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1), tallest);
-      regions = std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, scan.solver,
-                                          scan.rest);
+      regions =
+          std::make_unique<Regions>(static_cast<int>(n_slots), slow, rs, scan.solver, scan.rest);
       regions->set_timing(hooks.stage_seconds != nullptr);
     }
   }
@@ -327,11 +326,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
       r.w.push_back(d.w);
     }
     r.contacts = batch.contacts(s);
-    taken.erase(std::remove_if(taken.begin(), taken.end(),
-                               [&](const MemberSnapshot& t) {
-                                 return t.result.member.id == r.member.id;
-                               }),
-                taken.end());
+    taken.erase(
+        std::remove_if(taken.begin(), taken.end(),
+                       [&](const MemberSnapshot& t) { return t.result.member.id == r.member.id; }),
+        taken.end());
     done_weight += expected_cost(members[sl.member]);
     if (hooks.finished) hooks.finished(r);
     results[sl.member] = std::move(r);
@@ -372,8 +370,8 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
   auto count_step = [&](Slot& sl, const SystemStatus& st, double time_step) {
     ++sl.steps;
     sl.unconverged = st.converged || !scan.rest.converged ? 0 : sl.unconverged + 1;
-    sl.gave_up = static_cast<double>(sl.unconverged) * time_step >
-                 scan.protocol.max_unconverged_time;
+    sl.gave_up =
+        static_cast<double>(sl.unconverged) * time_step > scan.protocol.max_unconverged_time;
     sl.quiet = st.max_speed < wake ? sl.quiet + 1 : 0;
   };
   const int every = scan.observables.trajectory_every;
@@ -395,8 +393,8 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
     ++prog.disks_deposited;
     // The highest so far, not the last: a disk landing in a valley of the rough surface would
     // otherwise move the progress estimate backwards.
-    slots[k].filled = std::max(slots[k].filled,
-                               std::min(1.0, d.y / batch.params(static_cast<int>(k)).height));
+    slots[k].filled =
+        std::max(slots[k].filled, std::min(1.0, d.y / batch.params(static_cast<int>(k)).height));
   };
   // Closes the avalanche events of the slots in `closing` (A): what moved since the disk was
   // placed, a trajectory sample of the disks deposited so far; then the next disk, or, after the
@@ -565,8 +563,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
         // The whole system moves after the region came to rest: relax around what moves.
         std::vector<Regions::Point> seeds;
         for (const auto& d : batch.disks(static_cast<int>(k)))
-          if (speed(d) > wake)
-            seeds.push_back({d.x, d.y});
+          if (speed(d) > wake) seeds.push_back({d.x, d.y});
         if (start_region(k, seeds)) continue;
       }
       if (sl.phase == Phase::Collapse &&

@@ -44,7 +44,7 @@ constexpr long kMaxMembers = 1000000;  // scan points x seeds
 // Largest contact detection margin [R]: with 2 R + d_c + margin below the second neighbour
 // shell of a hexagonal packing (2 sqrt(3) R), kSlots contact slots per disk suffice.
 constexpr double kMaxDetectionMargin = 1.4;
-constexpr double kMaxArea = 1e7;       // L_x H / R^2 of one system (about 3e6 disks)
+constexpr double kMaxArea = 1e7;  // L_x H / R^2 of one system (about 3e6 disks)
 
 std::string where(const std::string& file, const toml::source_region& src) {
   std::ostringstream o;
@@ -233,12 +233,12 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
       c = (c << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
     }
     ++column;
-    if (state == Bare && (c == ' ' || c == '\t' || c == '\n' || c == ']' || c == '}' ||
-                          c == ',' || c == '#' || (key && c == '='))) {
+    if (state == Bare && (c == ' ' || c == '\t' || c == '\n' || c == ']' || c == '}' || c == ',' ||
+                          c == '#' || (key && c == '='))) {
       state = Outside;
     }
-    const bool safe = state == Comment ||
-                      (value && state != Outside && state != Bare && state != MultiBasic);
+    const bool safe =
+        state == Comment || (value && state != Outside && state != Bare && state != MultiBasic);
     bool unsafe = false;
     for (const auto& r : kUnsafe) unsafe = unsafe || (c >= r[0] && c <= r[1]);
     if (n > 1 && !safe && unsafe) {
@@ -637,9 +637,10 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       const double reach = 2.0 * h * (v + h * g);
       if (reach > kMaxDetectionMargin * p.radius) {
         const double h_max =
-            g > 0.0 ? (-2.0 * v + std::sqrt(4.0 * v * v + 8.0 * g * kMaxDetectionMargin * p.radius)) /
-                          (4.0 * g)
-                    : h;
+            g > 0.0
+                ? (-2.0 * v + std::sqrt(4.0 * v * v + 8.0 * g * kMaxDetectionMargin * p.radius)) /
+                      (4.0 * g)
+                : h;
         std::ostringstream why;
         why << "h = " << h << " is too large for H = " << p.height << ": a disk falling through "
             << "the box moves 2 h v = " << reach << " R in two steps, beyond the "
@@ -647,7 +648,8 @@ Scan parse_scan(const std::string& text, const std::string& file) {
             << " (docs/MODEL.md, supported ranges)";
         for (const char* k : {"time_step", "height"}) {
           auto it = axes.find(k);
-          if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + k, why.str());
+          if (it != axes.end())
+            fail(file, *it->second.second, std::string("system.") + k, why.str());
         }
         throw ScanError(file + ": key 'system.time_step': " + why.str());
       }

@@ -1,16 +1,16 @@
 // Checkpoint encoding and sharding: bit-exact round trips, damage always detected, balance.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
-#include <algorithm>
-#include <csignal>
-#include <unistd.h>
 
 #include "loosepack/checkpoint.hpp"
 
@@ -114,10 +114,10 @@ TEST(Checkpoint, MembersRoundTripBitForBit) {
     EXPECT_EQ(a.sweeps, b.sweeps);
     EXPECT_EQ(a.capped, b.capped);
     EXPECT_EQ(a.wall_time, b.wall_time);
-    for (auto f : {&MemberResult::x, &MemberResult::y_i, &MemberResult::y_e,
-                   &MemberResult::radius, &MemberResult::vx, &MemberResult::vy, &MemberResult::w,
-                   &MemberResult::trajectory_time, &MemberResult::trajectory_disk,
-                   &MemberResult::trajectory_x, &MemberResult::trajectory_y})
+    for (auto f :
+         {&MemberResult::x, &MemberResult::y_i, &MemberResult::y_e, &MemberResult::radius,
+          &MemberResult::vx, &MemberResult::vy, &MemberResult::w, &MemberResult::trajectory_time,
+          &MemberResult::trajectory_disk, &MemberResult::trajectory_x, &MemberResult::trajectory_y})
       EXPECT_TRUE(same_bits(a.*f, b.*f));
     ASSERT_EQ(b.events.size(), 2u);
     EXPECT_EQ(b.events[0].moved, 3);
@@ -137,8 +137,8 @@ TEST(Checkpoint, MembersRoundTripBitForBit) {
 // silently used.
 TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   const Scan scan = small_scan();
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("loosepack-ckpt-" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("loosepack-ckpt-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string part = checkpoint_part(dir.string(), 1, 0);
   write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)}, {snapshot(scan, 2)});
@@ -320,8 +320,8 @@ TEST(Checkpoint, RunningMembersGoOnBitForBit) {
   ASSERT_EQ(straight.size(), members.size());
   ASSERT_GT(rounds, 100);
 
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("loosepack-running-" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("loosepack-running-" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string part = checkpoint_part(dir.string(), 1, 0);
   Scan resumed_scan = scan;
@@ -370,8 +370,7 @@ TEST(Checkpoint, RunningMembersGoOnBitForBit) {
   // Some members went on inside a relaxation or collapse, some between two disks.
   EXPECT_TRUE(went_on_moving);
   EXPECT_TRUE(went_on_resting);
-  std::sort(done.begin(), done.end(), [](const MemberResult& a, const MemberResult& b) {
-    return a.member.id < b.member.id;
-  });
+  std::sort(done.begin(), done.end(),
+            [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   for (std::size_t k = 0; k < members.size(); ++k) expect_same_member(straight[k], done[k]);
 }

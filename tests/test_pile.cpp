@@ -150,9 +150,9 @@ TEST(Solver, JacobiConvergesOnDenseHexagonalPacking) {
   auto p = bare_params(20.0, 40.0);
   p.friction = 0.3;
   p.rolling_friction = 0.1;
-  for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
-                          SolverKind::AcceleratedGaussSeidel,
-                          SolverKind::ColouredAcceleratedGaussSeidel}) {
+  for (SolverKind kind :
+       {SolverKind::Jacobi, SolverKind::GaussSeidel, SolverKind::AcceleratedGaussSeidel,
+        SolverKind::ColouredAcceleratedGaussSeidel}) {
     SolverSettings s;
     s.kind = kind;
     s.tolerance = 1e-10;
@@ -176,10 +176,9 @@ TEST(Solver, AllSolversAgreeOnDeterminatePiles) {
   p.friction = 0.3;
   for (const auto& scene : {column(15, 10.0), pyr}) {
     std::vector<std::vector<ContactForce>> forces;
-    for (SolverKind kind : {SolverKind::Jacobi, SolverKind::GaussSeidel,
-                            SolverKind::SequentialGaussSeidel,
-                            SolverKind::AcceleratedGaussSeidel,
-                            SolverKind::ColouredAcceleratedGaussSeidel}) {
+    for (SolverKind kind :
+         {SolverKind::Jacobi, SolverKind::GaussSeidel, SolverKind::SequentialGaussSeidel,
+          SolverKind::AcceleratedGaussSeidel, SolverKind::ColouredAcceleratedGaussSeidel}) {
       SolverSettings s;
       s.kind = kind;
       s.tolerance = 1e-10;
@@ -237,7 +236,7 @@ TEST(Solver, AcceleratedGaussSeidelLoadsAColumnInLinearlyManySweeps) {
       "column 40 / 80: Gauss-Seidel %.0f / %.0f sweeps, accelerated %.0f / %.0f, coloured "
       "accelerated %.0f / %.0f\n",
       gs40, gs80, acc40, acc80, col40, col80);
-  EXPECT_GT(gs80 / gs40, 3.0);   // ~ n^2
+  EXPECT_GT(gs80 / gs40, 3.0);    // ~ n^2
   EXPECT_LT(acc80 / acc40, 2.6);  // ~ n
   EXPECT_LT(acc80, gs80 / 10.0);
   EXPECT_LT(col80 / col40, 2.6);  // the coloured order keeps the NNCG scaling
@@ -270,10 +269,11 @@ TEST(Solver, NewtonStepsLoadAColumnInAFixedNumberOfSweeps) {
   };
   const SystemStatus newton40 = solve(40, 5), newton160 = solve(160, 5);
   const SystemStatus nncg160 = solve(160, 0);
-  std::printf("column 40 / 160 with Newton steps: %ld / %ld sweeps, %ld / %ld Newton steps; "
-              "NNCG alone at 160: %ld sweeps\n",
-              newton40.sweeps, newton160.sweeps, newton40.newton_steps, newton160.newton_steps,
-              nncg160.sweeps);
+  std::printf(
+      "column 40 / 160 with Newton steps: %ld / %ld sweeps, %ld / %ld Newton steps; "
+      "NNCG alone at 160: %ld sweeps\n",
+      newton40.sweeps, newton160.sweeps, newton40.newton_steps, newton160.newton_steps,
+      nncg160.sweeps);
   EXPECT_GE(newton40.newton_steps, 1);
   EXPECT_EQ(nncg160.newton_steps, 0);
   EXPECT_LE(newton160.sweeps, newton40.sweeps + 10);  // one Newton round more at most
@@ -340,10 +340,12 @@ TEST(Solver, SweepCapIsPerSystem) {
   p.friction = 0.3;
   p.rolling_friction = 0.1;
   const int n = 20, cap = 10;
-  const std::pair<SolverKind, int> variants[] = {
-      {SolverKind::AcceleratedGaussSeidel, 0}, {SolverKind::AcceleratedGaussSeidel, 5},
-      {SolverKind::SequentialGaussSeidel, 0},  {SolverKind::ColouredAcceleratedGaussSeidel, 0},
-      {SolverKind::GaussSeidel, 0},            {SolverKind::Jacobi, 0}};
+  const std::pair<SolverKind, int> variants[] = {{SolverKind::AcceleratedGaussSeidel, 0},
+                                                 {SolverKind::AcceleratedGaussSeidel, 5},
+                                                 {SolverKind::SequentialGaussSeidel, 0},
+                                                 {SolverKind::ColouredAcceleratedGaussSeidel, 0},
+                                                 {SolverKind::GaussSeidel, 0},
+                                                 {SolverKind::Jacobi, 0}};
   for (const auto& [kind, newton_every] : variants) {
     SCOPED_TRACE(std::string(solver_kind_name(kind)) + " newton_every " +
                  std::to_string(newton_every));
@@ -438,7 +440,7 @@ TEST(Rest, CentreSpeedsAloneWhenSpinIsLeftOut) {
     b.step();
   }
   const SystemStatus &sa = a.status(0), &sb = b.status(0);
-  EXPECT_NEAR(sa.max_speed, 0.05, 1e-9);           // the spin, unchanged
+  EXPECT_NEAR(sa.max_speed, 0.05, 1e-9);            // the spin, unchanged
   EXPECT_LT(sa.max_centre_speed, with_spin.speed);  // the centre at rest on the floor
   EXPECT_FALSE(sa.at_rest);
   EXPECT_EQ(sa.rest_steps, 0);

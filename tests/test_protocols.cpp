@@ -223,8 +223,7 @@ lower_half_from = 4.0
 )");
   const auto results = run_all(scan);
   const Scalar d = band_difference(results, 24.0, 6.0, 30.0, 54.0);
-  std::printf("Bo = 1e2: nu[6, 30) - nu[30, 54) = %.4f +- %.4f (%d members)\n", d.mean, d.sem,
-              d.n);
+  std::printf("Bo = 1e2: nu[6, 30) - nu[30, 54) = %.4f +- %.4f (%d members)\n", d.mean, d.sem, d.n);
   EXPECT_GT(d.mean, 2.5 * d.sem);
 }
 

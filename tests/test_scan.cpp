@@ -1,9 +1,8 @@
 // Scan files: expansion of axes, and every rejected case with its message.
 #include <gtest/gtest.h>
 
-#include <filesystem>
-
 #include <cmath>
+#include <filesystem>
 
 #include "loosepack/scan.hpp"
 #include "tests/scan_errors.hpp"
@@ -47,8 +46,8 @@ TEST(Scan, ToleranceIsTheProtocolDefaultUnlessSet) {
   EXPECT_EQ(plain.tolerance(Protocol::A), default_tolerance(Protocol::A));
   EXPECT_EQ(plain.tolerance(Protocol::C), default_tolerance(Protocol::C));
   EXPECT_LT(default_tolerance(Protocol::C), default_tolerance(Protocol::A));
-  const auto set = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n[solver]\ntolerance = 2e-4\n",
-                              "set.toml");
+  const auto set =
+      parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n[solver]\ntolerance = 2e-4\n", "set.toml");
   EXPECT_TRUE(set.tolerance_given);
   EXPECT_EQ(set.tolerance(Protocol::A), 2e-4);
   EXPECT_EQ(set.tolerance(Protocol::C), 2e-4);
@@ -74,8 +73,8 @@ TEST(Scan, SweepCapIsTheProtocolDefaultUnlessSet) {
   half_radius.radius = 0.5;  // the same box in units of R^2 is four times the area
   EXPECT_EQ(plain.max_sweeps(Protocol::A, half_radius), 2000);
   for (const auto& p : {small, mid, paper}) EXPECT_EQ(plain.max_sweeps(Protocol::C, p), 2000);
-  const auto set = parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n[solver]\nmax_sweeps = 777\n",
-                              "set.toml");
+  const auto set =
+      parse_scan("[scan]\nprotocol = [\"A\", \"C\"]\n[solver]\nmax_sweeps = 777\n", "set.toml");
   EXPECT_TRUE(set.max_sweeps_given);
   EXPECT_EQ(set.max_sweeps(Protocol::A, small), 777);
   EXPECT_EQ(set.max_sweeps(Protocol::A, paper), 777);

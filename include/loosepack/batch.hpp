@@ -64,12 +64,12 @@ struct SystemStatus {
   bool active = false;
   Failure failure = Failure::None;
   int count = 0;
-  long steps = 0;         // steps taken
-  long sweeps = 0;        // solver sweeps, all steps
-  int last_sweeps = 0;    // sweeps of the last step
-  long newton_steps = 0;  // Newton steps of the accelerated solver (src/newton.hpp), all steps
-  bool converged = true;  // the last step's solve reached the tolerance
-  double max_speed = 0.0;         // max(|v|, R|w|) after the last step
+  long steps = 0;          // steps taken
+  long sweeps = 0;         // solver sweeps, all steps
+  int last_sweeps = 0;     // sweeps of the last step
+  long newton_steps = 0;   // Newton steps of the accelerated solver (src/newton.hpp), all steps
+  bool converged = true;   // the last step's solve reached the tolerance
+  double max_speed = 0.0;  // max(|v|, R|w|) after the last step
   double max_centre_speed = 0.0;  // max |v|
   // The largest speed the rest criterion compares with rest.speed (RestSettings::spin).
   double rest_speed(bool spin) const { return spin ? max_speed : max_centre_speed; }
@@ -174,7 +174,7 @@ class Batch {
     // (normal and gap: what contacts() reports before the next step).
     std::vector<int> slot, partner;
     std::vector<double> pn, pt, pm, nx, ny, gap;
-    std::uint64_t draws = 0;  // random draws taken
+    std::uint64_t draws = 0;                 // random draws taken
     double speed = 0.0, centre_speed = 0.0;  // the speeds the next step's margin comes from
     bool gravity_on = true;
     SystemStatus status;

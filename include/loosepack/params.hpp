@@ -64,9 +64,9 @@ inline const char* solver_kind_name(SolverKind k) {
 
 // The solver kind of a scan-file spelling; false if there is none.
 inline bool solver_kind_from_name(const std::string& name, SolverKind& kind) {
-  for (SolverKind k : {SolverKind::Jacobi, SolverKind::GaussSeidel,
-                       SolverKind::SequentialGaussSeidel, SolverKind::AcceleratedGaussSeidel,
-                       SolverKind::ColouredAcceleratedGaussSeidel})
+  for (SolverKind k :
+       {SolverKind::Jacobi, SolverKind::GaussSeidel, SolverKind::SequentialGaussSeidel,
+        SolverKind::AcceleratedGaussSeidel, SolverKind::ColouredAcceleratedGaussSeidel})
     if (name == solver_kind_name(k)) {
       kind = k;
       return true;
@@ -82,7 +82,7 @@ struct SolverSettings {
   // whose SystemSetup sets none; a scan gives each member its protocol's default_tolerance
   // (scan.hpp) unless the file sets [solver] tolerance.
   double tolerance = 1e-3;
-  int max_sweeps = 2000;       // iteration cap per step
+  int max_sweeps = 2000;  // iteration cap per step
   // omega: P <- P + omega (P_local - P). 0.8 since the accuracy/time study (docs/PERFORMANCE.md):
   // fewer sweeps than 1.0 at the same accuracy for protocols A and C.
   double relaxation = 0.8;

@@ -72,10 +72,10 @@ struct MemberStage {
   long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
   bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
   long deposited = 0;
-  double filled = 0.0;   // height of the highest deposited disk over H (the progress estimate)
-  bool checking = false;  // A: a whole system's relaxation after a region is its rest check
-  int quiet = 0;          // steps in a row with no disk above the wake speed (check)
-  int rounds = 0;         // relaxation regions started for the current disk
+  double filled = 0.0;        // height of the highest deposited disk over H (the progress estimate)
+  bool checking = false;      // A: a whole system's relaxation after a region is its rest check
+  int quiet = 0;              // steps in a row with no disk above the wake speed (check)
+  int rounds = 0;             // relaxation regions started for the current disk
   bool event_capped = false;  // the current disk's relaxation hit max_relax_time
   // A: the disk's region came to rest where the whole system is not checked; its event closes
   // with the next disk (nothing moves in between), or after the final check when the box is full.

@@ -14,8 +14,8 @@
 namespace loosepack {
 
 struct RegionSettings {
-  double radius = 0.0;  // [R]: disks within this distance of a seed move; 0: no regions
-  int max_disks = 0;    // moving and fixed disks a region slot holds
+  double radius = 0.0;      // [R]: disks within this distance of a seed move; 0: no regions
+  int max_disks = 0;        // moving and fixed disks a region slot holds
   double max_height = 0.0;  // tallest region a slot's grid holds [R]
 };
 
@@ -59,7 +59,7 @@ class Regions {
   void stop(Batch& whole, int s);
 
   const SystemStatus& status(int s) const;  // of the current small system of slot s
-  long steps(int s) const;   // all steps of slot s, all its regions, since construction
+  long steps(int s) const;  // all steps of slot s, all its regions, since construction
   long sweeps(int s) const;
   const std::vector<std::pair<std::string, double>>& stage_seconds() const;
   void set_timing(bool on);
@@ -75,7 +75,8 @@ struct RegionSelection {
   std::vector<int> index;
   std::vector<char> moving;
 };
-RegionSelection select_region(const std::vector<Disk>& disks, const std::vector<Regions::Point>& seeds,
-                              double width, double radius, double reach);
+RegionSelection select_region(const std::vector<Disk>& disks,
+                              const std::vector<Regions::Point>& seeds, double width, double radius,
+                              double reach);
 
 }  // namespace loosepack

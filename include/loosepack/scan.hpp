@@ -80,8 +80,8 @@ struct Scan {
   std::string text;  // the whole scan file
   std::string name = "scan";
   std::uint64_t seed = 1;
-  int seeds = 1;        // members per scan point
-  int batch_size = 0;  // systems advanced together; 0: default_batch_size() (protocols.hpp)
+  int seeds = 1;          // members per scan point
+  int batch_size = 0;     // systems advanced together; 0: default_batch_size() (protocols.hpp)
   SolverSettings solver;  // solver.tolerance and max_sweeps only count where given
   bool tolerance_given = false;   // [solver] tolerance set in the file, for every protocol
   bool max_sweeps_given = false;  // [solver] max_sweeps set in the file, for every protocol
