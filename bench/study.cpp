@@ -62,6 +62,7 @@ struct Setup {
   // The program's defaults (params.hpp).
   double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
+  double relative_tolerance = SolverSettings{}.relative_tolerance;
   int max_sweeps = 0;  // 0: the protocol's default for the box (default_max_sweeps)
   int newton_every = SolverSettings{}.newton_every;
   bool rest_converged = RestSettings{}.converged;
@@ -106,7 +107,8 @@ struct Setup {
       << "\ncapture_radius = " << capture_radius
       << "\nfriction = 0.3\nrolling_friction = " << rolling_friction
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
-      << "\"\ntolerance = " << tolerance << "\nmax_sweeps = " << cap()
+      << "\"\ntolerance = " << tolerance << "\nrelative_tolerance = " << relative_tolerance
+      << "\nmax_sweeps = " << cap()
       << "\nrelaxation = " << relaxation << "\nnewton_every = " << newton_every
       << "\n[rest]\nconverged = " << (rest_converged ? "true" : "false")
       << "\n[protocol]\nregion_radius = " << region_radius
@@ -126,7 +128,9 @@ struct Setup {
       << ", \"friction\": 0.3, \"rolling_friction\": " << bench::json_number(rolling_friction)
       << ", \"time_step\": " << bench::json_number(time_step)
       << ", \"solver\": " << bench::json_string(solver)
-      << ", \"tolerance\": " << bench::json_number(tolerance) << ", \"max_sweeps\": " << cap()
+      << ", \"tolerance\": " << bench::json_number(tolerance)
+      << ", \"relative_tolerance\": " << bench::json_number(relative_tolerance)
+      << ", \"max_sweeps\": " << cap()
       << ", \"relaxation\": " << bench::json_number(relaxation)
       << ", \"newton_every\": " << newton_every
       << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
@@ -288,6 +292,10 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
     const double t = grid[k];
     if (k != at) add("tolerance=" + bench::json_number(t), [t](Setup& s) { s.tolerance = t; });
   }
+  for (double k : {0.0, 1e-4, 3e-4, 1e-3, 3e-3})
+    if (k != base.relative_tolerance)
+      add("relative_tolerance=" + bench::json_number(k),
+          [k](Setup& s) { s.relative_tolerance = k; });
   for (int c : {100, 300, 1000, 2000, 5000})
     if (c != base.cap())
       add("max_sweeps=" + std::to_string(c), [c](Setup& s) { s.max_sweeps = c; });
@@ -314,6 +322,7 @@ void accuracy(const Setup& base, double budget_s, const std::string& match) {
   Setup ref = base;
   ref.label = "reference";
   ref.tolerance = 1e-5;
+  ref.relative_tolerance = 0.0;
   ref.max_sweeps = 20000;
   ref.time_step = base.time_step / 2.0;
   const Outcome r = run(ref, 1e30);

@@ -319,7 +319,7 @@ struct SequentialGaussSeidel {
       else
         for_contacts(con, first, end, update);
       sweeps(s) += 1;
-      if (!(worst > sys.tolerance(s))) {  // a NaN system stops; the integrate guard fails it
+      if (!(worst > sys.step_tolerance(s))) {  // a NaN system stops; the integrate guard fails it
         sys.unconverged(s) = 0;
         return;
       }
@@ -418,7 +418,7 @@ struct AcceleratedGaussSeidel {
     for_contacts_reverse(con, first, end, update);
     sweeps(s) += 2;
     if (!(worst >
-          sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
+          sys.step_tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
       sys.unconverged(s) = 0;
       return true;
     }
@@ -476,7 +476,7 @@ struct ColouredAcceleratedGaussSeidel {
         worst = kmath::max(worst, colour_sweep(team, base, k));
       Kokkos::single(Kokkos::PerTeam(team), [&]() { sweeps(s) += 2; });
       if (!(worst >
-            sys.tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
+            sys.step_tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
         Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.unconverged(s) = 0; });
         return;
       }

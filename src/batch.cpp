@@ -77,7 +77,7 @@ struct Batch::Impl {
   // Host mirrors of the per-system status read after every step (allocated once).
   struct HostStatus {
     DView<int>::HostMirror failure, unconverged, sweeps, count;
-    DView<double>::HostMirror max_speed, max_centre_speed;
+    DView<double>::HostMirror max_speed, max_centre_speed, step_tolerance;
   } host;
   DView<int> request;       // [S] per-system requests of deposit and close_events
   DView<double> request_x;  // [S] given abscissae of deposit_at
@@ -211,6 +211,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   sys.time_step = alloc<double>("time_step", S);
   sys.weight = alloc<double>("weight", S);
   sys.tolerance = alloc<double>("tolerance", S);
+  sys.step_tolerance = alloc<double>("step_tolerance", S);
   sys.max_sweeps = alloc<int>("max_sweeps", S);
   sys.floor_cohesion = alloc<int>("floor_cohesion", S);
   sys.seed = alloc<std::uint64_t>("seed", S);
@@ -242,6 +243,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   host.count = Kokkos::create_mirror_view(sys.count);
   host.max_speed = Kokkos::create_mirror_view(sys.max_speed);
   host.max_centre_speed = Kokkos::create_mirror_view(sys.max_centre_speed);
+  host.step_tolerance = Kokkos::create_mirror_view(sys.step_tolerance);
   request = alloc<int>("request", S);
   request_x = alloc<double>("request_x", S);
   reply = alloc<double>("reply", 4 * S);
@@ -494,7 +496,7 @@ void Batch::Impl::solve() {
         KOKKOS_LAMBDA(int s, int& n) {
           if (!sys_.active(s) || sys_.unconverged(s) != kIterating) return;
           sweeps(s) += 1;
-          if (!(sys_.sweep_change(s) > sys_.tolerance(s))) {
+          if (!(sys_.sweep_change(s) > sys_.step_tolerance(s))) {
             sys_.unconverged(s) = 0;
           } else if (sweeps(s) >= sys_.max_sweeps(s)) {
             sys_.unconverged(s) = kStoppedAtCap;
@@ -571,7 +573,7 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
   const auto wn = mirror(con.wn), wa = mirror(con.wa), wb = mirror(con.wb), wc = mirror(con.wc);
   const auto lower = mirror(con.lower);
   const auto pn = mirror(con.pn), pt = mirror(con.pt), pm = mirror(con.pm);
-  const auto weight = mirror(sys.weight), tolerance = mirror(sys.tolerance);
+  const auto weight = mirror(sys.weight), tolerance = mirror(sys.step_tolerance);
   const auto counts = mirror(sys.count);
   Kokkos::parallel_for(
       "newton",
@@ -734,13 +736,18 @@ void Batch::Impl::step() {
     stage_timer.reset();
   }
 
-  // Stage 1: detection margin from the last step's speeds, free velocities.
+  // Stage 1: detection margin and solver tolerance from the last step's speeds, free
+  // velocities.
+  const double kappa = solver.relative_tolerance;
   Kokkos::parallel_for(
       "margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems), KOKKOS_LAMBDA(int s) {
         const double h = sys_.time_step(s);
         const double g = kmath::sqrt(sys_.gravity_x(s) * sys_.gravity_x(s) +
                                      sys_.gravity_y(s) * sys_.gravity_y(s));
         const double r = sys_.radius(s);
+        sys_.step_tolerance(s) =
+            g > 0.0 ? kmath::max(sys_.tolerance(s), kappa * sys_.max_speed(s) / (g * h))
+                    : sys_.tolerance(s);
         sys_.margin(s) = kmath::clamp(2.0 * h * (sys_.max_speed(s) + h * g), kMinMarginFactor * r,
                                       sys_.max_margin(s));
         sys_.unconverged(s) = sys_.active(s) ? kIterating : 0;
@@ -808,6 +815,7 @@ void Batch::Impl::step() {
   Kokkos::deep_copy(h_fail, sys.failure);
   Kokkos::deep_copy(h_speed, sys.max_speed);
   Kokkos::deep_copy(host.max_centre_speed, sys.max_centre_speed);
+  Kokkos::deep_copy(host.step_tolerance, sys.step_tolerance);
   Kokkos::deep_copy(h_unconv, sys.unconverged);
   Kokkos::deep_copy(h_sweeps, sweeps_this_step);
   Kokkos::deep_copy(h_count, sys.count);
@@ -822,6 +830,7 @@ void Batch::Impl::step() {
     st.newton_steps = newton_steps[static_cast<std::size_t>(s)];
     st.sweeps += h_sweeps(s);
     st.converged = h_unconv(s) == 0;
+    st.tolerance = host.step_tolerance(s);
     st.max_speed = h_speed(s);
     st.max_centre_speed = host.max_centre_speed(s);
     st.count = h_count(s);

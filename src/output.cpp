@@ -292,6 +292,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       if (scan.tolerance_given) attribute(g, "solver_tolerance", scan.solver.tolerance);
       if (scan.max_sweeps_given)
         attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
+      attribute(g, "solver_relative_tolerance", scan.solver.relative_tolerance);
       attribute(g, "solver_relaxation", scan.solver.relaxation);
       attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
       attribute(g, "solver_newton_every", static_cast<double>(scan.solver.newton_every));

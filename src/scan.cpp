@@ -453,6 +453,8 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         } else if (k == "max_sweeps") {
           scan.solver.max_sweeps = positive_int(v, key, 1, 100000000);
           scan.max_sweeps_given = true;
+        } else if (k == "relative_tolerance") {
+          scan.solver.relative_tolerance = real(v, key, 0.0, 1.0);
         } else if (k == "relaxation") {
           scan.solver.relaxation = real(v, key, 0.01, 1.95);
         } else if (k == "mass_splitting") {
@@ -463,8 +465,8 @@ Scan parse_scan(const std::string& text, const std::string& file) {
           scan.solver.overlap_correction = real(v, key, 0.0, 1.0);
         } else {
           fail(file, v, key,
-               "unknown key (allowed: kind, tolerance, max_sweeps, relaxation, mass_splitting, "
-               "newton_every, overlap_correction)");
+               "unknown key (allowed: kind, tolerance, relative_tolerance, max_sweeps, "
+               "relaxation, mass_splitting, newton_every, overlap_correction)");
         }
       });
     } else if (section == "rest") {

@@ -7,8 +7,8 @@
 source "$(dirname "$0")/common.sh"
 cd "$dir"
 
-# 8 protocol-C members, one at a time, about half a second each.
-printf '[scan]\nname = "resume"\nprotocol = "C"\nseeds = 4\n[system]\nwidth = 24\nheight = 24\nbond_number = [10, 100]\n[observables]\nlower_half_from = 2\n' > s.toml
+# 8 protocol-C members, one at a time, about 0.4 s each.
+printf '[scan]\nname = "resume"\nprotocol = "C"\nseeds = 4\n[system]\nwidth = 24\nheight = 56\nbond_number = [10, 100]\n[observables]\nlower_half_from = 2\n' > s.toml
 "$exe" run s.toml -o full.h5 --batch-size 1 -q
 total=$("$exe" run s.toml -o again.h5 --batch-size 1 2>&1 | sed -n 's/.* 8\/8 members, \([0-9]*\) disks deposited.*/\1/p')
 [ -n "$total" ] || fail "no final progress line"
@@ -75,7 +75,7 @@ same full.h5 t.h5
 # A member stopped while it runs goes on from where it was: one protocol-A member of a few
 # seconds, checkpointed every half second, stopped with SIGTERM once a checkpoint holds it and
 # resumed, gives the uninterrupted run's file, depositing only the disks it had not.
-printf '[scan]\nname = "running"\nprotocol = "A"\nseeds = 1\n[system]\nwidth = 24\nheight = 32\nbond_number = 10\n[observables]\nlower_half_from = 2\n' > r.toml
+printf '[scan]\nname = "running"\nprotocol = "A"\nseeds = 1\n[system]\nwidth = 24\nheight = 40\nbond_number = 10\n[observables]\nlower_half_from = 2\n' > r.toml
 whole=$("$exe" run r.toml -o r_full.h5 2>&1 | sed -n 's/.* 1\/1 members, \([0-9]*\) disks deposited.*/\1/p')
 "$exe" run r.toml -o r.h5 --checkpoint-every 0.5 >r.log 2>&1 &
 pid=$!

@@ -482,7 +482,16 @@ TEST(HardCase, OneDiskEmptyAndFullSystems) {
   const double h = batch.params(0).time_step;
   EXPECT_NEAR(batch.disks(0)[0].y, 1.0, SolverSettings{}.tolerance * h * h * p.gravity);
   EXPECT_EQ(batch.disks(0)[0].vx, 0.0);
-  EXPECT_NEAR(batch.disks(1)[0].y, 1.0, 1e-9);  // fell 2 R and rests on the floor
+  // Fell 2 R and rests on the floor. Its impact step (speed v = sqrt(2 g 2 R)) is solved to the
+  // relative tolerance kappa m v: the last relaxed sweep (omega) changed the impulse by at most
+  // that, which leaves (1 - omega) / omega of it, so the disk sinks into the floor by at most
+  // h (1 - omega) / omega kappa v in that step, and the overlap is held, not pushed apart.
+  const SolverSettings solver;
+  const double v_impact = std::sqrt(2.0 * p.gravity * 2.0);
+  const double sink = h * (1.0 - solver.relaxation) / solver.relaxation *
+                      solver.relative_tolerance * v_impact;
+  EXPECT_LE(batch.disks(1)[0].y, 1.0 + 1e-9);
+  EXPECT_GE(batch.disks(1)[0].y, 1.0 - sink);
   EXPECT_LT(batch.status(1).max_speed, 1e-9);
   EXPECT_EQ(batch.disks(2).size(), 0u);
   EXPECT_EQ(batch.disks(3).size(), 0u);

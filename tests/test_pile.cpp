@@ -330,6 +330,78 @@ TEST(Solver, ToleranceIsPerSystem) {
   }
 }
 
+// SolverSettings::relative_tolerance kappa: a step's tolerance is max(tolerance, kappa v_max /
+// (g h)) [h m g], v_max the largest speed after the step before. A column resting on the floor
+// (v_max = 0) is solved exactly as without it, bit for bit. A pile dropped from rest settles
+// with steps that stop relative to its motion: each step's tolerance follows the formula from
+// the speed before it, the pile takes fewer sweeps, and once at rest the floor carries its
+// whole weight as closely as the absolute tolerance bounds it.
+TEST(Solver, RelativeToleranceLoosensOnlyWhileMoving) {
+  auto p = bare_params(24.0, 60.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  p.bond_number = 10.0;
+  p.time_step = 0.005;
+  SolverSettings exact;
+  exact.tolerance = 1e-4;
+  exact.relative_tolerance = 0.0;
+  exact.newton_every = 0;
+  SolverSettings relative = exact;
+  relative.relative_tolerance = 1e-3;
+  {
+    const int n = 20;
+    Batch a({setup(p, column(n, 10.0))}, exact), b({setup(p, column(n, 10.0))}, relative);
+    a.step();
+    b.step();
+    EXPECT_EQ(b.status(0).tolerance, exact.tolerance);
+    EXPECT_EQ(a.status(0).sweeps, b.status(0).sweeps);
+    const auto ca = a.contacts(0), cb = b.contacts(0);
+    ASSERT_EQ(ca.size(), cb.size());
+    for (std::size_t k = 0; k < ca.size(); ++k) EXPECT_EQ(ca[k].normal, cb[k].normal);
+  }
+  const int n = 40;
+  const double g = p.gravity, h = p.time_step, mg = p.reference_mass() * g;
+  long sweeps[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    const SolverSettings& s = k == 0 ? exact : relative;
+    Batch batch({setup(p, random_drop(n, p.width, 7))}, s);
+    double before = 0.0, loosest = 0.0;  // v_max before the step
+    long steps = 0;
+    while (!batch.status(0).at_rest && steps < 20000) {
+      batch.step();
+      ++steps;
+      const SystemStatus& st = batch.status(0);
+      ASSERT_EQ(st.failure, Failure::None);
+      EXPECT_EQ(st.tolerance, std::max(s.tolerance, s.relative_tolerance * before / (g * h)));
+      loosest = std::max(loosest, st.tolerance);
+      before = st.max_speed;
+    }
+    ASSERT_TRUE(batch.status(0).at_rest);
+    sweeps[k] = batch.status(0).sweeps;
+    if (k == 1) {
+      EXPECT_GT(loosest, 10.0 * s.tolerance);  // the pile fell fast enough to loosen it
+    }
+    // A few more steps at rest: the speeds fall below tol g h / kappa, where the relative term
+    // is below the absolute tolerance, and the steps are solved to that. The floor's normal
+    // forces then balance the weight: the sweeps' test leaves each floor contact's impulse
+    // within a few tol h m g of the exact split.
+    for (int extra = 0; extra < 20; ++extra) batch.step();
+    EXPECT_LE(batch.status(0).max_speed, exact.tolerance * g * h / relative.relative_tolerance);
+    double floor_load = 0.0;
+    int floor_contacts = 0;
+    for (const auto& c : batch.contacts(0))
+      if (c.j < 0) {
+        floor_load += c.normal;
+        ++floor_contacts;
+      }
+    EXPECT_NEAR(floor_load, n * mg, 4.0 * n * exact.tolerance * mg)
+        << "kappa " << s.relative_tolerance;
+    EXPECT_GT(floor_contacts, 0);
+  }
+  std::printf("sweeps to rest: %ld exact, %ld relative\n", sweeps[0], sweeps[1]);
+  EXPECT_LT(sweeps[1], sweeps[0]);
+}
+
 // The sweep cap is per system (SystemSetup::max_sweeps; a scan gives each protocol its own
 // default): a column of 20 loaded from zero impulses needs far more than 10 sweeps to reach
 // 1e-8, so a system capped at 10 stops there unconverged, with the same state as when it runs

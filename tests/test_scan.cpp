@@ -100,6 +100,16 @@ TEST(Scan, OverlapCorrectionIsOffUnlessSet) {
             0.2);
 }
 
+TEST(Scan, RelativeToleranceIsTheSolversUnlessSet) {
+  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").solver.relative_tolerance,
+            SolverSettings{}.relative_tolerance);
+  EXPECT_EQ(parse_scan("[solver]\nrelative_tolerance = 0\n", "off.toml").solver.relative_tolerance,
+            0.0);
+  EXPECT_EQ(
+      parse_scan("[solver]\nrelative_tolerance = 3e-4\n", "set.toml").solver.relative_tolerance,
+      3e-4);
+}
+
 TEST(Scan, RestNeedsAConvergedSolveUnlessSet) {
   EXPECT_TRUE(parse_scan("[scan]\n", "plain.toml").rest.converged);
   EXPECT_FALSE(parse_scan("[rest]\nconverged = false\n", "speeds.toml").rest.converged);
@@ -123,6 +133,9 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "bad.toml:2:16: key 'solver.newton_every': expected an integer in [0,"},
       {"[solver]\noverlap_correction = 1.5\n",
        "bad.toml:2:22: key 'solver.overlap_correction': value 1.5 outside the allowed range "
+       "[0, 1]"},
+      {"[solver]\nrelative_tolerance = -1e-3\n",
+       "bad.toml:2:22: key 'solver.relative_tolerance': value -0.001 outside the allowed range "
        "[0, 1]"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},

@@ -83,6 +83,13 @@ struct SolverSettings {
   // (scan.hpp) unless the file sets [solver] tolerance.
   double tolerance = 1e-3;
   int max_sweeps = 2000;  // iteration cap per step
+  // kappa: while a system moves, a step's solve ends once no impulse changes in a sweep by more
+  // than kappa times the momentum of its fastest disk (m v_max, v_max the largest |v| or R|w|
+  // after the last step), or by the tolerance above if that is larger: the step's tolerance is
+  // max(tolerance, kappa v_max / (g h)) [h m g]. Near rest the absolute tolerance decides, so
+  // rest detection and the forces of a structure at rest are as before; during an avalanche
+  // the impulses converge relative to the motion. 0: the absolute tolerance alone.
+  double relative_tolerance = 1e-3;
   // omega: P <- P + omega (P_local - P). 0.8 since the accuracy/time study (docs/PERFORMANCE.md):
   // fewer sweeps than 1.0 at the same accuracy for protocols A and C.
   double relaxation = 0.8;
