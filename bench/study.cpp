@@ -108,8 +108,8 @@ struct Setup {
       << "\nfriction = 0.3\nrolling_friction = " << rolling_friction
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
       << "\"\ntolerance = " << tolerance << "\nrelative_tolerance = " << relative_tolerance
-      << "\nmax_sweeps = " << cap()
-      << "\nrelaxation = " << relaxation << "\nnewton_every = " << newton_every
+      << "\nmax_sweeps = " << cap() << "\nrelaxation = " << relaxation
+      << "\nnewton_every = " << newton_every
       << "\n[rest]\nconverged = " << (rest_converged ? "true" : "false")
       << "\n[protocol]\nregion_radius = " << region_radius
       << "\nregion_check_every = " << region_check_every
@@ -130,8 +130,7 @@ struct Setup {
       << ", \"solver\": " << bench::json_string(solver)
       << ", \"tolerance\": " << bench::json_number(tolerance)
       << ", \"relative_tolerance\": " << bench::json_number(relative_tolerance)
-      << ", \"max_sweeps\": " << cap()
-      << ", \"relaxation\": " << bench::json_number(relaxation)
+      << ", \"max_sweeps\": " << cap() << ", \"relaxation\": " << bench::json_number(relaxation)
       << ", \"newton_every\": " << newton_every
       << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
       << ", \"region_radius\": " << bench::json_number(region_radius)

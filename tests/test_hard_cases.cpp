@@ -488,8 +488,8 @@ TEST(HardCase, OneDiskEmptyAndFullSystems) {
   // h (1 - omega) / omega kappa v in that step, and the overlap is held, not pushed apart.
   const SolverSettings solver;
   const double v_impact = std::sqrt(2.0 * p.gravity * 2.0);
-  const double sink = h * (1.0 - solver.relaxation) / solver.relaxation *
-                      solver.relative_tolerance * v_impact;
+  const double sink =
+      h * (1.0 - solver.relaxation) / solver.relaxation * solver.relative_tolerance * v_impact;
   EXPECT_LE(batch.disks(1)[0].y, 1.0 + 1e-9);
   EXPECT_GE(batch.disks(1)[0].y, 1.0 - sink);
   EXPECT_LT(batch.status(1).max_speed, 1e-9);
