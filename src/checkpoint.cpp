@@ -44,7 +44,7 @@ class Writer {
   void put(const std::vector<T>& v) {
     static_assert(std::is_trivially_copyable<T>::value, "plain values only");
     put<std::uint64_t>(v.size());
-    out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    if (!v.empty()) out_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
   }
 
  private:
@@ -68,7 +68,7 @@ class Reader {
     const auto n = get<std::uint64_t>();
     if (n > (in_.size() - at_) / sizeof(T)) fail("a vector runs past the end");
     std::vector<T> v(n);
-    std::memcpy(v.data(), in_.data() + at_, n * sizeof(T));
+    if (n > 0) std::memcpy(v.data(), in_.data() + at_, n * sizeof(T));  // (an empty one: no data)
     at_ += n * sizeof(T);
     return v;
   }
