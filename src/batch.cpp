@@ -1204,8 +1204,10 @@ void Batch::restore(int s, const SystemState& state) {
   put(I.part.x, [&](int a) { return state.disks[static_cast<std::size_t>(a)].x; });
   for (auto [to, from] : {std::make_pair(I.part.y_mark, &state.y_mark),
                           std::make_pair(I.part.inv_mass, &state.inv_mass),
-                          std::make_pair(I.part.inv_inertia, &state.inv_inertia)})
-    put(to, [&](int a) { return (*from)[static_cast<std::size_t>(a)]; });
+                          std::make_pair(I.part.inv_inertia, &state.inv_inertia)}) {
+    const std::vector<double>& values = *from;  // (C++17 lambdas cannot capture a binding)
+    put(to, [&](int a) { return values[static_cast<std::size_t>(a)]; });
+  }
   // The impulses go where the next step's warm start reads them (as set_contacts).
   const auto range = std::make_pair(first * kSlots, (first + I.slot_capacity[k]) * kSlots);
   auto partner = Kokkos::create_mirror_view(Kokkos::subview(I.con.partner, range));
