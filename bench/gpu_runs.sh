@@ -1,0 +1,56 @@
+#!/usr/bin/env bash
+# Whole runs for a GPU (or any backend): two small scenes, each solver, one batch of MEMBERS
+# members, one JSON line per run on stdout (wall seconds, seconds per member, the summary's
+# main observable). Written for the CUDA build's first whole-run measurement of the per-system
+# solvers (docs/PERFORMANCE.md, "Building for more cores or a GPU"); the same scenes on one core
+# here give the reference.
+#
+#   bench/gpu_runs.sh LOOSEPACK MEMBERS [SOLVER ...]
+#     LOOSEPACK  the binary (build-cuda/loosepack, build/loosepack)
+#     MEMBERS    members per scene, all in one batch (the seeds of one scan point)
+#     SOLVER     solver.kind values (default: accelerated_gauss_seidel
+#                coloured_accelerated_gauss_seidel)
+#
+# Scenes: "C" the accuracy study's collapse (protocol C, 24 R x 40 R, Bo = 1e3, r_capt = 2,
+# h = 0.0028); "A" the default job's cohesive point (protocol A, 24 R x 24 R, Bo = 1e2).
+set -euo pipefail
+if [ $# -lt 2 ]; then
+  echo "usage: bench/gpu_runs.sh LOOSEPACK MEMBERS [SOLVER ...]" >&2
+  exit 2
+fi
+loosepack=$1
+members=$2
+shift 2
+solvers=("$@")
+[ ${#solvers[@]} -gt 0 ] || solvers=(accelerated_gauss_seidel coloured_accelerated_gauss_seidel)
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+
+scene() {  # scene NAME SOLVER: the scan file's text
+  local head="[scan]
+name = \"gpu_$1\"
+seed = 2026
+seeds = $members
+batch_size = $members"
+  case "$1" in
+    C) printf '%s\nprotocol = "C"\n[system]\nwidth = 24.0\nheight = 40.0\nbond_number = 1000.0\ncapture_radius = 2.0\ntime_step = 0.0028\n' "$head" ;;
+    A) printf '%s\nprotocol = "A"\n[system]\nwidth = 24.0\nheight = 24.0\nbond_number = 100.0\n' "$head" ;;
+  esac
+  printf '[solver]\nkind = "%s"\n[observables]\nlower_half_from = 4.0\n' "$2"
+}
+
+for name in C A; do
+  for solver in "${solvers[@]}"; do
+    scene "$name" "$solver" >"$work/$name.toml"
+    start=$(date +%s.%N)
+    "$loosepack" run "$work/$name.toml" -o "$work/$name.h5" -q
+    wall=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
+    # The summary's table row: nu_lower_half, then (C) dnu/nu_i.
+    row=$("$loosepack" summary "$work/$name.h5" | awk '$1 == "0000" { print $8, $10, $14, $16; exit }')
+    read -r nu nu_err third third_err <<<"$row"
+    observable="\"nu_lower_half\": [$nu, $nu_err]"
+    [ "$name" = C ] && observable="$observable, \"dnu_over_nu_i\": [$third, $third_err]"
+    printf '{"scene": "%s", "solver": "%s", "members": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
+      "$name" "$solver" "$members" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
+  done
+done

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Every GoogleTest test of a build, one process each, PARALLEL at a time (default 12), each
+# limited to LIMIT seconds (default 60): for a CUDA build on a GPU machine, where the
+# one-thread-per-system solvers make some tests take many minutes. Writes to OUT (default
+# ./gpu-tests): tests.txt ("name rc seconds"; rc 124: timed out) and failed_tails.txt (the last
+# 3 000 bytes of each unfinished test's output); prints the counts.
+#
+#   bench/gpu_tests.sh build-cuda/tests/loosepack_tests
+#
+# A binary built elsewhere runs with its shared libraries beside it: copy what `ldd` lists
+# (but libc, libm and the loader) into a lib/ folder and set LD_LIBRARY_PATH to it
+# (docs/PERFORMANCE.md, "Building for more cores or a GPU").
+set -uo pipefail
+if [ $# -ne 1 ]; then
+  echo "usage: bench/gpu_tests.sh TEST_BINARY   (LIMIT=seconds PARALLEL=n OUT=dir)" >&2
+  exit 2
+fi
+binary=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")
+limit=${LIMIT:-60}
+OUT=${OUT:-gpu-tests}
+mkdir -p "$OUT"
+OUT=$(cd "$OUT" && pwd)
+"$binary" --gtest_list_tests 2>"$OUT/list.err" |
+  awk '/^[^ ]/ {s=$1} /^  / {print s $1}' >"$OUT/list.txt"
+[ -s "$OUT/list.txt" ] || { echo "gpu_tests.sh: $binary lists no tests (see $OUT/list.err)" >&2; exit 1; }
+one() {
+  local t0 rc
+  t0=$(date +%s.%N)
+  timeout "$limit" "$binary" --gtest_filter="$1" >"$OUT/log_$1.txt" 2>&1
+  rc=$?
+  echo "$1 $rc $(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')"
+  [ $rc -eq 0 ] || tail -c 3000 "$OUT/log_$1.txt" >"$OUT/log_$1.tail"
+  rm -f "$OUT/log_$1.txt"
+}
+export -f one
+export binary limit OUT
+xargs -P "${PARALLEL:-12}" -I{} bash -c 'one {}' <"$OUT/list.txt" >"$OUT/tests.txt"
+for f in "$OUT"/log_*.tail; do
+  [ -e "$f" ] && { echo "== $f"; cat "$f"; rm -f "$f"; }
+done >"$OUT/failed_tails.txt"
+awk '{n++; if ($2 == 0) p++; else if ($2 == 124) t++; else f++}
+  END {print n, "tests:", p+0, "passed,", t+0, "timed out,", f+0, "failed"}' "$OUT/tests.txt"
