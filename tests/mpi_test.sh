@@ -5,7 +5,6 @@
 # are printed once. (The failed member itself: tests/failure_test.sh.)
 source "$(dirname "$0")/common.sh"
 cd "$dir"
-export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 mixed_scan s.toml
 LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml -o serial.h5 --batch-size 2 2>serial.log
 for k in 1 2 3; do

@@ -8,7 +8,6 @@
 source "$(dirname "$0")/common.sh"
 scan="$repo/examples/paper/claims_gaussian_reduced.toml"
 if [ -n "${2:-}" ]; then
-  export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
   "$2" --oversubscribe -np 2 "$exe" run "$scan" -o "$dir/gaussian.h5" -q
 else
   "$exe" run "$scan" -o "$dir/gaussian.h5" -q
