@@ -1,0 +1,298 @@
+// The slot scheduler of run_members (src/member_run.hpp): members take batch slots in order, a
+// finished member's slot takes the next member at once, and around the protocol phases'
+// rounds the scheduler reports progress, hands over snapshots of running members and stops.
+#include <Kokkos_Core.hpp>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "fault_injection.hpp"
+#include "member_run.hpp"
+
+namespace loosepack {
+
+namespace {
+// After a stop, the run goes on at most this long [s] for snapshots of the members inside
+// relaxation regions (a batch system's grace period after SIGTERM is usually 30 s or more).
+constexpr double kStopGrace = 10.0;
+}  // namespace
+
+int default_batch_size() { return Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4; }
+
+std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
+                                      const RunHooks& hooks,
+                                      const std::vector<MemberSnapshot>& resume) {
+  if (members.empty()) return {};
+  return MemberRun(scan, members, hooks, resume).run();
+}
+
+MemberRun::MemberRun(const Scan& scan, const std::vector<Member>& members, const RunHooks& hooks,
+                     const std::vector<MemberSnapshot>& resume)
+    : scan_(scan), members_(members), hooks_(hooks) {
+  results_.resize(members.size());
+  done_.assign(members.size(), 0);
+  size_slots();
+  const int batch_size = scan.batch_size > 0 ? scan.batch_size : default_batch_size();
+  n_slots_ = std::min(members.size(), static_cast<std::size_t>(batch_size));
+  std::vector<SystemSetup> setups;
+  for (std::size_t k = 0; k < n_slots_; ++k) setups.push_back(setup_of(members[k]));
+  batch_ = std::make_unique<Batch>(setups, scan.solver, scan.rest);
+  batch_->set_timing(hooks.stage_seconds != nullptr);
+  make_regions();
+  slots_.resize(n_slots_);
+  for (const auto& snap : resume) snapshot_of_[snap.result.member.id] = &snap;
+  progress_.members_total = static_cast<int>(members.size());
+  for (const auto& m : members) total_cost_ += expected_cost(m);
+  wake_ = kWakeFactor * scan.rest.speed;
+}
+
+SystemSetup MemberRun::setup_of(const Member& m) const {
+  SystemSetup su;
+  su.params = m.params;
+  su.params.gravity_on = !deposits_ballistically(m);              // B and C deposit without gravity
+  if (m.protocol == Protocol::A) su.params.capture_radius = 1.0;  // Bo = inf: plain BD
+  su.capacity = capacity_;
+  su.grid_cells = cells_;
+  su.seed = scan_.seed;
+  su.member = m.id;
+  su.tolerance = scan_.tolerance(m.protocol);
+  su.max_sweeps = scan_.max_sweeps(m.protocol, m.params);
+  inject_faults(m, su);
+  return su;
+}
+
+// Slots and regions are sized for every member of the scan, not only those of this run: a
+// region's reach depends on the tallest (src/region.cpp), and a member's result must not depend
+// on which members share its run (MPI shards, resumed runs).
+void MemberRun::size_slots() {
+  std::vector<Member> sized = members_of(scan_);
+  sized.insert(sized.end(), members_.begin(), members_.end());
+  for (const auto& m : sized) {
+    capacity_ = std::max(capacity_, member_capacity(m.params));
+    cells_ = std::max(cells_, grid_cells_needed(setup_of(m)));
+  }
+}
+
+// Relaxation regions for the slow depositions, when the scan asks for them; sized, like the
+// slots, for every member of the scan.
+void MemberRun::make_regions() {
+  if (scan_.protocol.region_radius <= 0.0) return;
+  std::vector<SystemParams> slow;
+  double tallest = 0.0;
+  std::vector<Member> sized = members_of(scan_);
+  sized.insert(sized.end(), members_.begin(), members_.end());
+  for (const auto& m : sized)
+    if (!deposits_ballistically(m)) {
+      slow.push_back(m.params);
+      tallest = std::max(tallest, m.params.height);
+    }
+  if (slow.empty()) return;
+  RegionSettings rs;
+  rs.radius = scan_.protocol.region_radius;
+  rs.max_disks = scan_.protocol.region_max_disks;
+  // For the largest region: the last round's radius (start_region).
+  rs.max_height = region_slot_height(rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1), tallest);
+  regions_ =
+      std::make_unique<Regions>(static_cast<int>(n_slots_), slow, rs, scan_.solver, scan_.rest);
+  regions_->set_timing(hooks_.stage_seconds != nullptr);
+}
+
+std::vector<MemberResult> MemberRun::run() {
+  for (std::size_t k = 0; k < n_slots_; ++k) begin(k);
+  for (;;) {
+    // Every member goes on from here after a snapshot: none is inside a step.
+    if (stopped()) break;
+    advance_ballistic();
+    advance_deposit();
+    report();
+    if (!any_busy()) break;
+    if (any_dynamic()) advance_dynamics();
+  }
+  if (hooks_.stage_seconds) {
+    *hooks_.stage_seconds = batch_->stage_seconds();
+    if (regions_)
+      for (const auto& [name, sec] : regions_->stage_seconds())
+        hooks_.stage_seconds->emplace_back("region " + name, sec);
+  }
+  std::vector<MemberResult> finished;
+  for (std::size_t k = 0; k < results_.size(); ++k)
+    if (done_[k]) finished.push_back(std::move(results_[k]));
+  return finished;
+}
+
+// Puts the next member into slot k (from its snapshot where it has one), or empties the slot.
+void MemberRun::begin(std::size_t k) {
+  Slot& sl = slots_[k];
+  const int s = static_cast<int>(k);
+  if (next_ >= members_.size()) {
+    set_phase(k, Phase::Empty);
+    return;
+  }
+  sl = Slot{};
+  sl.member = next_++;
+  const Member& m = members_[sl.member];
+  sl.start = Clock::now();
+  if (regions_) {
+    sl.region_steps = regions_->steps(s);
+    sl.region_sweeps = regions_->sweeps(s);
+  }
+  const auto from = snapshot_of_.find(m.id);
+  if (from != snapshot_of_.end()) return go_on_from(k, *from->second);
+  if (sl.member >= n_slots_) batch_->reset(s, setup_of(m));  // the first ones are loaded
+  sl.result.member = m;
+  set_phase(k, deposits_ballistically(m) ? Phase::Ballistic : Phase::Deposit);
+}
+
+// The member of slot k goes on from its snapshot, taken at the top of run()'s loop.
+void MemberRun::go_on_from(std::size_t k, const MemberSnapshot& snap) {
+  Slot& sl = slots_[k];
+  const int s = static_cast<int>(k);
+  const Member& m = members_[sl.member];
+  if (!goes_on_from(snap.phase))
+    throw std::invalid_argument("the snapshot of member " + std::to_string(m.id) +
+                                " has no phase a member goes on from");
+  SystemSetup su = setup_of(m);
+  su.disks = snap.system.disks;
+  batch_->reset(s, su);
+  batch_->restore(s, snap.system);  // active as the snapshot's phase needs
+  static_cast<MemberStage&>(sl) = snap.stage;
+  sl.phase = snap.phase;
+  sl.result = snap.result;
+  sl.result.member = m;
+  sl.start -= std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(snap.result.wall_time));
+  sl.region_steps -= snap.result.steps;
+  sl.region_sweeps -= snap.result.sweeps;
+}
+
+// The member of slot k has finished (or failed): its result is collected and handed to the
+// hooks, and the slot takes the next member.
+void MemberRun::finish(std::size_t k) {
+  Slot& sl = slots_[k];
+  const int s = static_cast<int>(k);
+  MemberResult& r = sl.result;
+  const auto& st = batch_->status(s);
+  r.failure = sl.gave_up ? Failure::Unconverged : st.failure;
+  r.steps = st.steps;
+  r.sweeps = st.sweeps;
+  if (regions_) {
+    r.steps += regions_->steps(s) - sl.region_steps;
+    r.sweeps += regions_->sweeps(s) - sl.region_sweeps;
+  }
+  r.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
+  for (const auto& d : batch_->disks(s)) {
+    r.x.push_back(d.x);
+    r.y_i.push_back(d.y_deposit);
+    r.y_e.push_back(d.y);
+    r.radius.push_back(d.radius);
+    if (r.failure == Failure::None) continue;
+    r.vx.push_back(d.vx);
+    r.vy.push_back(d.vy);
+    r.w.push_back(d.w);
+  }
+  r.contacts = batch_->contacts(s);
+  taken_.erase(
+      std::remove_if(taken_.begin(), taken_.end(),
+                     [&](const MemberSnapshot& t) { return t.result.member.id == r.member.id; }),
+      taken_.end());
+  done_cost_ += expected_cost(members_[sl.member]);
+  if (hooks_.finished) hooks_.finished(r);
+  results_[sl.member] = std::move(r);
+  done_[sl.member] = 1;
+  ++progress_.members_done;
+  begin(k);
+}
+
+// True when the run is to return now: after a stop, once every running member has handed over
+// a snapshot (or kStopGrace has passed). Otherwise takes the snapshots a checkpoint asks for.
+bool MemberRun::stopped() {
+  if (!hooks_.stop || !*hooks_.stop) {
+    take_snapshots(false, false);
+    return false;
+  }
+  if (stopped_at_ == Clock::time_point{}) stopped_at_ = Clock::now();
+  const bool last_chance =
+      std::chrono::duration<double>(Clock::now() - stopped_at_).count() >= kStopGrace;
+  return take_snapshots(true, last_chance);
+}
+
+// Snapshots of running members for checkpoints (RunHooks::snapshots): those asked for, taken
+// slot by slot when each can be, and handed over when every running member has one. At a stop,
+// the latest of every member that can give one, and the run goes on (for at most kStopGrace)
+// until the members inside relaxation regions have left them. True when handed over.
+bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
+  if (!hooks_.snapshots) return true;
+  if (!snapshots_wanted_ && (stopping || (hooks_.snapshot_wanted && hooks_.snapshot_wanted()))) {
+    snapshots_wanted_ = true;
+    taken_.clear();
+  }
+  if (!snapshots_wanted_) return false;
+  bool all = true;
+  for (std::size_t k = 0; k < n_slots_; ++k) {
+    const Slot& sl = slots_[k];
+    if (sl.phase == Phase::Empty) continue;
+    const std::uint64_t id = members_[sl.member].id;
+    const auto have = std::find_if(taken_.begin(), taken_.end(), [&](const MemberSnapshot& t) {
+      return t.result.member.id == id;
+    });
+    if (!goes_on_from(sl.phase)) {
+      all = all && have != taken_.end();
+      continue;
+    }
+    if (have != taken_.end()) {
+      if (!stopping) continue;
+      taken_.erase(have);
+    }
+    taken_.push_back(snapshot(k));
+  }
+  if (!all && !last_chance) return false;
+  hooks_.snapshots(std::move(taken_));
+  taken_.clear();
+  snapshots_wanted_ = false;
+  return true;
+}
+
+MemberSnapshot MemberRun::snapshot(std::size_t k) const {
+  const Slot& sl = slots_[k];
+  const int s = static_cast<int>(k);
+  MemberSnapshot snap;
+  snap.result = sl.result;
+  snap.result.steps = regions_ ? regions_->steps(s) - sl.region_steps : 0;
+  snap.result.sweeps = regions_ ? regions_->sweeps(s) - sl.region_sweeps : 0;
+  snap.result.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
+  snap.phase = sl.phase;
+  snap.stage = sl;
+  snap.system = batch_->state(s);
+  return snap;
+}
+
+void MemberRun::report() {
+  if (!hooks_.progress) return;
+  double running = 0.0;
+  for (const auto& sl : slots_)
+    if (sl.phase != Phase::Empty) running += running_cost(members_[sl.member], sl.phase, sl.filled);
+  progress_.fraction = (done_cost_ + running) / total_cost_;
+  hooks_.progress(progress_);
+}
+
+MemberRun::Mask MemberRun::mask_of(Phase phase, bool* any) const {
+  Mask m(n_slots_, 0);
+  *any = false;
+  for (std::size_t k = 0; k < n_slots_; ++k)
+    if (slots_[k].phase == phase) m[k] = 1, *any = true;
+  return m;
+}
+
+bool MemberRun::any_dynamic() const {
+  return std::any_of(slots_.begin(), slots_.end(), [](const Slot& sl) {
+    return sl.phase == Phase::Relax || sl.phase == Phase::Collapse || sl.phase == Phase::Region;
+  });
+}
+
+bool MemberRun::any_busy() const {
+  return std::any_of(slots_.begin(), slots_.end(),
+                     [](const Slot& sl) { return sl.phase != Phase::Empty; });
+}
+
+}  // namespace loosepack
