@@ -3,6 +3,7 @@
 #include "loosepack/batch.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -92,24 +93,24 @@ struct Batch::Impl {
   // warm start while it waits and its results never depend on what the rest of the batch did.
   long batch_steps = 0;
   std::vector<long> last_stepped;
-  // Named stages of a step and their accumulated wall time (fenced, when timing is on).
+  // Wall time of each stage of the step (StepStage) and of the Newton rounds inside the solve,
+  // summed while timing is on (fenced); Batch::stage_seconds lists them by name.
   bool timing = false;
+  std::array<double, kStepStages> stage_time{};
+  double newton_time = 0.0;
   std::vector<std::pair<std::string, double>> stage_seconds;
   Kokkos::Timer stage_timer;
-  void stage_done(const char* name) {
+  void lap(double& into) {
     if (!timing) return;
     ExecSpace().fence();
-    const double t = stage_timer.seconds();
+    into += stage_timer.seconds();
     stage_timer.reset();
-    for (auto& [n, sec] : stage_seconds)
-      if (n == name) {
-        sec += t;
-        return;
-      }
-    stage_seconds.emplace_back(name, t);
   }
+  double& timer(StepStage stage) { return stage_time[static_cast<std::size_t>(stage)]; }
   void restore_warm_start(int s);
-  bool any_cohesion = false, any_friction = false, any_rolling = false;
+  // The effects the active systems call for: the solve runs the kernel specialised on them.
+  using EffectFlags = Batch::KernelEffects;
+  EffectFlags needed_effects() const;
 
   void allocate(const std::vector<SystemSetup>& setups);
   void load(int s, const SystemSetup& setup);
@@ -130,6 +131,12 @@ struct Batch::Impl {
   }
   int colour(bool batch_list);
   void step();
+  void run_stage(StepStage stage);
+  void margin_stage();
+  void contact_stage();
+  void solve_stage();
+  void integrate_stage();
+  void status_stage();
 };
 
 namespace {
@@ -368,9 +375,6 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   set(sys.active, 1);
   set(sys.unconverged, 0);
   set(sys.failure, int(kOk));
-  any_cohesion = any_cohesion || pr.cohesive_force() > 0.0;
-  any_friction = any_friction || pr.friction > 0.0;
-  any_rolling = any_rolling || (pr.friction > 0.0 && pr.rolling_friction > 0.0);
 
   const int first = offsets[k], cap = slot_capacity[k];
   const auto range = std::make_pair(first, first + cap);
@@ -546,9 +550,9 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
               unconverged(s) != 0, sweep_cap[static_cast<std::size_t>(s)]);
       return;
     }
-    stage_done("solve");
+    lap(timer(StepStage::Solve));
     newton_round<Fx>(due);
-    stage_done("newton");
+    lap(newton_time);
     for (int s : due) limit(s) = done(s) + newton_pace[static_cast<std::size_t>(s)].wait;
   }
 }
@@ -726,18 +730,54 @@ void Batch::Impl::chunk_active() {
   }
 }
 
+const char* stage_name(StepStage stage) {
+  switch (stage) {
+    case StepStage::Margin: return "margin";
+    case StepStage::Grid: return "grid";
+    case StepStage::FreeVelocity: return "free_velocity";
+    case StepStage::Contacts: return "contacts";
+    case StepStage::Solve: return "solve";
+    case StepStage::Integrate: return "integrate";
+    case StepStage::Status: return "status";
+  }
+  return "?";
+}
+
+// One time step of the active systems: the stages of StepStage in their order.
 void Batch::Impl::step() {
-  bool any = false;
-  for (const auto& st : status) any = any || st.active;
-  if (!any) return;
-  const SystemViews sys_ = sys;
+  if (std::none_of(status.begin(), status.end(), [](const SystemStatus& st) { return st.active; }))
+    return;
   if (timing) {
     ExecSpace().fence();
     stage_timer.reset();
   }
+  for (int k = 0; k < kStepStages; ++k) {
+    const auto stage = static_cast<StepStage>(k);
+    run_stage(stage);
+    lap(timer(stage));
+  }
+}
 
-  // Stage 1: detection margin and solver tolerance from the last step's speeds, free
-  // velocities.
+void Batch::Impl::run_stage(StepStage stage) {
+  switch (stage) {
+    case StepStage::Margin: return margin_stage();
+    // Inactive systems get no cells: all later kernels skip them.
+    case StepStage::Grid: return build_grid(sys, part, grid, n_particles, n_cells);
+    case StepStage::FreeVelocity:
+      Kokkos::parallel_for("free_velocity", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
+                           FreeVelocity{sys, part});
+      return;
+    case StepStage::Contacts: return contact_stage();
+    case StepStage::Solve: return solve_stage();
+    case StepStage::Integrate: return integrate_stage();
+    case StepStage::Status: return status_stage();
+  }
+}
+
+// The detection margin and the solver tolerance from the last step's speeds; the step's
+// counters reset.
+void Batch::Impl::margin_stage() {
+  const SystemViews sys_ = sys;
   const double kappa = solver.relative_tolerance;
   Kokkos::parallel_for(
       "margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems), KOKKOS_LAMBDA(int s) {
@@ -755,19 +795,17 @@ void Batch::Impl::step() {
         sys_.max_speed(s) = sys_.active(s) ? 0.0 : sys_.max_speed(s);
         sys_.max_centre_speed(s) = sys_.active(s) ? 0.0 : sys_.max_centre_speed(s);
       });
-  // Stage 2: neighbour grid (inactive systems get no cells: all later kernels skip them).
-  build_grid(sys, part, grid, n_particles, n_cells);
-  Kokkos::parallel_for("free_velocity", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
-                       FreeVelocity{sys, part});
-  stage_done("grid");
-  // Stage 3: contacts, warm-started from the previous step's impulses. Systems not stepped
-  // now keep theirs untouched in one of the two buffers (see restore_warm_start).
+}
+
+// Contacts, warm-started from the previous step's impulses, then the velocities those impulses
+// give. Systems not stepped now keep theirs untouched in one of the two buffers (see
+// restore_warm_start).
+void Batch::Impl::contact_stage() {
   std::swap(con.partner, con.prev_partner);
   std::swap(con.pn, con.prev_pn);
   std::swap(con.pt, con.prev_pt);
   std::swap(con.pm, con.prev_pm);
-  // Chunk by chunk of active systems (they share nothing; see chunk_active). Then the
-  // velocities from the warm-start impulses (stage 4 starts here).
+  // Chunk by chunk of active systems (they share nothing; see chunk_active).
   chunk_active();
   const bool split_mass = solver.kind == SolverKind::Jacobi && solver.mass_splitting;
   for (const auto& [p0, p1] : chunks) {
@@ -782,31 +820,53 @@ void Batch::Impl::step() {
     Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(p0, p1),
                          BodyVelocity{sys, part, con, false});
   }
-  stage_done("contacts");
-  // Stage 4: the iterative solve.
-  if (any_rolling) {
+}
+
+// The effects of the systems active now (not of every system the batch ever held): the
+// specialised kernels skip only terms that are exactly zero for the others, so a system's
+// results do not depend on which kernel its batch runs, and a batch runs the cheapest one its
+// current members allow.
+Batch::KernelEffects Batch::Impl::needed_effects() const {
+  EffectFlags e;
+  for (int s = 0; s < n_systems; ++s) {
+    if (!status[static_cast<std::size_t>(s)].active) continue;
+    const SystemParams& pr = params[static_cast<std::size_t>(s)];
+    e.cohesion = e.cohesion || pr.cohesive_force() > 0.0;
+    e.friction = e.friction || pr.friction > 0.0;
+    e.rolling = e.rolling || (pr.friction > 0.0 && pr.rolling_friction > 0.0);
+  }
+  return e;
+}
+
+void Batch::Impl::solve_stage() {
+  const EffectFlags e = needed_effects();
+  if (e.rolling) {
     solve<Effects<true, true, true>>();
-  } else if (any_friction) {
-    if (any_cohesion)
+  } else if (e.friction) {
+    if (e.cohesion)
       solve<Effects<true, true, false>>();
     else
       solve<Effects<false, true, false>>();
   } else {
-    if (any_cohesion)
+    if (e.cohesion)
       solve<Effects<true, false, false>>();
     else
       solve<Effects<false, false, false>>();
   }
-  stage_done("solve");
-  // Stage 5: positions.
+}
+
+// x += h v (wrapped into [0, L_x)), theta += h w; then the overlap correction where it is on.
+void Batch::Impl::integrate_stage() {
   Kokkos::parallel_for("integrate", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                        Integrate{sys, part});
   if (solver.overlap_correction > 0.0)
     Kokkos::parallel_for("overlap_correction", PerSystemPolicy(0, n_systems, Kokkos::ChunkSize(1)),
                          OverlapCorrection{sys, part, con, solver.overlap_correction});
-  stage_done("integrate");
+}
 
-  // Stage 6: per-system status on the host.
+// Per-system status on the host: the non-finite and overflow guards stop a system; rest
+// detection.
+void Batch::Impl::status_stage() {
   auto& h_fail = host.failure;
   auto& h_speed = host.max_speed;
   auto& h_unconv = host.unconverged;
@@ -845,7 +905,6 @@ void Batch::Impl::step() {
     st.at_rest = st.rest_steps >= rest.steps;
   }
   if (deactivate) upload_status_active();
-  stage_done("status");
 }
 
 void Batch::Impl::upload_status_active() {
@@ -873,8 +932,17 @@ const SolverSettings& Batch::solver() const { return impl_->solver; }
 void Batch::step() { impl_->step(); }
 
 void Batch::set_timing(bool on) { impl_->timing = on; }
+Batch::KernelEffects Batch::kernel_effects() const { return impl_->needed_effects(); }
 const std::vector<std::pair<std::string, double>>& Batch::stage_seconds() const {
-  return impl_->stage_seconds;
+  auto& I = *impl_;
+  I.stage_seconds.clear();
+  for (int k = 0; k < kStepStages; ++k) {
+    const auto stage = static_cast<StepStage>(k);
+    I.stage_seconds.emplace_back(stage_name(stage), I.timer(stage));
+    if (stage == StepStage::Solve && I.newton_time > 0.0)
+      I.stage_seconds.emplace_back("newton", I.newton_time);
+  }
+  return I.stage_seconds;
 }
 
 void Batch::reset(int s, const SystemSetup& setup) {

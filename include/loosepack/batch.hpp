@@ -95,6 +95,21 @@ struct Deposit {
 // Grid cells a system with these parameters needs (to size batch slots for reuse).
 int grid_cells_needed(const SystemSetup& setup);
 
+// The stages of a time step, in the order they run (docs/MODEL.md, "Time step", lists them by
+// these names, and a test holds the list to this enum). Batch::step runs them in this order.
+enum class StepStage {
+  Margin,        // detection margin and the step's solver tolerance from the last speeds
+  Grid,          // neighbour grid
+  FreeVelocity,  // v + h g
+  Contacts,      // contact build, warm-started from the previous step's impulses
+  Solve,         // the iterative solve (and its Newton rounds)
+  Integrate,     // positions, then the overlap correction where it is on
+  Status,        // per-system status on the host: guards, rest detection
+};
+constexpr int kStepStages = 7;
+// The stage's name in docs/MODEL.md and in Batch::stage_seconds.
+const char* stage_name(StepStage stage);
+
 class Batch {
  public:
   Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver = {},
@@ -111,10 +126,16 @@ class Batch {
 
   // One time step of every active system.
   void step();
-  // Wall time per named stage of the step (grid, contacts, solve, integrate, status), summed
-  // over all steps since timing was switched on. Timing fences after every stage.
+  // Wall time per stage of the step (StepStage, by stage_name, in order; "newton": the Newton
+  // rounds inside the solve, apart from its sweeps), summed over all steps since timing was
+  // switched on. Timing fences after every stage.
   void set_timing(bool on);
   const std::vector<std::pair<std::string, double>>& stage_seconds() const;
+  // The effects the next step's solve is specialised on: those of the systems active now.
+  struct KernelEffects {
+    bool cohesion = false, friction = false, rolling = false;
+  };
+  KernelEffects kernel_effects() const;
   // Put a new system into slot s (a finished member frees its slot for the next one). The
   // setup must fit the slot: capacity and grid cells no larger than the slot's.
   void reset(int s, const SystemSetup& setup);

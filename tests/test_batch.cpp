@@ -1,0 +1,103 @@
+// The batch's time step as a pipeline: its stages in order (and documented so), and the
+// specialised kernels chosen from the systems active now.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "loosepack/batch.hpp"
+#include "tests/scenes.hpp"
+
+using namespace loosepack;
+using namespace loosepack::scenes;
+
+namespace {
+std::vector<std::string> stage_names() {
+  std::vector<std::string> names;
+  for (int k = 0; k < kStepStages; ++k) names.emplace_back(stage_name(static_cast<StepStage>(k)));
+  return names;
+}
+
+// A cohesive pile with friction and rolling friction: every effect on.
+SystemParams cohesive_params() {
+  SystemParams p = column_params(6);
+  p.bond_number = 10.0;
+  p.cohesion_range = 0.01;
+  return p;
+}
+}  // namespace
+
+// Timing lists every stage once, in the enum's order, with the Newton rounds right after the
+// solve they belong to.
+TEST(Batch, StepStagesAreTimedInOrder) {
+  Batch batch({setup(cohesive_params(), column(6, 10.0))});
+  batch.set_timing(true);
+  for (int k = 0; k < 5; ++k) batch.step();
+  std::vector<std::string> timed;
+  for (const auto& [name, seconds] : batch.stage_seconds()) {
+    EXPECT_GE(seconds, 0.0) << name;
+    if (name != "newton") timed.push_back(name);
+  }
+  EXPECT_EQ(timed, stage_names());
+}
+
+// docs/MODEL.md, "Time step", lists the stages by name in the order they run: its numbered
+// items' first `name` are exactly the enum's names.
+TEST(Batch, StepStagesAreDocumentedInOrder) {
+  std::ifstream in(std::string(LOOSEPACK_SOURCE_DIR) + "/docs/MODEL.md");
+  ASSERT_TRUE(in) << "docs/MODEL.md not found";
+  std::stringstream text;
+  text << in.rdbuf();
+  const std::string doc = text.str();
+  const auto from = doc.find("## Time step");
+  ASSERT_NE(from, std::string::npos) << "docs/MODEL.md has no section \"Time step\"";
+  const auto to = doc.find("\n## ", from + 1);
+  const std::string section = doc.substr(from, to - from);
+  const std::regex item(R"(\n(\d+)\. `([a-z_]+)`)");
+  std::vector<std::string> listed;
+  int number = 0;
+  for (auto it = std::sregex_iterator(section.begin(), section.end(), item);
+       it != std::sregex_iterator(); ++it) {
+    EXPECT_EQ(std::stoi((*it)[1]), ++number) << "items numbered in order";
+    listed.push_back((*it)[2]);
+  }
+  EXPECT_EQ(listed, stage_names());
+}
+
+// The solve is specialised on the effects of the systems active now: a cohesive member that
+// stops (or leaves its slot) no longer holds the rest of the batch on the general kernel. And
+// the kernels only skip terms that are exactly zero for the systems without the effect, so a
+// frictionless column steps bit for bit the same beside a cohesive rolling pile as alone.
+TEST(Batch, KernelFollowsTheActiveSystems) {
+  const SystemParams bare = bare_params();
+  Batch both({setup(cohesive_params(), column(6, 10.0)), setup(bare, column(4, 5.0))});
+  Batch alone({setup(bare, column(4, 5.0))});
+  auto effects = both.kernel_effects();
+  EXPECT_TRUE(effects.cohesion && effects.friction && effects.rolling);
+  effects = alone.kernel_effects();
+  EXPECT_FALSE(effects.cohesion || effects.friction || effects.rolling);
+  for (int k = 0; k < 30; ++k) {
+    both.step();
+    alone.step();
+  }
+  const auto a = both.disks(1), b = alone.disks(0);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].x, b[k].x);
+    EXPECT_EQ(a[k].y, b[k].y);
+    EXPECT_EQ(a[k].vy, b[k].vy);
+  }
+  both.set_active(0, false);
+  effects = both.kernel_effects();
+  EXPECT_FALSE(effects.cohesion || effects.friction || effects.rolling);
+  both.set_active(0, true);
+  EXPECT_TRUE(both.kernel_effects().cohesion);
+  SystemParams next = cohesive_params();  // the next member: the same box, no effect on
+  next.bond_number = next.friction = next.rolling_friction = 0.0;
+  both.reset(0, setup(next, column(6, 10.0)));
+  effects = both.kernel_effects();
+  EXPECT_FALSE(effects.cohesion || effects.friction || effects.rolling);
+}
