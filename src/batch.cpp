@@ -732,13 +732,20 @@ void Batch::Impl::chunk_active() {
 
 const char* stage_name(StepStage stage) {
   switch (stage) {
-    case StepStage::Margin: return "margin";
-    case StepStage::Grid: return "grid";
-    case StepStage::FreeVelocity: return "free_velocity";
-    case StepStage::Contacts: return "contacts";
-    case StepStage::Solve: return "solve";
-    case StepStage::Integrate: return "integrate";
-    case StepStage::Status: return "status";
+    case StepStage::Margin:
+      return "margin";
+    case StepStage::Grid:
+      return "grid";
+    case StepStage::FreeVelocity:
+      return "free_velocity";
+    case StepStage::Contacts:
+      return "contacts";
+    case StepStage::Solve:
+      return "solve";
+    case StepStage::Integrate:
+      return "integrate";
+    case StepStage::Status:
+      return "status";
   }
   return "?";
 }
@@ -760,17 +767,23 @@ void Batch::Impl::step() {
 
 void Batch::Impl::run_stage(StepStage stage) {
   switch (stage) {
-    case StepStage::Margin: return margin_stage();
+    case StepStage::Margin:
+      return margin_stage();
     // Inactive systems get no cells: all later kernels skip them.
-    case StepStage::Grid: return build_grid(sys, part, grid, n_particles, n_cells);
+    case StepStage::Grid:
+      return build_grid(sys, part, grid, n_particles, n_cells);
     case StepStage::FreeVelocity:
       Kokkos::parallel_for("free_velocity", Kokkos::RangePolicy<ExecSpace>(0, n_particles),
                            FreeVelocity{sys, part});
       return;
-    case StepStage::Contacts: return contact_stage();
-    case StepStage::Solve: return solve_stage();
-    case StepStage::Integrate: return integrate_stage();
-    case StepStage::Status: return status_stage();
+    case StepStage::Contacts:
+      return contact_stage();
+    case StepStage::Solve:
+      return solve_stage();
+    case StepStage::Integrate:
+      return integrate_stage();
+    case StepStage::Status:
+      return status_stage();
   }
 }
 

@@ -11,6 +11,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "loosepack/settings.hpp"
 #include "loosepack_git_commit.hpp"
 #include "replace_file.hpp"
 
@@ -288,34 +289,13 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
     attribute(file, "batch_size", static_cast<double>(scan.batch_size));
     {
       H5 g = group(file, "settings");
-      attribute(g, "solver_kind", std::string(solver_kind_name(scan.solver.kind)));
-      if (scan.tolerance_given) attribute(g, "solver_tolerance", scan.solver.tolerance);
-      if (scan.max_sweeps_given)
-        attribute(g, "solver_max_sweeps", static_cast<double>(scan.solver.max_sweeps));
-      attribute(g, "solver_relative_tolerance", scan.solver.relative_tolerance);
-      attribute(g, "solver_relaxation", scan.solver.relaxation);
-      attribute(g, "solver_mass_splitting", scan.solver.mass_splitting ? 1.0 : 0.0);
-      attribute(g, "solver_newton_every", static_cast<double>(scan.solver.newton_every));
-      attribute(g, "solver_overlap_correction", scan.solver.overlap_correction);
-      attribute(g, "rest_speed", scan.rest.speed);
-      attribute(g, "rest_steps", static_cast<double>(scan.rest.steps));
-      attribute(g, "rest_converged", scan.rest.converged ? 1.0 : 0.0);
-      attribute(g, "max_relax_time", scan.protocol.max_relax_time);
-      attribute(g, "max_collapse_time", scan.protocol.max_collapse_time);
-      attribute(g, "max_unconverged_time", scan.protocol.max_unconverged_time);
-      attribute(g, "region_radius", scan.protocol.region_radius);
-      attribute(g, "region_check_every", static_cast<double>(scan.protocol.region_check_every));
-      attribute(g, "region_max_disks", static_cast<double>(scan.protocol.region_max_disks));
-      const auto& o = scan.observables;
-      attribute(g, "strip_width", o.strip_width);
-      attribute(g, "lower_half_from", o.lower_half_from);
-      attribute(g, "bin_width", o.bin_width);
-      attribute(g, "abs_dy_bin", o.abs_dy_bin);
-      attribute(g, "cut_bottom", o.cut_bottom);
-      attribute(g, "cut_top", o.cut_top);
-      attribute(g, "event_threshold", o.event_threshold);
-      attribute(g, "trajectory_every", static_cast<double>(o.trajectory_every));
-      attribute(g, "trajectory_interval", static_cast<double>(o.trajectory_interval));
+      for (const auto& key : setting_keys()) {
+        if (key.stored && !key.stored(scan)) continue;
+        if (key.type == SettingKey::Type::Choice)
+          attribute(g, key.attribute, key.name(scan));
+        else
+          attribute(g, key.attribute, key.get(scan));
+      }
     }
     scan_analysis(file, analysis.scan);
     H5 all = group(file, "points");

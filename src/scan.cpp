@@ -2,6 +2,7 @@
 // axes into scan points.
 #include "loosepack/scan.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -11,6 +12,8 @@
 
 #define TOML_EXCEPTIONS 1
 #include <toml++/toml.h>
+
+#include "loosepack/settings.hpp"
 
 namespace loosepack {
 
@@ -304,7 +307,80 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
   }
 }
 
+// The keys of [scan], as the parser below reads them.
+std::vector<std::string> scan_section_keys() {
+  return {"name", "seed", "seeds", "batch_size", "protocol"};
+}
+
+std::string joined(const std::vector<std::string>& names, const char* quote = "") {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + (quote + n + quote);
+  return out;
+}
+
+// Key `k` of the settings section `section` (include/loosepack/settings.hpp), parsed into the
+// scan and checked against its row.
+void parse_setting(const std::string& file, const std::string& section, const std::string& k,
+                   const toml::node& v, Scan& scan) {
+  const std::string key = section + "." + k;
+  const auto& table = setting_keys();
+  const auto row = std::find_if(table.begin(), table.end(), [&](const SettingKey& r) {
+    return section == r.section && k == r.key;
+  });
+  if (row == table.end())
+    fail(file, v, key, "unknown key (allowed: " + joined(setting_keys_of(section)) + ")");
+  switch (row->type) {
+    case SettingKey::Type::Real: {
+      const double x = as_number(file, v, key);
+      if (!(x >= row->lo && x <= row->hi)) {
+        std::ostringstream o;
+        o << "value " << x << " outside the allowed range [" << row->lo << ", " << row->hi << "]";
+        fail(file, v, key, o.str());
+      }
+      row->set(scan, x);
+      break;
+    }
+    case SettingKey::Type::Integer: {
+      auto i = v.as_integer();
+      if (!i || static_cast<double>(i->get()) < row->lo ||
+          static_cast<double>(i->get()) > row->hi) {
+        std::ostringstream o;
+        o << "expected an integer in [" << static_cast<long>(row->lo) << ", "
+          << static_cast<long>(row->hi) << "]";
+        fail(file, v, key, o.str());
+      }
+      row->set(scan, static_cast<double>(i->get()));
+      break;
+    }
+    case SettingKey::Type::Bool:
+      row->set(scan, as_bool(file, v, key) ? 1.0 : 0.0);
+      break;
+    case SettingKey::Type::Choice: {
+      auto str = v.as_string();
+      if (!str || !row->set_name(scan, str->get())) {
+        auto names = row->choices();
+        const std::string last = "\"" + names.back() + "\"";
+        names.pop_back();
+        fail(file, v, key, "expected " + joined(names, "\"") + " or " + last);
+      }
+      break;
+    }
+  }
+  if (row->check) {
+    const std::string why = row->check(scan);
+    if (!why.empty()) fail(file, v, key, why);
+  }
+}
+
 }  // namespace
+
+std::vector<std::string> scan_file_keys() {
+  std::vector<std::string> keys;
+  for (const auto& k : scan_section_keys()) keys.push_back("scan." + k);
+  for (const auto& k : system_keys()) keys.push_back(std::string("system.") + k.name);
+  for (const auto& k : setting_keys()) keys.push_back(std::string(k.section) + "." + k.key);
+  return keys;
+}
 
 Scan load_scan(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -340,15 +416,6 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       fail(file, v, key,
            "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
     return static_cast<int>(i->get());
-  };
-  auto real = [&](const toml::node& v, const std::string& key, double lo, double hi) {
-    const double x = as_number(file, v, key);
-    if (!(x >= lo && x <= hi)) {
-      std::ostringstream o;
-      o << "value " << x << " outside the allowed range [" << lo << ", " << hi << "]";
-      fail(file, v, key, o.str());
-    }
-    return x;
   };
 
   // Explicit points ([[point]] tables): each one system-key override set, plus its protocol.
@@ -418,7 +485,7 @@ Scan parse_scan(const std::string& text, const std::string& file) {
             one(v);
           }
         } else {
-          fail(file, v, key, "unknown key (allowed: name, seed, seeds, batch_size, protocol)");
+          fail(file, v, key, "unknown key (allowed: " + joined(scan_section_keys()) + ")");
         }
       });
     } else if (section == "system") {
@@ -427,10 +494,9 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         bool known = false;
         for (const auto& sk : system_keys()) known = known || k == sk.name;
         if (!known) {
-          std::string allowed;
-          for (const auto& sk : system_keys())
-            allowed += std::string(allowed.empty() ? "" : ", ") + sk.name;
-          fail(file, v, key, "unknown key (allowed: " + allowed + ")");
+          std::vector<std::string> allowed;
+          for (const auto& sk : system_keys()) allowed.emplace_back(sk.name);
+          fail(file, v, key, "unknown key (allowed: " + joined(allowed) + ")");
         }
         if (k == "floor_cohesion") {
           bool_keys[k] = as_bool(file, v, key);
@@ -438,100 +504,9 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         }
         axes[k] = {as_axis(file, v, key), &v};
       });
-    } else if (section == "solver") {
+    } else if (is_setting_section(section)) {
       for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
-        const std::string key = "solver." + k;
-        if (k == "kind") {
-          auto s = v.as_string();
-          if (!s || !solver_kind_from_name(s->get(), scan.solver.kind))
-            fail(file, v, key,
-                 "expected \"jacobi\", \"gauss_seidel\", \"sequential_gauss_seidel\", "
-                 "\"accelerated_gauss_seidel\" or \"coloured_accelerated_gauss_seidel\"");
-        } else if (k == "tolerance") {
-          scan.solver.tolerance = real(v, key, 1e-14, 1.0);
-          scan.tolerance_given = true;
-        } else if (k == "max_sweeps") {
-          scan.solver.max_sweeps = positive_int(v, key, 1, 100000000);
-          scan.max_sweeps_given = true;
-        } else if (k == "relative_tolerance") {
-          scan.solver.relative_tolerance = real(v, key, 0.0, 1.0);
-        } else if (k == "relaxation") {
-          scan.solver.relaxation = real(v, key, 0.01, 1.95);
-        } else if (k == "mass_splitting") {
-          scan.solver.mass_splitting = as_bool(file, v, key);
-        } else if (k == "newton_every") {
-          scan.solver.newton_every = positive_int(v, key, 0, 100000000);
-        } else if (k == "overlap_correction") {
-          scan.solver.overlap_correction = real(v, key, 0.0, 1.0);
-        } else {
-          fail(file, v, key,
-               "unknown key (allowed: kind, tolerance, relative_tolerance, max_sweeps, "
-               "relaxation, mass_splitting, newton_every, overlap_correction)");
-        }
-      });
-    } else if (section == "rest") {
-      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
-        const std::string key = "rest." + k;
-        if (k == "speed") {
-          scan.rest.speed = real(v, key, 1e-12, 1.0);
-        } else if (k == "steps") {
-          scan.rest.steps = positive_int(v, key, 1, 1000000);
-        } else if (k == "converged") {
-          scan.rest.converged = as_bool(file, v, key);
-        } else {
-          fail(file, v, key, "unknown key (allowed: speed, steps, converged)");
-        }
-      });
-    } else if (section == "protocol") {
-      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
-        const std::string key = "protocol." + k;
-        if (k == "max_relax_time") {
-          scan.protocol.max_relax_time = real(v, key, 1e-3, 1e9);
-        } else if (k == "max_collapse_time") {
-          scan.protocol.max_collapse_time = real(v, key, 1e-3, 1e9);
-        } else if (k == "max_unconverged_time") {
-          scan.protocol.max_unconverged_time = real(v, key, 1e-3, 1e9);
-        } else if (k == "region_radius") {
-          scan.protocol.region_radius = real(v, key, 0.0, 1e6);
-          if (scan.protocol.region_radius > 0.0 && scan.protocol.region_radius < 5.0)
-            fail(file, v, key, "must be 0 (no regions) or at least 5 radii");
-        } else if (k == "region_check_every") {
-          scan.protocol.region_check_every = positive_int(v, key, 1, 1000000);
-        } else if (k == "region_max_disks") {
-          scan.protocol.region_max_disks = positive_int(v, key, 10, 10000000);
-        } else {
-          fail(file, v, key,
-               "unknown key (allowed: max_relax_time, max_collapse_time, max_unconverged_time, "
-               "region_radius, region_check_every, region_max_disks)");
-        }
-      });
-    } else if (section == "observables") {
-      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
-        const std::string key = "observables." + k;
-        auto& o = scan.observables;
-        if (k == "strip_width") {
-          o.strip_width = real(v, key, 1e-3, 1e6);
-        } else if (k == "lower_half_from") {
-          o.lower_half_from = real(v, key, 0.0, 1e9);
-        } else if (k == "bin_width") {
-          o.bin_width = real(v, key, 1e-3, 1e6);
-        } else if (k == "abs_dy_bin") {
-          o.abs_dy_bin = real(v, key, 1e-3, 1e6);
-        } else if (k == "cut_bottom") {
-          o.cut_bottom = real(v, key, 0.0, 1e9);
-        } else if (k == "cut_top") {
-          o.cut_top = real(v, key, 0.0, 1e9);
-        } else if (k == "event_threshold") {
-          o.event_threshold = real(v, key, 0.0, 1e9);
-        } else if (k == "trajectory_every") {
-          o.trajectory_every = positive_int(v, key, 0, 1000000);
-        } else if (k == "trajectory_interval") {
-          o.trajectory_interval = positive_int(v, key, 1, 100000000);
-        } else {
-          fail(file, v, key,
-               "unknown key (allowed: strip_width, lower_half_from, bin_width, abs_dy_bin, "
-               "cut_bottom, cut_top, event_threshold, trajectory_every, trajectory_interval)");
-        }
+        parse_setting(file, section, k, v, scan);
       });
     } else {
       fail(file, node, section,

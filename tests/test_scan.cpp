@@ -3,8 +3,13 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <sstream>
 
 #include "loosepack/scan.hpp"
+#include "loosepack/settings.hpp"
 #include "tests/scan_errors.hpp"
 
 using namespace loosepack;
@@ -269,4 +274,81 @@ TEST(Scan, EveryExampleScanFileIsValid) {
     ++checked;
   }
   EXPECT_GE(checked, 20);
+}
+
+namespace {
+// The keys docs/SCAN.md documents, as "section.key": the backquoted names in the first column
+// of its tables, under a heading "## `[section]`", or written "section.key" (a bare name after
+// one in the same cell, as in "`observables.cut_bottom`, `cut_top`", is of the same section).
+std::set<std::string> documented_keys() {
+  std::ifstream in(std::string(LOOSEPACK_SOURCE_DIR) + "/docs/SCAN.md");
+  EXPECT_TRUE(in) << "docs/SCAN.md not found";
+  const std::regex heading(R"(^## `\[([a-z_]+)\]`)"), name("`([a-z_.]+)`");
+  std::set<std::string> keys;
+  std::string line, section;
+  while (std::getline(in, line)) {
+    std::smatch m;
+    if (line.rfind("## ", 0) == 0) section = std::regex_search(line, m, heading) ? m[1].str() : "";
+    if (line.rfind("| `", 0) != 0) continue;
+    const std::string cell = line.substr(1, line.find('|', 1) - 1);
+    std::string cell_section = section;
+    for (auto it = std::sregex_iterator(cell.begin(), cell.end(), name);
+         it != std::sregex_iterator(); ++it) {
+      const std::string n = (*it)[1];
+      const auto dot = n.find('.');
+      if (dot != std::string::npos) cell_section = n.substr(0, dot);
+      keys.insert(dot != std::string::npos ? n : cell_section + "." + n);
+    }
+  }
+  return keys;
+}
+}  // namespace
+
+// docs/SCAN.md documents exactly the keys the parser takes: a key added to the settings table
+// (include/loosepack/settings.hpp) or to [scan] or [system] and not to the docs fails here.
+TEST(Scan, DocsListEveryKeyAndNoOther) {
+  const auto keys = scan_file_keys();
+  const std::set<std::string> parsed(keys.begin(), keys.end());
+  EXPECT_EQ(parsed.size(), keys.size()) << "a key listed twice";
+  EXPECT_EQ(documented_keys(), parsed);
+}
+
+// Every row of the settings table parses its own default back, is refused just outside its
+// range with the range in the message, and names every key of its section when a key is
+// unknown.
+TEST(Scan, SettingsTableDrivesParsingAndErrors) {
+  const Scan defaults;
+  for (const auto& row : setting_keys()) {
+    SCOPED_TRACE(std::string(row.section) + "." + row.key);
+    if (row.type == SettingKey::Type::Real || row.type == SettingKey::Type::Integer) {
+      std::ostringstream ok, low;
+      ok.precision(17);
+      ok << "[" << row.section << "]\n" << row.key << " = " << row.get(defaults) << "\n";
+      if (row.type == SettingKey::Type::Integer) {
+        ok.str("");
+        ok << "[" << row.section << "]\n"
+           << row.key << " = " << static_cast<long>(row.get(defaults)) << "\n";
+      }
+      const Scan parsed = parse_scan(ok.str(), "ok.toml");
+      EXPECT_EQ(row.get(parsed), row.get(defaults));
+      low << "[" << row.section << "]\n"
+          << row.key << " = "
+          << (row.type == SettingKey::Type::Integer ? std::to_string(static_cast<long>(row.lo) - 1)
+                                                    : std::to_string(row.lo - 1.0))
+          << "\n";
+      const std::string error = error_of(low.str());
+      EXPECT_NE(error.find(std::string("key '") + row.section + "." + row.key + "'"),
+                std::string::npos)
+          << error;
+      EXPECT_NE(error.find(row.type == SettingKey::Type::Integer ? "expected an integer in ["
+                                                                 : "outside the allowed range ["),
+                std::string::npos)
+          << error;
+    }
+  }
+  for (const std::string section : {"solver", "rest", "protocol", "observables"}) {
+    const std::string error = error_of("[" + section + "]\nno_such_key = 1\n");
+    for (const auto& k : setting_keys_of(section))
+      EXPECT_NE(error.find(k), std::string::npos) << section << ": " << error;
+  }
 }

@@ -62,11 +62,14 @@ inline const char* solver_kind_name(SolverKind k) {
   return "unknown";
 }
 
+// Every solver kind, in the order the scan file's error message lists them.
+constexpr SolverKind kSolverKinds[] = {
+    SolverKind::Jacobi, SolverKind::GaussSeidel, SolverKind::SequentialGaussSeidel,
+    SolverKind::AcceleratedGaussSeidel, SolverKind::ColouredAcceleratedGaussSeidel};
+
 // The solver kind of a scan-file spelling; false if there is none.
 inline bool solver_kind_from_name(const std::string& name, SolverKind& kind) {
-  for (SolverKind k :
-       {SolverKind::Jacobi, SolverKind::GaussSeidel, SolverKind::SequentialGaussSeidel,
-        SolverKind::AcceleratedGaussSeidel, SolverKind::ColouredAcceleratedGaussSeidel})
+  for (SolverKind k : kSolverKinds)
     if (name == solver_kind_name(k)) {
       kind = k;
       return true;
@@ -110,7 +113,7 @@ struct RestSettings {
   // solve stopped by a sweep cap then still lets a system come to rest.
   bool converged = true;
   // false: the centre speeds |v| alone, not R|w| (the standard scenes' rest criterion,
-  // shared/design/BENCH-SCENES.md; bench_scenes --rest speed).
+  // docs/SCENES.md; bench_scenes --rest speed).
   bool spin = true;
 };
 
