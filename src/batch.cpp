@@ -16,6 +16,7 @@
 #include "kernels/events.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/solver.hpp"
+#include "loosepack/geometry.hpp"
 #include "src/newton.hpp"
 
 namespace loosepack {
@@ -40,10 +41,6 @@ namespace {
 // Particle slots per chunk of the contact stage on the host: ~1.3 kB of contact and particle
 // state each, so a chunk is ~1 MB, half this machine's L2 (docs/PERFORMANCE.md, batch scaling).
 constexpr int kChunkSlots = 768;
-// Contact detection margin: 2 h (v_max + h g), between kMinMarginFactor (kernels/state.hpp) and
-// this bound (times the mean radius). The upper bound grows for tall systems, where a disk
-// falling the height of the box moves more than half a radius in two steps (see grid_shape).
-constexpr double kMaxMarginFactor = 0.5;
 
 template <class T>
 DView<T> alloc(const char* name, std::size_t n) {
@@ -147,15 +144,11 @@ struct GridShape {
 };
 GridShape grid_shape(const SystemSetup& su) {
   const auto& pr = su.params;
-  double rmax = pr.radius * (1.0 + std::sqrt(3.0) * pr.polydispersity);
+  double rmax = largest_radius(pr);
   for (const auto& d : su.disks) rmax = std::max(rmax, d.radius);
   GridShape g;
-  // No disk moves faster than a fall through the whole box (contacts dissipate), so a margin of
-  // 2 h (v_fall + h g) catches every contact of the next step.
-  const double v_fall = std::sqrt(2.0 * std::abs(pr.gravity) * (pr.height + 2.0 * rmax));
-  const double h = pr.time_step;
-  g.max_margin =
-      std::max(kMaxMarginFactor * pr.radius, 2.0 * h * (v_fall + h * std::abs(pr.gravity)));
+  // No disk moves faster than a fall through the whole box.
+  g.max_margin = grid_margin(pr, pr.height + 2.0 * rmax);
   g.cell = 2.0 * rmax + pr.cohesion_range + g.max_margin;
   g.nx = std::max(1, static_cast<int>(std::floor(pr.width / g.cell)));
   g.ny = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / g.cell)));

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "loosepack/geometry.hpp"
 #include "member_run.hpp"
 
 namespace loosepack {
@@ -28,7 +29,7 @@ std::vector<Member> members_of(const Scan& scan) {
 
 int member_capacity(const SystemParams& p) {
   // Hexagonal packing (0.9069) of the smallest radius, plus a row.
-  const double rmin = p.radius * std::max(0.2, 1.0 - std::sqrt(3.0) * p.polydispersity);
+  const double rmin = smallest_radius(p);
   const double area = p.width * (p.height + 2.0 * rmin);
   return static_cast<int>(std::ceil(0.9069 * area / (M_PI * rmin * rmin))) + 8;
 }

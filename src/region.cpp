@@ -10,6 +10,7 @@
 #include <unordered_map>
 
 #include "kernels/state.hpp"
+#include "loosepack/geometry.hpp"
 
 namespace loosepack {
 
@@ -184,10 +185,7 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   double rmax = pr.radius;
   for (const auto& d : disks) rmax = std::max(rmax, d.radius);
   // Contact reach of a moving disk: the largest detection margin a region's grid allows.
-  const double g = std::abs(pr.gravity);
-  const double v_fall = std::sqrt(2.0 * g * I.settings.max_height);
-  const double margin = std::max(0.5 * pr.radius, 2.0 * pr.time_step * (v_fall + pr.time_step * g));
-  const double reach = 2.0 * rmax + pr.cohesion_range + margin;
+  const double reach = 2.0 * rmax + pr.cohesion_range + grid_margin(pr, I.settings.max_height);
   if (!(radius > 0.0)) radius = I.settings.radius;
   const RegionSelection sel = select_region(disks, seeds, pr.width, radius, reach);
   if (static_cast<int>(sel.index.size()) > I.settings.max_disks) return false;

@@ -13,6 +13,7 @@
 #define TOML_EXCEPTIONS 1
 #include <toml++/toml.h>
 
+#include "loosepack/geometry.hpp"
 #include "loosepack/settings.hpp"
 
 namespace loosepack {
@@ -44,10 +45,7 @@ namespace {
 // allocation) within int and memory; far beyond any useful scan (fuzz/, docs/SCAN.md).
 constexpr long kMaxPoints = 100000;    // scan points of a scan (grid or [[point]] tables)
 constexpr long kMaxMembers = 1000000;  // scan points x seeds
-// Largest contact detection margin [R]: with 2 R + d_c + margin below the second neighbour
-// shell of a hexagonal packing (2 sqrt(3) R), kSlots contact slots per disk suffice.
-constexpr double kMaxDetectionMargin = 1.4;
-constexpr double kMaxArea = 1e7;  // L_x H / R^2 of one system (about 3e6 disks)
+constexpr double kMaxArea = 1e7;       // L_x H / R^2 of one system (about 3e6 disks)
 
 std::string where(const std::string& file, const toml::source_region& src) {
   std::ostringstream o;
@@ -609,9 +607,8 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         (sp.protocol == Protocol::A && !std::isinf(sp.params.bond_number))) {
       const auto& p = sp.params;
       const double g = std::abs(p.gravity), h = p.time_step;
-      const double rmax = p.radius * (1.0 + std::sqrt(3.0) * p.polydispersity);
-      const double v = std::sqrt(2.0 * g * (p.height + 2.0 * rmax));
-      const double reach = 2.0 * h * (v + h * g);
+      const double v = fall_speed(g, p.height + 2.0 * largest_radius(p));
+      const double reach = detection_margin(h, v, g);
       if (reach > kMaxDetectionMargin * p.radius) {
         const double h_max =
             g > 0.0

@@ -1,0 +1,44 @@
+// Formulas of the disks' sizes and of contact detection that the scan's validation
+// (src/scan.cpp), the batch's grid (src/batch.cpp), the relaxation regions (src/region.cpp) and
+// the slots' capacity (src/protocols.cpp) share (docs/MODEL.md, "Time step" and "Supported
+// ranges").
+#pragma once
+#include <algorithm>
+#include <cmath>
+
+#include "loosepack/params.hpp"
+
+namespace loosepack {
+
+// Radii are uniform on R (1 +- sqrt(3) sigma) (kernels/deposit.hpp).
+inline double largest_radius(const SystemParams& p) {
+  return p.radius * (1.0 + std::sqrt(3.0) * p.polydispersity);
+}
+// The smallest, bounded below at 0.2 R for the capacity of a slot.
+inline double smallest_radius(const SystemParams& p) {
+  return p.radius * std::max(0.2, 1.0 - std::sqrt(3.0) * p.polydispersity);
+}
+
+// Contacts are detected up to 2 h (v + h g) ahead: how far a disk at speed v under gravity g
+// goes in two steps. The margin stage (src/batch.cpp) computes the same on the device from each
+// system's last largest speed, clamped to [kMinMarginFactor R, the grid's margin].
+inline double detection_margin(double h, double v, double g) { return 2.0 * h * (v + h * g); }
+
+// The speed of a disk that has fallen `height` under gravity g.
+inline double fall_speed(double g, double height) { return std::sqrt(2.0 * g * height); }
+
+// The margin a grid leaves for a system whose disks fall at most `height`: no disk moves faster
+// than such a fall (contacts dissipate), and at least kMaxMarginFactor R.
+constexpr double kMaxMarginFactor = 0.5;
+inline double grid_margin(const SystemParams& p, double height) {
+  const double g = std::abs(p.gravity);
+  return std::max(kMaxMarginFactor * p.radius,
+                  detection_margin(p.time_step, fall_speed(g, height), g));
+}
+
+// The largest detection margin the contact capacity allows: with 2 R + d_c + margin below the
+// second neighbour shell of a hexagonal packing (2 sqrt(3) R), kSlots contact slots per disk
+// suffice.
+constexpr double kMaxDetectionMargin = 1.4;
+
+}  // namespace loosepack
