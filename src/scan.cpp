@@ -388,34 +388,42 @@ Scan load_scan(const std::string& path) {
   return parse_scan(ss.str(), path);
 }
 
-Scan parse_scan(const std::string& text, const std::string& file) {
-  Scan scan;
-  scan.file = file;
-  scan.text = text;
-  refuse_unsafe_characters(text, file);
-  toml::table root;
-  try {
-    root = toml::parse(text, file);
-  } catch (const toml::parse_error& e) {
-    std::ostringstream o;
-    o << file << ":" << e.source().begin.line << ":" << e.source().begin.column << ": "
-      << e.description();
-    throw ScanError(o.str());
+namespace {
+
+// The parse of one scan file: its sections read into the scan and the axes, then the points
+// expanded, checked and counted.
+class ScanParser {
+ public:
+  ScanParser(const std::string& text, const std::string& file) : file(file) {
+    scan.file = file;
+    scan.text = text;
   }
+  Scan parse();
 
-  std::vector<Protocol> protocols = {Protocol::A};
-  // Axis values of the system keys, in the order of system_keys(); scalars are one-value axes.
-  std::map<std::string, std::pair<std::vector<double>, const toml::node*>> axes;
-  std::map<std::string, bool> bool_keys;
-
-  auto positive_int = [&](const toml::node& v, const std::string& key, int lo, int hi) {
+ private:
+  void read_sections(const toml::table& root);
+  void read_point_tables(const toml::node& node);
+  void read_scan_section(const toml::table& tbl);
+  void read_system_section(const toml::table& tbl);
+  std::vector<ScanPoint> expand_grid();
+  std::vector<ScanPoint> explicit_points_on(const ScanPoint& base);
+  void validate_point(const ScanPoint& sp);
+  void check_counts(const std::vector<ScanPoint>& points);
+  void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
+  int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
     auto i = v.as_integer();
     if (!i || i->get() < lo || i->get() > hi)
       fail(file, v, key,
            "expected an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
     return static_cast<int>(i->get());
-  };
+  }
 
+  const std::string file;
+  Scan scan;
+  std::vector<Protocol> protocols = {Protocol::A};
+  // Axis values of the system keys, in the order of system_keys(); scalars are one-value axes.
+  std::map<std::string, std::pair<std::vector<double>, const toml::node*>> axes;
+  std::map<std::string, bool> bool_keys;
   // Explicit points ([[point]] tables): each one system-key override set, plus its protocol.
   struct Explicit {
     const toml::node* node;
@@ -424,94 +432,20 @@ Scan parse_scan(const std::string& text, const std::string& file) {
   std::vector<Explicit> explicit_points;
   const toml::node* protocol_node = nullptr;
   const toml::node* seeds_node = nullptr;
+};
 
-  for_each_key(root, [&](const std::string& section, const toml::node& node) {
-    if (section == "point") {
-      auto arr = node.as_array();
-      if (!arr || arr->empty() || !arr->is_array_of_tables())
-        fail(file, node, section, "expected [[point]] tables");
-      for (const auto& e : *arr) {
-        Explicit ex{&e, {}};
-        for_each_key(*e.as_table(), [&](const std::string& k, const toml::node& v) {
-          bool known = k == "protocol";
-          for (const auto& sk : system_keys()) known = known || k == sk.name;
-          if (!known)
-            fail(file, v, "point." + k, "unknown key (allowed: protocol and the [system] keys)");
-          if (v.is_array() || v.is_table())
-            fail(file, v, "point." + k, "a point takes single values, not axes");
-          ex.keys.emplace_back(k, &v);
-        });
-        explicit_points.push_back(ex);
-      }
-      return;
-    }
-    auto tbl = node.as_table();
-    if (!tbl)
-      fail(file, node, section,
-           "expected a table ([scan], [system], [solver], [rest], [protocol], [observables]) or "
-           "[[point]] tables");
-    if (section == "scan") {
-      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
-        const std::string key = "scan." + k;
-        if (k == "name") {
-          auto s = v.as_string();
-          if (!s) fail(file, v, key, "expected a string");
-          scan.name = s->get();
-        } else if (k == "seed") {
-          auto i = v.as_integer();
-          if (!i || i->get() < 0) fail(file, v, key, "expected an integer >= 0");
-          scan.seed = static_cast<std::uint64_t>(i->get());
-        } else if (k == "seeds") {
-          scan.seeds = positive_int(v, key, 1, 1000000);
-          seeds_node = &v;
-        } else if (k == "batch_size") {
-          scan.batch_size = positive_int(v, key, 1, 1000000);
-        } else if (k == "protocol") {
-          protocol_node = &v;
-          protocols.clear();
-          auto one = [&](const toml::node& e) {
-            auto s = e.as_string();
-            Protocol p;
-            if (!s || !protocol_from_name(s->get(), p))
-              fail(file, e, key, "expected \"A\", \"B\" or \"C\"");
-            protocols.push_back(p);
-          };
-          if (auto arr = v.as_array()) {
-            if (arr->empty()) fail(file, v, key, "an axis needs at least one value");
-            for (const auto& e : *arr) one(e);
-          } else {
-            one(v);
-          }
-        } else {
-          fail(file, v, key, "unknown key (allowed: " + joined(scan_section_keys()) + ")");
-        }
-      });
-    } else if (section == "system") {
-      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
-        const std::string key = "system." + k;
-        bool known = false;
-        for (const auto& sk : system_keys()) known = known || k == sk.name;
-        if (!known) {
-          std::vector<std::string> allowed;
-          for (const auto& sk : system_keys()) allowed.emplace_back(sk.name);
-          fail(file, v, key, "unknown key (allowed: " + joined(allowed) + ")");
-        }
-        if (k == "floor_cohesion") {
-          bool_keys[k] = as_bool(file, v, key);
-          return;
-        }
-        axes[k] = {as_axis(file, v, key), &v};
-      });
-    } else if (is_setting_section(section)) {
-      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
-        parse_setting(file, section, k, v, scan);
-      });
-    } else {
-      fail(file, node, section,
-           "unknown section (allowed: scan, system, solver, rest, protocol, observables)");
-    }
-  });
-
+Scan ScanParser::parse() {
+  refuse_unsafe_characters(scan.text, file);
+  toml::table root;
+  try {
+    root = toml::parse(scan.text, file);
+  } catch (const toml::parse_error& e) {
+    std::ostringstream o;
+    o << file << ":" << e.source().begin.line << ":" << e.source().begin.column << ": "
+      << e.description();
+    throw ScanError(o.str());
+  }
+  read_sections(root);
   if (!explicit_points.empty()) {
     if (protocols.size() > 1)
       fail(file, *protocol_node, "scan.protocol",
@@ -521,7 +455,126 @@ Scan parse_scan(const std::string& text, const std::string& file) {
         fail(file, *ax.second, "system." + k,
              "axes and [[point]] tables do not mix: list the points, or the axes");
   }
-  // Expand the grid: protocol slowest, then the system keys in their fixed order.
+  std::vector<ScanPoint> points = expand_grid();
+  if (!explicit_points.empty()) points = explicit_points_on(points.front());
+  // Validate every point; report the first offending key with its location.
+  for (const auto& sp : points) validate_point(sp);
+  for (const auto& sp : points)
+    if (!(scan.observables.lower_half_from < 0.5 * sp.params.height)) {
+      std::ostringstream o;
+      o << file << ": key 'observables.lower_half_from': " << scan.observables.lower_half_from
+        << " must lie below H/2 = " << 0.5 * sp.params.height
+        << " of every point (nu_lower_half is the band from it to H/2)";
+      throw ScanError(o.str());
+    }
+  check_counts(points);
+  for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
+  warn_unresolved_barrier(points);
+  scan.points = std::move(points);
+  return scan;
+}
+
+void ScanParser::read_sections(const toml::table& root) {
+  for_each_key(root, [&](const std::string& section, const toml::node& node) {
+    if (section == "point") return read_point_tables(node);
+    auto tbl = node.as_table();
+    if (!tbl)
+      fail(file, node, section,
+           "expected a table ([scan], [system], [solver], [rest], [protocol], [observables]) or "
+           "[[point]] tables");
+    if (section == "scan") {
+      read_scan_section(*tbl);
+    } else if (section == "system") {
+      read_system_section(*tbl);
+    } else if (is_setting_section(section)) {
+      for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
+        parse_setting(file, section, k, v, scan);
+      });
+    } else {
+      fail(file, node, section,
+           "unknown section (allowed: scan, system, solver, rest, protocol, observables)");
+    }
+  });
+}
+
+void ScanParser::read_point_tables(const toml::node& node) {
+  const std::string section = "point";
+  auto arr = node.as_array();
+  if (!arr || arr->empty() || !arr->is_array_of_tables())
+    fail(file, node, section, "expected [[point]] tables");
+  for (const auto& e : *arr) {
+    Explicit ex{&e, {}};
+    for_each_key(*e.as_table(), [&](const std::string& k, const toml::node& v) {
+      bool known = k == "protocol";
+      for (const auto& sk : system_keys()) known = known || k == sk.name;
+      if (!known)
+        fail(file, v, "point." + k, "unknown key (allowed: protocol and the [system] keys)");
+      if (v.is_array() || v.is_table())
+        fail(file, v, "point." + k, "a point takes single values, not axes");
+      ex.keys.emplace_back(k, &v);
+    });
+    explicit_points.push_back(ex);
+  }
+}
+
+void ScanParser::read_scan_section(const toml::table& tbl) {
+  for_each_key(tbl, [&](const std::string& k, const toml::node& v) {
+    const std::string key = "scan." + k;
+    if (k == "name") {
+      auto s = v.as_string();
+      if (!s) fail(file, v, key, "expected a string");
+      scan.name = s->get();
+    } else if (k == "seed") {
+      auto i = v.as_integer();
+      if (!i || i->get() < 0) fail(file, v, key, "expected an integer >= 0");
+      scan.seed = static_cast<std::uint64_t>(i->get());
+    } else if (k == "seeds") {
+      scan.seeds = positive_int(v, key, 1, 1000000);
+      seeds_node = &v;
+    } else if (k == "batch_size") {
+      scan.batch_size = positive_int(v, key, 1, 1000000);
+    } else if (k == "protocol") {
+      protocol_node = &v;
+      protocols.clear();
+      auto one = [&](const toml::node& e) {
+        auto s = e.as_string();
+        Protocol p;
+        if (!s || !protocol_from_name(s->get(), p))
+          fail(file, e, key, "expected \"A\", \"B\" or \"C\"");
+        protocols.push_back(p);
+      };
+      if (auto arr = v.as_array()) {
+        if (arr->empty()) fail(file, v, key, "an axis needs at least one value");
+        for (const auto& e : *arr) one(e);
+      } else {
+        one(v);
+      }
+    } else {
+      fail(file, v, key, "unknown key (allowed: " + joined(scan_section_keys()) + ")");
+    }
+  });
+}
+
+void ScanParser::read_system_section(const toml::table& tbl) {
+  for_each_key(tbl, [&](const std::string& k, const toml::node& v) {
+    const std::string key = "system." + k;
+    bool known = false;
+    for (const auto& sk : system_keys()) known = known || k == sk.name;
+    if (!known) {
+      std::vector<std::string> allowed;
+      for (const auto& sk : system_keys()) allowed.emplace_back(sk.name);
+      fail(file, v, key, "unknown key (allowed: " + joined(allowed) + ")");
+    }
+    if (k == "floor_cohesion") {
+      bool_keys[k] = as_bool(file, v, key);
+      return;
+    }
+    axes[k] = {as_axis(file, v, key), &v};
+  });
+}
+
+// The grid of the axes: protocol slowest, then the system keys in their fixed order.
+std::vector<ScanPoint> ScanParser::expand_grid() {
   std::vector<ScanPoint> points;
   for (Protocol pr : protocols) {
     ScanPoint sp;
@@ -547,102 +600,96 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       }
     points = std::move(next);
   }
-  // Explicit points: the [system] values (now all scalars) overridden by each point's keys.
-  if (!explicit_points.empty()) {
-    const ScanPoint base = points.front();
-    points.clear();
-    for (const auto& ex : explicit_points) {
-      ScanPoint sp = base;
-      for (const auto& [k, v] : ex.keys) {
-        if (k == "protocol") {
-          auto str = v->as_string();
-          if (!str || !protocol_from_name(str->get(), sp.protocol))
-            fail(file, *v, "point.protocol", "expected \"A\", \"B\" or \"C\"");
-        } else if (k == "floor_cohesion") {
-          sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
-        } else {
-          for (const auto& sk : system_keys())
-            if (k == sk.name) sk.set(sp.params, as_number(file, *v, "point." + k));
-          axes[k] = {{as_number(file, *v, "point." + k)}, v};  // for error locations below
-        }
+  return points;
+}
+
+// Explicit points: the [system] values (now all scalars) overridden by each point's keys.
+std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base) {
+  std::vector<ScanPoint> points;
+  for (const auto& ex : explicit_points) {
+    ScanPoint sp = base;
+    for (const auto& [k, v] : ex.keys) {
+      if (k == "protocol") {
+        auto str = v->as_string();
+        if (!str || !protocol_from_name(str->get(), sp.protocol))
+          fail(file, *v, "point.protocol", "expected \"A\", \"B\" or \"C\"");
+      } else if (k == "floor_cohesion") {
+        sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
+      } else {
+        for (const auto& sk : system_keys())
+          if (k == sk.name) sk.set(sp.params, as_number(file, *v, "point." + k));
+        axes[k] = {{as_number(file, *v, "point." + k)}, v};  // for error locations below
       }
-      for (const auto& sk : system_keys()) {
-        const std::string why = sk.check(sp.params);
-        if (why.empty()) continue;
-        auto it = axes.find(sk.name);
-        if (it != axes.end()) fail(file, *it->second.second, std::string("point.") + sk.name, why);
-        fail(file, *ex.node, std::string("point.") + sk.name, why);
-      }
-      points.push_back(sp);
     }
-  }
-  // Validate every point; report the first offending key with its location.
-  for (auto& sp : points) {
     for (const auto& sk : system_keys()) {
       const std::string why = sk.check(sp.params);
       if (why.empty()) continue;
       auto it = axes.find(sk.name);
-      if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + sk.name, why);
-      throw ScanError(file + ": default of key 'system." + sk.name + "' invalid here: " + why);
+      if (it != axes.end()) fail(file, *it->second.second, std::string("point.") + sk.name, why);
+      fail(file, *ex.node, std::string("point.") + sk.name, why);
     }
-    // The system size: member_capacity and the neighbour grid scale with it.
-    const double area =
-        (sp.params.width / sp.params.radius) * (sp.params.height / sp.params.radius);
-    if (!(area <= kMaxArea)) {
+    points.push_back(sp);
+  }
+  return points;
+}
+
+void ScanParser::validate_point(const ScanPoint& sp) {
+  for (const auto& sk : system_keys()) {
+    const std::string why = sk.check(sp.params);
+    if (why.empty()) continue;
+    auto it = axes.find(sk.name);
+    if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + sk.name, why);
+    throw ScanError(file + ": default of key 'system." + sk.name + "' invalid here: " + why);
+  }
+  // The system size: member_capacity and the neighbour grid scale with it.
+  const double area = (sp.params.width / sp.params.radius) * (sp.params.height / sp.params.radius);
+  if (!(area <= kMaxArea)) {
+    std::ostringstream why;
+    why << "the system is L_x H / R^2 = " << area << " > " << kMaxArea
+        << " (about 3e6 disks per member at most)";
+    auto w = axes.find("width"), h = axes.find("height");
+    if (w != axes.end() && (h == axes.end() || sp.params.width >= sp.params.height))
+      fail(file, *w->second.second, "system.width", why.str());
+    if (h != axes.end()) fail(file, *h->second.second, "system.height", why.str());
+    auto r = axes.find("radius");
+    if (r != axes.end()) fail(file, *r->second.second, "system.radius", why.str());
+    throw ScanError(file + ": " + why.str());
+  }
+  // Contacts are detected up to 2 h (v + h g) ahead (src/batch.cpp); a disk falling through
+  // the whole box must stay within the bound the contact capacity allows. (Ballistic
+  // deposition, B and A at Bo = inf, has no dynamics.)
+  if (sp.protocol == Protocol::C ||
+      (sp.protocol == Protocol::A && !std::isinf(sp.params.bond_number))) {
+    const auto& p = sp.params;
+    const double g = std::abs(p.gravity), h = p.time_step;
+    const double v = fall_speed(g, p.height + 2.0 * largest_radius(p));
+    const double reach = detection_margin(h, v, g);
+    if (reach > kMaxDetectionMargin * p.radius) {
+      const double h_max =
+          g > 0.0 ? (-2.0 * v + std::sqrt(4.0 * v * v + 8.0 * g * kMaxDetectionMargin * p.radius)) /
+                        (4.0 * g)
+                  : h;
       std::ostringstream why;
-      why << "the system is L_x H / R^2 = " << area << " > " << kMaxArea
-          << " (about 3e6 disks per member at most)";
-      auto w = axes.find("width"), h = axes.find("height");
-      if (w != axes.end() && (h == axes.end() || sp.params.width >= sp.params.height))
-        fail(file, *w->second.second, "system.width", why.str());
-      if (h != axes.end()) fail(file, *h->second.second, "system.height", why.str());
-      auto r = axes.find("radius");
-      if (r != axes.end()) fail(file, *r->second.second, "system.radius", why.str());
-      throw ScanError(file + ": " + why.str());
-    }
-    // Contacts are detected up to 2 h (v + h g) ahead (src/batch.cpp); a disk falling through
-    // the whole box must stay within the bound the contact capacity allows. (Ballistic
-    // deposition, B and A at Bo = inf, has no dynamics.)
-    if (sp.protocol == Protocol::C ||
-        (sp.protocol == Protocol::A && !std::isinf(sp.params.bond_number))) {
-      const auto& p = sp.params;
-      const double g = std::abs(p.gravity), h = p.time_step;
-      const double v = fall_speed(g, p.height + 2.0 * largest_radius(p));
-      const double reach = detection_margin(h, v, g);
-      if (reach > kMaxDetectionMargin * p.radius) {
-        const double h_max =
-            g > 0.0
-                ? (-2.0 * v + std::sqrt(4.0 * v * v + 8.0 * g * kMaxDetectionMargin * p.radius)) /
-                      (4.0 * g)
-                : h;
-        std::ostringstream why;
-        why << "h = " << h << " is too large for H = " << p.height << ": a disk falling through "
-            << "the box moves 2 h v = " << reach << " R in two steps, beyond the "
-            << kMaxDetectionMargin << " R the contact detection covers; use h <= " << h_max
-            << " (docs/MODEL.md, supported ranges)";
-        for (const char* k : {"time_step", "height"}) {
-          auto it = axes.find(k);
-          if (it != axes.end())
-            fail(file, *it->second.second, std::string("system.") + k, why.str());
-        }
-        throw ScanError(file + ": key 'system.time_step': " + why.str());
+      why << "h = " << h << " is too large for H = " << p.height << ": a disk falling through "
+          << "the box moves 2 h v = " << reach << " R in two steps, beyond the "
+          << kMaxDetectionMargin << " R the contact detection covers; use h <= " << h_max
+          << " (docs/MODEL.md, supported ranges)";
+      for (const char* k : {"time_step", "height"}) {
+        auto it = axes.find(k);
+        if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + k, why.str());
       }
-    }
-    if (sp.protocol == Protocol::C && std::isinf(sp.params.bond_number)) {
-      auto it = axes.find("bond_number");
-      const std::string why = "protocol C with Bo = inf has no collapse; use protocol B";
-      if (it != axes.end()) fail(file, *it->second.second, "system.bond_number", why);
-      throw ScanError(file + ": " + why);
+      throw ScanError(file + ": key 'system.time_step': " + why.str());
     }
   }
-  for (const auto& sp : points)
-    if (!(scan.observables.lower_half_from < 0.5 * sp.params.height)) {
-      std::ostringstream o;
-      o << file << ": key 'observables.lower_half_from': " << scan.observables.lower_half_from
-        << " must lie below H/2 = " << 0.5 * sp.params.height
-        << " of every point (nu_lower_half is the band from it to H/2)";
-      throw ScanError(o.str());
-    }
+  if (sp.protocol == Protocol::C && std::isinf(sp.params.bond_number)) {
+    auto it = axes.find("bond_number");
+    const std::string why = "protocol C with Bo = inf has no collapse; use protocol B";
+    if (it != axes.end()) fail(file, *it->second.second, "system.bond_number", why);
+    throw ScanError(file + ": " + why);
+  }
+}
+
+void ScanParser::check_counts(const std::vector<ScanPoint>& points) {
   if (points.size() > static_cast<std::size_t>(kMaxPoints))
     fail(file, *explicit_points[kMaxPoints].node, "point",
          "more than " + std::to_string(kMaxPoints) + " [[point]] tables");
@@ -650,9 +697,11 @@ Scan parse_scan(const std::string& text, const std::string& file) {
     fail(file, *seeds_node, "scan.seeds",
          std::to_string(points.size()) + " scan points x " + std::to_string(scan.seeds) +
              " seeds make more than " + std::to_string(kMaxMembers) + " members");
-  for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
-  // The discrete pull-off barrier matches F_c d_c only for h well below
-  // sqrt(2 m_n d_c / F_c), m_n = m/2 (docs/MODEL.md; the pull-off test shows it).
+}
+
+// The discrete pull-off barrier matches F_c d_c only for h well below sqrt(2 m_n d_c / F_c),
+// m_n = m/2 (docs/MODEL.md; the pull-off test shows it).
+void ScanParser::warn_unresolved_barrier(const std::vector<ScanPoint>& points) {
   for (const auto& sp : points) {
     const auto& p = sp.params;
     const double fc = p.cohesive_force();
@@ -666,8 +715,12 @@ Scan parse_scan(const std::string& text, const std::string& file) {
       scan.warnings.push_back(o.str());
     }
   }
-  scan.points = std::move(points);
-  return scan;
+}
+
+}  // namespace
+
+Scan parse_scan(const std::string& text, const std::string& file) {
+  return ScanParser(text, file).parse();
 }
 
 }  // namespace loosepack
