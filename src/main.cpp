@@ -61,12 +61,69 @@ double seconds_since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-int run(const RunOptions& o, Ranks& ranks) {
-  const bool talk = ranks.root();  // only rank 0 talks to the user
-  auto say = [&](const std::string& s) {
+// `loosepack run`: one object per run, its steps top-down in run() below.
+class RunCommand {
+ public:
+  RunCommand(const RunOptions& o, Ranks& ranks) : o(o), ranks(ranks), talk(ranks.root()) {}
+  int run();
+
+ private:
+  int load();
+  int read_checkpoint();
+  void share_out();
+  void announce() const;
+  RunHooks hooks();
+  void save_checkpoint();
+  void show(bool force);
+  int compute();
+  void print_timing() const;
+  int wait_for_ranks();
+  int collect_and_write();
+  void say(const std::string& s) const {
     if (talk) std::cerr << "loosepack: " << s << "\n";
-  };
+  }
+
+  const RunOptions& o;
+  Ranks& ranks;
+  const bool talk;  // only rank 0 talks to the user
   Scan scan;
+  std::vector<Member> all_members, members;
+  // Members finished before (from the checkpoint), their ids; those to compute, those of them
+  // that had started (with their snapshots), and this rank's share.
+  std::vector<MemberResult> results;
+  std::set<std::uint64_t> resumed;
+  std::vector<Member> todo, mine;
+  std::vector<MemberSnapshot> started;
+  std::vector<double> shard_cost;  // expected cost of each rank's share
+  std::string ck_dir, part;
+  CheckpointContents ck;
+  // This rank's members finished since the last checkpoint, and the latest snapshot of each of
+  // its running members.
+  std::vector<MemberResult> fresh;
+  std::map<std::uint64_t, MemberSnapshot> running;
+  std::vector<MemberResult> computed;
+  RunInfo info;
+  Clock::time_point t0 = Clock::now(), last_shown = t0, last_sent = t0, last_checkpoint = t0,
+                    last_snapshots = t0;
+  std::vector<Progress> latest;  // every rank's, on rank 0
+  std::vector<char> final;       // which ranks have finished
+  Progress own;                  // this rank's latest
+  std::vector<std::pair<std::string, double>> stages;
+};
+
+int RunCommand::run() {
+  if (const int rc = load()) return rc;
+  if (const int rc = read_checkpoint()) return rc;
+  share_out();
+  announce();
+  if (const int rc = compute()) return rc;
+  print_timing();
+  if (const int rc = wait_for_ranks()) return rc;
+  return collect_and_write();
+}
+
+// The scan, and the members to run (all, or the one of --member).
+int RunCommand::load() {
   try {
     scan = load_scan(o.scan_path);
   } catch (const ScanError& e) {
@@ -80,8 +137,8 @@ int run(const RunOptions& o, Ranks& ranks) {
     say("cannot write into " + directory_of(o.out_path) + " (for " + o.out_path + ")");
     return 2;
   }
-  const std::vector<Member> all_members = members_of(scan);
-  std::vector<Member> members = all_members;
+  all_members = members_of(scan);
+  members = all_members;
   if (o.member >= 0) {
     if (o.member >= static_cast<long>(all_members.size())) {
       say("--member " + std::to_string(o.member) + ": the scan has members 0 to " +
@@ -90,10 +147,13 @@ int run(const RunOptions& o, Ranks& ranks) {
     }
     members = {all_members[static_cast<std::size_t>(o.member)]};
   }
+  return 0;
+}
 
-  // Checkpoint: finished members of an interrupted run, read by every rank before any rank
-  // writes a part of its own.
-  const std::string ck_dir = checkpoint_directory(o.out_path);
+// The finished members of an interrupted run and the snapshots of its running ones, read by
+// every rank before any rank writes a part of its own; what is left to compute.
+int RunCommand::read_checkpoint() {
+  ck_dir = checkpoint_directory(o.out_path);
   const bool ck_exists = std::filesystem::exists(ck_dir);
   if (ck_exists && !o.resume) {
     say("a checkpoint of an interrupted run exists: " + ck_dir +
@@ -104,101 +164,94 @@ int run(const RunOptions& o, Ranks& ranks) {
     say("--resume: no checkpoint " + ck_dir + " (written next to the output file given by -o)");
     return 2;
   }
-  CheckpointContents ck;
   try {
-    ck = read_checkpoint(ck_dir, scan);
+    ck = loosepack::read_checkpoint(ck_dir, scan);
   } catch (const CheckpointError& e) {
     say(e.what());
     return 2;
   }
   ranks.barrier();
-  std::set<std::uint64_t> selected, resumed;
+  std::set<std::uint64_t> selected;
   for (const auto& m : members) selected.insert(m.id);
-  std::vector<MemberResult> results;
   for (auto& r : ck.members)
     if (selected.count(r.member.id)) {
       resumed.insert(r.member.id);
       results.push_back(std::move(r));
     }
-  std::vector<Member> todo;
   for (const auto& m : members)
     if (!resumed.count(m.id)) todo.push_back(m);
   // Members that had started go on from their snapshots (every rank has them all).
-  std::vector<MemberSnapshot> started;
   for (auto& snap : ck.running)
     if (selected.count(snap.result.member.id)) started.push_back(std::move(snap));
+  part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
+  return 0;
+}
+
+// This rank's share of the members to compute, balanced by their expected cost.
+void RunCommand::share_out() {
   const auto shards = shard_members(todo, ranks.size());
-  std::vector<Member> mine;
   for (std::size_t k : shards[static_cast<std::size_t>(ranks.rank())]) mine.push_back(todo[k]);
-  std::vector<double> shard_cost(shards.size(), 0.0);
+  shard_cost.assign(shards.size(), 0.0);
   for (std::size_t r = 0; r < shards.size(); ++r)
     for (std::size_t k : shards[r]) shard_cost[r] += expected_cost(todo[k]);
+  latest.resize(static_cast<std::size_t>(ranks.size()));
+  final.assign(static_cast<std::size_t>(ranks.size()), 0);
+}
 
-  if (!o.quiet && talk) {
-    std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
-              << scan.seeds << " seeds = " << all_members.size() << " members";
-    if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
-    std::cerr << ", batches of " << scan.batch_size << " on "
-              << Kokkos::DefaultExecutionSpace::name();
-    if (ranks.size() > 1) std::cerr << ", " << ranks.size() << " MPI ranks";
-    std::cerr << "\n";
-    if (o.resume)
-      std::cerr << "loosepack: resuming from " << ck_dir << ": " << resumed.size() << " of "
-                << members.size() << " members finished, computing the other " << todo.size()
-                << " (" << started.size() << " of them from where they were)\n";
+void RunCommand::announce() const {
+  if (o.quiet || !talk) return;
+  std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
+            << scan.seeds << " seeds = " << all_members.size() << " members";
+  if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
+  std::cerr << ", batches of " << scan.batch_size << " on "
+            << Kokkos::DefaultExecutionSpace::name();
+  if (ranks.size() > 1) std::cerr << ", " << ranks.size() << " MPI ranks";
+  std::cerr << "\n";
+  if (o.resume)
+    std::cerr << "loosepack: resuming from " << ck_dir << ": " << resumed.size() << " of "
+              << members.size() << " members finished, computing the other " << todo.size() << " ("
+              << started.size() << " of them from where they were)\n";
+}
+
+// This rank's checkpoint part: its members finished so far, and where its running ones are.
+void RunCommand::save_checkpoint() {
+  if (fresh.empty() && running.empty()) return;
+  std::filesystem::create_directories(ck_dir);
+  std::vector<MemberSnapshot> snaps;
+  for (const auto& [id, snap] : running) snaps.push_back(snap);
+  write_checkpoint_part(part, scan_fingerprint(scan), fresh, snaps);
+}
+
+// Progress of all ranks, on rank 0, at most every 2 s unless forced.
+void RunCommand::show(bool force) {
+  if (o.quiet || !talk) return;
+  if (!force && seconds_since(last_shown) < 2.0) return;
+  last_shown = Clock::now();
+  Progress p;
+  double done_cost = 0.0, total_cost = 0.0;
+  for (std::size_t r = 0; r < latest.size(); ++r) {
+    p.members_done += latest[r].members_done;
+    p.disks_deposited += latest[r].disks_deposited;
+    done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
+    total_cost += shard_cost[r];
   }
+  p.fraction = total_cost > 0.0 ? done_cost / total_cost : 1.0;
+  const double el = seconds_since(t0);
+  const bool finished = p.members_done == static_cast<int>(todo.size());
+  std::fprintf(stderr, "  %d/%zu members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
+               p.members_done + static_cast<int>(resumed.size()), members.size(), p.disks_deposited,
+               el > 0 ? p.disks_deposited / el : 0.0, el);
+  if (p.fraction > 0.01 && !finished)
+    std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction,
+                 el * (1.0 - p.fraction) / p.fraction);
+  std::fprintf(stderr, "\n");
+}
 
-  // Checkpoint parts of this run: this rank's members finished so far, and the latest snapshot
-  // of each of its running members.
-  const std::string part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
-  const auto fingerprint = scan_fingerprint(scan);
-  std::vector<MemberResult> fresh;
-  std::map<std::uint64_t, MemberSnapshot> running;
-  auto checkpoint = [&]() {
-    if (fresh.empty() && running.empty()) return;
-    std::filesystem::create_directories(ck_dir);
-    std::vector<MemberSnapshot> snaps;
-    for (const auto& [id, snap] : running) snaps.push_back(snap);
-    write_checkpoint_part(part, fingerprint, fresh, snaps);
-  };
-
-  RunInfo info;
-  info.start_time = utc_now();
-  info.ranks = ranks.size();
-  const auto t0 = Clock::now();
-  auto last_shown = t0, last_sent = t0, last_checkpoint = t0;
-  std::vector<Progress> latest(static_cast<std::size_t>(ranks.size()));
-  std::vector<char> final(static_cast<std::size_t>(ranks.size()), 0);
-  double total_cost = 0.0;
-  for (double c : shard_cost) total_cost += c;
-  auto show = [&](bool force) {
-    if (o.quiet || !talk) return;
-    if (!force && seconds_since(last_shown) < 2.0) return;
-    last_shown = Clock::now();
-    Progress p;
-    double done_cost = 0.0;
-    for (std::size_t r = 0; r < latest.size(); ++r) {
-      p.members_done += latest[r].members_done;
-      p.disks_deposited += latest[r].disks_deposited;
-      done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
-    }
-    p.fraction = total_cost > 0.0 ? done_cost / total_cost : 1.0;
-    const double el = seconds_since(t0);
-    const bool finished = p.members_done == static_cast<int>(todo.size());
-    std::fprintf(stderr, "  %d/%zu members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
-                 p.members_done + static_cast<int>(resumed.size()), members.size(),
-                 p.disks_deposited, el > 0 ? p.disks_deposited / el : 0.0, el);
-    if (p.fraction > 0.01 && !finished)
-      std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction,
-                   el * (1.0 - p.fraction) / p.fraction);
-    std::fprintf(stderr, "\n");
-  };
-  RunHooks hooks;
-  hooks.stop = &g_signal;
-  std::vector<std::pair<std::string, double>> stages;
-  if (o.timing) hooks.stage_seconds = &stages;
-  Progress own;  // this rank's latest
-  hooks.progress = [&](const Progress& p) {
+RunHooks RunCommand::hooks() {
+  RunHooks h;
+  h.stop = &g_signal;
+  if (o.timing) h.stage_seconds = &stages;
+  h.progress = [this](const Progress& p) {
     own = p;
     if (talk) {
       latest[0] = p;
@@ -209,30 +262,36 @@ int run(const RunOptions& o, Ranks& ranks) {
       ranks.send_progress(p, false);
     }
   };
-  hooks.finished = [&](const MemberResult& r) {
+  h.finished = [this](const MemberResult& r) {
     fresh.push_back(r);
     running.erase(r.member.id);
     if (seconds_since(last_checkpoint) >= o.checkpoint_every) {
-      checkpoint();
+      save_checkpoint();
       last_checkpoint = Clock::now();
     }
   };
   // Running members are saved every --checkpoint-every seconds and at a stop (with 0, only at
   // a stop: a snapshot of a tall deposit is as large as a finished member).
-  auto last_snapshots = t0;
-  hooks.snapshot_wanted = [&]() {
+  h.snapshot_wanted = [this]() {
     return o.checkpoint_every > 0.0 && seconds_since(last_snapshots) >= o.checkpoint_every;
   };
-  hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
+  h.snapshots = [this](std::vector<MemberSnapshot> snaps) {
     for (auto& snap : snaps) running[snap.result.member.id] = std::move(snap);
-    checkpoint();
+    save_checkpoint();
     last_snapshots = last_checkpoint = Clock::now();
   };
-  std::vector<MemberResult> computed;
+  return h;
+}
+
+// This rank's members.
+int RunCommand::compute() {
+  t0 = last_shown = last_sent = last_checkpoint = last_snapshots = Clock::now();
+  info.start_time = utc_now();
+  info.ranks = ranks.size();
   try {
-    computed = run_members(scan, mine, hooks, started);
+    computed = run_members(scan, mine, hooks(), started);
     // With several ranks the gather below may wait long for the others: save this share now.
-    if (g_signal || ranks.size() > 1) checkpoint();
+    if (g_signal || ranks.size() > 1) save_checkpoint();
   } catch (const std::exception& e) {
     std::cerr << "loosepack: "
               << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "") << e.what()
@@ -241,14 +300,22 @@ int run(const RunOptions& o, Ranks& ranks) {
     return 1;
   }
   fresh.clear();
-  if (o.timing && talk) {
-    double total = 0.0;
-    for (const auto& st : stages) total += st.second;
-    std::fprintf(stderr, "loosepack: time per stage of the step (fenced, rank 0)\n");
-    for (const auto& [name, sec] : stages)
-      std::fprintf(stderr, "  %-10s %10.3f s  %5.1f %%\n", name.c_str(), sec,
-                   total > 0 ? 100.0 * sec / total : 0.0);
-  }
+  return 0;
+}
+
+void RunCommand::print_timing() const {
+  if (!o.timing || !talk) return;
+  double total = 0.0;
+  for (const auto& st : stages) total += st.second;
+  std::fprintf(stderr, "loosepack: time per stage of the step (fenced, rank 0)\n");
+  for (const auto& [name, sec] : stages)
+    std::fprintf(stderr, "  %-10s %10.3f s  %5.1f %%\n", name.c_str(), sec,
+                 total > 0 ? 100.0 * sec / total : 0.0);
+}
+
+// Rank 0 shows progress until every rank has finished; at a signal, what was saved and how to
+// go on (the exit code then 128 + the signal).
+int RunCommand::wait_for_ranks() {
   if (talk) {
     final[0] = 1;
     while (!g_signal && std::find(final.begin(), final.end(), 0) != final.end()) {
@@ -259,19 +326,19 @@ int run(const RunOptions& o, Ranks& ranks) {
   } else if (!g_signal) {
     ranks.send_progress(own, true);
   }
-  if (g_signal && ranks.size() == 1 && !std::filesystem::exists(ck_dir)) {
-    say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
-        " before anything could be saved; start the run again");
-    return 128 + static_cast<int>(g_signal);
-  }
-  if (g_signal) {
-    say(std::string("interrupted by ") + (g_signal == SIGINT ? "SIGINT" : "SIGTERM") +
+  if (!g_signal) return 0;
+  const std::string by = g_signal == SIGINT ? "SIGINT" : "SIGTERM";
+  if (ranks.size() == 1 && !std::filesystem::exists(ck_dir))
+    say("interrupted by " + by + " before anything could be saved; start the run again");
+  else
+    say("interrupted by " + by +
         ": finished members, and where the running ones were, are saved in " + ck_dir +
         "; continue with: loosepack run " + o.scan_path + " -o " + o.out_path + " --resume");
-    return 128 + static_cast<int>(g_signal);
-  }
+  return 128 + static_cast<int>(g_signal);
+}
 
-  // Rank 0 collects every rank's members and writes the file.
+// Rank 0 collects every rank's members, reports the failed ones and writes the file.
+int RunCommand::collect_and_write() {
   const auto shares = ranks.gather(encode_members(computed));
   if (!talk) return 0;
   try {
@@ -317,6 +384,8 @@ int run(const RunOptions& o, Ranks& ranks) {
               << " failed members)\n";
   return 0;
 }
+
+int run(const RunOptions& o, Ranks& ranks) { return RunCommand(o, ranks).run(); }
 
 }  // namespace
 
