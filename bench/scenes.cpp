@@ -1,5 +1,5 @@
 // The standard scenes S1 (sequential deposition, no cohesion) and S2 (collapse of a ballistic
-// deposit) of shared/design/BENCH-SCENES.md, run through loosepack's engine with periodic x;
+// deposit) of docs/SCENES.md, run through loosepack's engine with periodic x;
 // prints one JSON record per scene and N, to set beside other engines' records.
 //
 //   bench_scenes [--scene S1|S2|both] [--n N1,N2,...] [--dt H] [--solver KIND]

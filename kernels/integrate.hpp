@@ -57,7 +57,7 @@ struct Integrate {
 // contact of a system whose disks now overlap by delta is pushed apart along the line of centres
 // by beta delta (at most 0.2 R), split by the inverse masses, in one Gauss-Seidel pass over the
 // system's contacts. Positions only: velocities are left as they are, so no kinetic energy is
-// injected (shared/design/MODEL.md: resolve overlaps without adding kinetic energy), and an
+// injected (docs/MODEL.md, "Contact law": overlaps resolved without adding kinetic energy), and an
 // overlap that a capped solve leaves decays by (1 - beta) per step instead of being held.
 struct OverlapCorrection {
   SystemViews sys;

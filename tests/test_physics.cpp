@@ -1,4 +1,4 @@
-// The validation cases of MODEL.md with their exact answers.
+// The validation cases of docs/VALIDATION.md with their exact answers.
 #include <gtest/gtest.h>
 
 #include <cmath>

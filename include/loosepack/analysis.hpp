@@ -1,5 +1,5 @@
-// The theory of the paper evaluated on a scan's aggregates (MODEL.md, "Theory the software
-// evaluates on its own results"): least-squares fits with ensemble errors, the final density
+// The theory of the paper evaluated on a scan's aggregates (docs/MODEL.md, "Theory evaluated
+// on the results"): least-squares fits with ensemble errors, the final density
 // predicted from the deposition density, the |Delta y| histogram shapes, and fits across scan
 // points. Stored in the result file next to the data they fit (docs/OUTPUT.md).
 #pragma once
