@@ -220,6 +220,25 @@ struct NewtonSystem {
   enum class Step { Full, Blocked, Failed };
   template <class Fx>
   Step newton_step();
+
+ private:
+  // The linearised problem of one Newton step, row by row (classify_rows).
+  struct NewtonRows {
+    enum Kind : char { Velocity, Impulse };
+    std::vector<char> kind;
+    std::vector<double> rhs, follow;
+    std::vector<int> unknown;  // a velocity row's index among the unknowns; -1 for the others
+    int n_unknowns = 0;
+    Eigen::VectorXd expand(const Eigen::VectorXd& x) const;
+  };
+  template <class Fx>
+  NewtonRows classify_rows() const;
+  bool solve_rows(const NewtonRows& rows, Eigen::VectorXd& damped_x, Eigen::VectorXd& refined_x);
+  template <class Fx>
+  double take(const std::vector<ContactImpulse>& start, const Eigen::VectorXd& step, double length);
+  template <class Fx>
+  Step block(const NewtonRows& rows, const std::vector<ContactImpulse>& start,
+             const Eigen::VectorXd& refined);
 };
 
 template <class Fx>
@@ -227,17 +246,46 @@ NewtonSystem::Step NewtonSystem::newton_step() {
   const int m = contacts();
   if (m == 0) return Step::Failed;
   const double r0 = merit<Fx>();
-  const int n_rows = 3 * m;
-  if (pinned.size() != static_cast<std::size_t>(n_rows))
-    pinned.assign(static_cast<std::size_t>(n_rows), 0);
-  // Row kinds: a velocity row (the contact's relative velocity meets its target), or an impulse
-  // row, whose change is fixed: dP_r = rhs_r + follow_r dP_n, where follow_r = +-coef makes a
-  // component on its bound follow the contact's normal impulse (when that has a velocity row).
-  // The velocity rows' changes are the unknowns of the sparse solve; the impulse rows are
-  // eliminated into it.
-  enum Row : char { Velocity, Impulse };
-  std::vector<char> kind(static_cast<std::size_t>(n_rows), Velocity);
-  std::vector<double> rhs(static_cast<std::size_t>(n_rows), 0.0), follow(rhs);
+  if (pinned.size() != static_cast<std::size_t>(3 * m))
+    pinned.assign(static_cast<std::size_t>(3 * m), 0);
+  const NewtonRows rows = classify_rows<Fx>();
+  Eigen::VectorXd damped_x = Eigen::VectorXd::Zero(rows.n_unknowns), refined_x = damped_x;
+  if (rows.n_unknowns > 0 && !solve_rows(rows, damped_x, refined_x)) return Step::Failed;
+  const Eigen::VectorXd damped = rows.expand(damped_x), refined = rows.expand(refined_x);
+  // The refined step if it lowers the merit (the merit hardly sees the near-null modes, which
+  // only the refined step gets right), else the damped one (on the near-null modes of a loop
+  // whose active set is not yet right the refined step can leave the bounds far behind),
+  // halved while the merit does not fall; projected onto the bounds.
+  const std::vector<ContactImpulse> start = impulse;
+  if (take<Fx>(start, refined, 1.0) < r0) return Step::Full;
+  double r1 = take<Fx>(start, damped, 1.0);
+  double length = 1.0;
+  for (int attempt = 1; attempt < kLineSearchSteps && !(r1 < r0); ++attempt) {
+    length *= 0.5;
+    r1 = take<Fx>(start, damped, length);
+  }
+  if (r1 < r0) return Step::Full;
+  impulse = start;
+  update_velocities();
+  return block<Fx>(rows, start, refined);
+}
+
+// The rows of a Newton step (three per contact: n, t, Omega). A velocity row: the contact's
+// relative velocity meets its target; an impulse row, whose change is fixed: dP_r = rhs_r +
+// follow_r dP_n, where follow_r = +-coef makes a component on its bound follow the contact's
+// normal impulse (when that has a velocity row). The velocity rows' changes are the unknowns of
+// the sparse solve; the impulse rows are eliminated into it.
+template <class Fx>
+NewtonSystem::NewtonRows NewtonSystem::classify_rows() const {
+  const int m = contacts();
+  const auto n_rows = static_cast<std::size_t>(3 * m);
+  NewtonRows rows;
+  rows.kind.assign(n_rows, NewtonRows::Velocity);
+  rows.rhs.assign(n_rows, 0.0);
+  rows.follow.assign(n_rows, 0.0);
+  auto& kind = rows.kind;
+  auto& rhs = rows.rhs;
+  auto& follow = rows.follow;
   for (int c = 0; c < m; ++c) {
     const auto k = static_cast<std::size_t>(c);
     const auto r = static_cast<std::size_t>(3 * c);
@@ -246,7 +294,7 @@ NewtonSystem::Step NewtonSystem::newton_step() {
     const Bounds B = bounds<Fx>(c);
     const double lower = B.lower;
     if (q.wn <= 0.0) {  // two immobile bodies: nothing to solve
-      for (std::size_t a = 0; a < 3; ++a) kind[r + a] = Impulse;
+      for (std::size_t a = 0; a < 3; ++a) kind[r + a] = NewtonRows::Impulse;
       continue;
     }
     const RelativeVelocity u = relative_velocity(c);
@@ -258,7 +306,7 @@ NewtonSystem::Step NewtonSystem::newton_step() {
     if (closed) {
       rhs[r] = -(q.gap > 0.0 ? q.gap / q.h : 0.0) - u.un;
     } else {
-      kind[r] = Impulse;
+      kind[r] = NewtonRows::Impulse;
       rhs[r] = lower - P.pn;
     }
     // Tangential and rolling rows: inside the bounds a velocity row, on a bound an impulse row
@@ -277,24 +325,45 @@ NewtonSystem::Step NewtonSystem::newton_step() {
         rhs[row] = -velocity[a];
         continue;
       }
-      kind[row] = Impulse;
+      kind[row] = NewtonRows::Impulse;
       const double sign = !closed || bound <= 0.0 ? 0.0
                           : pinned[row] != 0      ? pinned[row]
                                                   : (value[a] > 0.0 ? 1.0 : -1.0);
       // P + dP = sign coef (P_n + dP_n - lower)
       rhs[row] = sign * coef[a] * (P.pn - lower) - now[a];
-      if (kind[r] == Velocity) follow[row] = sign * coef[a];
+      if (kind[r] == NewtonRows::Velocity) follow[row] = sign * coef[a];
     }
   }
-  std::vector<int> unknown(static_cast<std::size_t>(n_rows), -1);
-  int n_unknowns = 0;
-  for (std::size_t r = 0; r < unknown.size(); ++r)
-    if (kind[r] == Velocity) unknown[r] = n_unknowns++;
+  rows.unknown.assign(n_rows, -1);
+  for (std::size_t r = 0; r < n_rows; ++r)
+    if (kind[r] == NewtonRows::Velocity) rows.unknown[r] = rows.n_unknowns++;
+  return rows;
+}
+
+// The whole step from the unknowns' changes x.
+inline Eigen::VectorXd NewtonSystem::NewtonRows::expand(const Eigen::VectorXd& x) const {
+  const auto n_rows = static_cast<int>(kind.size());
+  Eigen::VectorXd step(n_rows);
+  for (int r = 0; r < n_rows; ++r) {
+    const auto k = static_cast<std::size_t>(r);
+    step(r) = unknown[k] >= 0
+                  ? x(unknown[k])
+                  : rhs[k] + (follow[k] != 0.0 ? follow[k] * x(unknown[k - k % 3]) : 0.0);
+  }
+  return step;
+}
+
+// The unknowns' changes of the velocity rows: W = H M^-1 H^T over the bodies the contacts
+// share, with the impulse rows' fixed changes moved to the right-hand side and their following
+// into the normal's column. Factorises the regularised matrix (damped: the near-null modes
+// damped), then refines against the exact one (refined). False when that fails.
+inline bool NewtonSystem::solve_rows(const NewtonRows& rows, Eigen::VectorXd& damped_x,
+                                     Eigen::VectorXd& refined_x) {
+  const int n_unknowns = rows.n_unknowns;
+  const auto& unknown = rows.unknown;
   Eigen::VectorXd b(n_unknowns);
   for (std::size_t r = 0; r < unknown.size(); ++r)
-    if (unknown[r] >= 0) b(unknown[r]) = rhs[r];
-  // Velocity rows: W = H M^-1 H^T over the bodies the contacts share, with the impulse rows'
-  // fixed changes moved to the right-hand side and their following into the normal's column.
+    if (unknown[r] >= 0) b(unknown[r]) = rows.rhs[r];
   std::vector<Eigen::Triplet<double>> entries;
   entries.reserve(static_cast<std::size_t>(n_unknowns) * 8);
   for (int p = 0; p < bodies(); ++p) {
@@ -319,78 +388,58 @@ NewtonSystem::Step NewtonSystem::newton_step() {
               entries.emplace_back(ra, unknown[rb], v);
               continue;
             }
-            b(ra) -= v * rhs[rb];
-            if (follow[rb] != 0.0) entries.emplace_back(ra, unknown[3 * cb], v * follow[rb]);
+            b(ra) -= v * rows.rhs[rb];
+            if (rows.follow[rb] != 0.0)
+              entries.emplace_back(ra, unknown[3 * cb], v * rows.follow[rb]);
           }
         }
       }
     }
   }
-  // The whole step from the unknowns' changes x.
-  const auto expand = [&](const Eigen::VectorXd& x) {
-    Eigen::VectorXd step(n_rows);
-    for (int r = 0; r < n_rows; ++r) {
-      const auto k = static_cast<std::size_t>(r);
-      step(r) = unknown[k] >= 0
-                    ? x(unknown[k])
-                    : rhs[k] + (follow[k] != 0.0 ? follow[k] * x(unknown[k - k % 3]) : 0.0);
-    }
-    return step;
-  };
-  Eigen::VectorXd damped_x = Eigen::VectorXd::Zero(n_unknowns), refined_x = damped_x;
-  if (n_unknowns > 0) {
-    Eigen::SparseMatrix<double> A(n_unknowns, n_unknowns);
-    A.setFromTriplets(entries.begin(), entries.end());
-    A.makeCompressed();
-    // Factorise the regularised matrix; iterative refinement against the exact one then
-    // removes the regularisation's error where W is well conditioned (a tall column needs it:
-    // its smallest eigenvalue is ~1/n^2 of the diagonal) and leaves the near-null modes damped.
-    Eigen::SparseMatrix<double> regularised = A;
-    for (int r = 0; r < n_unknowns; ++r) regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
-    regularised.makeCompressed();  // (KLU reads compressed columns)
-    KluFactor own;
-    KluFactor& lu = factor != nullptr ? *factor : own;
-    const bool factorised = lu.factorise(regularised);
-    factor_entries += lu.entries();
-    if (!factorised) return Step::Failed;
-    damped_x = lu.solve(b);
-    refined_x = damped_x;
-    for (int k = 0; k < kRefinements; ++k) {
-      refined_x += lu.solve(b - A * refined_x);
-    }
-    if (!damped_x.allFinite() || !refined_x.allFinite()) return Step::Failed;
+  Eigen::SparseMatrix<double> A(n_unknowns, n_unknowns);
+  A.setFromTriplets(entries.begin(), entries.end());
+  A.makeCompressed();
+  // Iterative refinement against the exact matrix removes the regularisation's error where W is
+  // well conditioned (a tall column needs it: its smallest eigenvalue is ~1/n^2 of the
+  // diagonal) and leaves the near-null modes damped.
+  Eigen::SparseMatrix<double> regularised = A;
+  for (int r = 0; r < n_unknowns; ++r) regularised.coeffRef(r, r) *= 1.0 + kRegularisation;
+  regularised.makeCompressed();  // (KLU reads compressed columns)
+  KluFactor own;
+  KluFactor& lu = factor != nullptr ? *factor : own;
+  const bool factorised = lu.factorise(regularised);
+  factor_entries += lu.entries();
+  if (!factorised) return false;
+  damped_x = lu.solve(b);
+  refined_x = damped_x;
+  for (int k = 0; k < kRefinements; ++k) refined_x += lu.solve(b - A * refined_x);
+  return damped_x.allFinite() && refined_x.allFinite();
+}
+
+// The impulses start + length step, projected onto the bounds, with their velocities; returns
+// the merit there.
+template <class Fx>
+double NewtonSystem::take(const std::vector<ContactImpulse>& start, const Eigen::VectorXd& step,
+                          double length) {
+  for (int c = 0; c < contacts(); ++c) {
+    const auto k = static_cast<std::size_t>(c);
+    const Bounds B = bounds<Fx>(c);
+    const double pn = std::max(B.lower, start[k].pn + length * step(3 * c));
+    const double bound_t = B.coef[0] * (pn - B.lower), bound_r = B.coef[1] * (pn - B.lower);
+    impulse[k] = {pn, std::clamp(start[k].pt + length * step(3 * c + 1), -bound_t, bound_t),
+                  std::clamp(start[k].pm + length * step(3 * c + 2), -bound_r, bound_r)};
   }
-  const Eigen::VectorXd damped = expand(damped_x), refined = expand(refined_x);
-  // The refined step if it lowers the merit (the merit hardly sees the near-null modes, which
-  // only the refined step gets right), else the damped one (on the near-null modes of a loop
-  // whose active set is not yet right the refined step can leave the bounds far behind),
-  // halved while the merit does not fall; projected onto the bounds.
-  const std::vector<ContactImpulse> start = impulse;
-  const auto take = [&](const Eigen::VectorXd& step, double length) {
-    for (int c = 0; c < m; ++c) {
-      const auto k = static_cast<std::size_t>(c);
-      const Bounds B = bounds<Fx>(c);
-      const double pn = std::max(B.lower, start[k].pn + length * step(3 * c));
-      const double bound_t = B.coef[0] * (pn - B.lower), bound_r = B.coef[1] * (pn - B.lower);
-      impulse[k] = {pn, std::clamp(start[k].pt + length * step(3 * c + 1), -bound_t, bound_t),
-                    std::clamp(start[k].pm + length * step(3 * c + 2), -bound_r, bound_r)};
-    }
-    update_velocities();
-    return merit<Fx>();
-  };
-  if (take(refined, 1.0) < r0) return Step::Full;
-  double r1 = take(damped, 1.0);
-  double length = 1.0;
-  for (int attempt = 1; attempt < kLineSearchSteps && !(r1 < r0); ++attempt) {
-    length *= 0.5;
-    r1 = take(damped, length);
-  }
-  if (r1 < r0) return Step::Full;
-  impulse = start;
   update_velocities();
-  // Nothing lowered the merit. Along the refined step, which component that is inside its
-  // bounds (a velocity row) reaches one first, and on which side: hold it there from the next
-  // step on (a loop that cannot close opens there; the impulses are not moved now).
+  return merit<Fx>();
+}
+
+// Nothing lowered the merit. Along the refined step, which component that is inside its bounds
+// (a velocity row) reaches one first, and on which side: hold it there from the next step on (a
+// loop that cannot close opens there; the impulses are not moved now).
+template <class Fx>
+NewtonSystem::Step NewtonSystem::block(const NewtonRows& rows,
+                                       const std::vector<ContactImpulse>& start,
+                                       const Eigen::VectorXd& refined) {
   double blocking = std::numeric_limits<double>::infinity();
   int block_row = -1;
   signed char block_side = 0;
@@ -401,17 +450,18 @@ NewtonSystem::Step NewtonSystem::newton_step() {
       block_side = side;
     }
   };
-  for (int c = 0; c < m; ++c) {
+  for (int c = 0; c < contacts(); ++c) {
     const auto k = static_cast<std::size_t>(c);
     const Bounds B = bounds<Fx>(c);
     const ContactImpulse& P = start[k];
     const double dn = refined(3 * c), shifted = P.pn - B.lower;
-    if (kind[3 * k] == Velocity) limit(-dn, shifted, 3 * c, -1);
+    if (rows.kind[3 * k] == NewtonRows::Velocity) limit(-dn, shifted, 3 * c, -1);
     const double now[2] = {P.pt, P.pm};
     for (int a = 0; a < 2; ++a) {  // |P + L dP| <= coef (P_n + L dP_n - lower), both sides
       const int row = 3 * c + 1 + a;
       const double d = refined(row), coef = B.coef[a];
-      if (kind[static_cast<std::size_t>(row)] != Velocity || !(coef > 0.0)) continue;
+      if (rows.kind[static_cast<std::size_t>(row)] != NewtonRows::Velocity || !(coef > 0.0))
+        continue;
       limit(d - coef * dn, coef * shifted - now[a], row, 1);
       limit(-d - coef * dn, coef * shifted + now[a], row, -1);
     }

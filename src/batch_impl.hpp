@@ -1,0 +1,140 @@
+// The inside of a Batch (include/loosepack/batch.hpp), shared by its stepper (src/batch.cpp)
+// and its device state (src/batch_state.cpp).
+#pragma once
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "kernels/colouring.hpp"
+#include "kernels/contacts.hpp"
+#include "kernels/deposit.hpp"
+#include "kernels/events.hpp"
+#include "kernels/integrate.hpp"
+#include "kernels/solver.hpp"
+#include "loosepack/batch.hpp"
+#include "loosepack/geometry.hpp"
+#include "src/newton.hpp"
+
+namespace loosepack {
+
+namespace batch_detail {
+// Particle slots per chunk of the contact stage on the host: ~1.3 kB of contact and particle
+// state each, so a chunk is ~1 MB, half this machine's L2 (docs/PERFORMANCE.md, batch scaling).
+constexpr int kChunkSlots = 768;
+
+template <class T>
+DView<T> alloc(const char* name, std::size_t n) {
+  return DView<T>(Kokkos::view_alloc(std::string(name)), n);
+}
+
+template <class T, class F>
+void fill_from(const DView<T>& v, std::size_t n, F f) {
+  auto h = Kokkos::create_mirror_view(v);
+  for (std::size_t k = 0; k < n; ++k) h(k) = f(k);
+  Kokkos::deep_copy(v, h);
+}
+}  // namespace batch_detail
+using batch_detail::alloc;
+using batch_detail::fill_from;
+using batch_detail::kChunkSlots;
+
+struct Batch::Impl {
+  std::vector<SystemParams> params;
+  SolverSettings solver;
+  RestSettings rest;
+  int n_systems = 0, n_particles = 0, n_cells = 0;
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  GridViews grid;
+  DView<int> colour_list, colour_start, colour_fill;
+  DView<int> system_colour_start;  // [S * (colours + 1)] ColouredAcceleratedGaussSeidel's
+  DView<int> sweeps_this_step;     // [S]
+  DView<int> sweep_limit;          // [S] accelerated solver with Newton steps: this launch's limit
+  std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
+  std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
+  std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
+  std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
+  // Host mirrors of the per-system status read after every step (allocated once).
+  struct HostStatus {
+    DView<int>::HostMirror failure, unconverged, sweeps, count;
+    DView<double>::HostMirror max_speed, max_centre_speed, step_tolerance;
+  } host;
+  DView<int> request;       // [S] per-system requests of deposit and close_events
+  DView<double> request_x;  // [S] given abscissae of deposit_at
+  DView<double> reply;      // [4 S] their results
+  std::vector<SystemStatus> status;
+  std::vector<int> offsets, slot_capacity, slot_cells;
+  std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks
+  void chunk_active();
+  // Batch steps taken, and the last one each system took part in. The contact arrays are
+  // swapped every step; a system that sat out an odd number of steps has its own last contacts
+  // in the other buffer, and resumes from them (restore_warm_start), so a system keeps its
+  // warm start while it waits and its results never depend on what the rest of the batch did.
+  long batch_steps = 0;
+  std::vector<long> last_stepped;
+  // Wall time of each stage of the step (StepStage) and of the Newton rounds inside the solve,
+  // summed while timing is on (fenced); Batch::stage_seconds lists them by name.
+  bool timing = false;
+  std::array<double, kStepStages> stage_time{};
+  double newton_time = 0.0;
+  std::vector<std::pair<std::string, double>> stage_seconds;
+  Kokkos::Timer stage_timer;
+  void lap(double& into) {
+    if (!timing) return;
+    ExecSpace().fence();
+    into += stage_timer.seconds();
+    stage_timer.reset();
+  }
+  double& timer(StepStage stage) { return stage_time[static_cast<std::size_t>(stage)]; }
+  void restore_warm_start(int s);
+  // The effects the active systems call for: the solve runs the kernel specialised on them.
+  using EffectFlags = Batch::KernelEffects;
+  EffectFlags needed_effects() const;
+
+  void allocate(const std::vector<SystemSetup>& setups);
+  std::vector<int> lay_out(const std::vector<SystemSetup>& setups);
+  void allocate_systems(const std::vector<int>& cell_offset);
+  void allocate_particles();
+  void allocate_contacts();
+  void load(int s, const SystemSetup& setup);
+  void upload_status_active();
+  template <class Fx>
+  void solve();
+  template <class Fx>
+  void solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain);
+  template <class Fx>
+  void newton_round(const std::vector<int>& due);
+  // The bounds of a system's wait for its next Newton round (NewtonPace), in sweeps:
+  // newton_every iterations (two sweeps each), and one wait short of the sweep cap, so that a
+  // step about to be capped still gets a round.
+  int shortest_newton_wait() const { return 2 * solver.newton_every; }
+  int longest_newton_wait(int s) const {
+    return std::max(shortest_newton_wait(),
+                    sweep_cap[static_cast<std::size_t>(s)] - shortest_newton_wait());
+  }
+  int colour(bool batch_list);
+  void step();
+  void run_stage(StepStage stage);
+  void margin_stage();
+  void contact_stage();
+  void solve_stage();
+  void integrate_stage();
+  void status_stage();
+};
+
+// The cells and margins of one system's neighbour grid.
+struct GridShape {
+  double cell;
+  double max_margin;
+  int nx, ny;
+};
+GridShape grid_shape(const SystemSetup& su);
+
+}  // namespace loosepack

@@ -1,0 +1,607 @@
+// The device state of a batch: allocating its views, loading a system into a slot, reading a
+// system's disks and contacts, and its whole state for a checkpoint and back.
+#include "batch_impl.hpp"
+
+namespace loosepack {
+
+GridShape grid_shape(const SystemSetup& su) {
+  const auto& pr = su.params;
+  double rmax = largest_radius(pr);
+  for (const auto& d : su.disks) rmax = std::max(rmax, d.radius);
+  GridShape g;
+  // No disk moves faster than a fall through the whole box.
+  g.max_margin = grid_margin(pr, pr.height + 2.0 * rmax);
+  g.cell = 2.0 * rmax + pr.cohesion_range + g.max_margin;
+  g.nx = std::max(1, static_cast<int>(std::floor(pr.width / g.cell)));
+  g.ny = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / g.cell)));
+  return g;
+}
+
+int grid_cells_needed(const SystemSetup& setup) {
+  const GridShape g = grid_shape(setup);
+  return g.nx * g.ny;
+}
+
+// The views of a batch for these systems, each slot sized for its setup, then every system
+// loaded.
+void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
+  const std::vector<int> cell_offset = lay_out(setups);
+  allocate_systems(cell_offset);
+  allocate_particles();
+  allocate_contacts();
+  grid.cell_start = alloc<int>("cell_start", static_cast<std::size_t>(n_cells) + 1);
+  grid.cell_fill = alloc<int>("cell_fill", static_cast<std::size_t>(n_cells));
+  grid.cell_particles = alloc<int>("cell_particles", static_cast<std::size_t>(n_particles));
+  const auto S = static_cast<std::size_t>(n_systems);
+  params.resize(S);
+  status.assign(S, SystemStatus{});
+  last_stepped.assign(S, 0);
+  for (std::size_t s = 0; s < S; ++s) load(static_cast<int>(s), setups[s]);
+}
+
+// Each system's slots of disks and grid cells in the batch's arrays; returns where each
+// system's cells begin.
+std::vector<int> Batch::Impl::lay_out(const std::vector<SystemSetup>& setups) {
+  n_systems = static_cast<int>(setups.size());
+  if (n_systems == 0) throw std::invalid_argument("Batch: no systems");
+  const auto S = static_cast<std::size_t>(n_systems);
+  offsets.resize(S);
+  slot_capacity.resize(S);
+  slot_cells.resize(S);
+  std::vector<int> cell_offset(S);
+  // Disk, contact and cell indices of the whole batch are ints: refuse a batch beyond them.
+  const long long kMaxIndex = std::numeric_limits<int>::max() / kIncident;
+  long long particles = 0, cells = 0;
+  for (const auto& su : setups) {
+    particles += std::max<long long>({su.capacity, static_cast<long long>(su.disks.size()), 1});
+    cells += std::max(su.grid_cells, grid_cells_needed(su));
+  }
+  if (particles > kMaxIndex || cells > kMaxIndex)
+    throw std::invalid_argument(
+        "Batch: " + std::to_string(S) + " systems need " + std::to_string(particles) +
+        " disk slots and " + std::to_string(cells) + " grid cells, more than one batch " +
+        "indexes (" + std::to_string(kMaxIndex) + "): use a smaller batch size");
+  for (std::size_t s = 0; s < S; ++s) {
+    const auto& su = setups[s];
+    slot_capacity[s] = std::max({su.capacity, static_cast<int>(su.disks.size()), 1});
+    slot_cells[s] = std::max(su.grid_cells, grid_cells_needed(su));
+    offsets[s] = n_particles;
+    n_particles += slot_capacity[s];
+    cell_offset[s] = n_cells;
+    n_cells += slot_cells[s];
+  }
+  return cell_offset;
+}
+
+// The per-system views, and the host's counters and mirrors of them.
+void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
+  const auto S = static_cast<std::size_t>(n_systems);
+  sys.offset = alloc<int>("offset", S);
+  sys.capacity = alloc<int>("capacity", S);
+  sys.count = alloc<int>("count", S);
+  sys.width = alloc<double>("width", S);
+  sys.height = alloc<double>("height", S);
+  sys.radius = alloc<double>("radius", S);
+  sys.polydispersity = alloc<double>("polydispersity", S);
+  sys.disk_density = alloc<double>("disk_density", S);
+  sys.capture_radius = alloc<double>("capture_radius", S);
+  sys.gravity_x = alloc<double>("gravity_x", S);
+  sys.gravity_y = alloc<double>("gravity_y", S);
+  sys.cohesive_force = alloc<double>("cohesive_force", S);
+  sys.cohesion_range = alloc<double>("cohesion_range", S);
+  sys.friction = alloc<double>("friction", S);
+  sys.rolling_friction = alloc<double>("rolling_friction", S);
+  sys.time_step = alloc<double>("time_step", S);
+  sys.weight = alloc<double>("weight", S);
+  sys.tolerance = alloc<double>("tolerance", S);
+  sys.step_tolerance = alloc<double>("step_tolerance", S);
+  sys.max_sweeps = alloc<int>("max_sweeps", S);
+  sys.floor_cohesion = alloc<int>("floor_cohesion", S);
+  sys.seed = alloc<std::uint64_t>("seed", S);
+  sys.member = alloc<std::uint64_t>("member", S);
+  sys.draws = alloc<std::uint64_t>("draws", S);
+  sys.cell_size = alloc<double>("cell_size", S);
+  sys.grid_nx = alloc<int>("grid_nx", S);
+  sys.grid_ny = alloc<int>("grid_ny", S);
+  sys.cell_offset = alloc<int>("cell_offset", S);
+  sys.active = alloc<int>("active", S);
+  sys.unconverged = alloc<int>("unconverged", S);
+  sys.failure = alloc<int>("failure", S);
+  sys.sweep_change = alloc<double>("sweep_change", S);
+  sys.max_speed = alloc<double>("max_speed", S);
+  sys.max_centre_speed = alloc<double>("max_centre_speed", S);
+  sys.margin = alloc<double>("margin", S);
+  sys.max_margin = alloc<double>("max_margin", S);
+  sys.gradient2 = alloc<double>("gradient2", S);
+  sweeps_this_step = alloc<int>("sweeps_this_step", S);
+  sweep_limit = alloc<int>("sweep_limit", S);
+  newton_steps.assign(static_cast<std::size_t>(S), 0);
+  newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{shortest_newton_wait()});
+  sweep_cap.assign(static_cast<std::size_t>(S), solver.max_sweeps);
+  newton_factor.resize(static_cast<std::size_t>(S));
+  for (auto& f : newton_factor) f = std::make_unique<KluFactor>();
+  host.failure = Kokkos::create_mirror_view(sys.failure);
+  host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
+  host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
+  host.count = Kokkos::create_mirror_view(sys.count);
+  host.max_speed = Kokkos::create_mirror_view(sys.max_speed);
+  host.max_centre_speed = Kokkos::create_mirror_view(sys.max_centre_speed);
+  host.step_tolerance = Kokkos::create_mirror_view(sys.step_tolerance);
+  request = alloc<int>("request", S);
+  request_x = alloc<double>("request_x", S);
+  reply = alloc<double>("reply", 4 * S);
+  fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
+  fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
+  fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
+}
+
+// The per-disk views, each disk slot marked with its system.
+void Batch::Impl::allocate_particles() {
+  const auto S = static_cast<std::size_t>(n_systems);
+  const auto P = static_cast<std::size_t>(n_particles);
+  part.system = alloc<int>("system", P);
+  part.x = alloc<double>("x", P);
+  part.y = alloc<double>("y", P);
+  part.theta = alloc<double>("theta", P);
+  part.vx = alloc<double>("vx", P);
+  part.vy = alloc<double>("vy", P);
+  part.w = alloc<double>("w", P);
+  part.vfx = alloc<double>("vfx", P);
+  part.vfy = alloc<double>("vfy", P);
+  part.wf = alloc<double>("wf", P);
+  part.radius = alloc<double>("radius", P);
+  part.inv_mass = alloc<double>("inv_mass", P);
+  part.inv_inertia = alloc<double>("inv_inertia", P);
+  part.y_deposit = alloc<double>("y_deposit", P);
+  part.y_mark = alloc<double>("y_mark", P);
+  part.cell = alloc<int>("cell", P);
+  part.n_incident = alloc<int>("n_incident", P);
+  part.incident = alloc<int>("incident", P * kIncident);
+  {
+    auto h = Kokkos::create_mirror_view(part.system);
+    for (std::size_t s = 0; s < S; ++s)
+      for (int k = 0; k < slot_capacity[s]; ++k) h(offsets[s] + k) = static_cast<int>(s);
+    Kokkos::deep_copy(part.system, h);
+  }
+  // No slot belongs to a cell until the first grid build.
+  Kokkos::deep_copy(part.cell, -1);
+}
+
+// The per-contact views: kSlots contact slots per disk slot, in two buffers for the warm start
+// (restore_warm_start), and what the solver kind needs.
+void Batch::Impl::allocate_contacts() {
+  const auto NC = static_cast<std::size_t>(n_particles) * kSlots;
+  con.partner = alloc<int>("partner", NC);
+  con.prev_partner = alloc<int>("prev_partner", NC);
+  Kokkos::deep_copy(con.partner, kNoContact);
+  Kokkos::deep_copy(con.prev_partner, kNoContact);
+  con.nx = alloc<double>("cnx", NC);
+  con.ny = alloc<double>("cny", NC);
+  con.gap = alloc<double>("gap", NC);
+  con.rc = alloc<double>("rc", NC);
+  con.wn = alloc<double>("wn", NC);
+  con.wa = alloc<double>("wa", NC);
+  con.wb = alloc<double>("wb", NC);
+  con.wc = alloc<double>("wc", NC);
+  con.lower = alloc<double>("lower", NC);
+  con.pn = alloc<double>("pn", NC);
+  con.pt = alloc<double>("pt", NC);
+  con.pm = alloc<double>("pm", NC);
+  con.prev_pn = alloc<double>("prev_pn", NC);
+  con.prev_pt = alloc<double>("prev_pt", NC);
+  con.prev_pm = alloc<double>("prev_pm", NC);
+  con.colour = alloc<int>("colour", NC);
+  if (solver.kind == SolverKind::AcceleratedGaussSeidel ||
+      solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {
+    con.start_pn = alloc<double>("start_pn", NC);
+    con.start_pt = alloc<double>("start_pt", NC);
+    con.start_pm = alloc<double>("start_pm", NC);
+    con.dir_pn = alloc<double>("dir_pn", NC);
+    con.dir_pt = alloc<double>("dir_pt", NC);
+    con.dir_pm = alloc<double>("dir_pm", NC);
+  }
+  colour_list = alloc<int>("colour_list", NC);
+  colour_start = alloc<int>("colour_start", 2);
+  colour_fill = alloc<int>("colour_fill", 1);
+}
+
+// Puts one system into slot s: parameters, grid shape, disks; contacts and status cleared.
+void Batch::Impl::load(int s, const SystemSetup& su) {
+  const auto k = static_cast<std::size_t>(s);
+  const SystemParams& pr = su.params;
+  const int count = static_cast<int>(su.disks.size());
+  if (std::max(su.capacity, count) > slot_capacity[k])
+    throw std::invalid_argument(
+        "Batch: system needs " + std::to_string(std::max(su.capacity, count)) +
+        " disk slots, the batch slot has " + std::to_string(slot_capacity[k]));
+  const GridShape g = grid_shape(su);
+  if (g.nx * g.ny > slot_cells[k])
+    throw std::invalid_argument("Batch: system needs " + std::to_string(g.nx * g.ny) +
+                                " grid cells, the batch slot has " + std::to_string(slot_cells[k]));
+  params[k] = pr;
+  auto set = [s](const auto& view, auto value) {
+    Kokkos::deep_copy(Kokkos::subview(view, s), value);
+  };
+  set(sys.count, count);
+  set(sys.width, pr.width);
+  set(sys.height, pr.height);
+  set(sys.radius, pr.radius);
+  set(sys.polydispersity, pr.polydispersity);
+  set(sys.disk_density, pr.disk_density);
+  set(sys.capture_radius, pr.capture_radius);
+  set(sys.gravity_x, pr.gravity_on ? pr.gravity * pr.gravity_dir_x : 0.0);
+  set(sys.gravity_y, pr.gravity_on ? pr.gravity * pr.gravity_dir_y : 0.0);
+  set(sys.cohesive_force, pr.cohesive_force());
+  set(sys.cohesion_range, pr.cohesion_range);
+  set(sys.friction, pr.friction);
+  set(sys.rolling_friction, pr.rolling_friction);
+  set(sys.time_step, pr.time_step);
+  const double weight = pr.reference_mass() * pr.gravity;
+  set(sys.weight, weight > 0.0 ? weight : 1.0);
+  set(sys.tolerance, su.tolerance > 0.0 ? su.tolerance : solver.tolerance);
+  sweep_cap[k] = su.max_sweeps > 0 ? su.max_sweeps : solver.max_sweeps;
+  set(sys.max_sweeps, sweep_cap[k]);
+  set(sys.floor_cohesion, pr.floor_cohesion ? 1 : 0);
+  set(sys.seed, su.seed);
+  set(sys.member, su.member);
+  set(sys.draws, std::uint64_t(0));
+  set(sys.cell_size, g.cell);
+  set(sys.max_margin, g.max_margin);
+  set(sys.grid_nx, g.nx);
+  set(sys.grid_ny, g.ny);
+  set(sys.active, 1);
+  set(sys.unconverged, 0);
+  set(sys.failure, int(kOk));
+
+  const int first = offsets[k], cap = slot_capacity[k];
+  const auto range = std::make_pair(first, first + cap);
+  auto upload = [&](const DView<double>& v, auto f) {
+    auto sub = Kokkos::subview(v, range);
+    auto h = Kokkos::create_mirror_view(sub);
+    for (int a = 0; a < cap; ++a) h(a) = a < count ? f(su.disks[static_cast<std::size_t>(a)]) : 0.0;
+    Kokkos::deep_copy(sub, h);
+  };
+  const double width = pr.width;
+  auto mass = [&](const Disk& d) { return pr.disk_density * M_PI * d.radius * d.radius; };
+  double speed = 0.0;
+  for (const auto& d : su.disks) {
+    if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
+    speed = std::max(speed, loosepack::speed(d));
+  }
+  upload(part.x, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
+  upload(part.y, [](const Disk& d) { return d.y; });
+  upload(part.theta, [](const Disk& d) { return d.theta; });
+  upload(part.vx, [](const Disk& d) { return d.vx; });
+  upload(part.vy, [](const Disk& d) { return d.vy; });
+  upload(part.w, [](const Disk& d) { return d.w; });
+  upload(part.radius, [](const Disk& d) { return d.radius; });
+  upload(part.inv_mass, [&](const Disk& d) { return d.fixed ? 0.0 : 1.0 / mass(d); });
+  upload(part.inv_inertia, [&](const Disk& d) {
+    return (d.fixed || d.lock_rotation) ? 0.0 : 2.0 / (mass(d) * d.radius * d.radius);
+  });
+  upload(part.y_deposit, [](const Disk& d) { return d.y_deposit; });
+  upload(part.y_mark, [](const Disk& d) { return d.y; });
+  set(sys.max_speed, speed);
+  const auto slots = std::make_pair(first * kSlots, (first + cap) * kSlots);
+  Kokkos::deep_copy(Kokkos::subview(con.partner, slots), kNoContact);
+  Kokkos::deep_copy(Kokkos::subview(con.prev_partner, slots), kNoContact);
+  Kokkos::deep_copy(Kokkos::subview(part.cell, range), -1);
+
+  status[k] = SystemStatus{};
+  status[k].active = true;
+  status[k].count = count;
+  newton_steps[k] = 0;
+  newton_pace[k] = NewtonPace{shortest_newton_wait()};
+  newton_factor[k] = std::make_unique<KluFactor>();
+  last_stepped[k] = batch_steps;
+}
+
+void Batch::Impl::restore_warm_start(int s) {
+  const auto k = static_cast<std::size_t>(s);
+  if ((batch_steps - last_stepped[k]) % 2 == 0) return;
+  const int first = offsets[k];
+  const auto slots = std::make_pair(first * kSlots, (first + slot_capacity[k]) * kSlots);
+  auto copy = [&](const auto& to, const auto& from) {
+    Kokkos::deep_copy(Kokkos::subview(to, slots), Kokkos::subview(from, slots));
+  };
+  copy(con.partner, con.prev_partner);
+  copy(con.pn, con.prev_pn);
+  copy(con.pt, con.prev_pt);
+  copy(con.pm, con.prev_pm);
+}
+
+void Batch::Impl::upload_status_active() {
+  fill_from(sys.active, static_cast<std::size_t>(n_systems),
+            [&](std::size_t s) { return status[s].active ? 1 : 0; });
+}
+
+void Batch::reset(int s, const SystemSetup& setup) {
+  if (s < 0 || s >= size()) throw std::out_of_range("Batch::reset: no system " + std::to_string(s));
+  impl_->load(s, setup);
+}
+
+void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Disk>& disks) {
+  auto& I = *impl_;
+  const auto& st = I.status.at(static_cast<std::size_t>(s));
+  if (index.size() != disks.size()) throw std::invalid_argument("Batch::set_disks: sizes differ");
+  const int first = I.offsets[static_cast<std::size_t>(s)];
+  const auto range = std::make_pair(first, first + st.count);
+  const double width = I.params[static_cast<std::size_t>(s)].width;
+  auto put = [&](const DView<double>& v, auto f) {
+    auto sub = Kokkos::subview(v, range);
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sub);
+    for (std::size_t k = 0; k < index.size(); ++k) {
+      if (index[k] < 0 || index[k] >= st.count)
+        throw std::out_of_range("Batch::set_disks: no disk " + std::to_string(index[k]));
+      h(index[k]) = f(disks[k]);
+    }
+    Kokkos::deep_copy(sub, h);
+  };
+  put(I.part.x, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
+  put(I.part.y, [](const Disk& d) { return d.y; });
+  put(I.part.theta, [](const Disk& d) { return d.theta; });
+  put(I.part.vx, [](const Disk& d) { return d.vx; });
+  put(I.part.vy, [](const Disk& d) { return d.vy; });
+  put(I.part.w, [](const Disk& d) { return d.w; });
+}
+
+void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
+  auto& I = *impl_;
+  const auto k = static_cast<std::size_t>(s);
+  const auto& st = I.status.at(k);
+  const int first = I.offsets[k];
+  const auto range = std::make_pair(first * kSlots, (first + I.slot_capacity[k]) * kSlots);
+  auto partner = Kokkos::create_mirror_view(Kokkos::subview(I.con.partner, range));
+  auto pn = Kokkos::create_mirror_view(Kokkos::subview(I.con.pn, range));
+  auto pt = Kokkos::create_mirror_view(Kokkos::subview(I.con.pt, range));
+  auto pm = Kokkos::create_mirror_view(Kokkos::subview(I.con.pm, range));
+  Kokkos::deep_copy(partner, kNoContact);
+  std::vector<int> used(static_cast<std::size_t>(I.slot_capacity[k]), 0);
+  const double h = I.params[k].time_step;
+  for (const auto& c : contacts) {
+    if (c.i < 0 || c.i >= st.count || c.j >= st.count || (c.j >= 0 && c.j <= c.i))
+      throw std::out_of_range("Batch::set_contacts: no contact " + std::to_string(c.i) + "-" +
+                              std::to_string(c.j));
+    int& n = used[static_cast<std::size_t>(c.i)];
+    if (n >= kSlots) continue;  // more than a disk can own: no warm start for the rest
+    const int slot = c.i * kSlots + n++;
+    partner(slot) = c.j < 0 ? kFloor : first + c.j;
+    pn(slot) = h * c.normal;
+    pt(slot) = h * c.tangential;
+    pm(slot) = h * c.moment;
+  }
+  Kokkos::deep_copy(Kokkos::subview(I.con.partner, range), partner);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
+  I.last_stepped[k] = I.batch_steps;  // these buffers now hold the system's warm start
+}
+
+std::vector<Disk> Batch::disks(int s) const {
+  auto& I = *impl_;
+  const auto& st = I.status.at(static_cast<std::size_t>(s));
+  const int first = I.offsets[static_cast<std::size_t>(s)];
+  const auto range = std::make_pair(first, first + st.count);
+  auto get = [&](const DView<double>& v) {
+    auto sub = Kokkos::subview(v, range);
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sub);
+    return h;
+  };
+  auto x = get(I.part.x), y = get(I.part.y), th = get(I.part.theta);
+  auto vx = get(I.part.vx), vy = get(I.part.vy), w = get(I.part.w);
+  auto r = get(I.part.radius), im = get(I.part.inv_mass), iI = get(I.part.inv_inertia);
+  auto yd = get(I.part.y_deposit);
+  std::vector<Disk> out(static_cast<std::size_t>(st.count));
+  for (int k = 0; k < st.count; ++k) {
+    Disk& d = out[static_cast<std::size_t>(k)];
+    d.x = x(k);
+    d.y = y(k);
+    d.theta = th(k);
+    d.vx = vx(k);
+    d.vy = vy(k);
+    d.w = w(k);
+    d.radius = r(k);
+    d.fixed = im(k) == 0.0;
+    d.lock_rotation = !d.fixed && iI(k) == 0.0;
+    d.y_deposit = yd(k);
+  }
+  return out;
+}
+
+std::vector<ContactForce> Batch::contacts(int s) const {
+  auto& I = *impl_;
+  const auto& st = I.status.at(static_cast<std::size_t>(s));
+  const int first = I.offsets[static_cast<std::size_t>(s)];
+  const auto range = std::make_pair(first * kSlots, (first + st.count) * kSlots);
+  auto geti = [&](const DView<int>& v) {
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
+  };
+  auto getd = [&](const DView<double>& v) {
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
+  };
+  // Partner and impulse arrays are swapped every batch step: a system that sat out an odd
+  // number of steps since its last one has its contacts in the other buffer. (The geometry
+  // arrays are not swapped; a system that sat out steps keeps its own.)
+  const bool other = (I.batch_steps - I.last_stepped[static_cast<std::size_t>(s)]) % 2 == 1;
+  auto partner = geti(other ? I.con.prev_partner : I.con.partner);
+  auto nx = getd(I.con.nx), ny = getd(I.con.ny), gap = getd(I.con.gap);
+  auto pn = getd(other ? I.con.prev_pn : I.con.pn), pt = getd(other ? I.con.prev_pt : I.con.pt),
+       pm = getd(other ? I.con.prev_pm : I.con.pm);
+  const double h = I.params[static_cast<std::size_t>(s)].time_step;
+  std::vector<ContactForce> out;
+  for (int c = 0; c < st.count * kSlots; ++c) {
+    if (partner(c) == kNoContact) continue;
+    ContactForce f;
+    f.i = c / kSlots;
+    f.j = partner(c) == kFloor ? -1 : partner(c) - first;
+    f.nx = nx(c);
+    f.ny = ny(c);
+    f.gap = gap(c);
+    f.normal = pn(c) / h;
+    f.tangential = pt(c) / h;
+    f.moment = pm(c) / h;
+    out.push_back(f);
+  }
+  return out;
+}
+
+Batch::SystemState Batch::state(int s) const {
+  auto& I = *impl_;
+  const auto k = static_cast<std::size_t>(s);
+  SystemState out;
+  out.status = I.status.at(k);
+  out.disks = disks(s);
+  const int first = I.offsets[k], count = out.status.count;
+  auto host = [](const auto& v, std::pair<int, int> range) {
+    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
+  };
+  const auto disk_range = std::make_pair(first, first + count);
+  for (auto [to, from] :
+       {std::make_pair(&out.y_mark, I.part.y_mark), std::make_pair(&out.inv_mass, I.part.inv_mass),
+        std::make_pair(&out.inv_inertia, I.part.inv_inertia)}) {
+    const auto h = host(from, disk_range);
+    to->assign(h.data(), h.data() + count);
+  }
+  // The buffers that hold the system's last impulses (see contacts()).
+  const bool other = (I.batch_steps - I.last_stepped[k]) % 2 == 1;
+  const auto range = std::make_pair(first * kSlots, (first + count) * kSlots);
+  const auto partner = host(other ? I.con.prev_partner : I.con.partner, range);
+  const auto pn = host(other ? I.con.prev_pn : I.con.pn, range);
+  const auto pt = host(other ? I.con.prev_pt : I.con.pt, range);
+  const auto pm = host(other ? I.con.prev_pm : I.con.pm, range);
+  const auto nx = host(I.con.nx, range), ny = host(I.con.ny, range), gap = host(I.con.gap, range);
+  for (int c = 0; c < count * kSlots; ++c) {
+    if (partner(c) == kNoContact) continue;
+    out.slot.push_back(c);
+    out.partner.push_back(partner(c) == kFloor ? -1 : partner(c) - first);
+    out.pn.push_back(pn(c));
+    out.pt.push_back(pt(c));
+    out.pm.push_back(pm(c));
+    out.nx.push_back(nx(c));
+    out.ny.push_back(ny(c));
+    out.gap.push_back(gap(c));
+  }
+  const auto one = std::make_pair(s, s + 1);
+  out.draws = host(I.sys.draws, one)(0);
+  out.speed = host(I.sys.max_speed, one)(0);
+  out.centre_speed = host(I.sys.max_centre_speed, one)(0);
+  out.gravity_on = I.params[k].gravity_on;
+  out.status.newton_steps = I.newton_steps[k];
+  out.pace = solver_pace(s);
+  return out;
+}
+
+void Batch::restore(int s, const SystemState& state) {
+  auto& I = *impl_;
+  const auto k = static_cast<std::size_t>(s);
+  const int count = I.status.at(k).count;
+  const std::size_t n = state.slot.size();
+  const auto disks = state.disks.size();
+  bool fits =
+      static_cast<int>(disks) == count && state.status.count == count && state.partner.size() == n;
+  for (const auto* v : {&state.y_mark, &state.inv_mass, &state.inv_inertia})
+    fits = fits && v->size() == disks;
+  for (const auto* v : {&state.pn, &state.pt, &state.pm, &state.nx, &state.ny, &state.gap})
+    fits = fits && v->size() == n;
+  if (!fits)
+    throw std::invalid_argument("Batch::restore: the state does not fit system " +
+                                std::to_string(s) + " (reset it with the state's disks first)");
+  const int first = I.offsets[k];
+  auto put = [&](const DView<double>& v, auto f) {
+    auto sub = Kokkos::subview(v, std::make_pair(first, first + count));
+    auto h = Kokkos::create_mirror_view(sub);
+    for (int a = 0; a < count; ++a) h(a) = f(a);
+    Kokkos::deep_copy(sub, h);
+  };
+  // reset() wraps x into the box, which may round it, and computes the masses on the host
+  // (deposited disks got theirs on the device).
+  put(I.part.x, [&](int a) { return state.disks[static_cast<std::size_t>(a)].x; });
+  for (auto [to, from] : {std::make_pair(I.part.y_mark, &state.y_mark),
+                          std::make_pair(I.part.inv_mass, &state.inv_mass),
+                          std::make_pair(I.part.inv_inertia, &state.inv_inertia)}) {
+    const std::vector<double>& values = *from;  // (C++17 lambdas cannot capture a binding)
+    put(to, [&](int a) { return values[static_cast<std::size_t>(a)]; });
+  }
+  // The impulses go where the next step's warm start reads them (as set_contacts).
+  const auto range = std::make_pair(first * kSlots, (first + I.slot_capacity[k]) * kSlots);
+  auto partner = Kokkos::create_mirror_view(Kokkos::subview(I.con.partner, range));
+  auto pn = Kokkos::create_mirror_view(Kokkos::subview(I.con.pn, range));
+  auto pt = Kokkos::create_mirror_view(Kokkos::subview(I.con.pt, range));
+  auto pm = Kokkos::create_mirror_view(Kokkos::subview(I.con.pm, range));
+  auto nx =
+      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.nx, range));
+  auto ny =
+      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.ny, range));
+  auto gap =
+      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.gap, range));
+  Kokkos::deep_copy(partner, kNoContact);
+  for (std::size_t c = 0; c < n; ++c) {
+    const int slot = state.slot[c], j = state.partner[c];
+    if (slot < 0 || slot >= count * kSlots || j < -1 || j >= count)
+      throw std::invalid_argument("Batch::restore: contact slot " + std::to_string(slot) +
+                                  " with partner " + std::to_string(j) + " is not in system " +
+                                  std::to_string(s));
+    partner(slot) = j < 0 ? kFloor : first + j;
+    pn(slot) = state.pn[c];
+    pt(slot) = state.pt[c];
+    pm(slot) = state.pm[c];
+    nx(slot) = state.nx[c];
+    ny(slot) = state.ny[c];
+    gap(slot) = state.gap[c];
+  }
+  Kokkos::deep_copy(Kokkos::subview(I.con.partner, range), partner);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
+  Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
+  Kokkos::deep_copy(Kokkos::subview(I.con.nx, range), nx);
+  Kokkos::deep_copy(Kokkos::subview(I.con.ny, range), ny);
+  Kokkos::deep_copy(Kokkos::subview(I.con.gap, range), gap);
+  I.last_stepped[k] = I.batch_steps;
+  auto set = [s](const auto& view, auto value) {
+    Kokkos::deep_copy(Kokkos::subview(view, s), value);
+  };
+  set(I.sys.draws, state.draws);
+  set(I.sys.max_speed, state.speed);
+  set(I.sys.max_centre_speed, state.centre_speed);
+  set_gravity(s, state.gravity_on);
+  I.status[k] = state.status;
+  I.newton_steps[k] = state.status.newton_steps;
+  set_solver_pace(s, state.pace);
+  I.upload_status_active();
+}
+
+double Batch::max_overlap(int s) const {
+  const auto d = disks(s);
+  const double width = params(s).width;
+  double worst = 0.0;
+  // Bucket by column of width >= the largest diameter; compare within neighbouring columns.
+  double rmax = 0.0;
+  for (const auto& a : d) rmax = std::max(rmax, a.radius);
+  const int ncol = std::max(1, static_cast<int>(width / (2.0 * rmax + 1e-12)));
+  std::vector<std::vector<int>> col(static_cast<std::size_t>(ncol));
+  for (std::size_t k = 0; k < d.size(); ++k) {
+    worst = std::max(worst, d[k].radius - d[k].y);
+    int c = std::min(ncol - 1, static_cast<int>(d[k].x / width * ncol));
+    col[static_cast<std::size_t>(c)].push_back(static_cast<int>(k));
+  }
+  for (int c = 0; c < ncol; ++c) {
+    for (int a : col[static_cast<std::size_t>(c)]) {
+      const int span = ncol < 3 ? ncol : 3;
+      for (int e = 0; e < span; ++e) {
+        const int cc = ncol < 3 ? e : (c - 1 + e + ncol) % ncol;
+        for (int b : col[static_cast<std::size_t>(cc)]) {
+          if (b <= a) continue;
+          const auto& p = d[static_cast<std::size_t>(a)];
+          const auto& q = d[static_cast<std::size_t>(b)];
+          const double dx = periodic_delta(q.x - p.x, width);
+          const double dy = q.y - p.y;
+          const double ov = p.radius + q.radius - std::sqrt(dx * dx + dy * dy);
+          worst = std::max(worst, ov);
+        }
+      }
+    }
+  }
+  return worst;
+}
+
+}  // namespace loosepack
