@@ -19,6 +19,7 @@
 #include "bench/options.hpp"
 #include "bench/record.hpp"
 #include "loosepack/batch.hpp"
+#include "loosepack/scenes.hpp"
 
 using namespace loosepack;
 
@@ -34,26 +35,6 @@ const Variant kSolvers[] = {{SolverKind::Jacobi, 0},
                             {SolverKind::SequentialGaussSeidel, 0},
                             {SolverKind::AcceleratedGaussSeidel, 0},
                             {SolverKind::AcceleratedGaussSeidel, SolverSettings{}.newton_every}};
-
-SystemParams column_params(int n) {
-  SystemParams p;
-  p.width = 20.0;
-  p.height = 2.0 * n + 10.0;
-  p.bond_number = 0.0;
-  p.friction = 0.3;
-  p.rolling_friction = 0.1;
-  p.time_step = 0.01;
-  return p;
-}
-
-std::vector<Disk> column(int n) {
-  std::vector<Disk> d(static_cast<std::size_t>(n));
-  for (int k = 0; k < n; ++k) {
-    d[static_cast<std::size_t>(k)].x = 10.0;
-    d[static_cast<std::size_t>(k)].y = 1.0 + 2.0 * k;
-  }
-  return d;
-}
 
 // Force on the floor contact over the weight of the column above it, minus one.
 double bottom_error(const Batch& batch, int n_total) {
@@ -74,8 +55,8 @@ Record run(Variant variant, int n, bool warm, double tolerance, int max_sweeps) 
   solver.tolerance = tolerance;
   solver.max_sweeps = max_sweeps;
   SystemSetup su;
-  su.params = column_params(n);
-  su.disks = column(n);
+  su.params = scenes::column_params(n);
+  su.disks = scenes::column(n, 10.0);
   su.capacity = n + 1;
   Batch batch({su}, solver);
   if (warm) {

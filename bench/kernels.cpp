@@ -46,6 +46,7 @@
 #include "bench/record.hpp"
 #include "kernels/state.hpp"
 #include "loosepack/batch.hpp"
+#include "loosepack/scenes.hpp"
 
 using namespace loosepack;
 
@@ -186,14 +187,9 @@ std::vector<SystemSetup> dense_setups() {
   const int per_row = static_cast<int>(p.width / 2.0);
   const int rows = (N + per_row - 1) / per_row;
   p.height = 2.0 + rows * std::sqrt(3.0) + 5.0;
-  std::vector<Disk> disks(static_cast<std::size_t>(N));
-  for (int k = 0; k < N; ++k) {
-    const int row = k / per_row, col = k % per_row;
-    auto& d = disks[static_cast<std::size_t>(k)];
-    d.x = 1.0 + 2.0 * col + (row % 2 ? 1.0 : 0.0);
-    d.y = 1.0 + std::sqrt(3.0) * row;
-    d.y_deposit = d.y;
-  }
+  std::vector<Disk> disks = scenes::hexagonal(per_row, rows);
+  disks.resize(static_cast<std::size_t>(N));
+  for (auto& d : disks) d.y_deposit = d.y;
   std::vector<SystemSetup> setups(static_cast<std::size_t>(S));
   for (int s = 0; s < S; ++s) {
     auto& su = setups[static_cast<std::size_t>(s)];

@@ -10,6 +10,8 @@
 // end at all. --newton K: solver.newton_every (0: NNCG alone, docs/MODEL.md, "Solvers").
 // --overlap-correction B: solver.overlap_correction (a fraction B of each overlap removed per
 // step by moving positions, velocities untouched; docs/MODEL.md).
+#include "loosepack/scenes.hpp"
+
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
@@ -34,21 +36,6 @@ using namespace loosepack;
 
 namespace {
 
-constexpr double kWidth = 100.0;
-
-// SplitMix64 exactly as the scene defines it.
-struct SplitMix64 {
-  std::uint64_t s;
-  double next() {
-    s += 0x9E3779B97F4A7C15ULL;
-    std::uint64_t z = s;
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-    z ^= z >> 31;
-    return static_cast<double>(z >> 11) * 0x1.0p-53;
-  }
-};
-
 struct Measure {
   double h_top = 0, h_mean = 0, phi_final = NAN, phi_aux = NAN, max_overlap = 0;
 };
@@ -59,11 +46,11 @@ Measure measure(const Batch& batch) {
   // Upper envelope at 1000 evenly spaced x.
   double sum = 0;
   for (int k = 0; k < 1000; ++k) {
-    const double x = (k + 0.5) * kWidth / 1000.0;
+    const double x = (k + 0.5) * scenes::kSceneWidth / 1000.0;
     double top = 0;
     for (const auto& a : d) {
       double dx = std::fabs(a.x - x);
-      dx = std::min(dx, kWidth - dx);
+      dx = std::min(dx, scenes::kSceneWidth - dx);
       if (dx < 1.0) top = std::max(top, a.y + std::sqrt(1.0 - dx * dx));
     }
     sum += top;
@@ -75,8 +62,9 @@ Measure measure(const Batch& batch) {
     r.push_back(q.radius);
   }
   m.h_top = deposit_top(y, r);
-  m.phi_final = band_volume_fraction(y, r, kWidth, 10.0, m.h_mean - 10.0);  // NaN: no band
-  m.phi_aux = band_volume_fraction(y, r, kWidth, 2.0, m.h_mean - 5.0);
+  m.phi_final =
+      band_volume_fraction(y, r, scenes::kSceneWidth, 10.0, m.h_mean - 10.0);  // NaN: no band
+  m.phi_aux = band_volume_fraction(y, r, scenes::kSceneWidth, 2.0, m.h_mean - 5.0);
   m.max_overlap = batch.max_overlap(0);
   return m;
 }
@@ -89,27 +77,9 @@ std::string num(double v) {
   return o.str();
 }
 
-// The box height leaves room for the deposit: S1's dense pile (phi ~ 0.9, ~0.035 R per disk on
-// this width) or S2's ballistic one (phi ~ 0.26, ~0.12 R per disk), whose top varies more.
-SystemParams scene_params(int n_max, double dt, double height_per_disk) {
-  SystemParams p;
-  p.width = kWidth;
-  p.height = height_per_disk * n_max + 20.0;
-  p.bond_number = 0.0;
-  p.friction = 0.3;
-  p.rolling_friction = 0.0;
-  p.time_step = dt;
-  return p;
-}
-
 RestSettings g_rest;  // --rest; the program's rest test (speeds and a converged solve) otherwise
 
-RestSettings scene_rest(double dt) {
-  RestSettings r = g_rest;
-  r.speed = 1e-3;
-  r.steps = std::max(10, static_cast<int>(std::ceil((1.0 / 6.0) / dt)));
-  return r;
-}
+RestSettings scene_rest(double dt) { return scenes::scene_rest(g_rest, dt); }
 
 SolverSettings g_solver;  // --solver, --tolerance, --max-sweeps; the scan defaults otherwise
 
@@ -203,7 +173,7 @@ Relaxation relax_region(Batch& batch, Regions& regions, const Deposit& d, bool c
 bool scene_s1(const std::vector<int>& ns, double dt) {
   const int n_max = *std::max_element(ns.begin(), ns.end());
   SystemSetup su;
-  su.params = scene_params(n_max, dt, 0.04);
+  su.params = scenes::s1_params(n_max, dt);
   su.capacity = n_max;
   Batch batch({su}, g_solver, scene_rest(dt));
   std::unique_ptr<Regions> regions;
@@ -215,14 +185,14 @@ bool scene_s1(const std::vector<int>& ns, double dt) {
     regions = std::make_unique<Regions>(1, std::vector<SystemParams>{su.params}, rs, g_solver,
                                         scene_rest(dt));
   }
-  SplitMix64 rng{1001};
+  scenes::SplitMix64 rng{scenes::kS1Seed};
   const long cap = static_cast<long>(std::ceil(20.0 / dt));
   long steps = 0;
   int capped = 0;
   double vmax = 0;
   const auto t0 = std::chrono::steady_clock::now();
   for (int k = 1; k <= n_max; ++k) {
-    const double x = kWidth * rng.next();
+    const double x = scenes::kSceneWidth * rng.next();
     const Deposit d = batch.deposit_at({1}, {x}, DropRule::Touch)[0];
     if (!d.placed) {
       std::fprintf(stderr, "S1: disk %d could not be placed below the box height\n", k);
@@ -248,13 +218,12 @@ bool scene_s1(const std::vector<int>& ns, double dt) {
 
 bool scene_s2(int n, double dt) {
   SystemSetup su;
-  su.params = scene_params(n, dt, 0.2);
-  su.params.gravity_on = false;
+  su.params = scenes::s2_params(n, dt);
   su.capacity = n;
   Batch batch({su}, g_solver, scene_rest(dt));
-  SplitMix64 rng{2002};
+  scenes::SplitMix64 rng{scenes::kS2Seed};
   for (int k = 0; k < n; ++k)
-    if (!batch.deposit_at({1}, {kWidth * rng.next()}, DropRule::Touch)[0].placed) {
+    if (!batch.deposit_at({1}, {scenes::kSceneWidth * rng.next()}, DropRule::Touch)[0].placed) {
       std::fprintf(stderr, "S2: disk %d could not be placed\n", k + 1);
       return false;
     }
@@ -326,8 +295,9 @@ int main(int argc, char** argv) {
     else
       return usage();
   }
-  SplitMix64 check{1001};
-  const double x1 = kWidth * check.next(), x2 = kWidth * check.next(), x3 = kWidth * check.next();
+  scenes::SplitMix64 check{scenes::kS1Seed};
+  const double x1 = scenes::kSceneWidth * check.next(), x2 = scenes::kSceneWidth * check.next(),
+               x3 = scenes::kSceneWidth * check.next();
   if (std::fabs(x1 - 32.516485265275463) > 1e-12 || std::fabs(x2 - 22.957386292461301) > 1e-12 ||
       std::fabs(x3 - 22.83426811397883) > 1e-12) {
     std::fprintf(stderr, "bench_scenes: SplitMix64 check values differ from the scene's\n");

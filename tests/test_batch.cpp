@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "loosepack/batch.hpp"
-#include "tests/scenes.hpp"
+#include "loosepack/scenes.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;

@@ -14,7 +14,7 @@
 #include "loosepack/batch.hpp"
 #include "loosepack/scan.hpp"
 #include "tests/scan_errors.hpp"
-#include "tests/scenes.hpp"
+#include "loosepack/scenes.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;

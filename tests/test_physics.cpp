@@ -5,7 +5,7 @@
 #include <cstdio>
 
 #include "loosepack/batch.hpp"
-#include "tests/scenes.hpp"
+#include "loosepack/scenes.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "loosepack/batch.hpp"
-#include "tests/scenes.hpp"
+#include "loosepack/scenes.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;

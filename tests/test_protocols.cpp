@@ -1,102 +1,18 @@
-// Protocols end to end on small ensembles: physics trends, reproducibility, the output file.
+// Protocols end to end on small ensembles: their physics trends (densities, profiles, the
+// collapse identity), polydispersity, relaxation regions and the coloured solver.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
-#include <filesystem>
 #include <fstream>
 
 #include "loosepack/observables.hpp"
 #include "loosepack/output.hpp"
 #include "loosepack/protocols.hpp"
+#include "tests/run_helpers.hpp"
 
 using namespace loosepack;
-
-namespace {
-Scan scan_of(const std::string& text) { return parse_scan(text, "test.toml"); }
-
-// A fresh directory under /tmp, removed with everything in it.
-struct TempDir {
-  std::string path;
-  TempDir() {
-    char dir[] = "/tmp/loosepack-test-XXXXXX";
-    if (!mkdtemp(dir)) throw std::runtime_error("mkdtemp failed");
-    path = dir;
-  }
-  ~TempDir() { std::filesystem::remove_all(path); }
-  std::string operator/(const std::string& name) const { return path + "/" + name; }
-};
-
-// Every member of a scan, run in the scan's batches.
-std::vector<MemberResult> run_all(const Scan& scan) { return run_members(scan, members_of(scan)); }
-
-std::vector<PointResult> run(const Scan& scan) { return aggregate(scan, run_all(scan)); }
-
-// Least-squares slope of y against x, with its standard error.
-std::pair<double, double> slope(const std::vector<double>& x, const std::vector<double>& y) {
-  const double n = static_cast<double>(x.size());
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  for (std::size_t k = 0; k < x.size(); ++k) {
-    sx += x[k];
-    sy += y[k];
-    sxx += x[k] * x[k];
-    sxy += x[k] * y[k];
-  }
-  const double b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-  const double a = (sy - b * sx) / n;
-  double rss = 0;
-  for (std::size_t k = 0; k < x.size(); ++k) rss += std::pow(y[k] - a - b * x[k], 2);
-  const double se = std::sqrt(rss / (n - 2) / (sxx - sx * sx / n));
-  return {b, se};
-}
-
-// The floor's normal force on a member's final deposit, and the deposit's weight (m g with
-// m = r^2, m = 1 at R = 1, g = 1): equal for a deposit at rest.
-std::pair<double, double> floor_force_and_weight(const MemberResult& r) {
-  double floor = 0.0, weight = 0.0;
-  for (const auto& c : r.contacts)
-    if (c.j < 0) floor += c.normal;
-  for (double rad : r.radius) weight += rad * rad;
-  return {floor, weight};
-}
-
-// Protocol A with observables.trajectory_every = every: each sampled disk's trajectory starts
-// once it is deposited and ends where the disk ends.
-void expect_trajectories_end_at_final_positions(const MemberResult& r, std::size_t every) {
-  ASSERT_FALSE(r.trajectory_time.empty());
-  for (std::size_t d = 0; d < r.y_e.size(); d += every) {
-    double last_t = -1, x = 0, y = 0, first_t = 1e300;
-    for (std::size_t k = 0; k < r.trajectory_time.size(); ++k) {
-      if (r.trajectory_disk[k] != static_cast<double>(d)) continue;
-      first_t = std::min(first_t, r.trajectory_time[k]);
-      if (r.trajectory_time[k] >= last_t) {
-        last_t = r.trajectory_time[k];
-        x = r.trajectory_x[k];
-        y = r.trajectory_y[k];
-      }
-    }
-    EXPECT_EQ(x, r.x[d]) << "disk " << d;
-    EXPECT_EQ(y, r.y_e[d]) << "disk " << d;
-    EXPECT_GE(first_t, static_cast<double>(d + 1));  // sampled only once deposited
-  }
-}
-
-// One scan text run twice: in batches of one system and in batches of `many`.
-struct BatchedRuns {
-  Scan one, many;
-  std::vector<MemberResult> alone, batched;
-};
-BatchedRuns run_alone_and_batched(const std::string& text, int many) {
-  BatchedRuns r{scan_of(text), scan_of(text), {}, {}};
-  r.one.batch_size = 1;
-  r.many.batch_size = many;
-  r.alone = run_all(r.one);
-  r.batched = run_all(r.many);
-  return r;
-}
-}  // namespace
+using namespace loosepack::run_helpers;
 
 // Protocol B: the bulk density of off-lattice ballistic deposition is flat in y and lies in the
 // known range for 2D monodisperse disks (0.30-0.40: the maximum height of a deposit of n disks
@@ -290,155 +206,6 @@ lower_half_from = 4.0
   EXPECT_NEAR(p.relative_increase.mean, -b, 3.0 * err);
 }
 
-// The same scan gives identical results whatever the batch size.
-TEST(Reproducibility, BatchSizeDoesNotChangeResults) {
-  const std::string text = R"(
-[scan]
-protocol = ["A", "B", "C"]
-seeds = 3
-[system]
-width = 12.0
-height = 12.0
-bond_number = 50
-[observables]
-lower_half_from = 2.0
-)";
-  const auto runs = run_alone_and_batched(text, 6);
-  const auto &one = runs.one, &many = runs.many;
-  const auto &a = runs.alone, &b = runs.batched;
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
-    EXPECT_EQ(a[k].x, b[k].x) << "member " << k;
-    EXPECT_EQ(a[k].steps, b[k].steps);
-  }
-  // And in the files: every dataset but the wall times is identical.
-  const TempDir dir;
-  const std::string fa = dir / "a.h5", fb = dir / "b.h5";
-  const auto pa = aggregate(one, a), pb = aggregate(many, b);
-  write_results(fa, one, RunInfo{}, pa, analyse(one, pa), a, true);
-  write_results(fb, many, RunInfo{}, pb, analyse(many, pb), b, true);
-  for (const char* point : {"points/0000", "points/0001", "points/0002"})
-    for (const char* set :
-         {"nu/mean", "nu/sem", "nu_deposition/mean", "avalanche_by_yi/mean", "avalanche_by_ye/sem",
-          "abs_dy_histogram/counts", "members/steps", "members/sweeps", "members/disks",
-          "members/snapshot_2/y_e", "members/snapshot_0/contact_normal"}) {
-      const std::string name = std::string(point) + "/" + set;
-      EXPECT_EQ(read_dataset(fa, name), read_dataset(fb, name)) << name;
-    }
-}
-
-// The progress fraction behind the ETA: it never falls (a running member counts the share of its
-// expected cost that a member as tall as its deposit so far would cost, and a finished one counts
-// whole), it moves while members run, not only when they finish, and it ends at 1.
-TEST(Progress, FractionNeverFallsAndEndsAtOne) {
-  const auto scan = scan_of(R"(
-[scan]
-protocol = ["A", "B", "C"]
-seeds = 2
-batch_size = 2
-[system]
-width = 12.0
-height = 16.0
-bond_number = 50
-[observables]
-lower_half_from = 2.0
-)");
-  std::vector<Progress> seen;
-  RunHooks hooks;
-  hooks.progress = [&](const Progress& p) { seen.push_back(p); };
-  run_members(scan, members_of(scan), hooks);
-  ASSERT_FALSE(seen.empty());
-  std::size_t distinct = 1;
-  for (std::size_t k = 1; k < seen.size(); ++k) {
-    EXPECT_GE(seen[k].fraction, seen[k - 1].fraction - 1e-12) << "report " << k;
-    EXPECT_GE(seen[k].members_done, seen[k - 1].members_done);
-    if (seen[k].fraction > seen[k - 1].fraction + 1e-12) ++distinct;
-  }
-  EXPECT_GE(seen.front().fraction, 0.0);
-  EXPECT_NEAR(seen.back().fraction, 1.0, 1e-12);
-  EXPECT_EQ(seen.back().members_done, 6);
-  // Over four rises per member: the fraction rises while members run (every new disk of A that
-  // tops the deposit, every ballistic disk), not only when one finishes.
-  EXPECT_GT(distinct, 6u * 4);
-  std::printf("%zu progress reports, %zu rises\n", seen.size(), distinct);
-}
-
-// The output file holds what was computed; a rewrite replaces it whole, and a failed write
-// raises and leaves no temporary file behind. (That a refused run leaves an earlier file
-// untouched is checked on the command line, tests/cli_test.sh.)
-TEST(Output, RoundTripAndAtomicReplace) {
-  const auto scan = scan_of(R"(
-[scan]
-name = "roundtrip"
-protocol = "B"
-seeds = 2
-[system]
-width = 30.0
-height = 30.0
-capture_radius = [1.0, 2.0]
-[observables]
-lower_half_from = 3.0
-)");
-  const auto members = run_all(scan);
-  const auto points = aggregate(scan, members);
-  const TempDir dir;
-  const std::string path = dir / "out.h5";
-  RunInfo info;
-  info.start_time = "t0";
-  info.end_time = "t1";
-  write_results(path, scan, info, points, analyse(scan, points), members, true);
-  EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "roundtrip");
-  EXPECT_EQ(read_attribute_string(path, "/", "scan_text"), scan.text);
-  EXPECT_EQ(read_attribute_string(path, "points/0001", "protocol"), "B");
-  EXPECT_EQ(read_attribute_double(path, "points/0001", "capture_radius"), 2.0);
-  EXPECT_EQ(read_dataset(path, "points/0000/nu/mean"), points[0].nu.mean);
-  EXPECT_EQ(read_attribute_double(path, "points/0000", "nu_lower_half_mean"),
-            points[0].nu_lower_half.mean);
-  EXPECT_EQ(read_dataset(path, "points/0001/members/snapshot_1/y_e"), members[3].y_e);
-  // Rewriting replaces the whole file: the snapshots written before are gone.
-  auto renamed = scan;
-  renamed.name = "second";
-  write_results(path, renamed, info, points, analyse(renamed, points), members, false);
-  EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "second");
-  EXPECT_THROW(read_dataset(path, "points/0001/members/snapshot_1/y_e"), std::runtime_error);
-  // A write that cannot happen raises; nothing but the result file is in the directory.
-  EXPECT_THROW(write_results(dir / "missing/out.h5", scan, info, points, analyse(scan, points),
-                             members, false),
-               std::runtime_error);
-  int files = 0;
-  for (const auto& e : std::filesystem::directory_iterator(dir.path)) {
-    EXPECT_EQ(e.path().filename(), "out.h5");
-    ++files;
-  }
-  EXPECT_EQ(files, 1);
-}
-
-// Final contact forces and trajectories: the floor carries the whole weight of a deposit at
-// rest (Bo = 0, so no cohesive pre-stress), and a trajectory ends where its disk ends.
-TEST(Snapshots, ContactForcesCarryTheWeightAndTrajectoriesEndAtFinalPositions) {
-  const auto scan = scan_of(R"(
-[scan]
-protocol = "A"
-seeds = 1
-[system]
-width = 10.0
-height = 10.0
-bond_number = 0
-[solver]
-tolerance = 1e-5
-max_sweeps = 20000
-[observables]
-trajectory_every = 3
-lower_half_from = 1.0
-)");
-  const auto r = run_all(scan).at(0);
-  ASSERT_TRUE(r.ok());
-  const auto [floor, weight] = floor_force_and_weight(r);
-  EXPECT_NEAR(floor, weight, 1e-3 * weight);
-  expect_trajectories_end_at_final_positions(r, 3);
-}
-
 // system.polydispersity = sigma (docs/MODEL.md): radii uniform on R (1 +- sqrt(3) sigma), so
 // their mean is R and their standard deviation sigma R. Over N radii the mean's standard error
 // is sigma / sqrt(N), the standard deviation's sigma sqrt((kurtosis - 1) / (4 N)) with the
@@ -578,37 +345,4 @@ lower_half_from = 1.0
     EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
     EXPECT_EQ(a[k].sweeps, b[k].sweeps) << "member " << k;
   }
-}
-
-// A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
-// member fails as unconverged once the cap has been hit on every step for longer than
-// protocol.max_unconverged_time (0.505 / h = 0.01: on step 51), keeps its state for the
-// diagnostic snapshot, and its point counts it as failed and aggregates nothing from it.
-TEST(Failure, UnconvergedForTooLongFailsTheMember) {
-  const Scan scan = scan_of(R"(
-[scan]
-protocol = "C"
-[system]
-width = 12.0
-height = 12.0
-bond_number = 30
-time_step = 0.01
-[solver]
-max_sweeps = 1
-[protocol]
-max_unconverged_time = 0.505
-[observables]
-lower_half_from = 2.0
-)");
-  const auto results = run_all(scan);
-  ASSERT_EQ(results.size(), 1u);
-  const auto& r = results[0];
-  EXPECT_EQ(r.failure, Failure::Unconverged);
-  EXPECT_EQ(r.steps, 51);
-  EXPECT_EQ(r.vx.size(), r.x.size());
-  EXPECT_FALSE(r.x.empty());
-  const auto points = aggregate(scan, results);
-  EXPECT_EQ(points.at(0).members, 1);
-  EXPECT_EQ(points.at(0).failed, 1);
-  EXPECT_EQ(points.at(0).nu_lower_half.n, 0);
 }

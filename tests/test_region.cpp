@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "loosepack/region.hpp"
-#include "tests/scenes.hpp"
+#include "loosepack/scenes.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;

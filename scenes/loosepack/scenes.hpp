@@ -1,5 +1,8 @@
-// Small scene builders shared by the physics tests.
+// The scenes the tests and the benches share (the loosepack_scenes library): small scene
+// builders (a column, a pyramid, a hexagonal packing, a random drop) and the standard scenes S1
+// and S2 (docs/SCENES.md).
 #pragma once
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -130,6 +133,57 @@ void for_each_close_pair(const std::vector<Disk>& d, double width, double range,
       if (gap < range) f(gap, false);
     }
   }
+}
+
+}  // namespace loosepack::scenes
+
+namespace loosepack::scenes {
+
+// The standard scenes S1 (slow deposition, relaxed to rest after every disk) and S2
+// (ballistic deposit, then collapse under gravity): docs/SCENES.md.
+constexpr double kSceneWidth = 100.0;
+constexpr std::uint64_t kS1Seed = 1001, kS2Seed = 2002;
+
+// SplitMix64 exactly as the scenes define it: the drop abscissae are width x next().
+struct SplitMix64 {
+  std::uint64_t s;
+  double next() {
+    s += 0x9E3779B97F4A7C15ULL;
+    std::uint64_t z = s;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    return static_cast<double>(z >> 11) * 0x1.0p-53;
+  }
+};
+
+// The box of a scene of at most n_max disks: room for the deposit above the floor, S1's dense
+// pile (phi ~ 0.9, ~0.035 R per disk on this width: height_per_disk 0.04) or S2's ballistic
+// one (phi ~ 0.26, ~0.12 R per disk, whose top varies more: 0.2). Frictional (mu = 0.3), no
+// cohesion, no rolling friction.
+inline SystemParams scene_params(int n_max, double dt, double height_per_disk) {
+  SystemParams p;
+  p.width = kSceneWidth;
+  p.height = height_per_disk * n_max + 20.0;
+  p.bond_number = 0.0;
+  p.friction = 0.3;
+  p.rolling_friction = 0.0;
+  p.time_step = dt;
+  return p;
+}
+inline SystemParams s1_params(int n_max, double dt) { return scene_params(n_max, dt, 0.04); }
+inline SystemParams s2_params(int n, double dt) {
+  SystemParams p = scene_params(n, dt, 0.2);
+  p.gravity_on = false;  // deposited ballistically, then collapsing
+  return p;
+}
+
+// The scenes' rest test: speeds below 1e-3 for 1/6 of a time unit (at least 10 steps), on top
+// of `base` (the program's test with a converged solve, or speeds alone).
+inline RestSettings scene_rest(RestSettings base, double dt) {
+  base.speed = 1e-3;
+  base.steps = std::max(10, static_cast<int>(std::ceil((1.0 / 6.0) / dt)));
+  return base;
 }
 
 }  // namespace loosepack::scenes

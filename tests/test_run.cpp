@@ -1,0 +1,122 @@
+// Running scans: results independent of the batch size, the progress behind the ETA, a member
+// that fails alone.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+
+#include "loosepack/observables.hpp"
+#include "loosepack/output.hpp"
+#include "loosepack/protocols.hpp"
+#include "tests/run_helpers.hpp"
+
+using namespace loosepack;
+using namespace loosepack::run_helpers;
+
+// The same scan gives identical results whatever the batch size.
+TEST(Reproducibility, BatchSizeDoesNotChangeResults) {
+  const std::string text = R"(
+[scan]
+protocol = ["A", "B", "C"]
+seeds = 3
+[system]
+width = 12.0
+height = 12.0
+bond_number = 50
+[observables]
+lower_half_from = 2.0
+)";
+  const auto runs = run_alone_and_batched(text, 6);
+  const auto &one = runs.one, &many = runs.many;
+  const auto &a = runs.alone, &b = runs.batched;
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
+    EXPECT_EQ(a[k].x, b[k].x) << "member " << k;
+    EXPECT_EQ(a[k].steps, b[k].steps);
+  }
+  // And in the files: every dataset but the wall times is identical.
+  const TempDir dir;
+  const std::string fa = dir / "a.h5", fb = dir / "b.h5";
+  const auto pa = aggregate(one, a), pb = aggregate(many, b);
+  write_results(fa, one, RunInfo{}, pa, analyse(one, pa), a, true);
+  write_results(fb, many, RunInfo{}, pb, analyse(many, pb), b, true);
+  for (const char* point : {"points/0000", "points/0001", "points/0002"})
+    for (const char* set :
+         {"nu/mean", "nu/sem", "nu_deposition/mean", "avalanche_by_yi/mean", "avalanche_by_ye/sem",
+          "abs_dy_histogram/counts", "members/steps", "members/sweeps", "members/disks",
+          "members/snapshot_2/y_e", "members/snapshot_0/contact_normal"}) {
+      const std::string name = std::string(point) + "/" + set;
+      EXPECT_EQ(read_dataset(fa, name), read_dataset(fb, name)) << name;
+    }
+}
+
+// The progress fraction behind the ETA: it never falls (a running member counts the share of its
+// expected cost that a member as tall as its deposit so far would cost, and a finished one counts
+// whole), it moves while members run, not only when they finish, and it ends at 1.
+TEST(Progress, FractionNeverFallsAndEndsAtOne) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = ["A", "B", "C"]
+seeds = 2
+batch_size = 2
+[system]
+width = 12.0
+height = 16.0
+bond_number = 50
+[observables]
+lower_half_from = 2.0
+)");
+  std::vector<Progress> seen;
+  RunHooks hooks;
+  hooks.progress = [&](const Progress& p) { seen.push_back(p); };
+  run_members(scan, members_of(scan), hooks);
+  ASSERT_FALSE(seen.empty());
+  std::size_t distinct = 1;
+  for (std::size_t k = 1; k < seen.size(); ++k) {
+    EXPECT_GE(seen[k].fraction, seen[k - 1].fraction - 1e-12) << "report " << k;
+    EXPECT_GE(seen[k].members_done, seen[k - 1].members_done);
+    if (seen[k].fraction > seen[k - 1].fraction + 1e-12) ++distinct;
+  }
+  EXPECT_GE(seen.front().fraction, 0.0);
+  EXPECT_NEAR(seen.back().fraction, 1.0, 1e-12);
+  EXPECT_EQ(seen.back().members_done, 6);
+  // Over four rises per member: the fraction rises while members run (every new disk of A that
+  // tops the deposit, every ballistic disk), not only when one finishes.
+  EXPECT_GT(distinct, 6u * 4);
+  std::printf("%zu progress reports, %zu rises\n", seen.size(), distinct);
+}
+
+// A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
+// member fails as unconverged once the cap has been hit on every step for longer than
+// protocol.max_unconverged_time (0.505 / h = 0.01: on step 51), keeps its state for the
+// diagnostic snapshot, and its point counts it as failed and aggregates nothing from it.
+TEST(Failure, UnconvergedForTooLongFailsTheMember) {
+  const Scan scan = scan_of(R"(
+[scan]
+protocol = "C"
+[system]
+width = 12.0
+height = 12.0
+bond_number = 30
+time_step = 0.01
+[solver]
+max_sweeps = 1
+[protocol]
+max_unconverged_time = 0.505
+[observables]
+lower_half_from = 2.0
+)");
+  const auto results = run_all(scan);
+  ASSERT_EQ(results.size(), 1u);
+  const auto& r = results[0];
+  EXPECT_EQ(r.failure, Failure::Unconverged);
+  EXPECT_EQ(r.steps, 51);
+  EXPECT_EQ(r.vx.size(), r.x.size());
+  EXPECT_FALSE(r.x.empty());
+  const auto points = aggregate(scan, results);
+  EXPECT_EQ(points.at(0).members, 1);
+  EXPECT_EQ(points.at(0).failed, 1);
+  EXPECT_EQ(points.at(0).nu_lower_half.n, 0);
+}
