@@ -73,6 +73,15 @@ bool as_bool(const std::string& file, const toml::node& node, const std::string&
   fail(file, node, key, "expected true or false");
 }
 
+// The value at fraction f of a logarithmic range: spaced evenly in log10, and exactly a power
+// of ten where the exponent is a whole number (1e2 is 100, not 100.00000000000004), so that
+// `bond_number == 100` finds it and each decade of a scan is exact.
+double log_range_value(double from, double to, double f) {
+  const double e = std::log10(from) + f * (std::log10(to) - std::log10(from));
+  const double whole = std::round(e);
+  return std::abs(e - whole) < 1e-9 ? std::pow(10.0, whole) : std::pow(10.0, e);
+}
+
 // A scalar, an array of values, or a range table {from, to, points[, log]} (+ also = [...]).
 std::vector<double> as_axis(const std::string& file, const toml::node& node,
                             const std::string& key) {
@@ -113,13 +122,13 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node,
       fail(file, node, key, "a range needs from, to and points");
     if (log && !(from > 0.0 && to > 0.0 && std::isfinite(from) && std::isfinite(to)))
       fail(file, node, key, "a logarithmic range needs finite positive from and to");
-    std::vector<double> range;
     for (int k = 0; k < points; ++k) {
       const double f = points == 1 ? 0.0 : static_cast<double>(k) / (points - 1);
-      range.push_back(log ? std::exp(std::log(from) + f * (std::log(to) - std::log(from)))
-                          : from + f * (to - from));
+      out.push_back(log ? log_range_value(from, to, f) : from + f * (to - from));
     }
-    out.insert(out.begin(), range.begin(), range.end());
+    // The `also` values merged in order, each value once.
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
   return {as_number(file, node, key)};
@@ -154,7 +163,8 @@ const std::vector<SystemKey>& system_keys() {
        }},
       {"bond_number", [](SystemParams& p, double v) { p.bond_number = v; },
        [](const SystemParams& p) {
-         return (p.bond_number >= 0.0 && p.bond_number <= 1e8) || std::isinf(p.bond_number)
+         return (p.bond_number >= 0.0 && p.bond_number <= 1e8) ||
+                        (std::isinf(p.bond_number) && p.bond_number > 0.0)
                     ? ""
                     : "Bo must be 0, in (0, 1e8], or \"inf\" (the solver's tolerance, in units of "
                       "the weight m g, must stay far above the rounding of cohesive impulses, "
@@ -432,6 +442,7 @@ class ScanParser {
   std::vector<Explicit> explicit_points;
   const toml::node* protocol_node = nullptr;
   const toml::node* seeds_node = nullptr;
+  std::map<std::string, const toml::node*> setting_nodes;  // where the file sets each setting
 };
 
 Scan ScanParser::parse() {
@@ -445,6 +456,10 @@ Scan ScanParser::parse() {
       << e.description();
     throw ScanError(o.str());
   }
+  if (root.empty())
+    throw ScanError(file +
+                    ": the scan file sets nothing; every default together is a 200 R x 150 R "
+                    "deposit of hours (docs/SCAN.md): set at least [system] width and height");
   read_sections(root);
   if (!explicit_points.empty()) {
     if (protocols.size() > 1)
@@ -462,10 +477,13 @@ Scan ScanParser::parse() {
   for (const auto& sp : points)
     if (!(scan.observables.lower_half_from < 0.5 * sp.params.height)) {
       std::ostringstream o;
-      o << file << ": key 'observables.lower_half_from': " << scan.observables.lower_half_from
-        << " must lie below H/2 = " << 0.5 * sp.params.height
+      o << scan.observables.lower_half_from << " must lie below H/2 = " << 0.5 * sp.params.height
         << " of every point (nu_lower_half is the band from it to H/2)";
-      throw ScanError(o.str());
+      const auto at = setting_nodes.find("observables.lower_half_from");
+      if (at != setting_nodes.end())
+        fail(file, *at->second, "observables.lower_half_from", o.str());
+      throw ScanError(file + ": key 'observables.lower_half_from': " + o.str() +
+                      " (the default; set it in [observables])");
     }
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
@@ -489,6 +507,7 @@ void ScanParser::read_sections(const toml::table& root) {
     } else if (is_setting_section(section)) {
       for_each_key(*tbl, [&](const std::string& k, const toml::node& v) {
         parse_setting(file, section, k, v, scan);
+        setting_nodes[section + "." + k] = &v;
       });
     } else {
       fail(file, node, section,

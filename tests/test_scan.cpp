@@ -30,11 +30,30 @@ friction = [0.3, 0.5]
   EXPECT_EQ(scan.members(), 72);
   // protocol slowest, then bond_number (declared order of the system keys), then friction
   EXPECT_EQ(scan.points[0].protocol, Protocol::A);
-  EXPECT_DOUBLE_EQ(scan.points[0].params.bond_number, 1.0);
+  EXPECT_EQ(scan.points[0].params.bond_number, 0.0);  // `also` merged in order
   EXPECT_DOUBLE_EQ(scan.points[1].params.friction, 0.5);
-  EXPECT_NEAR(scan.points[2].params.bond_number, 10.0, 1e-12);  // log spacing, a decade apart
-  EXPECT_DOUBLE_EQ(scan.points[10].params.bond_number, 0.0);    // `also` after the range
+  EXPECT_EQ(scan.points[2].params.bond_number, 1.0);
+  EXPECT_EQ(scan.points[4].params.bond_number, 10.0);  // log spacing, a decade apart, exactly
   EXPECT_EQ(scan.points[12].protocol, Protocol::C);
+}
+
+// A logarithmic range holds its decades exactly (each 10^k, so a point compares equal to the
+// number a user writes), with `also` values merged in ascending order and infinity last; values
+// between decades are spaced evenly in log10.
+TEST(Scan, LogRangesAreExactDecadesWithAlsoInOrder) {
+  const auto scan = parse_scan(
+      "[system]\nbond_number = { from = 1, to = 1e4, points = 3, log = true, also = [\"inf\", 0, "
+      "100] }\n",
+      "ok.toml");
+  std::vector<double> bo;
+  for (const auto& p : scan.points) bo.push_back(p.params.bond_number);
+  EXPECT_EQ(bo, (std::vector<double>{0.0, 1.0, 100.0, 10000.0, INFINITY}));
+  const auto fine = parse_scan(
+      "[system]\nbond_number = { from = 1, to = 1e3, points = 7, log = true }\n", "ok.toml");
+  ASSERT_EQ(fine.points.size(), 7u);
+  for (std::size_t k = 0; k < 7; k += 2)
+    EXPECT_EQ(fine.points[k].params.bond_number, std::pow(10.0, static_cast<double>(k / 2)));
+  EXPECT_NEAR(fine.points[1].params.bond_number, std::sqrt(10.0), 1e-12);
 }
 
 TEST(Scan, InfiniteBondNumberIsAccepted) {
@@ -154,6 +173,10 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "protocol C with Bo = inf has no collapse"},
       {"[system\nwidth = 3\n", "bad.toml:1:"},
       {"[system]\nheight = 40\n", "key 'observables.lower_half_from': 50 must lie below H/2 = 20"},
+      {"[system]\nheight = 40\n[observables]\nlower_half_from = 30\n",
+       "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
+      {"[system]\nbond_number = -inf\n", "bad.toml:2:15: key 'system.bond_number': Bo must be 0"},
+      {"# nothing but a comment\n", "bad.toml: the scan file sets nothing"},
   };
   scan_errors::expect_refused(cases);
 }
