@@ -5,5 +5,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build.sh
 mkdir -p out
-./build/loosepack run examples/default.toml -o out/default.h5
+./build/loosepack run examples/default.toml -o out/default.h5 --force
 ./build/loosepack summary out/default.h5

@@ -5,13 +5,17 @@
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <iostream>
 #include <map>
 #include <set>
+#include <sstream>
+#include <vector>
 
 #include "loosepack/checkpoint.hpp"
 #include "loosepack/observables.hpp"
@@ -19,6 +23,7 @@
 #include "loosepack/parallel.hpp"
 #include "loosepack/protocols.hpp"
 #include "loosepack/scan.hpp"
+#include "loosepack_git_commit.hpp"
 
 using namespace loosepack;
 
@@ -48,9 +53,18 @@ extern "C" void on_signal(int s) {
   g_signal = s;
 }
 
+// The exit codes of the program (docs/OUTPUT.md, "Exit codes").
+enum ExitCode {
+  kOk = 0,
+  kError = 1,          // a failure while running or writing (the message says what)
+  kInvalid = 2,        // invalid input: the command line, the scan file, the output path
+  kMembersFailed = 3,  // the file is written, but some members failed (see the messages)
+};
+
 struct RunOptions {
   std::string scan_path, out_path = "out.h5";
-  bool quiet = false, snapshots = false, timing = false, resume = false;
+  bool quiet = false, snapshots = false, timing = false, resume = false, force = false,
+       dry_run = false;
   int batch_size = 0;
   double checkpoint_every = 300.0;  // seconds between checkpoints; 0: after every member
   long member = -1;                 // run only this member (re-running a failed one)
@@ -69,6 +83,7 @@ class RunCommand {
 
  private:
   int load();
+  int dry_run() const;
   int read_checkpoint();
   void share_out();
   void announce() const;
@@ -113,6 +128,7 @@ class RunCommand {
 
 int RunCommand::run() {
   if (const int rc = load()) return rc;
+  if (o.dry_run) return dry_run();
   if (const int rc = read_checkpoint()) return rc;
   share_out();
   announce();
@@ -128,14 +144,18 @@ int RunCommand::load() {
     scan = load_scan(o.scan_path);
   } catch (const ScanError& e) {
     say(std::string("invalid scan: ") + e.what());
-    return 2;
+    return kInvalid;
   }
   if (o.batch_size > 0) scan.batch_size = o.batch_size;
   if (scan.batch_size == 0) scan.batch_size = default_batch_size();
   for (const auto& w : scan.warnings) say("warning: " + w);
   if (::access(directory_of(o.out_path).c_str(), W_OK) != 0) {
     say("cannot write into " + directory_of(o.out_path) + " (for " + o.out_path + ")");
-    return 2;
+    return kInvalid;
+  }
+  if (!o.dry_run && !o.force && std::filesystem::exists(o.out_path)) {
+    say("the output file " + o.out_path + " exists; add --force to replace it");
+    return kInvalid;
   }
   all_members = members_of(scan);
   members = all_members;
@@ -143,7 +163,7 @@ int RunCommand::load() {
     if (o.member >= static_cast<long>(all_members.size())) {
       say("--member " + std::to_string(o.member) + ": the scan has members 0 to " +
           std::to_string(all_members.size() - 1));
-      return 2;
+      return kInvalid;
     }
     members = {all_members[static_cast<std::size_t>(o.member)]};
   }
@@ -158,17 +178,17 @@ int RunCommand::read_checkpoint() {
   if (ck_exists && !o.resume) {
     say("a checkpoint of an interrupted run exists: " + ck_dir +
         "; add --resume to continue it, or delete it to start afresh");
-    return 2;
+    return kInvalid;
   }
   if (!ck_exists && o.resume) {
     say("--resume: no checkpoint " + ck_dir + " (written next to the output file given by -o)");
-    return 2;
+    return kInvalid;
   }
   try {
     ck = loosepack::read_checkpoint(ck_dir, scan);
   } catch (const CheckpointError& e) {
     say(e.what());
-    return 2;
+    return kInvalid;
   }
   ranks.barrier();
   std::set<std::uint64_t> selected;
@@ -297,7 +317,7 @@ int RunCommand::compute() {
               << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "") << e.what()
               << "\n";
     ranks.abort(1);  // the other ranks would wait for this one forever
-    return 1;
+    return kError;
   }
   fresh.clear();
   return 0;
@@ -349,7 +369,7 @@ int RunCommand::collect_and_write() {
     }
   } catch (const CheckpointError& e) {
     say(e.what());
-    return 1;
+    return kError;
   }
   std::sort(results.begin(), results.end(),
             [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
@@ -376,23 +396,86 @@ int RunCommand::collect_and_write() {
     write_results(o.out_path, scan, info, points, analyse(scan, points), results, o.snapshots);
   } catch (const std::exception& e) {
     say(e.what());
-    return 1;
+    return kError;
   }
   remove_checkpoint(ck_dir);
   if (!o.quiet)
     std::cerr << "loosepack: wrote " << o.out_path << " (" << info.wall_seconds << " s, " << failed
               << " failed members)\n";
-  return 0;
+  return failed > 0 ? kMembersFailed : kOk;
+}
+
+// The members, point by point, and what the cost model expects them to take; nothing runs.
+int RunCommand::dry_run() const {
+  if (!talk) return kOk;
+  // expected_cost is in units of about 0.1 microseconds of one core of the machine it was
+  // calibrated on (src/protocols.cpp): right within a factor of a few.
+  constexpr double kSecondsPerUnit = 1e-7;
+  std::printf("# scan '%s': %zu points x %d seeds = %zu members%s\n", scan.name.c_str(),
+              scan.points.size(), scan.seeds, all_members.size(),
+              o.member >= 0 ? " (one member selected)" : "");
+  std::printf("%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",
+              "height", "members", "expected CPU s per member");
+  double total = 0.0;
+  for (const auto& pt : scan.points) {
+    int n = 0;
+    double cost = 0.0;
+    for (const auto& m : members)
+      if (m.point == pt.index) ++n, cost = expected_cost(m) * kSecondsPerUnit;
+    if (n == 0) continue;
+    total += n * cost;
+    std::printf("%04d   %-5s %-10g %-8g %-8g %-8g %-8d %.3g\n", pt.index,
+                protocol_name(pt.protocol).c_str(), pt.params.bond_number, pt.params.capture_radius,
+                pt.params.width, pt.params.height, n, cost);
+  }
+  std::printf(
+      "# expected: about %.3g CPU s in all (the cost model, right within a factor of a "
+      "few: docs/PERFORMANCE.md, \"What a member costs\")\n",
+      total);
+  return kOk;
 }
 
 int run(const RunOptions& o, Ranks& ranks) { return RunCommand(o, ranks).run(); }
 
 }  // namespace
 
+namespace {
+
+// The build: version, commit, Kokkos and its backend, the threads it runs on, MPI.
+std::string version_text() {
+  std::ostringstream o;
+  o << "loosepack " << LOOSEPACK_VERSION << " (commit " << LOOSEPACK_GIT_COMMIT << ")\n"
+    << "Kokkos " << KOKKOS_VERSION / 10000 << "." << KOKKOS_VERSION / 100 % 100 << "."
+    << KOKKOS_VERSION % 100 << ", " << Kokkos::DefaultExecutionSpace::name() << " backend, "
+    << Kokkos::DefaultExecutionSpace().concurrency() << " thread(s)\n"
+#ifdef LOOSEPACK_WITH_MPI
+    << "MPI: yes (members shard over the ranks of mpirun)\n";
+#else
+    << "MPI: no (built without)\n";
+#endif
+  return o.str();
+}
+
+// The command line without Kokkos's own options (--kokkos-...), which Kokkos reads itself.
+std::vector<char*> without_kokkos_options(int argc, char** argv) {
+  std::vector<char*> out;
+  for (int k = 0; k < argc; ++k)
+    if (std::strncmp(argv[k], "--kokkos-", 9) != 0) out.push_back(argv[k]);
+  return out;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   Ranks ranks(argc, argv);
-  CLI::App app{"loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)"};
-  app.require_subcommand(1);
+  CLI::App app{
+      "loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)\n"
+      "Exit codes: 0 done, 1 an error while running or writing, 2 invalid input, 3 the "
+      "file is written but members failed, 128+N stopped by signal N (resume with "
+      "--resume). Kokkos options (--kokkos-num-threads=N, ...) pass through."};
+  app.require_subcommand(0, 1);
+  bool version = false;
+  app.add_flag("--version", version, "print the version, the Kokkos backend and MPI, and exit");
   RunOptions o;
   std::string summary_path;
   auto* run_cmd = app.add_subcommand(
@@ -402,7 +485,13 @@ int main(int argc, char** argv) {
   run_cmd->add_option("scan", o.scan_path, "scan file (TOML)")
       ->required()
       ->check(CLI::ExistingFile);
-  run_cmd->add_option("-o,--output", o.out_path, "result file (HDF5), written atomically");
+  run_cmd
+      ->add_option("-o,--output", o.out_path,
+                   "result file (HDF5), written atomically; refused if it exists, unless --force")
+      ->capture_default_str();
+  run_cmd->add_flag("--force", o.force, "replace an existing result file");
+  run_cmd->add_flag("--dry-run", o.dry_run,
+                    "print the members and the cost model's estimate, run nothing");
   run_cmd->add_flag("-q,--quiet", o.quiet, "no progress on stderr");
   run_cmd->add_option("--batch-size", o.batch_size, "systems per batch (overrides scan.batch_size)")
       ->check(CLI::Range(1, 1000000));
@@ -417,7 +506,14 @@ int main(int argc, char** argv) {
           "seconds between checkpoints of finished members and of where the running ones are "
           "(0: after every member, running ones only at a stop)")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 1e9));
+      ->check(CLI::Range(0.0, 1e9))
+      ->check(CLI::Validator(
+          [](const std::string& text) {
+            return std::isfinite(std::strtod(text.c_str(), nullptr))
+                       ? std::string()
+                       : std::string("must be a finite number of seconds");
+          },
+          "FINITE"));
   run_cmd->add_option("--member", o.member, "run only this member (id as printed for a failure)")
       ->check(CLI::Range(0L, 1000000000L));
   auto* sum_cmd = app.add_subcommand("summary", "Print a table per scan point of a result file");
@@ -434,13 +530,32 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   an_cmd->add_option("-o,--output", analyse_out,
                      "write here instead of replacing FILE (atomically, either way)");
+  std::vector<char*> args = without_kokkos_options(argc, argv);
+  const std::set<std::string> subcommands = {"run", "summary", "analyse"};
+  if (args.size() > 1 && args[1][0] != '-' && !subcommands.count(args[1])) {
+    if (ranks.root())
+      std::cerr << "loosepack: unknown subcommand '" << args[1]
+                << "' (run, summary or analyse; loosepack --help)\n";
+    return kInvalid;
+  }
   try {
-    app.parse(argc, argv);
+    app.parse(static_cast<int>(args.size()), args.data());
   } catch (const CLI::ParseError& e) {
-    return ranks.root() ? app.exit(e) : (e.get_exit_code());
+    const int rc = ranks.root() ? app.exit(e) : e.get_exit_code();
+    return rc == 0 ? kOk : kInvalid;  // --help exits 0; every usage error 2
   }
 
   Kokkos::ScopeGuard kokkos(argc, argv);
+  if (version) {
+    if (ranks.root()) std::cout << version_text();
+    return kOk;
+  }
+  if (app.get_subcommands().empty()) {
+    if (ranks.root())
+      std::cerr << "loosepack: a subcommand is required: run, summary or analyse (loosepack "
+                   "--help)\n";
+    return kInvalid;
+  }
   if (*run_cmd) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
@@ -455,7 +570,7 @@ int main(int argc, char** argv) {
     print_summary(summary_path, std::cout);
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
-    return 1;
+    return kError;
   }
   return 0;
 }

@@ -6,6 +6,21 @@ source "$(dirname "$0")/common.sh"
 
 "$exe" --help | grep -qE "^ +run +Run a scan file" || fail "--help does not list run"
 "$exe" run --help | grep -q -- "--output" || fail "run --help does not list --output"
+"$exe" run --help | grep -q "out.h5" || fail "run --help does not say where the output goes by default"
+# --version: the version, the commit, the backend and MPI; exit 0.
+"$exe" --version | grep -qE "^loosepack [0-9]+\.[0-9]+\.[0-9]+ \(commit " || fail "--version: $("$exe" --version)"
+"$exe" --version | grep -q "backend" || fail "--version names no backend"
+# Usage errors exit 2 with a message: an unknown subcommand is named, a missing one said.
+set +e
+msg=$("$exe" runn x.toml 2>&1); rc=$?
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "unknown subcommand 'runn'" || fail "unknown subcommand (exit $rc): $msg"
+msg=$("$exe" 2>&1); rc=$?
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "a subcommand is required" || fail "no subcommand (exit $rc): $msg"
+msg=$("$exe" run 2>&1); rc=$?
+[ "$rc" -eq 2 ] || fail "run without a scan file exited $rc, expected 2"
+msg=$("$exe" run "$repo/examples/default.toml" --checkpoint-every nan --dry-run 2>&1); rc=$?
+[ "$rc" -eq 2 ] || fail "--checkpoint-every nan exited $rc, expected 2: $msg"
+set -e
 
 printf '[system]\nwidth = 20\nfriction = -0.5\n' > "$dir/bad.toml"
 echo "previous results" > "$dir/out.h5"
@@ -19,7 +34,21 @@ echo "$msg" | grep -q "bad.toml:3:12: key 'system.friction': mu must be >= 0" ||
 ls "$dir" | grep -q tmp && fail "a temporary file was left behind"
 
 printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nheight = 20\n[observables]\nlower_half_from = 2\n' > "$dir/good.toml"
-"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots
+# --dry-run lists the members with the cost model's estimate and writes nothing.
+"$exe" run "$dir/good.toml" -o "$dir/good.h5" --dry-run > "$dir/dry.txt"
+grep -qE "^0000 +B .* 2 +[0-9.e+-]+$" "$dir/dry.txt" || fail "--dry-run: $(cat "$dir/dry.txt")"
+grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimate: $(cat "$dir/dry.txt")"
+[ ! -e "$dir/good.h5" ] || fail "--dry-run wrote a file"
+# Kokkos's own options pass through.
+"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --kokkos-num-threads=1
+# An existing result file is refused before any work, and replaced with --force.
+cp "$dir/good.h5" "$dir/kept.h5"
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/good.h5" -q 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "exists; add --force to replace it" || fail "existing output (exit $rc): $msg"
+cmp -s "$dir/good.h5" "$dir/kept.h5" || fail "a refused run touched the existing output"
+"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --force
 "$exe" summary "$dir/good.h5" | grep -q "scan 'cli'" || fail "summary header"
 "$exe" summary "$dir/good.h5" | grep -qE "^0000 +B " || fail "summary row"
 set +e

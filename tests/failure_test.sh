@@ -6,7 +6,13 @@
 source "$(dirname "$0")/common.sh"
 cd "$dir"
 mixed_scan s.toml
+# The file is written, and the exit code says that members failed (3: docs/OUTPUT.md).
+set +e
 LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml -o serial.h5 --batch-size 2 2>serial.log
+rc=$?
+set -e
+[ "$rc" -eq 3 ] || fail "a run with a failed member exited $rc, expected 3"
+[ -s serial.h5 ] || fail "a run with a failed member wrote no file"
 grep -q "member 1 (point 0, seed 1, Bo 30) failed" serial.log || fail "failure not reported: $(cat serial.log)"
 grep -q -- "--member 1 -o member-1.h5" serial.log || fail "no re-run command: $(cat serial.log)"
 # The failed member: excluded from its point's aggregates, its state kept, re-run alone.
