@@ -41,6 +41,24 @@ std::string directory_of(const std::string& path) {
   return k == std::string::npos ? "." : (k == 0 ? "/" : path.substr(0, k));
 }
 
+// Why `out` cannot take a result file ("" when it can): it must be a new name in a writable
+// directory or an existing regular file, and not the input the command reads.
+std::string output_path_problem(const std::string& out, const std::string& input) {
+  namespace fs = std::filesystem;
+  if (out.empty()) return "the output path is empty";
+  std::error_code ec;
+  const fs::file_status st = fs::symlink_status(out, ec);
+  if (fs::exists(st)) {
+    if (fs::is_symlink(st)) return out + " is a symbolic link (give the file it points to)";
+    if (fs::is_directory(st)) return out + " is a directory (give a file name in it)";
+    if (!fs::is_regular_file(st)) return out + " is not a regular file (a device, FIFO or socket)";
+    if (fs::equivalent(out, input, ec)) return out + " is the input file " + input;
+  }
+  if (::access(directory_of(out).c_str(), W_OK) != 0)
+    return "cannot write into " + directory_of(out) + " (for " + out + ")";
+  return "";
+}
+
 // Set by SIGINT and SIGTERM: the run stops at the end of the step, checkpoints and exits. A
 // second signal ends the program at once.
 volatile std::sig_atomic_t g_signal = 0;
@@ -149,8 +167,8 @@ int RunCommand::load() {
   if (o.batch_size > 0) scan.batch_size = o.batch_size;
   if (scan.batch_size == 0) scan.batch_size = default_batch_size();
   for (const auto& w : scan.warnings) say("warning: " + w);
-  if (::access(directory_of(o.out_path).c_str(), W_OK) != 0) {
-    say("cannot write into " + directory_of(o.out_path) + " (for " + o.out_path + ")");
+  if (const std::string why = output_path_problem(o.out_path, o.scan_path); !why.empty()) {
+    say(why);
     return kInvalid;
   }
   if (!o.dry_run && !o.force && std::filesystem::exists(o.out_path)) {
@@ -529,7 +547,10 @@ int main(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingFile);
   an_cmd->add_option("-o,--output", analyse_out,
-                     "write here instead of replacing FILE (atomically, either way)");
+                     "write here instead of replacing FILE (atomically, either way); an existing "
+                     "file is refused unless --force");
+  bool analyse_force = false;
+  an_cmd->add_flag("--force", analyse_force, "replace an existing -o file");
   std::vector<char*> args = without_kokkos_options(argc, argv);
   const std::set<std::string> subcommands = {"run", "summary", "analyse"};
   if (args.size() > 1 && args[1][0] != '-' && !subcommands.count(args[1])) {
@@ -564,8 +585,18 @@ int main(int argc, char** argv) {
   if (!ranks.root()) return 0;
   try {
     if (*an_cmd) {
-      reanalyse(analyse_path, analyse_out.empty() ? analyse_path : analyse_out);
-      return 0;
+      const std::string out = analyse_out.empty() ? analyse_path : analyse_out;
+      if (out != analyse_path) {
+        std::string why = output_path_problem(out, analyse_path);
+        if (why.empty() && !analyse_force && std::filesystem::exists(out))
+          why = "the output file " + out + " exists; add --force to replace it";
+        if (!why.empty()) {
+          std::cerr << "loosepack: " << why << "\n";
+          return kInvalid;
+        }
+      }
+      reanalyse(analyse_path, out);
+      return kOk;
     }
     print_summary(summary_path, std::cout);
   } catch (const std::exception& e) {

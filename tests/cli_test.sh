@@ -49,6 +49,29 @@ set -e
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "exists; add --force to replace it" || fail "existing output (exit $rc): $msg"
 cmp -s "$dir/good.h5" "$dir/kept.h5" || fail "a refused run touched the existing output"
 "$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --force
+# Output paths that cannot take a result file are refused before any work, even with --force:
+# a FIFO, a device, a directory, a symbolic link, the scan file itself, an empty path.
+mkfifo "$dir/fifo"
+mkdir "$dir/adir"
+ln -s "$dir/kept.h5" "$dir/link.h5"
+cp "$dir/good.toml" "$dir/good.toml.orig"
+for bad in "$dir/fifo" /dev/null "$dir/adir" "$dir/link.h5" "$dir/good.toml" ""; do
+  set +e
+  msg=$("$exe" run "$dir/good.toml" -o "$bad" -q --force 2>&1)
+  rc=$?
+  set -e
+  [ "$rc" -eq 2 ] || fail "-o '$bad' exited $rc: $msg"
+done
+[ -p "$dir/fifo" ] && [ -c /dev/null ] && [ -d "$dir/adir" ] && [ -L "$dir/link.h5" ] ||
+  fail "a refused output path was replaced"
+cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "the scan file was overwritten"
+# analyse -o onto an existing file (here the scan file) is refused unless --force.
+set +e
+msg=$("$exe" analyse "$dir/good.h5" -o "$dir/good.toml" 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "exists; add --force" || fail "analyse -o existing (exit $rc): $msg"
+cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "analyse -o overwrote the scan file"
 "$exe" summary "$dir/good.h5" | grep -q "scan 'cli'" || fail "summary header"
 "$exe" summary "$dir/good.h5" | grep -qE "^0000 +B " || fail "summary row"
 set +e
