@@ -94,6 +94,17 @@ void attribute(hid_t obj, const std::string& name, const std::string& v) {
   check(H5Awrite(a, type, s.data()), "write attribute " + name);
 }
 
+// A text as a scalar string dataset: unlike an attribute (64 KiB at most), any length.
+void string_dataset(hid_t parent, const std::string& name, const std::string& v) {
+  H5 type(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
+  check(H5Tset_size(type, v.empty() ? 1 : v.size()), "set string size");
+  H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
+  H5 set(H5Dcreate2(parent, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+         H5Dclose, "create dataset " + name);
+  const std::string s = v.empty() ? std::string(1, '\0') : v;
+  check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.data()), "write dataset " + name);
+}
+
 void scalar(hid_t obj, const std::string& name, const Scalar& s) {
   attribute(obj, name + "_mean", s.mean);
   attribute(obj, name + "_sem", s.sem);
@@ -282,7 +293,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
     attribute(file, "wall_seconds", info.wall_seconds);
     attribute(file, "mpi_ranks", static_cast<double>(info.ranks));
     attribute(file, "scan_file", scan.file);
-    attribute(file, "scan_text", scan.text);
+    string_dataset(file, "scan_text", scan.text);
     attribute(file, "scan_name", scan.name);
     attribute(file, "seed", static_cast<double>(scan.seed));
     attribute(file, "seeds", static_cast<double>(scan.seeds));
@@ -430,6 +441,27 @@ std::string string_attribute(hid_t loc, const std::string& object, const std::st
   return s;
 }
 
+std::string string_of_dataset(hid_t loc, const std::string& name) {
+  H5 set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+  H5 type(H5Dget_type(set), H5Tclose, "get dataset type");
+  if (H5Tget_class(type) != H5T_STRING)
+    throw std::runtime_error("dataset " + name + " is not a string");
+  const std::size_t n = H5Tget_size(type);
+  std::string s(n, '\0');
+  H5 mem(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
+  check(H5Tset_size(mem, n), "set string size");
+  check(H5Dread(set, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.data()), "read dataset " + name);
+  while (!s.empty() && s.back() == '\0') s.pop_back();
+  return s;
+}
+
+// The scan file a result file was computed from: the dataset /scan_text, or the root attribute
+// of that name in files written before it became a dataset.
+std::string scan_text_of(hid_t file) {
+  if (H5Lexists(file, "scan_text", H5P_DEFAULT) > 0) return string_of_dataset(file, "scan_text");
+  return string_attribute(file, "/", "scan_text");
+}
+
 // What write_results stored of a point's aggregates, as far as the analysis reads them.
 PointResult read_point(hid_t file, const ScanPoint& point) {
   const std::string n = point_name(point.index);
@@ -484,7 +516,7 @@ void reanalyse(const std::string& in, const std::string& out) {
   try {
     H5 file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
             "open it (not an HDF5 file written by loosepack?)");
-    scan = parse_scan(string_attribute(file, "/", "scan_text"), in + " (scan_text)");
+    scan = parse_scan(scan_text_of(file), in + " (scan_text)");
     for (const auto& p : scan.points) {
       try {
         points.push_back(read_point(file, p));
@@ -524,6 +556,12 @@ double read_attribute_double(const std::string& path, const std::string& object,
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
   return double_attribute(file, object, name);
+}
+
+std::string read_scan_text(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  return scan_text_of(file);
 }
 
 std::string read_attribute_string(const std::string& path, const std::string& object,

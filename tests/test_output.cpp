@@ -39,7 +39,7 @@ lower_half_from = 3.0
   info.end_time = "t1";
   write_results(path, scan, info, points, analyse(scan, points), members, true);
   EXPECT_EQ(read_attribute_string(path, "/", "scan_name"), "roundtrip");
-  EXPECT_EQ(read_attribute_string(path, "/", "scan_text"), scan.text);
+  EXPECT_EQ(read_scan_text(path), scan.text);
   EXPECT_EQ(read_attribute_string(path, "points/0001", "protocol"), "B");
   EXPECT_EQ(read_attribute_double(path, "points/0001", "capture_radius"), 2.0);
   EXPECT_EQ(read_dataset(path, "points/0000/nu/mean"), points[0].nu.mean);
@@ -87,4 +87,22 @@ lower_half_from = 1.0
   const auto [floor, weight] = floor_force_and_weight(r);
   EXPECT_NEAR(floor, weight, 1e-3 * weight);
   expect_trajectories_end_at_final_positions(r, 3);
+}
+
+// A scan file over HDF5's 64 KiB attribute limit (here 100 KB of comments) is stored whole, and
+// `analyse` reads it back from the file.
+TEST(Output, ScanTextOfAnySizeRoundTrips) {
+  std::string text =
+      "[scan]\nprotocol = \"B\"\n[system]\nwidth = 12.0\nheight = 12.0\n"
+      "[observables]\nlower_half_from = 2.0\n";
+  while (text.size() < 100000) text += "# a long comment line to make the scan file large\n";
+  const auto scan = scan_of(text);
+  const auto members = run_all(scan);
+  const auto points = aggregate(scan, members);
+  const TempDir dir;
+  const std::string path = dir / "big.h5";
+  write_results(path, scan, RunInfo{}, points, analyse(scan, points), members, false);
+  EXPECT_EQ(read_scan_text(path), text);
+  EXPECT_NO_THROW(reanalyse(path, dir / "again.h5"));
+  EXPECT_EQ(read_scan_text(dir / "again.h5"), text);
 }

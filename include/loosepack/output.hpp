@@ -37,5 +37,8 @@ double read_attribute_double(const std::string& path, const std::string& object,
                              const std::string& name);
 std::string read_attribute_string(const std::string& path, const std::string& object,
                                   const std::string& name);
+// The scan file a result file was computed from (the dataset /scan_text; older files: the root
+// attribute).
+std::string read_scan_text(const std::string& path);
 
 }  // namespace loosepack
