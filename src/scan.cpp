@@ -418,6 +418,7 @@ class ScanParser {
   std::vector<ScanPoint> expand_grid();
   std::vector<ScanPoint> explicit_points_on(const ScanPoint& base);
   void validate_point(const ScanPoint& sp);
+  void check_rest_window(const ScanPoint& sp);
   void check_counts(const std::vector<ScanPoint>& points);
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
   int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
@@ -706,6 +707,33 @@ void ScanParser::validate_point(const ScanPoint& sp) {
     if (it != axes.end()) fail(file, *it->second.second, "system.bond_number", why);
     throw ScanError(file + ": " + why);
   }
+  check_rest_window(sp);
+}
+
+// A disk set free reaches g h rest.steps within the rest window; below kRestWindowSpeeds rest
+// speeds a falling disk cannot be told from one at rest, and rest would be declared before
+// anything moved (docs/SCAN.md, [rest]).
+void ScanParser::check_rest_window(const ScanPoint& sp) {
+  constexpr double kRestWindowSpeeds = 2.0;
+  const bool dynamics = sp.protocol == Protocol::C ||
+                        (sp.protocol == Protocol::A && !std::isinf(sp.params.bond_number));
+  const double g = std::abs(sp.params.gravity), h = sp.params.time_step;
+  const double reach = g * h * scan.rest.steps;
+  if (!dynamics || !(g > 0.0) || reach >= kRestWindowSpeeds * scan.rest.speed) return;
+  const auto need =
+      static_cast<long>(std::ceil(kRestWindowSpeeds * scan.rest.speed / (g * h) - 1e-9));
+  std::ostringstream why;
+  why << "h = " << h << " with rest.steps = " << scan.rest.steps
+      << ": a disk set free falls only g h rest.steps = " << reach
+      << " sqrt(gR) fast within the rest window, below " << kRestWindowSpeeds << " rest speeds ("
+      << kRestWindowSpeeds * scan.rest.speed
+      << "), so rest would be declared before anything moved; set [rest] steps >= " << need
+      << " (docs/SCAN.md, [rest])";
+  const auto h_node = axes.find("time_step");
+  if (h_node != axes.end()) fail(file, *h_node->second.second, "system.time_step", why.str());
+  const auto steps_node = setting_nodes.find("rest.steps");
+  if (steps_node != setting_nodes.end()) fail(file, *steps_node->second, "rest.steps", why.str());
+  throw ScanError(file + ": key 'system.time_step': " + why.str());
 }
 
 void ScanParser::check_counts(const std::vector<ScanPoint>& points) {

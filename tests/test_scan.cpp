@@ -177,8 +177,27 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
       {"[system]\nbond_number = -inf\n", "bad.toml:2:15: key 'system.bond_number': Bo must be 0"},
       {"# nothing but a comment\n", "bad.toml: the scan file sets nothing"},
+      {"[system]\nheight = 120\ntime_step = 1e-5\n",
+       "bad.toml:3:13: key 'system.time_step': h = 1e-05 with rest.steps = 10: a disk set free "
+       "falls only g h rest.steps = 0.0001 sqrt(gR) fast within the rest window, below 2 rest "
+       "speeds (0.002), so rest would be declared before anything moved; set [rest] steps >= 200"},
   };
   scan_errors::expect_refused(cases);
+}
+
+// The rest window's bound g h rest.steps >= 2 rest.speed: where the file sets no time step the
+// error points at rest.steps, a rest window long enough makes a tiny time step valid, and
+// ballistic points (no dynamics) are not bound by it.
+TEST(Scan, RestWindowMustLetAFallingDiskShow) {
+  EXPECT_NE(error_of("[rest]\nspeed = 0.5\nsteps = 10\n")
+                .find("bad.toml:3:9: key 'rest.steps': h = 0.01 with rest.steps = 10"),
+            std::string::npos);
+  EXPECT_NO_THROW(
+      parse_scan("[system]\nheight = 120\n[rest]\nsteps = 23\n[[point]]\ntime_step = "
+                 "9e-5\n",
+                 "ok.toml"));
+  EXPECT_NO_THROW(parse_scan("[scan]\nprotocol = \"B\"\n[system]\nheight = 120\ntime_step = 1e-5\n",
+                             "ok.toml"));
 }
 
 TEST(Scan, ExplicitPointsOverrideTheSystemDefaults) {
