@@ -34,6 +34,10 @@ std::string failure_message(Failure f) {
       return "more disks than the system's capacity";
     case Failure::Unconverged:
       return "the solver hit its sweep cap on every step for protocol.max_unconverged_time";
+    case Failure::Escaped:
+      return "a disk ended outside the box (above H + 4 R_max or below the floor): the solution "
+             "blew up (a solver setting that does not converge, e.g. Jacobi without mass "
+             "splitting)";
   }
   return "unknown";
 }

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "fault_injection.hpp"
+#include "loosepack/geometry.hpp"
 #include "member_run.hpp"
 
 namespace loosepack {
@@ -166,6 +167,16 @@ void MemberRun::go_on_from(std::size_t k, const MemberSnapshot& snap) {
   sl.region_sweeps -= snap.result.sweeps;
 }
 
+// Whether a disk of a finished member lies outside its box: above H + 4 R_max (no disk is placed
+// above H, and none rises under gravity and inelastic contacts) or with its centre below the
+// floor. Only a solution that blew up gets there; its member fails (Failure::Escaped) instead of
+// passing its displacements of hundreds of R into the aggregates.
+static bool escaped(const std::vector<Disk>& disks, const SystemParams& p) {
+  const double top = p.height + 4.0 * largest_radius(p);
+  return std::any_of(disks.begin(), disks.end(),
+                     [&](const Disk& d) { return !(d.y <= top) || d.y < 0.0; });
+}
+
 // The member of slot k has finished (or failed): its result is collected and handed to the
 // hooks, and the slot takes the next member.
 void MemberRun::finish(std::size_t k) {
@@ -181,7 +192,9 @@ void MemberRun::finish(std::size_t k) {
     r.sweeps += regions_->sweeps(s) - sl.region_sweeps;
   }
   r.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
-  for (const auto& d : batch_->disks(s)) {
+  const std::vector<Disk> disks = batch_->disks(s);
+  if (r.failure == Failure::None && escaped(disks, batch_->params(s))) r.failure = Failure::Escaped;
+  for (const auto& d : disks) {
     r.x.push_back(d.x);
     r.y_i.push_back(d.y_deposit);
     r.y_e.push_back(d.y);

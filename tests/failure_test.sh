@@ -38,3 +38,14 @@ PY
 /usr/bin/python3 "$repo/tools/plot.py" serial.h5 -o fig >/dev/null
 [ -s fig/structure_0000_failure_1.png ] || fail "plot.py did not draw the failed member"
 echo "failure: all checks passed"
+# A solution that blows up (Jacobi without mass splitting diverges on a cohesive deposit: disks
+# thrown hundreds of R high) fails its member (a disk left the box) instead of passing its
+# displacements into the aggregates; the file is written and the exit code is 3.
+printf '[scan]\nseeds = 1\n[system]\nwidth = 12\nheight = 12\nbond_number = 100\n[solver]\nkind = "jacobi"\nmass_splitting = false\n[observables]\nlower_half_from = 2\n' > blow.toml
+set +e
+"$exe" run blow.toml -o blow.h5 -q 2>blow.log
+rc=$?
+set -e
+[ "$rc" -eq 3 ] || fail "a blown-up member: exit code $rc, expected 3: $(cat blow.log)"
+grep -q "failed: a disk ended outside the box" blow.log || fail "blow-up not reported: $(cat blow.log)"
+"$exe" summary blow.h5 | grep -qE " 1\(1\)$" || fail "the blown-up member is not counted as failed"

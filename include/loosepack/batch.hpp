@@ -56,6 +56,7 @@ enum class Failure {
   ContactOverflow = 2,
   ParticleOverflow = 3,
   Unconverged = 4,  // set by the protocols: protocol.max_unconverged_time exceeded
+  Escaped = 5,      // set by the protocols: a disk ended outside the box (the solution blew up)
 };
 std::string failure_message(Failure f);
 
