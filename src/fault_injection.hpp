@@ -1,9 +1,11 @@
 // Fault injection for the failure-handling tests (tests/failure_test.sh), kept out of the
-// scheduler: LOOSEPACK_INJECT_NAN=<member id> starts that member with one disk of NaN velocity,
-// which fails it at its first dynamic step.
+// scheduler and the command: LOOSEPACK_INJECT_NAN=<member id> starts that member with one disk
+// of NaN velocity, which fails it at its first dynamic step; LOOSEPACK_INJECT_WRITE_FAILURE=1
+// makes the final write of a run fail, as a full disk would.
 #pragma once
 #include <cmath>
 #include <cstdlib>
+#include <stdexcept>
 #include <string>
 
 #include "loosepack/protocols.hpp"
@@ -19,6 +21,12 @@ inline void inject_faults(const Member& m, SystemSetup& setup) {
   d.radius = m.params.radius;
   d.vy = std::nan("");
   setup.disks.insert(setup.disks.begin(), d);
+}
+
+inline void inject_write_failure() {
+  const char* fail = std::getenv("LOOSEPACK_INJECT_WRITE_FAILURE");
+  if (fail && std::string(fail) == "1")
+    throw std::runtime_error("cannot write the result file (LOOSEPACK_INJECT_WRITE_FAILURE)");
 }
 
 }  // namespace loosepack

@@ -17,6 +17,7 @@
 #include <sstream>
 #include <vector>
 
+#include "fault_injection.hpp"
 #include "loosepack/checkpoint.hpp"
 #include "loosepack/observables.hpp"
 #include "loosepack/output.hpp"
@@ -328,8 +329,9 @@ int RunCommand::compute() {
   info.ranks = ranks.size();
   try {
     computed = run_members(scan, mine, hooks(), started);
-    // With several ranks the gather below may wait long for the others: save this share now.
-    if (g_signal || ranks.size() > 1) save_checkpoint();
+    // Everything computed is in the checkpoint before the gather and the final write, so that
+    // neither a long wait for the other ranks nor a failed write (a full disk) loses it.
+    save_checkpoint();
   } catch (const std::exception& e) {
     std::cerr << "loosepack: "
               << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "") << e.what()
@@ -411,9 +413,12 @@ int RunCommand::collect_and_write() {
                                 [](const PointResult& p) { return p.members == 0; }),
                  points.end());
   try {
+    inject_write_failure();
     write_results(o.out_path, scan, info, points, analyse(scan, points), results, o.snapshots);
   } catch (const std::exception& e) {
-    say(e.what());
+    say(std::string(e.what()) + "; the results are kept in " + ck_dir +
+        ": once the cause is fixed, write the file with: loosepack run " + o.scan_path + " -o " +
+        o.out_path + " --resume");
     return kError;
   }
   remove_checkpoint(ck_dir);

@@ -49,3 +49,19 @@ set -e
 [ "$rc" -eq 3 ] || fail "a blown-up member: exit code $rc, expected 3: $(cat blow.log)"
 grep -q "failed: a disk ended outside the box" blow.log || fail "blow-up not reported: $(cat blow.log)"
 "$exe" summary blow.h5 | grep -qE " 1\(1\)$" || fail "the blown-up member is not counted as failed"
+# A final write that fails (as on a full disk) exits 1 and loses nothing: the results are in the
+# checkpoint, and --resume writes the file, identical to a run whose write succeeded.
+set +e
+LOOSEPACK_INJECT_NAN=1 LOOSEPACK_INJECT_WRITE_FAILURE=1 "$exe" run s.toml -o w.h5 --batch-size 2 2>w.log
+rc=$?
+set -e
+[ "$rc" -eq 1 ] || fail "a failed final write exited $rc, expected 1: $(cat w.log)"
+grep -q "the results are kept in w.h5.checkpoint.*--resume" w.log || fail "message: $(cat w.log)"
+[ ! -e w.h5 ] && [ -d w.h5.checkpoint ] || fail "after a failed write: no checkpoint, or a file"
+set +e
+"$exe" run s.toml -o w.h5 --batch-size 2 --resume -q 2>/dev/null
+rc=$?
+set -e
+[ "$rc" -eq 3 ] || fail "the resumed write exited $rc, expected 3 (a failed member)"
+same serial.h5 w.h5
+[ ! -e w.h5.checkpoint ] || fail "the checkpoint was left after the resumed write"
