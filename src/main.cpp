@@ -166,7 +166,7 @@ int RunCommand::load() {
     return kInvalid;
   }
   if (o.batch_size > 0) scan.batch_size = o.batch_size;
-  if (scan.batch_size == 0) scan.batch_size = default_batch_size();
+  resolve_backend_defaults(scan);
   for (const auto& w : scan.warnings) say("warning: " + w);
   if (const std::string why = output_path_problem(o.out_path, o.scan_path); !why.empty()) {
     say(why);
@@ -242,8 +242,8 @@ void RunCommand::announce() const {
   std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
             << scan.seeds << " seeds = " << all_members.size() << " members";
   if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
-  std::cerr << ", batches of " << scan.batch_size << " on "
-            << Kokkos::DefaultExecutionSpace::name();
+  std::cerr << ", batches of " << scan.batch_size << " on " << Kokkos::DefaultExecutionSpace::name()
+            << ", solver " << solver_kind_name(scan.solver.kind);
   if (ranks.size() > 1) std::cerr << ", " << ranks.size() << " MPI ranks";
   std::cerr << "\n";
   if (o.resume)

@@ -87,7 +87,7 @@ class MemberRun {
   void sample(std::size_t k, double when, std::size_t count = static_cast<std::size_t>(-1));
   long steps_for(std::size_t k, double time) const;
 
-  const Scan& scan_;
+  Scan scan_;  // the run's, with the backend's defaults filled in (resolve_backend_defaults)
   const std::vector<Member>& members_;
   const RunHooks& hooks_;
   std::map<std::uint64_t, const MemberSnapshot*> snapshot_of_;

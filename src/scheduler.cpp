@@ -19,7 +19,27 @@ namespace {
 constexpr double kStopGrace = 10.0;
 }  // namespace
 
-int default_batch_size() { return Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4; }
+namespace {
+// Whether the default execution space runs on a device whose memory the host cannot read.
+constexpr bool kOnDevice =
+    !Kokkos::SpaceAccessibility<Kokkos::HostSpace,
+                                Kokkos::DefaultExecutionSpace::memory_space>::accessible;
+}  // namespace
+
+int default_batch_size() {
+  if (kOnDevice) return 4096;
+  return Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4;
+}
+
+SolverKind default_solver_kind() {
+  return kOnDevice ? SolverKind::ColouredAcceleratedGaussSeidel
+                   : SolverKind::AcceleratedGaussSeidel;
+}
+
+void resolve_backend_defaults(Scan& scan) {
+  if (scan.batch_size == 0) scan.batch_size = default_batch_size();
+  if (!scan.solver_kind_given) scan.solver.kind = default_solver_kind();
+}
 
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
                                       const RunHooks& hooks,
@@ -31,14 +51,14 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 MemberRun::MemberRun(const Scan& scan, const std::vector<Member>& members, const RunHooks& hooks,
                      const std::vector<MemberSnapshot>& resume)
     : scan_(scan), members_(members), hooks_(hooks) {
+  resolve_backend_defaults(scan_);
   results_.resize(members.size());
   done_.assign(members.size(), 0);
   size_slots();
-  const int batch_size = scan.batch_size > 0 ? scan.batch_size : default_batch_size();
-  n_slots_ = std::min(members.size(), static_cast<std::size_t>(batch_size));
+  n_slots_ = std::min(members.size(), static_cast<std::size_t>(scan_.batch_size));
   std::vector<SystemSetup> setups;
   for (std::size_t k = 0; k < n_slots_; ++k) setups.push_back(setup_of(members[k]));
-  batch_ = std::make_unique<Batch>(setups, scan.solver, scan.rest);
+  batch_ = std::make_unique<Batch>(setups, scan_.solver, scan_.rest);
   batch_->set_timing(hooks.stage_seconds != nullptr);
   make_regions();
   slots_.resize(n_slots_);

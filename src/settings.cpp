@@ -27,7 +27,10 @@ std::vector<SettingKey> make_table() {
          return names;
        },
        [](const Scan& s) { return std::string(solver_kind_name(s.solver.kind)); },
-       [](Scan& s, const std::string& n) { return solver_kind_from_name(n, s.solver.kind); },
+       [](Scan& s, const std::string& n) {
+         s.solver_kind_given = solver_kind_from_name(n, s.solver.kind);
+         return s.solver_kind_given;
+       },
        nullptr, nullptr},
       {"solver", "tolerance", Type::Real, 1e-14, 1.0, "h m g",
        "largest impulse change of a converged sweep", "solver_tolerance",

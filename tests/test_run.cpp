@@ -2,6 +2,7 @@
 // that fails alone.
 #include <gtest/gtest.h>
 
+#include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -119,4 +120,20 @@ lower_half_from = 2.0
   EXPECT_EQ(points.at(0).members, 1);
   EXPECT_EQ(points.at(0).failed, 1);
   EXPECT_EQ(points.at(0).nu_lower_half.n, 0);
+}
+
+// What a scan leaves to the backend is filled in by the backend: on a host backend (the build
+// the suite runs on) one thread per system, and 4 or 64 systems per batch; a file's own choices
+// stay. (On a device the defaults are the team solver and 4 096: docs/PERFORMANCE.md.)
+TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
+  Scan open = scan_of("[scan]\nname = \"open\"\n");
+  resolve_backend_defaults(open);
+  EXPECT_EQ(open.solver.kind, default_solver_kind());
+  EXPECT_EQ(open.batch_size, default_batch_size());
+  EXPECT_EQ(default_solver_kind(), SolverKind::AcceleratedGaussSeidel);
+  EXPECT_EQ(default_batch_size(), Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4);
+  Scan set = scan_of("[scan]\nbatch_size = 3\n[solver]\nkind = \"gauss_seidel\"\n");
+  resolve_backend_defaults(set);
+  EXPECT_EQ(set.solver.kind, SolverKind::GaussSeidel);
+  EXPECT_EQ(set.batch_size, 3);
 }

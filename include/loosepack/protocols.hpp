@@ -126,9 +126,17 @@ struct RunHooks {
 
 // Systems per batch where the scan sets none: 4 on a backend that runs one thread (Kokkos
 // Serial: a batch there runs nothing side by side and costs cache locality, so batches of small
-// systems cost more per member: docs/PERFORMANCE.md, "Batch scaling"), else 64 (OpenMP threads
-// or a GPU share the systems of a batch out; more systems balance them better).
+// systems cost more per member: docs/PERFORMANCE.md, "Batch scaling"), 64 on host threads
+// (OpenMP shares the systems of a batch out; more systems balance them better), 4 096 on a
+// device (a GPU's time per member still falls from 1 024 to 4 096 members: docs/PERFORMANCE.md,
+// "Building for more cores or a GPU").
 int default_batch_size();
+// The solver where the scan sets none: accelerated_gauss_seidel (one thread per system) on the
+// host, coloured_accelerated_gauss_seidel (a team of threads per system) on a device, where it
+// is 2.3-2.7x faster (docs/PERFORMANCE.md, "Building for more cores or a GPU").
+SolverKind default_solver_kind();
+// Fills in what the scan leaves to the backend: the batch size and the solver kind.
+void resolve_backend_defaults(Scan& scan);
 
 // Run the members on one batch of scan.batch_size slots (default_batch_size() if 0): members of any
 // protocol advance together, and a finished member's slot takes the next member. Returns the
