@@ -82,6 +82,7 @@ class MemberRun {
   bool start_region(std::size_t k, const std::vector<Regions::Point>& seeds);
   void await_disk(std::size_t k);
   // Bookkeeping shared by the phases.
+  bool whole_step_counted(std::size_t k);
   void count_step(Slot& sl, const SystemStatus& st, double time_step);
   void count_disk(std::size_t k, const Deposit& d);
   void sample(std::size_t k, double when, std::size_t count = static_cast<std::size_t>(-1));

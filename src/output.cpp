@@ -462,6 +462,26 @@ std::string scan_text_of(hid_t file) {
   return string_attribute(file, "/", "scan_text");
 }
 
+// A count stored as a double attribute, checked before it becomes an int.
+int count_attribute(hid_t loc, const std::string& name) {
+  const double v = double_attribute(loc, ".", name);
+  if (!(v >= 0.0 && v <= 1e9) || v != std::floor(v))
+    throw std::runtime_error("attribute " + name + " = " + std::to_string(v) + " is not a count");
+  return static_cast<int>(v);
+}
+
+// The datasets of one group read back must agree in length (one entry per strip or bin), and
+// hold at least one: a damaged or hand-edited file is refused, never analysed out of bounds.
+void check_lengths(const std::string& group,
+                   const std::vector<std::pair<std::string, std::size_t>>& sizes) {
+  for (const auto& [name, n] : sizes)
+    if (n != sizes.front().second || n == 0)
+      throw std::runtime_error(group + "/" + name + " has " + std::to_string(n) + " values, " +
+                               group + "/" + sizes.front().first + " " +
+                               std::to_string(sizes.front().second) +
+                               " (the file is damaged or was edited)");
+}
+
 // What write_results stored of a point's aggregates, as far as the analysis reads them.
 PointResult read_point(hid_t file, const ScanPoint& point) {
   const std::string n = point_name(point.index);
@@ -470,17 +490,22 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
   H5 g = open_group(file, n);
   PointResult pr;
   pr.point = point;
-  pr.members = static_cast<int>(double_attribute(g, ".", "members"));
-  pr.failed = static_cast<int>(double_attribute(g, ".", "failed"));
+  pr.members = count_attribute(g, "members");
+  pr.failed = count_attribute(g, "failed");
   auto scalar_of = [&](const std::string& name) {
     Scalar s;
     s.mean = double_attribute(g, ".", name + "_mean");
     s.sem = double_attribute(g, ".", name + "_sem");
-    s.n = static_cast<int>(double_attribute(g, ".", name + "_n"));
+    s.n = count_attribute(g, name + "_n");
     return s;
   };
   auto read = [&](const std::string& name, auto& v, const auto& list) {
-    for (const auto& [field, member] : list) v.*member = doubles(g, name + "/" + field);
+    std::vector<std::pair<std::string, std::size_t>> sizes;
+    for (const auto& [field, member] : list) {
+      v.*member = doubles(g, name + "/" + field);
+      sizes.emplace_back(field, (v.*member).size());
+    }
+    check_lengths(n + "/" + name, sizes);
   };
   pr.nu_lower_half = scalar_of("nu_lower_half");
   pr.mean_abs_dy = scalar_of("mean_abs_dy");
@@ -493,12 +518,19 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
       // Files of programs before the per-member rows lack them: the fits then take their
       // errors from the residual scatter.
       const std::string path = std::string(name) + "/" + field;
-      if (H5Lexists(g, path.c_str(), H5P_DEFAULT) > 0) (*b).*member = rows(g, path);
+      if (H5Lexists(g, path.c_str(), H5P_DEFAULT) <= 0) continue;
+      (*b).*member = rows(g, path);
+      for (const auto& row : (*b).*member)
+        check_lengths(n + "/" + name, {{"centre", b->centre.size()}, {field, row.size()}});
     }
   }
   pr.abs_dy_edges = doubles(g, "abs_dy_histogram/edges");
   pr.abs_dy_counts = doubles(g, "abs_dy_histogram/counts");
   pr.abs_dy_counts_cut = doubles(g, "abs_dy_histogram/counts_cut");
+  check_lengths(n + "/abs_dy_histogram",
+                {{"counts", pr.abs_dy_counts.size()},
+                 {"counts_cut", pr.abs_dy_counts_cut.size()},
+                 {"edges less one", pr.abs_dy_edges.empty() ? 0 : pr.abs_dy_edges.size() - 1}});
   if (point.protocol == Protocol::C) {
     pr.nu_initial = scalar_of("nu_initial");
     pr.nu_final = scalar_of("nu_final");
@@ -606,12 +638,17 @@ void print_summary(const std::string& path, std::ostream& out) {
     if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
     std::ostringstream bo;
     bo << d("bond_number");
-    out << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
-        << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
-        << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction") << std::setw(22)
-        << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
-        << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel
-        << static_cast<int>(d("members")) << "(" << static_cast<int>(d("failed")) << ")\n";
+    const H5 g = open_group(file, n);
+    const int members = count_attribute(g, "members"), failed = count_attribute(g, "failed");
+    // Each line whole or not at all: an attribute that cannot be read stops before it.
+    std::ostringstream line;
+    line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
+         << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
+         << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction") << std::setw(22)
+         << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
+         << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members
+         << "(" << failed << ")\n";
+    out << line.str();
   }
   // The fits of the analysis, where the file has them.
   auto exists = [&](const std::string& object) {
@@ -621,6 +658,7 @@ void print_summary(const std::string& path, std::ostream& out) {
   auto fit_text = [&](const std::string& object, const char* var) {
     if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
     const auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
+    check_lengths(object, {{"coef", c.size()}, {"error", e.size()}});
     std::ostringstream o;
     o << std::setprecision(3);
     for (std::size_t k = 0; k < c.size(); ++k) {

@@ -122,14 +122,10 @@ void MemberRun::advance_region(std::size_t k, Mask& closing) {
 
 // A step of slot k's whole system relaxing after a disk (or checking after a region).
 void MemberRun::advance_relax(std::size_t k, Mask& closing) {
+  if (!whole_step_counted(k)) return;
   Slot& sl = slots_[k];
   const int s = static_cast<int>(k);
   const auto& st = batch_->status(s);
-  count_step(sl, st, batch_->params(s).time_step);
-  if (st.failure != Failure::None || sl.gave_up) {
-    finish(k);
-    return;
-  }
   // The check after a region: rest.steps steps without motion suffice, converged or not (a
   // tall deposit's solve misses the tolerance on some steps; docs/MODEL.md).
   const bool quiet = sl.checking && sl.quiet >= scan_.rest.steps;
@@ -148,14 +144,9 @@ void MemberRun::advance_relax(std::size_t k, Mask& closing) {
 
 // A step of slot k's collapse (C), sampled every observables.trajectory_interval steps.
 void MemberRun::advance_collapse(std::size_t k) {
+  if (!whole_step_counted(k)) return;
   Slot& sl = slots_[k];
-  const int s = static_cast<int>(k);
-  const auto& st = batch_->status(s);
-  count_step(sl, st, batch_->params(s).time_step);
-  if (st.failure != Failure::None || sl.gave_up) {
-    finish(k);
-    return;
-  }
+  const auto& st = batch_->status(static_cast<int>(k));
   const bool done = st.at_rest || sl.steps >= sl.cap;
   if (done || sl.steps % scan_.observables.trajectory_interval == 0)
     sample(k, static_cast<double>(sl.steps));
@@ -258,6 +249,18 @@ bool MemberRun::start_region(std::size_t k, const std::vector<Regions::Point>& s
 void MemberRun::await_disk(std::size_t k) { set_phase(k, Phase::Deposit); }
 
 // --- Bookkeeping -----------------------------------------------------------------------------
+
+// Counts a step of slot k's whole system; where the step failed the member (a guard, or a solve
+// capped for too long), finishes it and returns false.
+bool MemberRun::whole_step_counted(std::size_t k) {
+  Slot& sl = slots_[k];
+  const int s = static_cast<int>(k);
+  const auto& st = batch_->status(s);
+  count_step(sl, st, batch_->params(s).time_step);
+  if (st.failure == Failure::None && !sl.gave_up) return true;
+  finish(k);
+  return false;
+}
 
 // A slot's counters after one step of its system (whole or region): steps, consecutive
 // unconverged steps (with rest.converged false a capped solve blocks nothing, so it is not a

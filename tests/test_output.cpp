@@ -1,9 +1,11 @@
 // The result file: what was computed round trips, rewrites are atomic; final contact forces
 // and trajectories.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 
 #include "loosepack/observables.hpp"
@@ -105,4 +107,68 @@ TEST(Output, ScanTextOfAnySizeRoundTrips) {
   EXPECT_EQ(read_scan_text(path), text);
   EXPECT_NO_THROW(reanalyse(path, dir / "again.h5"));
   EXPECT_EQ(read_scan_text(dir / "again.h5"), text);
+}
+
+namespace {
+// Replaces dataset `name` of result file `path` by one of `values` (a damaged or edited file).
+void replace_dataset(const std::string& path, const std::string& name,
+                     const std::vector<double>& values) {
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+  ASSERT_GE(file, 0);
+  ASSERT_GE(H5Ldelete(file, name.c_str(), H5P_DEFAULT), 0);
+  const hsize_t n = values.size();
+  const hid_t space = H5Screate_simple(1, &n, nullptr);
+  const hid_t set =
+      H5Dcreate2(file, name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  if (n > 0) H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data());
+  H5Dclose(set);
+  H5Sclose(space);
+  H5Fclose(file);
+}
+}  // namespace
+
+// `analyse` refuses a file whose datasets disagree in length (an empty nu/mean, a short sem or
+// count, a histogram whose edges do not bound its counts), naming the dataset, and writes
+// nothing back: the file stays as it was.
+TEST(Output, AnalyseRefusesInconsistentFiles) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 2
+[system]
+width = 12.0
+height = 12.0
+bond_number = 10.0
+[observables]
+lower_half_from = 2.0
+)");
+  const auto members = run_all(scan);
+  const auto points = aggregate(scan, members);
+  const TempDir dir;
+  const std::string good = dir / "good.h5";
+  write_results(good, scan, RunInfo{}, points, analyse(scan, points), members, false);
+  const std::vector<std::pair<std::string, std::size_t>> damages = {
+      {"points/0000/nu/mean", 0},
+      {"points/0000/nu_deposition/sem", 1},
+      {"points/0000/avalanche_by_yi/count", 1},
+      {"points/0000/abs_dy_histogram/counts", 1}};
+  for (const auto& [name, keep] : damages) {
+    SCOPED_TRACE(name);
+    const std::string bad = dir / "bad.h5";
+    std::filesystem::copy_file(good, bad, std::filesystem::copy_options::overwrite_existing);
+    std::vector<double> values = read_dataset(bad, name);
+    ASSERT_GT(values.size(), keep);
+    values.resize(keep);
+    replace_dataset(bad, name, values);
+    const auto before = std::filesystem::last_write_time(bad);
+    try {
+      reanalyse(bad, bad);
+      ADD_FAILURE() << "an inconsistent file was analysed";
+    } catch (const std::runtime_error& e) {
+      const std::string dataset = name.substr(name.find_last_of('/') + 1);
+      EXPECT_NE(std::string(e.what()).find(dataset), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(std::filesystem::last_write_time(bad), before);
+    EXPECT_EQ(read_dataset(bad, name), values);
+  }
 }
