@@ -10,4 +10,4 @@ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DLOOSEPACK_SANITIZE=ON \
   { cat build-asan/configure.log; echo "cmake configure failed" >&2; exit 1; }
 cmake --build build-asan -j"$(nproc)" --target loosepack_tests
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ./build-asan/tests/loosepack_tests \
-  --gtest_filter='ContactLaw*:Validation*:Scan*:Output*:Solver*:Guard*:Reproducibility*:Analysis*:Checkpoint*:Failure*:Region*:ColouredSolver*:Newton*'
+  --gtest_filter='ContactLaw*:Validation*:Scan*:Output*:Solver*:Guard*:Reproducibility*:Analysis*:Checkpoint*:Failure*:Region*:ColouredSolver*:Newton*:Batch*:Collision*:Backend*'
