@@ -65,7 +65,7 @@ inline bool goes_on_from(MemberPhase p) {
 }
 
 // Where a running member stands in its protocol, apart from its system: the counters of its
-// batch slot (src/protocols.cpp).
+// batch slot (src/member_run.hpp, src/phases.cpp).
 struct MemberStage {
   long steps = 0;        // steps of the current relaxation or collapse
   long cap = 0;          // their cap
