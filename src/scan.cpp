@@ -667,12 +667,18 @@ void ScanParser::validate_point(const ScanPoint& sp) {
     std::ostringstream why;
     why << "the system is L_x H / R^2 = " << area << " > " << kMaxArea
         << " (about 3e6 disks per member at most)";
-    auto w = axes.find("width"), h = axes.find("height");
-    if (w != axes.end() && (h == axes.end() || sp.params.width >= sp.params.height))
-      fail(file, *w->second.second, "system.width", why.str());
-    if (h != axes.end()) fail(file, *h->second.second, "system.height", why.str());
-    auto r = axes.find("radius");
-    if (r != axes.end()) fail(file, *r->second.second, "system.radius", why.str());
+    // Blame the key the file sets that grows the area most beyond its default (the area is
+    // counted in R^2, so a small radius weighs twice).
+    const SystemParams d;
+    std::vector<std::pair<double, std::string>> growth = {
+        {std::log(sp.params.width / d.width), "width"},
+        {std::log(sp.params.height / d.height), "height"},
+        {2.0 * std::log(d.radius / sp.params.radius), "radius"}};
+    std::sort(growth.rbegin(), growth.rend());
+    for (const auto& [factor, key] : growth) {
+      const auto it = axes.find(key);
+      if (it != axes.end()) fail(file, *it->second.second, "system." + key, why.str());
+    }
     throw ScanError(file + ": " + why.str());
   }
   // Contacts are detected up to 2 h (v + h g) ahead (src/batch.cpp); a disk falling through

@@ -259,6 +259,9 @@ TEST(Scan, RejectsWhatTheFuzzerFound) {
       {"[system]\nwidth =922337203685477\n", "bad.toml:2:8: key 'system.width': the system is L_x"},
       {"[system]\nwidth = 1e4\nheight = 2e4\n",
        "bad.toml:3:10: key 'system.height': the system is L_x H / R^2 = 2e+08 > 1e+07"},
+      // A small radius makes the area large: it is blamed, not the width beside it.
+      {"[system]\nwidth = 300\nradius = 0.05\n",
+       "bad.toml:3:10: key 'system.radius': the system is L_x H / R^2 = 1.8e+07 > 1e+07"},
       {"[system]\nradius = 1e-200\n",
        "bad.toml:2:10: key 'system.radius': R must be in [1e-6, 1e6]"},
       {"[system]\nradius = 1e200\nwidth = 4e200\nheight = 4e200\n",
