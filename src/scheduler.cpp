@@ -17,9 +17,6 @@ namespace {
 // After a stop, the run goes on at most this long [s] for snapshots of the members inside
 // relaxation regions (a batch system's grace period after SIGTERM is usually 30 s or more).
 constexpr double kStopGrace = 10.0;
-}  // namespace
-
-namespace {
 // Whether the default execution space runs on a device whose memory the host cannot read.
 constexpr bool kOnDevice =
     !Kokkos::SpaceAccessibility<Kokkos::HostSpace,
@@ -65,7 +62,7 @@ MemberRun::MemberRun(const Scan& scan, const std::vector<Member>& members, const
   for (const auto& snap : resume) snapshot_of_[snap.result.member.id] = &snap;
   progress_.members_total = static_cast<int>(members.size());
   for (const auto& m : members) total_cost_ += expected_cost(m);
-  wake_ = kWakeFactor * scan.rest.speed;
+  wake_ = kWakeFactor * scan_.rest.speed;
 }
 
 SystemSetup MemberRun::setup_of(const Member& m) const {

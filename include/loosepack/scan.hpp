@@ -85,7 +85,9 @@ struct Scan {
   SolverSettings solver;  // solver.tolerance and max_sweeps only count where given
   bool tolerance_given = false;   // [solver] tolerance set in the file, for every protocol
   bool max_sweeps_given = false;  // [solver] max_sweeps set in the file, for every protocol
-  bool solver_kind_given = false;  // [solver] kind set in the file; else the backend's default
+  // [solver] kind set in the file; else the backend's default (resolve_backend_defaults). A
+  // Scan built in code that sets solver.kind sets this too.
+  bool solver_kind_given = false;
   RestSettings rest;
   ObservableSettings observables;
   ProtocolSettings protocol;
