@@ -1,7 +1,7 @@
-// Batch scaling (issue 5, "Performance"): the same members run through loosepack::run_members
-// in batches of 1, 4, 16, 64 (and 256 with --full) systems, against the same members run one
-// after another in a batch of one (the "separate runs": one member per batch slot, no other
-// system in the kernels). Prints one JSON record per run:
+// Batch scaling (docs/PERFORMANCE.md, "Batch scaling"): the same members run through
+// loosepack::run_members in batches of 1, 4, 16, 64 (and 256 with --full) systems, against the same
+// members run one after another in a batch of one (the "separate runs": one member per batch slot,
+// no other system in the kernels). Prints one JSON record per run:
 //
 //   separate        every member alone, in order; its wall time per member is the baseline
 //   batch           B members in one batch of B slots: deposited disks per second, members per

@@ -1,4 +1,4 @@
-// Convergence of the contact solvers on tall structures (issue 5, "Convergence on tall
+// Convergence of the contact solvers on tall structures (docs/PERFORMANCE.md, "Convergence on tall
 // structures"): sweeps to a fixed tolerance against the height n of a loaded column, for each
 // solver, cold started (first step, all impulses zero) and warm started (one disk added on top of
 // a column at rest). Also the error of the bottom contact force against n m g, so a solver that

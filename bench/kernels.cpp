@@ -1,7 +1,7 @@
-// Kernel benchmarks on realistic batches (issue 5, "Performance"): the stages of a time step
-// (neighbour grid, contact build, one Jacobi sweep, colouring, one coloured Gauss-Seidel sweep,
-// integration) on a batch of S systems of N disks, loose and dense, beside a STREAM-like copy
-// measured in the same run.
+// Kernel benchmarks on realistic batches (docs/PERFORMANCE.md, "Kernel benchmarks"): the stages of
+// a time step (neighbour grid, contact build, one Jacobi sweep, colouring, one coloured
+// Gauss-Seidel sweep, integration) on a batch of S systems of N disks, loose and dense, beside a
+// STREAM-like copy measured in the same run.
 //
 //   loose: a ballistic deposit (Batch::deposit, DropRule::Capture, r_capt = 1, gravity off while
 //          it is built), then gravity on at Bo = 1e3: the start of protocol C's collapse.

@@ -1,4 +1,4 @@
-// Whole-run studies of issue 5 ("Performance"), one JSON record per ensemble run on stdout:
+// Whole-run studies (docs/PERFORMANCE.md), one JSON record per ensemble run on stdout:
 //
 //   --study effects   the default scene (protocol A, 24 R x 24 R, Bo = 1e2, mu_r = 0.1) and the
 //                     collapse scene (protocol C, Bo = 1e3) with and without cohesion (Bo = 0),

@@ -1,4 +1,4 @@
-// libFuzzer target for the scan-file parser and validator (issue 6, docs/SCAN.md "Fuzzing").
+// libFuzzer target for the scan-file parser and validator (docs/SCAN.md, "Fuzzing").
 // parse_scan must return a valid Scan or throw ScanError; any other exception, crash,
 // sanitizer report, hang or huge allocation is a bug. Only ScanError is caught here, so
 // everything else reaches libFuzzer. A scan that parses also goes through the cheap

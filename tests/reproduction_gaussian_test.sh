@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The one claim of the paper that needs a tall deposit (issue 4): at Bo = 1e3 the |Delta y|
+# The one claim of the paper that needs a tall deposit (docs/REPRODUCTION.md): at Bo = 1e3 the |Delta y|
 # histogram is better described by a Gaussian than by an exponential (fig. 8), judged by
 # tools/claims.py on examples/paper/claims_gaussian_reduced.toml (40 R x 180 R, 8 members),
 # together with the parabola of positive curvature that the same point shows. Run under

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The reduced reproduction end to end (issue 4): examples/paper/claims_reduced.toml is run,
+# The reduced reproduction end to end (docs/REPRODUCTION.md): examples/paper/claims_reduced.toml is run,
 # summarised with its fits, drawn by tools/plot.py, and judged by tools/claims.py, which must
 # find every claim of the paper that the file's points can show: a parabola with positive
 # curvature for protocol A at Bo = 1e2, an exponential |Delta y| histogram at Bo = 0, straight

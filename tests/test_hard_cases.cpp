@@ -1,6 +1,6 @@
-// Hard cases (issue 6): extreme Bond numbers, a tall exact column and its toppling, degenerate
-// geometry, extreme parameters. Every test states the quantity it checks and where its bound
-// comes from (statics, the contact law of MODEL.md, or the solver's tolerance); none is a
+// Hard cases (docs/VALIDATION.md): extreme Bond numbers, a tall exact column and its toppling,
+// degenerate geometry, extreme parameters. Every test states the quantity it checks and where its
+// bound comes from (statics, the contact law of MODEL.md, or the solver's tolerance); none is a
 // number copied from a previous run.
 #include <gtest/gtest.h>
 
@@ -13,8 +13,8 @@
 
 #include "loosepack/batch.hpp"
 #include "loosepack/scan.hpp"
-#include "tests/scan_errors.hpp"
 #include "loosepack/scenes.hpp"
+#include "tests/scan_errors.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;
