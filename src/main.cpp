@@ -130,6 +130,7 @@ class RunCommand {
   std::vector<MemberSnapshot> started;
   std::vector<double> shard_cost;  // expected cost of each rank's share
   std::string ck_dir, part;
+  std::uint64_t fingerprint = 0;  // of the scan, in every checkpoint part (computed once)
   CheckpointContents ck;
   // This rank's members finished since the last checkpoint, and the latest snapshot of each of
   // its running members.
@@ -223,6 +224,7 @@ int RunCommand::read_checkpoint() {
   for (auto& snap : ck.running)
     if (selected.count(snap.result.member.id)) started.push_back(std::move(snap));
   part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
+  fingerprint = scan_fingerprint(scan);
   return 0;
 }
 
@@ -258,7 +260,7 @@ void RunCommand::save_checkpoint() {
   std::filesystem::create_directories(ck_dir);
   std::vector<MemberSnapshot> snaps;
   for (const auto& [id, snap] : running) snaps.push_back(snap);
-  write_checkpoint_part(part, scan_fingerprint(scan), fresh, snaps);
+  write_checkpoint_part(part, fingerprint, fresh, snaps);
 }
 
 // Progress of all ranks, on rank 0, at most every 2 s unless forced.
