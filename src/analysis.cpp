@@ -362,7 +362,7 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
     if (prot == Protocol::A) {
       // The slice model without the top cut_top of the box: the paper's "crust", disks
       // deposited last that have hardly moved, which the slice model does not describe.
-      a.slice_parabola = ensemble_fit(pr.dy_by_ye, H - obs.cut_top, 1, slice_basis(H));
+      a.slice_parabola = ensemble_fit(pr.dy_by_ye, H - obs.cut_top_at(H), 1, slice_basis(H));
     } else if (a.dy_by_ye.valid() && a.dy_by_yi.valid()) {
       const double b = -coef(a.dy_by_ye, 1), sb = err(a.dy_by_ye, 1);
       const double ae = coef(a.dy_by_ye, 0), sa = err(a.dy_by_ye, 0);
@@ -382,7 +382,7 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
       std::vector<double> x, y, s;
       for (std::size_t k = 0; k < pr.nu_deposition.centre.size(); ++k) {
         const double c = pr.nu_deposition.centre[k];
-        if (c < obs.lower_half_from || c + 1.5 * obs.strip_width > H) continue;
+        if (c < obs.lower_half_from_at(H) || c + 1.5 * obs.strip_width > H) continue;
         x.push_back(c);
         y.push_back(pr.nu_deposition.mean[k]);
         s.push_back(pr.nu_deposition.sem[k]);
@@ -404,7 +404,7 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
           const double slope = coef(a.dy_by_ye, 1) + 2.0 * coef(a.dy_by_ye, 2) * ye;
           a.nu_predicted[k] = std::exp(lnA) * std::pow(yi, p) * (1.0 - slope);
           a.nu_deviation[k] = a.nu_predicted[k] - pr.nu.mean[k];
-          if (ye >= obs.lower_half_from && std::isfinite(a.nu_deviation[k])) {
+          if (ye >= obs.lower_half_from_at(H) && std::isfinite(a.nu_deviation[k])) {
             sum2 += a.nu_deviation[k] * a.nu_deviation[k];
             ++n;
           }

@@ -416,7 +416,7 @@ class ScanParser {
   void read_scan_section(const toml::table& tbl);
   void read_system_section(const toml::table& tbl);
   std::vector<ScanPoint> expand_grid();
-  std::vector<ScanPoint> explicit_points_on(const ScanPoint& base);
+  std::vector<ScanPoint> explicit_points_on(const ScanPoint& base, bool system_sets_time_step);
   void validate_point(const ScanPoint& sp);
   void check_rest_window(const ScanPoint& sp);
   void check_counts(const std::vector<ScanPoint>& points);
@@ -471,20 +471,21 @@ Scan ScanParser::parse() {
         fail(file, *ax.second, "system." + k,
              "axes and [[point]] tables do not mix: list the points, or the axes");
   }
+  const bool system_sets_time_step = axes.count("time_step") > 0;
   std::vector<ScanPoint> points = expand_grid();
-  if (!explicit_points.empty()) points = explicit_points_on(points.front());
+  if (!explicit_points.empty())
+    points = explicit_points_on(points.front(), system_sets_time_step);
   // Validate every point; report the first offending key with its location.
   for (const auto& sp : points) validate_point(sp);
   for (const auto& sp : points)
-    if (!(scan.observables.lower_half_from < 0.5 * sp.params.height)) {
+    if (!(scan.observables.lower_half_from_at(sp.params.height) < 0.5 * sp.params.height)) {
       std::ostringstream o;
       o << scan.observables.lower_half_from << " must lie below H/2 = " << 0.5 * sp.params.height
         << " of every point (nu_lower_half is the band from it to H/2)";
       const auto at = setting_nodes.find("observables.lower_half_from");
       if (at != setting_nodes.end())
         fail(file, *at->second, "observables.lower_half_from", o.str());
-      throw ScanError(file + ": key 'observables.lower_half_from': " + o.str() +
-                      " (the default; set it in [observables])");
+      throw ScanError(file + ": key 'observables.lower_half_from': " + o.str());
     }
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
@@ -620,15 +621,21 @@ std::vector<ScanPoint> ScanParser::expand_grid() {
       }
     points = std::move(next);
   }
+  if (!axes.count("time_step"))
+    for (auto& sp : points) sp.params.time_step = default_time_step(sp.params);
   return points;
 }
 
-// Explicit points: the [system] values (now all scalars) overridden by each point's keys.
-std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base) {
+// Explicit points: the [system] values (now all scalars) overridden by each point's keys; a
+// point whose time step neither it nor [system] sets gets the default at its own Bond number.
+std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base,
+                                                      bool system_sets_time_step) {
   std::vector<ScanPoint> points;
   for (const auto& ex : explicit_points) {
     ScanPoint sp = base;
+    bool sets_time_step = system_sets_time_step;
     for (const auto& [k, v] : ex.keys) {
+      sets_time_step = sets_time_step || k == "time_step";
       if (k == "protocol") {
         auto str = v->as_string();
         if (!str || !protocol_from_name(str->get(), sp.protocol))
@@ -641,6 +648,7 @@ std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base) {
         axes[k] = {{as_number(file, *v, "point." + k)}, v};  // for error locations below
       }
     }
+    if (!sets_time_step) sp.params.time_step = default_time_step(sp.params);
     for (const auto& sk : system_keys()) {
       const std::string why = sk.check(sp.params);
       if (why.empty()) continue;
@@ -757,9 +765,8 @@ void ScanParser::check_counts(const std::vector<ScanPoint>& points) {
 void ScanParser::warn_unresolved_barrier(const std::vector<ScanPoint>& points) {
   for (const auto& sp : points) {
     const auto& p = sp.params;
-    const double fc = p.cohesive_force();
-    if (sp.protocol == Protocol::B || !(fc > 0.0)) continue;
-    const double scale = std::sqrt(2.0 * 0.5 * p.reference_mass() * p.cohesion_range / fc);
+    const double scale = cohesive_barrier_time(p);
+    if (sp.protocol == Protocol::B) continue;
     if (p.time_step > scale) {
       std::ostringstream o;
       o << file << ": point " << sp.index << " (Bo = " << p.bond_number << "): time_step "

@@ -15,6 +15,17 @@ using Type = SettingKey::Type;
       [](Scan& s, double v) { s.field = static_cast<decltype(s.field)>(v); }, nullptr, nullptr, \
       nullptr
 
+// A row of an observable length that a point derives from its height unless the file sets it
+// (ObservableSettings::lower_half_from_at): stored in /settings only where set.
+#define LOOSEPACK_GIVEN_LENGTH(name)                                              \
+  [](const Scan& s) { return s.observables.name; },                               \
+      [](Scan& s, double v) {                                                     \
+        s.observables.name = v;                                                   \
+        s.observables.name##_given = true;                                        \
+      },                                                                          \
+      nullptr, nullptr, nullptr, nullptr,                                         \
+      [](const Scan& s) { return s.observables.name##_given; }
+
 std::vector<SettingKey> make_table() {
   constexpr double kLarge = 1e9;
   return {
@@ -98,17 +109,16 @@ std::vector<SettingKey> make_table() {
        LOOSEPACK_FIELD(observables.strip_width), nullptr, nullptr},
       {"observables", "lower_half_from", Type::Real, 0.0, kLarge, "R",
        "nu_lower_half from this height to H/2", "lower_half_from",
-       LOOSEPACK_FIELD(observables.lower_half_from), nullptr, nullptr},
+       LOOSEPACK_GIVEN_LENGTH(lower_half_from)},
       {"observables", "bin_width", Type::Real, 1e-3, 1e6, "R", "avalanche profile bins",
        "bin_width", LOOSEPACK_FIELD(observables.bin_width), nullptr, nullptr},
       {"observables", "abs_dy_bin", Type::Real, 1e-3, 1e6, "R", "|Delta y| histogram bin",
        "abs_dy_bin", LOOSEPACK_FIELD(observables.abs_dy_bin), nullptr, nullptr},
       {"observables", "cut_bottom", Type::Real, 0.0, kLarge, "R",
        "the cut histogram leaves out this much at the bottom", "cut_bottom",
-       LOOSEPACK_FIELD(observables.cut_bottom), nullptr, nullptr},
+       LOOSEPACK_GIVEN_LENGTH(cut_bottom)},
       {"observables", "cut_top", Type::Real, 0.0, kLarge, "R",
-       "... and at the top of the final deposit", "cut_top", LOOSEPACK_FIELD(observables.cut_top),
-       nullptr, nullptr},
+       "... and at the top of the final deposit", "cut_top", LOOSEPACK_GIVEN_LENGTH(cut_top)},
       {"observables", "event_threshold", Type::Real, 0.0, kLarge, "R",
        "a disk moved in an avalanche beyond this", "event_threshold",
        LOOSEPACK_FIELD(observables.event_threshold), nullptr, nullptr},

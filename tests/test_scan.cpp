@@ -172,7 +172,6 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[scan]\nprotocol = \"C\"\n[system]\nbond_number = \"inf\"\n",
        "protocol C with Bo = inf has no collapse"},
       {"[system\nwidth = 3\n", "bad.toml:1:"},
-      {"[system]\nheight = 40\n", "key 'observables.lower_half_from': 50 must lie below H/2 = 20"},
       {"[system]\nheight = 40\n[observables]\nlower_half_from = 30\n",
        "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
       {"[system]\nbond_number = -inf\n", "bad.toml:2:15: key 'system.bond_number': Bo must be 0"},
@@ -189,7 +188,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
 // error points at rest.steps, a rest window long enough makes a tiny time step valid, and
 // ballistic points (no dynamics) are not bound by it.
 TEST(Scan, RestWindowMustLetAFallingDiskShow) {
-  EXPECT_NE(error_of("[rest]\nspeed = 0.5\nsteps = 10\n")
+  EXPECT_NE(error_of("[rest]\nspeed = 0.5\nsteps = 10\n[system]\nbond_number = 0\n")
                 .find("bad.toml:3:9: key 'rest.steps': h = 0.01 with rest.steps = 10"),
             std::string::npos);
   EXPECT_NO_THROW(
@@ -303,6 +302,61 @@ TEST(Scan, WarnsWhenTheTimeStepDoesNotResolveTheCohesiveBarrier) {
   EXPECT_NE(scan.warnings[0].find("point 2 (Bo = 10000): time_step 0.005 exceeds"),
             std::string::npos)
       << scan.warnings[0];
+}
+
+// The default time step resolves the cohesive barrier at each point's own Bond number:
+// 0.9 sqrt(2 m_n d_c / F_c) = 0.9 sqrt(d_c / (Bo g)), at most 0.01; a set time step wins.
+TEST(Scan, DefaultTimeStepResolvesTheBarrierAtEachBondNumber) {
+  const auto scan = parse_scan(
+      "[system]\nwidth = 24\nheight = 24\ncohesion_range = 0.02\n"
+      "bond_number = [0, 10, 100, 1e3, 1e4, \"inf\"]\n",
+      "h.toml");
+  ASSERT_EQ(scan.points.size(), 6u);
+  EXPECT_TRUE(scan.warnings.empty());
+  for (const auto& sp : scan.points) {
+    const double bo = sp.params.bond_number;
+    const double expected =
+        bo > 0.0 && std::isfinite(bo) ? std::min(0.01, 0.9 * std::sqrt(0.02 / bo)) : 0.01;
+    EXPECT_DOUBLE_EQ(sp.params.time_step, expected) << "Bo = " << bo;
+  }
+  EXPECT_LT(scan.points[3].params.time_step, 0.01);  // Bo = 1e3: 0.9 sqrt(2e-5)
+  // Explicit points take the default at their own Bond number unless they or [system] set h.
+  const auto pts = parse_scan(
+      "[system]\nwidth = 24\nheight = 24\n"
+      "[[point]]\nbond_number = 1e4\n"
+      "[[point]]\nbond_number = 1e4\ntime_step = 5e-4\n",
+      "p.toml");
+  EXPECT_DOUBLE_EQ(pts.points[0].params.time_step, 0.9 * std::sqrt(0.01 / 1e4));
+  EXPECT_EQ(pts.points[1].params.time_step, 5e-4);
+  const auto set = parse_scan(
+      "[system]\nwidth = 24\nheight = 24\ntime_step = 0.002\n"
+      "[[point]]\nbond_number = 1e4\n",
+      "s.toml");
+  EXPECT_EQ(set.points[0].params.time_step, 0.002);
+}
+
+// Every box runs with the defaults: the observables' lengths are the paper's where they fit
+// the box (nu_lower_half from 50 R; cuts of 20 R) and min(50, H/4), min(20, H/6) below; a
+// value the file sets holds (and is refused where it does not fit).
+TEST(Scan, ObservableLengthsFollowTheBoxUnlessSet) {
+  const auto scan = parse_scan("[scan]\nseeds = 2\n[system]\nwidth = 24\nheight = 24\n",
+                               "d.toml");
+  EXPECT_TRUE(scan.warnings.empty());
+  const auto& obs = scan.observables;
+  EXPECT_EQ(obs.lower_half_from_at(24.0), 6.0);
+  EXPECT_EQ(obs.cut_bottom_at(24.0), 4.0);
+  EXPECT_EQ(obs.cut_top_at(24.0), 4.0);
+  EXPECT_EQ(obs.lower_half_from_at(800.0), 50.0);
+  EXPECT_EQ(obs.cut_top_at(800.0), 20.0);
+  const auto set = parse_scan(
+      "[system]\nwidth = 24\nheight = 24\n[observables]\nlower_half_from = 2\ncut_top = 1\n",
+      "s.toml");
+  EXPECT_EQ(set.observables.lower_half_from_at(24.0), 2.0);
+  EXPECT_EQ(set.observables.cut_top_at(24.0), 1.0);
+  EXPECT_EQ(set.observables.cut_bottom_at(24.0), 4.0);
+  const std::string err =
+      error_of("[system]\nwidth = 24\nheight = 24\n[observables]\nlower_half_from = 50\n");
+  EXPECT_NE(err.find("bad.toml:5:19: key 'observables.lower_half_from'"), std::string::npos) << err;
 }
 
 // Every scan file shipped in examples/ (the default job, the paper's figures) is valid.

@@ -36,6 +36,24 @@ inline double grid_margin(const SystemParams& p, double height) {
                   detection_margin(p.time_step, fall_speed(g, height), g));
 }
 
+// The time over which the pull-off barrier F_c d_c is crossed: the discrete barrier matches
+// F_c d_c only for h well below sqrt(2 m_n d_c / F_c), m_n = m/2 of two reference disks
+// (docs/MODEL.md, the parameter table); infinite without cohesion.
+inline double cohesive_barrier_time(const SystemParams& p) {
+  const double fc = p.cohesive_force();
+  if (!(fc > 0.0)) return INFINITY;
+  return std::sqrt(2.0 * 0.5 * p.reference_mass() * p.cohesion_range / fc);
+}
+
+// The default time step: 0.9 of the barrier time where cohesion needs it, at most
+// kDefaultTimeStep (the paper files' choice at every Bond number: 0.01 up to Bo = 10, 0.009 at
+// 1e2, 0.0028 at 1e3, 0.0009 at 1e4).
+constexpr double kDefaultTimeStep = 0.01;
+constexpr double kBarrierTimeFraction = 0.9;
+inline double default_time_step(const SystemParams& p) {
+  return std::min(kDefaultTimeStep, kBarrierTimeFraction * cohesive_barrier_time(p));
+}
+
 // The largest detection margin the contact capacity allows: with 2 R + d_c + margin below the
 // second neighbour shell of a hexagonal packing (2 sqrt(3) R), kSlots contact slots per disk
 // suffice.

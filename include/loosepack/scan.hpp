@@ -48,6 +48,20 @@ struct ObservableSettings {
   double abs_dy_bin = 0.5;        // |Delta y| histogram bin [R]
   double cut_bottom = 20.0;       // |Delta y| histogram without the bottom ... [R]
   double cut_top = 20.0;          // ... and the top of the final deposit [R]
+  // Whether the scan file sets the three lengths above. Where it does not, a point uses the
+  // paper's value where it fits its box and a fraction of H where not (the *_at functions), so
+  // that every box runs with the defaults.
+  bool lower_half_from_given = false, cut_bottom_given = false, cut_top_given = false;
+  // The lengths of a point of height H: the file's, else min(50 R, H/4) and min(20 R, H/6).
+  double lower_half_from_at(double height) const {
+    return lower_half_from_given ? lower_half_from : std::min(lower_half_from, height / 4.0);
+  }
+  double cut_bottom_at(double height) const {
+    return cut_bottom_given ? cut_bottom : std::min(cut_bottom, height / 6.0);
+  }
+  double cut_top_at(double height) const {
+    return cut_top_given ? cut_top : std::min(cut_top, height / 6.0);
+  }
   double event_threshold = 0.1;   // a disk counts as moved in an avalanche beyond this [R]
   int trajectory_every = 0;       // record the trajectory of every k-th disk (0: none)
   int trajectory_interval = 100;  // C: steps between trajectory samples during the collapse
