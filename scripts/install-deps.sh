@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Installs the Debian bookworm packages loosepack needs. Idempotent; quiet when all are present.
+# Installs the Debian bookworm packages loosepack needs (with --test: the test suite's too).
+# Idempotent; quiet when all are present.
 set -euo pipefail
 packages=(
   build-essential cmake git pkg-config clang libclang-rt-dev
@@ -7,8 +8,13 @@ packages=(
   libtomlplusplus-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenmpi-dev openmpi-bin
-  python3-h5py python3-matplotlib python3-numpy
+  python3-h5py python3-matplotlib python3-numpy python3-pandas python3-xarray
 )
+# --test: what the test suite needs beyond that (pytest; ParaView's Python and ASE, which read
+# the files `loosepack export` writes; xvfb for rendering with ParaView, tools/render_deposit.py).
+if [ "${1:-}" = "--test" ]; then
+  packages+=(python3-pytest python3-paraview python3-ase xvfb xauth)
+fi
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

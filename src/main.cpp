@@ -20,6 +20,7 @@
 #include "fault_injection.hpp"
 #include "loosepack/checkpoint.hpp"
 #include "loosepack/observables.hpp"
+#include "loosepack/export.hpp"
 #include "loosepack/output.hpp"
 #include "loosepack/parallel.hpp"
 #include "loosepack/protocols.hpp"
@@ -558,12 +559,28 @@ int main(int argc, char** argv) {
                      "file is refused unless --force");
   bool analyse_force = false;
   an_cmd->add_flag("--force", analyse_force, "replace an existing -o file");
+  std::string export_path, export_format = "xdmf";
+  ExportSelection export_selection;
+  auto* ex_cmd = app.add_subcommand(
+      "export",
+      "Write viewer files next to a result file from its snapshots and trajectories: XDMF "
+      "for ParaView (reading the result file in place) or extended XYZ for OVITO");
+  ex_cmd->add_option("file", export_path, "result file (HDF5)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  ex_cmd->add_option("--format", export_format, "xdmf or extxyz")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"xdmf", "extxyz"}));
+  ex_cmd->add_option("--point", export_selection.point, "this scan point only")
+      ->check(CLI::Range(0, 1000000));
+  ex_cmd->add_option("--seed", export_selection.seed, "this seed index only")
+      ->check(CLI::Range(0, 1000000000));
   std::vector<char*> args = without_kokkos_options(argc, argv);
-  const std::set<std::string> subcommands = {"run", "summary", "analyse"};
+  const std::set<std::string> subcommands = {"run", "summary", "analyse", "export"};
   if (args.size() > 1 && args[1][0] != '-' && !subcommands.count(args[1])) {
     if (ranks.root())
       std::cerr << "loosepack: unknown subcommand '" << args[1]
-                << "' (run, summary or analyse; loosepack --help)\n";
+                << "' (run, summary, analyse or export; loosepack --help)\n";
     return kInvalid;
   }
   try {
@@ -580,8 +597,8 @@ int main(int argc, char** argv) {
   }
   if (app.get_subcommands().empty()) {
     if (ranks.root())
-      std::cerr << "loosepack: a subcommand is required: run, summary or analyse (loosepack "
-                   "--help)\n";
+      std::cerr << "loosepack: a subcommand is required: run, summary, analyse or export "
+                   "(loosepack --help)\n";
     return kInvalid;
   }
   if (*run_cmd) {
@@ -603,6 +620,12 @@ int main(int argc, char** argv) {
         }
       }
       reanalyse(analyse_path, out);
+      return kOk;
+    }
+    if (*ex_cmd) {
+      const auto format = export_format == "xdmf" ? ExportFormat::Xdmf : ExportFormat::Extxyz;
+      for (const auto& f : export_viewer_files(export_path, format, export_selection))
+        std::cout << f << "\n";
       return kOk;
     }
     print_summary(summary_path, std::cout);

@@ -145,6 +145,8 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
     pr.point = pt;
     const SystemParams& p = pt.params;
     const double H = p.height;
+    const double lower_half_from = obs.lower_half_from_at(H), cut_bottom = obs.cut_bottom_at(H),
+                 cut_top = obs.cut_top_at(H);
     const int n_strips = std::max(1, static_cast<int>(std::ceil(H / obs.strip_width)));
     const int n_bins = std::max(1, static_cast<int>(std::ceil(H / obs.bin_width)));
     std::vector<const MemberResult*> all, ok;
@@ -166,15 +168,17 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
       // For C the final deposit is lower than H: its bulk band ends at half its own top.
       const double band_top = pt.protocol == Protocol::C ? 0.5 * top : 0.5 * H;
       const double nlh =
-          band_volume_fraction(r.y_e, r.radius, p.width, obs.lower_half_from, band_top);
+          band_volume_fraction(r.y_e, r.radius, p.width, lower_half_from, band_top);
       pr.m_nu_lower_half.push_back(r.ok() ? nlh : kNaN);
       if (!r.ok()) {
         ++pr.failed;
+        pr.nu_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
         continue;  // failed members are excluded from every aggregate
       }
       ok.push_back(&r);
       nu_rows.push_back(
           volume_fraction_profile(r.y_e, r.radius, p.width, obs.strip_width, n_strips));
+      pr.nu_member_rows.push_back(nu_rows.back());
       // Deposition density: disk area by deposition height y_i (centre counting of y_i).
       std::vector<double> nud(static_cast<std::size_t>(n_strips), 0.0);
       double sum_abs = 0.0;
@@ -189,7 +193,7 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
       lower_half.push_back(nlh);
       abs_dy_means.push_back(r.y_i.empty() ? kNaN : sum_abs / static_cast<double>(r.y_i.size()));
       if (pt.protocol == Protocol::C) {
-        const double ni = band_volume_fraction(r.y_i, r.radius, p.width, obs.lower_half_from,
+        const double ni = band_volume_fraction(r.y_i, r.radius, p.width, lower_half_from,
                                                0.5 * deposit_top(r.y_i, r.radius));
         nu_i.push_back(ni);
         nu_f.push_back(nlh);
@@ -227,7 +231,7 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
         const auto j = static_cast<std::size_t>(
             std::min(n_hist - 1, static_cast<int>(std::floor(a / obs.abs_dy_bin))));
         pr.abs_dy_counts[j] += 1.0;
-        if (r->y_e[k] >= obs.cut_bottom && r->y_e[k] <= top - obs.cut_top)
+        if (r->y_e[k] >= cut_bottom && r->y_e[k] <= top - cut_top)
           pr.abs_dy_counts_cut[j] += 1.0;
       }
     }

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "loosepack/settings.hpp"
+#include "hdf5.hpp"
 #include "loosepack_git_commit.hpp"
 #include "replace_file.hpp"
 
@@ -19,45 +20,107 @@ namespace loosepack {
 
 namespace {
 
-class H5 {
- public:
-  H5(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
-    if (id_ < 0) throw std::runtime_error("HDF5: cannot " + what);
-  }
-  ~H5() {
-    if (id_ >= 0) close_(id_);
-  }
-  H5(const H5&) = delete;
-  H5& operator=(const H5&) = delete;
-  operator hid_t() const { return id_; }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
-
-void check(herr_t e, const std::string& what) {
-  if (e < 0) throw std::runtime_error("HDF5: cannot " + what);
-}
-
-H5 open_group(hid_t parent, const std::string& name) {
-  return H5(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose, "open group " + name);
-}
-
 H5 group(hid_t parent, const std::string& name) {
   return H5(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
             "create group " + name);
 }
 
+// What a dataset holds, by its name and its group's name (docs/OUTPUT.md): its `units` and
+// `long_name` attributes, and whether it is a count or an index (stored as 64-bit integers).
+struct DatasetMeta {
+  std::string units, long_name;
+  bool integer = false;
+};
+
+bool is_count(const std::string& name) {
+  for (const char* n : {"count", "members", "counts", "counts_cut", "downward_counts",
+                        "moved_counts", "steps_counts", "member_count", "seed_index", "disks",
+                        "steps", "sweeps", "failure", "capped", "contact_i", "contact_j", "disk",
+                        "time"})
+    if (name == n) return true;
+  return false;
+}
+
+DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
+  const bool density = group == "nu" || group == "nu_deposition";
+  const bool avalanche = group.rfind("avalanche_by_", 0) == 0;
+  const std::string profile = group == "nu" ? "volume fraction nu(y) of the final deposit"
+                              : group == "nu_deposition" ? "deposition density nu_d(y_i)"
+                              : avalanche ? "Delta y = y_e - y_i binned by y_" + group.substr(14)
+                                          : group;
+  if (name == "time")
+    return {"", "disks deposited (protocol A) or step of the collapse (C) at the sample", true};
+  if (is_count(name)) {
+    if (name == "contact_i" || name == "contact_j" || name == "disk")
+      return {"", "disk index in deposition order (-1: the floor)", true};
+    if (name == "failure") return {"", "0 finished; else the failure (docs/OUTPUT.md)", true};
+    return {"", group + " " + name, true};
+  }
+  if (density && (name == "mean" || name == "sem" || name == "member_mean"))
+    return {"1", profile + ": " + (name == "mean" ? "ensemble mean" : name == "sem"
+                                                                          ? "standard error"
+                                                                          : "one row per member")};
+  if (density && name == "rel_fluctuation")
+    return {"1", profile + ": standard deviation over mean across members"};
+  if (avalanche && (name == "mean" || name == "stddev" || name == "sem" || name == "member_mean"))
+    return {"R", profile + ": " + name};
+  if (name == "centre" || name == "position" || name == "member_position")
+    return {"R", group + " " + name + " (height)"};
+  if (name == "contact_normal" || name == "contact_tangential")
+    return {"m g", name.substr(8) + " contact force (normal > 0 compressive)"};
+  if (name == "contact_moment") return {"m g R", "rolling moment of the contact"};
+  if (name == "vx" || name == "vy") return {"sqrt(g R)", "velocity component"};
+  if (name == "w") return {"sqrt(g / R)", "angular velocity"};
+  if (name == "wall_time") return {"s", "seconds the member held its batch slot"};
+  if (name == "nu_lower_half") return {"1", "mean volume fraction in [lower_half_from, H/2)"};
+  if (group == "events" && name == "edges")
+    return {"", "logarithmic bin edges (R for displacements, disks, steps)"};
+  for (const char* n : {"x", "y", "y_i", "y_e", "radius", "top", "depth", "edges"})
+    if (name == n) return {"R", group + " " + name};
+  return {"", group + " " + name};
+}
+
+std::string leaf_name(hid_t obj) {
+  const ssize_t n = H5Iget_name(obj, nullptr, 0);
+  std::string path(static_cast<std::size_t>(std::max<ssize_t>(n, 0)) + 1, '\0');
+  if (n > 0) H5Iget_name(obj, path.data(), path.size());
+  path.resize(static_cast<std::size_t>(std::max<ssize_t>(n, 0)));
+  return path.substr(path.find_last_of('/') + 1);
+}
+
+void string_attribute_on(hid_t obj, const std::string& name, const std::string& v);
+
+// A dataset of shape dims (1 or 2) with its units and long name; counts and indices as
+// integers.
+void write_dataset(hid_t parent, const std::string& name, const std::vector<double>& v, int rank,
+                   const hsize_t* dims) {
+  const std::size_t slash = name.find_last_of('/');
+  const std::string leaf = slash == std::string::npos ? name : name.substr(slash + 1);
+  const std::string group =
+      slash == std::string::npos ? leaf_name(parent) : name.substr(0, slash);
+  const DatasetMeta meta = dataset_meta(group, leaf);
+  H5 space(H5Screate_simple(rank, dims, nullptr), H5Sclose, "create dataspace");
+  H5 set(H5Dcreate2(parent, name.c_str(), meta.integer ? H5T_STD_I64LE : H5T_IEEE_F64LE, space,
+                    H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+         H5Dclose, "create dataset " + name);
+  if (!v.empty()) {
+    if (meta.integer) {
+      std::vector<long long> n(v.size());
+      for (std::size_t k = 0; k < v.size(); ++k) n[k] = std::llround(v[k]);
+      check(H5Dwrite(set, H5T_NATIVE_LLONG, H5S_ALL, H5S_ALL, H5P_DEFAULT, n.data()),
+            "write dataset " + name);
+    } else {
+      check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
+            "write dataset " + name);
+    }
+  }
+  if (!meta.units.empty()) string_attribute_on(set, "units", meta.units);
+  string_attribute_on(set, "long_name", meta.long_name);
+}
+
 void dataset(hid_t parent, const std::string& name, const std::vector<double>& v) {
   const hsize_t n = v.size();
-  H5 space(H5Screate_simple(1, &n, nullptr), H5Sclose, "create dataspace");
-  H5 set(H5Dcreate2(parent, name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT,
-                    H5P_DEFAULT),
-         H5Dclose, "create dataset " + name);
-  if (n > 0)
-    check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
-          "write dataset " + name);
+  write_dataset(parent, name, v, 1, &n);
 }
 
 // Rows of equal length as a 2-D dataset [rows x columns].
@@ -68,13 +131,7 @@ void dataset(hid_t parent, const std::string& name, const std::vector<std::vecto
     if (r.size() != dims[1]) throw std::logic_error("dataset " + name + ": rows of unequal length");
     flat.insert(flat.end(), r.begin(), r.end());
   }
-  H5 space(H5Screate_simple(2, dims, nullptr), H5Sclose, "create dataspace");
-  H5 set(H5Dcreate2(parent, name.c_str(), H5T_IEEE_F64LE, space, H5P_DEFAULT, H5P_DEFAULT,
-                    H5P_DEFAULT),
-         H5Dclose, "create dataset " + name);
-  if (!flat.empty())
-    check(H5Dwrite(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, flat.data()),
-          "write dataset " + name);
+  write_dataset(parent, name, flat, 2, dims);
 }
 
 void attribute(hid_t obj, const std::string& name, double v) {
@@ -84,31 +141,49 @@ void attribute(hid_t obj, const std::string& name, double v) {
   check(H5Awrite(a, H5T_NATIVE_DOUBLE, &v), "write attribute " + name);
 }
 
-void attribute(hid_t obj, const std::string& name, const std::string& v) {
+// A count or an index as a 64-bit integer attribute.
+void count(hid_t obj, const std::string& name, long long v) {
+  H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
+  H5 a(H5Acreate2(obj, name.c_str(), H5T_STD_I64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "create attribute " + name);
+  check(H5Awrite(a, H5T_NATIVE_LLONG, &v), "write attribute " + name);
+}
+
+// Strings are variable-length UTF-8 (Python reads them as str).
+H5 utf8_string_type() {
   H5 type(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
-  check(H5Tset_size(type, v.empty() ? 1 : v.size()), "set string size");
+  check(H5Tset_size(type, H5T_VARIABLE), "set string size");
+  check(H5Tset_cset(type, H5T_CSET_UTF8), "set string encoding");
+  return type;
+}
+
+void string_attribute_on(hid_t obj, const std::string& name, const std::string& v) {
+  H5 type = utf8_string_type();
   H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
   H5 a(H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
        "create attribute " + name);
-  const std::string s = v.empty() ? std::string(1, '\0') : v;
-  check(H5Awrite(a, type, s.data()), "write attribute " + name);
+  const char* p = v.c_str();
+  check(H5Awrite(a, type, &p), "write attribute " + name);
+}
+
+void attribute(hid_t obj, const std::string& name, const std::string& v) {
+  string_attribute_on(obj, name, v);
 }
 
 // A text as a scalar string dataset: unlike an attribute (64 KiB at most), any length.
 void string_dataset(hid_t parent, const std::string& name, const std::string& v) {
-  H5 type(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
-  check(H5Tset_size(type, v.empty() ? 1 : v.size()), "set string size");
+  H5 type = utf8_string_type();
   H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
   H5 set(H5Dcreate2(parent, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
          H5Dclose, "create dataset " + name);
-  const std::string s = v.empty() ? std::string(1, '\0') : v;
-  check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.data()), "write dataset " + name);
+  const char* p = v.c_str();
+  check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), "write dataset " + name);
 }
 
 void scalar(hid_t obj, const std::string& name, const Scalar& s) {
   attribute(obj, name + "_mean", s.mean);
   attribute(obj, name + "_sem", s.sem);
-  attribute(obj, name + "_n", static_cast<double>(s.n));
+  count(obj, name + "_n", s.n);
 }
 
 // The datasets of a profile and of a binned statistic: one list for writing and reading.
@@ -291,13 +366,18 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
     attribute(file, "start_time", info.start_time);
     attribute(file, "end_time", info.end_time);
     attribute(file, "wall_seconds", info.wall_seconds);
-    attribute(file, "mpi_ranks", static_cast<double>(info.ranks));
+    count(file, "mpi_ranks", info.ranks);
     attribute(file, "scan_file", scan.file);
     string_dataset(file, "scan_text", scan.text);
     attribute(file, "scan_name", scan.name);
-    attribute(file, "seed", static_cast<double>(scan.seed));
-    attribute(file, "seeds", static_cast<double>(scan.seeds));
-    attribute(file, "batch_size", static_cast<double>(scan.batch_size));
+    {
+      H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
+      H5 a(H5Acreate2(file, "seed", H5T_STD_U64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+           "create attribute seed");
+      check(H5Awrite(a, H5T_NATIVE_UINT64, &scan.seed), "write attribute seed");
+    }
+    count(file, "seeds", scan.seeds);
+    count(file, "batch_size", scan.batch_size);
     {
       H5 g = group(file, "settings");
       for (const auto& key : setting_keys()) {
@@ -319,11 +399,16 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       attribute(g, "solver_max_sweeps",
                 static_cast<double>(scan.max_sweeps(pr.point.protocol, pr.point.params)));
       params(g, pr.point.params);
-      attribute(g, "members", static_cast<double>(pr.members));
-      attribute(g, "failed", static_cast<double>(pr.failed));
+      const double H = pr.point.params.height;
+      attribute(g, "lower_half_from", scan.observables.lower_half_from_at(H));
+      attribute(g, "cut_bottom", scan.observables.cut_bottom_at(H));
+      attribute(g, "cut_top", scan.observables.cut_top_at(H));
+      count(g, "members", pr.members);
+      count(g, "failed", pr.failed);
       scalar(g, "nu_lower_half", pr.nu_lower_half);
       scalar(g, "mean_abs_dy", pr.mean_abs_dy);
       fields(g, "nu", pr.nu, kProfileFields);
+      dataset(g, "nu/member_mean", pr.nu_member_rows);
       std::vector<double> depth;
       for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
       dataset(g, "nu/depth", depth);
@@ -348,7 +433,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         dataset(e, "downward_counts", pr.event_downward_counts);
         dataset(e, "moved_counts", pr.event_moved_counts);
         dataset(e, "steps_counts", pr.event_steps_counts);
-        attribute(e, "without_motion", pr.events_without_motion);
+        count(e, "without_motion", std::llround(pr.events_without_motion));
       }
       H5 m = group(g, "members");
       dataset(m, "seed_index", pr.m_seed_index);
@@ -377,7 +462,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         // A failed member's state at the failure, always: its diagnostic snapshot.
         H5 f = group(m, "failure_" + std::to_string(r.member.seed_index));
         snapshot(f, r);
-        attribute(f, "member", static_cast<double>(r.member.id));
+        count(f, "member", r.member.id);
         attribute(f, "failure", failure_message(r.failure));
         dataset(f, "vx", r.vx);
         dataset(f, "vy", r.vy);
@@ -389,17 +474,6 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
 }
 
 namespace {
-
-std::vector<double> doubles(hid_t loc, const std::string& name) {
-  H5 set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
-  H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
-  const hssize_t n = H5Sget_simple_extent_npoints(space);
-  std::vector<double> v(static_cast<std::size_t>(n));
-  if (n > 0)
-    check(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
-          "read dataset " + name);
-  return v;
-}
 
 // A 2-D dataset as its rows.
 std::vector<std::vector<double>> rows(hid_t loc, const std::string& name) {
@@ -428,31 +502,42 @@ double double_attribute(hid_t loc, const std::string& object, const std::string&
   return v;
 }
 
-std::string string_attribute(hid_t loc, const std::string& object, const std::string& name) {
-  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-       "open attribute " + object + "@" + name);
-  H5 type(H5Aget_type(a), H5Tclose, "get attribute type");
+// A scalar string of an attribute or a dataset, variable-length (files from 2026-11-25 on) or
+// of fixed length (older files); `read` reads it into memory of the given type.
+template <class Read>
+std::string read_string(hid_t type, const std::string& what, Read&& read) {
+  if (H5Tget_class(type) != H5T_STRING) throw std::runtime_error(what + " is not a string");
+  if (H5Tis_variable_str(type) > 0) {
+    H5 mem = utf8_string_type();
+    char* p = nullptr;
+    check(read(static_cast<hid_t>(mem), static_cast<void*>(&p)), "read " + what);
+    std::string s = p ? p : "";
+    H5free_memory(p);
+    return s;
+  }
   const std::size_t n = H5Tget_size(type);
   std::string s(n, '\0');
   H5 mem(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
   check(H5Tset_size(mem, n), "set string size");
-  check(H5Aread(a, mem, s.data()), "read attribute " + name);
+  check(read(static_cast<hid_t>(mem), static_cast<void*>(s.data())), "read " + what);
   while (!s.empty() && s.back() == '\0') s.pop_back();
   return s;
+}
+
+std::string string_attribute(hid_t loc, const std::string& object, const std::string& name) {
+  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "open attribute " + object + "@" + name);
+  H5 type(H5Aget_type(a), H5Tclose, "get attribute type");
+  return read_string(type, "attribute " + name,
+                     [&](hid_t mem, void* buf) { return H5Aread(a, mem, buf); });
 }
 
 std::string string_of_dataset(hid_t loc, const std::string& name) {
   H5 set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
   H5 type(H5Dget_type(set), H5Tclose, "get dataset type");
-  if (H5Tget_class(type) != H5T_STRING)
-    throw std::runtime_error("dataset " + name + " is not a string");
-  const std::size_t n = H5Tget_size(type);
-  std::string s(n, '\0');
-  H5 mem(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
-  check(H5Tset_size(mem, n), "set string size");
-  check(H5Dread(set, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, s.data()), "read dataset " + name);
-  while (!s.empty() && s.back() == '\0') s.pop_back();
-  return s;
+  return read_string(type, "dataset " + name, [&](hid_t mem, void* buf) {
+    return H5Dread(set, mem, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf);
+  });
 }
 
 // The scan file a result file was computed from: the dataset /scan_text, or the root attribute

@@ -1,0 +1,25 @@
+// Result files for viewers (docs/OUTPUT.md, "Viewers"): XDMF for ParaView and extended XYZ for
+// OVITO, from the snapshots, failure snapshots and trajectories a result file holds.
+#pragma once
+#include <string>
+#include <vector>
+
+namespace loosepack {
+
+enum class ExportFormat { Xdmf, Extxyz };
+
+struct ExportSelection {
+  int point = -1;  // this point only (-1: every point)
+  int seed = -1;   // this seed index only (-1: every member with data)
+};
+
+// Writes the viewer files of `path` next to it (`<stem>_pNNNN_sK.xmf`, `..._trajectory.xmf`,
+// or the same with .extxyz) and returns their paths. XDMF reads the disks, forces and
+// trajectories from the result file itself; only the contacts as line segments (their ends,
+// across the periodic seam and down to the floor), which the file does not hold, go into one
+// sidecar `<stem>_xdmf.h5`. Throws std::runtime_error when the file
+// has nothing to export (no snapshots: run with --snapshots or observables.trajectory_every).
+std::vector<std::string> export_viewer_files(const std::string& path, ExportFormat format,
+                                             const ExportSelection& selection = {});
+
+}  // namespace loosepack

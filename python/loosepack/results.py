@@ -1,0 +1,215 @@
+"""Reading a loosepack result file (docs/OUTPUT.md) into pandas and xarray objects."""
+
+import h5py
+import numpy as np
+import pandas as pd
+import xarray as xr
+
+# The per-point scalars (attributes <name>_mean, _sem, _n).
+SCALARS = ("nu_lower_half", "mean_abs_dy", "nu_initial", "nu_final", "relative_increase")
+# Names of the model's parameters among a point's attributes, in the order of docs/OUTPUT.md.
+PARAMETERS = (
+    "width", "height", "radius", "polydispersity", "disk_density", "gravity", "bond_number",
+    "cohesive_force", "cohesion_range", "floor_cohesion", "friction", "rolling_friction",
+    "time_step", "capture_radius", "solver_tolerance", "solver_max_sweeps", "lower_half_from",
+    "cut_bottom", "cut_top",
+)
+COUNTS = ("members", "failed")
+
+
+def _text(value):
+    """A string attribute as str: variable-length UTF-8, or the bytes of older files."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8")
+    if isinstance(value, np.ndarray) and value.dtype.kind == "S":
+        return value.tobytes().decode("utf-8").rstrip("\0")
+    return str(value)
+
+
+def _value(value):
+    """An attribute as a Python str, int or float."""
+    if isinstance(value, (bytes, str)) or np.asarray(value).dtype.kind in "SOU":
+        return _text(value)
+    return np.asarray(value).item()
+
+
+def _count(value):
+    """A count as int: older files stored counts as float64."""
+    return int(round(float(value)))
+
+
+def _units(dataset):
+    return _text(dataset.attrs["units"]) if "units" in dataset.attrs else ""
+
+
+class Results:
+    """A result file: `points` (DataFrame), and per point the profiles, histograms, member
+    tables, snapshots and trajectories. Points are named by index (0, 1, ...) or "0001"."""
+
+    def __init__(self, path):
+        self.path = str(path)
+        with h5py.File(self.path, "r") as f:
+            self.attrs = {k: _value(v) for k, v in f.attrs.items() if k != "scan_text"}
+            self.settings = {k: _value(v) for k, v in f["settings"].attrs.items()}
+            if "scan_text" in f:
+                self.scan_text = _text(f["scan_text"][()])
+            else:
+                self.scan_text = _text(f.attrs.get("scan_text", ""))
+            self.point_names = sorted(f["points"].keys())
+            self.points = self._points_table(f)
+
+    def _points_table(self, f):
+        rows = []
+        for name in self.point_names:
+            a = f["points"][name].attrs
+            row = {"point": int(name), "protocol": _text(a["protocol"])}
+            for k in PARAMETERS:
+                if k in a:
+                    row[k] = float(a[k])
+            for k in COUNTS:
+                row[k] = _count(a[k])
+            for s in SCALARS:
+                if s + "_mean" in a:
+                    row[s] = float(a[s + "_mean"])
+                    row[s + "_sem"] = float(a[s + "_sem"])
+                    row[s + "_n"] = _count(a[s + "_n"])
+            rows.append(row)
+        return pd.DataFrame(rows).set_index("point")
+
+    def _group(self, f, point):
+        name = point if isinstance(point, str) else "%04d" % int(point)
+        if name not in f["points"]:
+            raise KeyError("%s has no point %s (points: %s)" %
+                           (self.path, name, ", ".join(self.point_names)))
+        return f["points"][name]
+
+    def _profile(self, point, group, coord):
+        """A group of [bins] fields (and [members, bins] rows) as an xarray Dataset."""
+        with h5py.File(self.path, "r") as f:
+            g = self._group(f, point)[group]
+            centre = g["centre"][()]
+            seeds = self._group(f, point)["members"]["seed_index"][()].astype(int)
+            data = {}
+            for key, d in g.items():
+                if not isinstance(d, h5py.Dataset):
+                    continue
+                v = d[()]
+                if v.ndim == 1 and v.shape[0] == centre.shape[0] and key != "centre":
+                    data[key] = ((coord,), v, {"units": _units(d),
+                                               "long_name": _text(d.attrs.get("long_name", key))})
+                elif v.ndim == 2 and v.shape == (seeds.shape[0], centre.shape[0]):
+                    data[key] = (("member", coord), v,
+                                 {"units": _units(d),
+                                  "long_name": _text(d.attrs.get("long_name", key))})
+            return xr.Dataset(data, coords={coord: (coord, centre, {"units": "R"}),
+                                            "member": ("member", seeds)},
+                              attrs={"point": int(g.parent.name.split("/")[-1]),
+                                     "file": self.path})
+
+    def nu(self, point):
+        """Volume fraction nu(y) by strip: mean, sem, members, rel_fluctuation, depth and the
+        per-member rows `member_mean` [member, y] (files from 2026-11-25 on)."""
+        return self._profile(point, "nu", "y")
+
+    def nu_deposition(self, point):
+        """Deposition density nu_d(y_i) by strip."""
+        return self._profile(point, "nu_deposition", "y_i")
+
+    def avalanche(self, point, by="y_e"):
+        """Delta y = y_e - y_i binned by y_i or y_e: pooled mean, stddev, count, sem, the bins'
+        mean position, and per member (member_mean, member_position, member_count)."""
+        if by not in ("y_i", "y_e"):
+            raise ValueError("by must be 'y_i' or 'y_e', not %r" % (by,))
+        return self._profile(point, "avalanche_by_" + by.replace("_", ""), by)
+
+    def histogram(self, point, cut=False):
+        """The |Delta y| histogram (counts per bin; `cut`: without the bottom and top of the
+        deposit) as a DataArray over the bin centres, with the edges as a coordinate too."""
+        with h5py.File(self.path, "r") as f:
+            g = self._group(f, point)["abs_dy_histogram"]
+            edges = g["edges"][()]
+            counts = g["counts_cut" if cut else "counts"][()]
+        centres = 0.5 * (edges[1:] + edges[:-1])
+        return xr.DataArray(counts, dims=("abs_dy",),
+                            coords={"abs_dy": ("abs_dy", centres, {"units": "R"}),
+                                    "lower_edge": ("abs_dy", edges[:-1], {"units": "R"})},
+                            name="counts_cut" if cut else "counts",
+                            attrs={"long_name": "disks per |Delta y| bin", "units": ""})
+
+    def members(self, point):
+        """Per-member scalars (seed_index, disks, top, nu_lower_half, steps, sweeps, wall_time,
+        failure, capped), one row per member."""
+        with h5py.File(self.path, "r") as f:
+            g = self._group(f, point)["members"]
+            cols = {k: d[()] for k, d in g.items()
+                    if isinstance(d, h5py.Dataset) and d.ndim == 1}
+        df = pd.DataFrame(cols)
+        for k in ("seed_index", "disks", "steps", "sweeps", "failure", "capped"):
+            if k in df and df[k].notna().all():
+                df[k] = df[k].astype(np.int64)
+        return df
+
+    def _member_group(self, point, kind, seed):
+        f = h5py.File(self.path, "r")
+        g = self._group(f, point)["members"]
+        name = "%s_%d" % (kind, seed)
+        if name not in g:
+            have = sorted(k for k in g.keys() if k.startswith(kind + "_"))
+            f.close()
+            raise KeyError("%s point %s has no %s (has: %s)%s" % (
+                self.path, point, name, ", ".join(have) or "none",
+                "; run with --snapshots" if kind == "snapshot" else ""))
+        return f, g[name]
+
+    def snapshot(self, point, seed=0):
+        """The final disks of one member (written with --snapshots): x, y_i, y_e, radius and
+        dy = y_e - y_i, in deposition order."""
+        f, g = self._member_group(point, "snapshot", seed)
+        with f:
+            df = pd.DataFrame({k: g[k][()] for k in ("x", "y_i", "y_e", "radius")})
+        df["dy"] = df["y_e"] - df["y_i"]
+        return df
+
+    def contacts(self, point, seed=0):
+        """The final contacts of one member: disk indices i, j (j = -1: the floor) and the
+        normal, tangential forces and rolling moment."""
+        f, g = self._member_group(point, "snapshot", seed)
+        with f:
+            df = pd.DataFrame({k[len("contact_"):]: g[k][()] for k in g.keys()
+                               if k.startswith("contact_")})
+        for k in ("i", "j"):
+            df[k] = df[k].astype(np.int64)
+        return df
+
+    def trajectory(self, point, seed=0):
+        """Sampled positions (time, disk, x, y) of one member (observables.trajectory_every)."""
+        f, g = self._member_group(point, "trajectory", seed)
+        with f:
+            df = pd.DataFrame({k: g[k][()] for k in ("time", "disk", "x", "y")})
+        for k in ("time", "disk"):
+            df[k] = df[k].astype(np.int64)
+        return df
+
+    def fits(self, point):
+        """Every fit of a point (docs/OUTPUT.md, "Analysis") as {name: {coef, error, valid,
+        reduced_chi2, ...}}, names as their paths under the point ("avalanche_by_ye/fit")."""
+        out = {}
+        with h5py.File(self.path, "r") as f:
+            g = self._group(f, point)
+
+            def visit(name, obj):
+                if isinstance(obj, h5py.Group) and "coef" in obj:
+                    entry = {k: np.asarray(v).item() for k, v in obj.attrs.items()}
+                    entry["coef"] = obj["coef"][()]
+                    entry["error"] = obj["error"][()]
+                    out[name] = entry
+            g.visititems(visit)
+        return out
+
+    def __repr__(self):
+        return "<loosepack.Results %s: %d points>" % (self.path, len(self.point_names))
+
+
+def load(path):
+    """Open a loosepack result file; see Results."""
+    return Results(path)

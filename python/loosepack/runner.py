@@ -1,0 +1,138 @@
+"""Running the loosepack program from Python: a scan as a dict or a TOML file, progress shown,
+the result loaded."""
+
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+from .results import load
+
+# The exit codes of `loosepack run` (docs/OUTPUT.md, "Exit codes").
+EXIT_MEMBERS_FAILED = 3
+
+
+class LoosepackError(RuntimeError):
+    """The program refused the input or failed; `returncode` and `stderr` say why."""
+
+    def __init__(self, message, returncode, stderr):
+        super().__init__(message)
+        self.returncode = returncode
+        self.stderr = stderr
+
+
+def find_program(program=None):
+    """The loosepack executable: `program`, else $LOOSEPACK, else `loosepack` on the PATH, else
+    the build of the checkout this package lies in (build/loosepack)."""
+    candidates = [program, os.environ.get("LOOSEPACK"), shutil.which("loosepack"),
+                  os.path.join(os.path.dirname(__file__), "..", "..", "build", "loosepack")]
+    for c in candidates:
+        if c and os.path.isfile(c) and os.access(c, os.X_OK):
+            return os.path.abspath(c)
+    raise FileNotFoundError("no loosepack program: build it (./scripts/build.sh), put it on the "
+                            "PATH, or set LOOSEPACK=/path/to/loosepack")
+
+
+def _toml_value(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (int, float)):
+        if isinstance(v, float) and math.isinf(v):
+            return '"inf"' if v > 0 else '"-inf"'
+        return repr(v)
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):  # an inline table: a range {from, to, points, log}
+        return "{" + ", ".join("%s = %s" % (k, _toml_value(x)) for k, x in v.items()) + "}"
+    raise TypeError("cannot write %r (%s) to a scan file" % (v, type(v).__name__))
+
+
+def to_toml(scan):
+    """A scan given as a dict of sections ({"scan": {...}, "system": {...}, "point": [{...}]})
+    as the text of a scan file (docs/SCAN.md)."""
+    lines = []
+    for section, body in scan.items():
+        if section == "point":
+            for point in body:
+                lines.append("[[point]]")
+                lines += ["%s = %s" % (k, _toml_value(v)) for k, v in point.items()]
+            continue
+        if not isinstance(body, dict):
+            raise TypeError("section [%s] must be a dict of keys, not %r" % (section, body))
+        lines.append("[%s]" % section)
+        for k, v in body.items():
+            if isinstance(v, dict) and not {"from", "to"} <= set(v):
+                for k2, v2 in v.items():  # [rest] speed as rest = {"speed": ...} is flattened
+                    lines.append("%s.%s = %s" % (k, k2, _toml_value(v2)))
+            else:
+                lines.append("%s = %s" % (k, _toml_value(v)))
+    return "\n".join(lines) + "\n"
+
+
+_PROGRESS = re.compile(r"(\d+)/(\d+) members")
+
+
+def _show(line, progress):
+    """Progress lines of the program ("k/n members, ...") as a bar on stderr."""
+    m = _PROGRESS.search(line)
+    if not (progress and m):
+        return
+    done, total = int(m.group(1)), int(m.group(2))
+    width = 30
+    filled = width * done // max(total, 1)
+    sys.stderr.write("\r[%s%s] %s" % ("#" * filled, "." * (width - filled), line.strip()[:60]))
+    sys.stderr.flush()
+
+
+def run(scan, out, force=False, progress=True, program=None, args=()):
+    """Run a scan and load its result.
+
+    scan: a dict of sections (see to_toml) or the path of a scan file. out: the result file.
+    force: replace an existing `out`. args: more command-line arguments (["--snapshots"]).
+    Raises LoosepackError when the program fails; when only members failed (exit 3) the file
+    is written, a warning printed, and the result returned."""
+    exe = find_program(program)
+    tmp = None
+    if isinstance(scan, dict):
+        tmp = tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False)
+        tmp.write(to_toml(scan))
+        tmp.close()
+        path = tmp.name
+    else:
+        path = os.fspath(scan)
+    cmd = [exe, "run", path, "-o", os.fspath(out)] + (["--force"] if force else []) + list(args)
+    try:
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                bufsize=1)
+        stderr = []
+        for line in proc.stderr:
+            stderr.append(line)
+            _show(line, progress)
+        proc.stdout.read()
+        code = proc.wait()
+    finally:
+        if tmp is not None:
+            os.unlink(tmp.name)
+    if progress:
+        sys.stderr.write("\n")
+    text = "".join(stderr)
+    if code == EXIT_MEMBERS_FAILED:
+        sys.stderr.write("loosepack: members failed (the file is written):\n" + text)
+    elif code != 0:
+        raise LoosepackError("loosepack run exited with %d:\n%s" % (code, text), code, text)
+    return load(out)
+
+
+def summary(path, program=None):
+    """The table and fits `loosepack summary` prints for a result file, as text."""
+    done = subprocess.run([find_program(program), "summary", os.fspath(path)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        raise LoosepackError("loosepack summary exited with %d:\n%s" %
+                             (done.returncode, done.stderr), done.returncode, done.stderr)
+    return done.stdout

@@ -1,0 +1,312 @@
+// Viewer files from a result file (include/loosepack/export.hpp; docs/OUTPUT.md, "Viewers").
+#include "loosepack/export.hpp"
+
+#include <hdf5.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+#include <stdexcept>
+
+#include "hdf5.hpp"
+
+namespace loosepack {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// One member's data in the file: a snapshot (final or at a failure) or a trajectory.
+struct MemberData {
+  std::string point;  // "0001"
+  int seed = 0;
+  std::string kind;   // "snapshot", "failure" or "trajectory"
+  std::string group;  // "/points/0001/members/snapshot_2"
+  double width = 0.0, height = 0.0;
+};
+
+std::vector<std::string> children(hid_t loc, const std::string& name) {
+  H5 g = open_group(loc, name);
+  H5G_info_t info;
+  check(H5Gget_info(g, &info), "list group " + name);
+  std::vector<std::string> out;
+  for (hsize_t k = 0; k < info.nlinks; ++k) {
+    const ssize_t n =
+        H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, nullptr, 0, H5P_DEFAULT);
+    if (n < 0) throw std::runtime_error("HDF5: cannot list group " + name);
+    std::string child(static_cast<std::size_t>(n) + 1, '\0');
+    H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, child.data(), child.size(),
+                       H5P_DEFAULT);
+    child.resize(static_cast<std::size_t>(n));
+    out.push_back(child);
+  }
+  return out;
+}
+
+double attribute_of(hid_t loc, const std::string& object, const std::string& name) {
+  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "open attribute " + object + "@" + name);
+  double v = 0.0;
+  check(H5Aread(a, H5T_NATIVE_DOUBLE, &v), "read attribute " + name);
+  return v;
+}
+
+std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
+  std::vector<MemberData> out;
+  for (const auto& point : children(file, "points")) {
+    if (sel.point >= 0 && std::stoi(point) != sel.point) continue;
+    const std::string pg = "points/" + point;
+    for (const auto& child : children(file, pg + "/members")) {
+      for (const char* kind : {"snapshot", "failure", "trajectory"}) {
+        const std::string prefix = std::string(kind) + "_";
+        if (child.rfind(prefix, 0) != 0) continue;
+        MemberData m{point, std::stoi(child.substr(prefix.size())), kind,
+                     "/" + pg + "/members/" + child, attribute_of(file, pg, "width"),
+                     attribute_of(file, pg, "height")};
+        if (sel.seed < 0 || m.seed == sel.seed) out.push_back(m);
+      }
+    }
+  }
+  return out;
+}
+
+std::size_t length(hid_t file, const std::string& name) {
+  H5 set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+  H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
+  return static_cast<std::size_t>(H5Sget_simple_extent_npoints(space));
+}
+
+std::string stem_name(const MemberData& m) {
+  std::string name = "_p" + m.point + "_s" + std::to_string(m.seed);
+  if (m.kind != "snapshot") name += "_" + m.kind;
+  return name;
+}
+
+// --- XDMF ---------------------------------------------------------------------------------
+
+// A DataItem reading dataset `name` of `file` ([n] values, or a hyperslab of it).
+std::string item(const std::string& file, const std::string& name, std::size_t n,
+                 bool integer = false) {
+  std::ostringstream o;
+  o << "<DataItem Dimensions=\"" << n << "\" NumberType=\"" << (integer ? "Int" : "Float")
+    << "\" Precision=\"8\" Format=\"HDF\">" << file << ":" << name << "</DataItem>";
+  return o.str();
+}
+std::string slab(const std::string& file, const std::string& name, std::size_t total,
+                 std::size_t start, std::size_t count, bool integer = false) {
+  std::ostringstream o;
+  o << "<DataItem ItemType=\"HyperSlab\" Dimensions=\"" << count << "\">"
+    << "<DataItem Dimensions=\"3 1\" Format=\"XML\">" << start << " 1 " << count << "</DataItem>"
+    << item(file, name, total, integer) << "</DataItem>";
+  return o.str();
+}
+std::string function(const std::string& expr, std::size_t n, const std::string& inner) {
+  return "<DataItem ItemType=\"Function\" Function=\"" + expr + "\" Dimensions=\"" +
+         std::to_string(n) + "\">" + inner + "</DataItem>";
+}
+std::string attribute(const std::string& name, const std::string& centre,
+                      const std::string& data) {
+  return "<Attribute Name=\"" + name + "\" AttributeType=\"Scalar\" Center=\"" + centre + "\">" +
+         data + "</Attribute>\n";
+}
+
+// The contacts as line segments [2 x contacts][x, y]: from disk i's centre to disk j's image
+// nearest to it across the periodic seam, or to the floor below disk i (j = -1). The result
+// file holds the disks and the contacts' indices, not these lines: they go to the sidecar.
+std::vector<double> contact_lines(hid_t file, const std::string& g, double width) {
+  const std::vector<double> ci = doubles(file, g + "/contact_i"),
+                            cj = doubles(file, g + "/contact_j"), x = doubles(file, g + "/x"),
+                            y = doubles(file, g + "/y_e");
+  std::vector<double> out;
+  for (std::size_t k = 0; k < ci.size(); ++k) {
+    const auto i = static_cast<std::size_t>(ci[k]);
+    out.insert(out.end(), {x[i], y[i]});
+    if (cj[k] < 0) {
+      out.insert(out.end(), {x[i], 0.0});
+      continue;
+    }
+    const auto j = static_cast<std::size_t>(cj[k]);
+    double dx = x[j] - x[i];
+    dx -= width * std::round(dx / width);
+    out.insert(out.end(), {x[i] + dx, y[j]});
+  }
+  return out;
+}
+
+// A dataset of the sidecar file, [rows x columns], its groups created on the way.
+template <class T>
+void sidecar_dataset(hid_t sidecar, const std::string& name, const std::vector<T>& v,
+                     hsize_t columns, hid_t file_type, hid_t memory_type) {
+  const hsize_t dims[2] = {v.size() / columns, columns};
+  H5 lcpl(H5Pcreate(H5P_LINK_CREATE), H5Pclose, "create link property list");
+  check(H5Pset_create_intermediate_group(lcpl, 1), "set intermediate groups");
+  H5 space(H5Screate_simple(2, dims, nullptr), H5Sclose, "create dataspace");
+  H5 set(H5Dcreate2(sidecar, name.c_str(), file_type, space, lcpl, H5P_DEFAULT, H5P_DEFAULT),
+         H5Dclose, "create dataset " + name);
+  if (!v.empty())
+    check(H5Dwrite(set, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
+          "write dataset " + name);
+}
+
+// A snapshot: the disks as points (radius, y_i, y_e, Delta y, velocities at a failure) and
+// the contacts as lines with their forces.
+std::string xdmf_snapshot(hid_t file, hid_t sidecar, const MemberData& m, const std::string& h5,
+                          const std::string& side) {
+  const std::string& g = m.group;
+  const std::size_t n = length(file, g + "/x"), nc = length(file, g + "/contact_i");
+  sidecar_dataset(sidecar, g + "/lines", contact_lines(file, g, m.width), 2, H5T_IEEE_F64LE,
+                  H5T_NATIVE_DOUBLE);
+  std::vector<long long> ends(2 * nc);
+  for (std::size_t k = 0; k < ends.size(); ++k) ends[k] = static_cast<long long>(k);
+  sidecar_dataset(sidecar, g + "/connectivity", ends, 2, H5T_STD_I64LE, H5T_NATIVE_LLONG);
+  const std::string x = item(h5, g + "/x", n), ye = item(h5, g + "/y_e", n);
+  std::ostringstream o;
+  o << "<Grid Name=\"disks\" GridType=\"Uniform\">\n"
+    << "<Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
+    << "\" NodesPerElement=\"1\"/>\n"
+    << "<Geometry GeometryType=\"X_Y\">" << x << ye << "</Geometry>\n";
+  for (const char* a : {"radius", "y_i", "y_e"}) o << attribute(a, "Node", item(h5, g + "/" + a, n));
+  o << attribute("delta_y", "Node", function("$0 - $1", n, ye + item(h5, g + "/y_i", n)));
+  if (m.kind == "failure")
+    for (const char* a : {"vx", "vy", "w"}) o << attribute(a, "Node", item(h5, g + "/" + a, n));
+  o << "</Grid>\n<Grid Name=\"contacts\" GridType=\"Uniform\">\n"
+    << "<Topology TopologyType=\"Polyline\" NumberOfElements=\"" << nc
+    << "\" NodesPerElement=\"2\"><DataItem Dimensions=\"" << nc
+    << " 2\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << side << ":" << g
+    << "/connectivity</DataItem></Topology>\n"
+    << "<Geometry GeometryType=\"XY\"><DataItem Dimensions=\"" << 2 * nc
+    << " 2\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << side << ":" << g
+    << "/lines</DataItem></Geometry>\n";
+  for (const char* a : {"normal", "tangential", "moment"})
+    o << attribute(a, "Cell", item(h5, g + "/contact_" + std::string(a), nc));
+  o << "</Grid>\n";
+  return "<Grid Name=\"point " + m.point + " seed " + std::to_string(m.seed) +
+         "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n" + o.str() + "</Grid>\n";
+}
+
+// The samples of a trajectory: [first, end) of each time.
+std::vector<std::pair<std::size_t, std::size_t>> samples(const std::vector<double>& time) {
+  std::vector<std::pair<std::size_t, std::size_t>> out;
+  for (std::size_t k = 0; k < time.size(); ++k)
+    if (k == 0 || time[k] != time[k - 1]) out.emplace_back(k, k + 1);
+    else out.back().second = k + 1;
+  return out;
+}
+
+// A trajectory: one grid per sample, in a temporal collection.
+std::string xdmf_trajectory(hid_t file, const MemberData& m, const std::string& h5) {
+  const std::string& g = m.group;
+  const std::vector<double> time = doubles(file, g + "/time");
+  const std::size_t total = time.size();
+  std::ostringstream o;
+  o << "<Grid Name=\"point " << m.point << " seed " << m.seed
+    << " trajectory\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const auto& [first, end] : samples(time)) {
+    const std::size_t n = end - first;
+    const std::string x = slab(h5, g + "/x", total, first, n);
+    o << "<Grid Name=\"sample\" GridType=\"Uniform\"><Time Value=\"" << time[first] << "\"/>\n"
+      << "<Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n
+      << "\" NodesPerElement=\"1\"/>\n<Geometry GeometryType=\"X_Y\">" << x
+      << slab(h5, g + "/y", total, first, n) << "</Geometry>\n"
+      << attribute("disk", "Node", slab(h5, g + "/disk", total, first, n, true)) << "</Grid>\n";
+  }
+  return o.str() + "</Grid>\n";
+}
+
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream f(path);
+  f << text;
+  if (!f.flush()) throw std::runtime_error("cannot write " + path);
+}
+
+std::string xdmf_document(const std::string& grids) {
+  return "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
+         "<Xdmf Version=\"2.0\">\n<Domain>\n" +
+         grids + "</Domain>\n</Xdmf>\n";
+}
+
+// --- extended XYZ -------------------------------------------------------------------------
+
+// One frame: the box (periodic in x), the time and the properties of each disk; the species
+// is X, the dummy element (ASE reads only element names; OVITO any).
+void extxyz_frame(std::ostream& o, const MemberData& m, double time,
+                  const std::vector<std::vector<double>>& columns, const std::string& properties) {
+  const std::size_t n = columns.front().size();
+  o << n << "\nLattice=\"" << m.width << " 0 0 0 " << m.height << " 0 0 0 1\" pbc=\"T F F\" "
+    << "Time=" << time << " Properties=species:S:1:pos:R:3" << properties << "\n";
+  o << std::setprecision(10);
+  for (std::size_t k = 0; k < n; ++k) {
+    o << "X " << columns[0][k] << " " << columns[1][k] << " 0";
+    for (std::size_t c = 2; c < columns.size(); ++c) o << " " << columns[c][k];
+    o << "\n";
+  }
+}
+
+std::string extxyz_member(hid_t file, const MemberData& m) {
+  const std::string& g = m.group;
+  std::ostringstream o;
+  if (m.kind == "trajectory") {
+    const std::vector<double> time = doubles(file, g + "/time"), x = doubles(file, g + "/x"),
+                              y = doubles(file, g + "/y"), disk = doubles(file, g + "/disk");
+    for (const auto& [first, end] : samples(time)) {
+      auto part = [&](const std::vector<double>& v) {
+        return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(first),
+                                   v.begin() + static_cast<std::ptrdiff_t>(end));
+      };
+      extxyz_frame(o, m, time[first], {part(x), part(y), part(disk)}, ":disk:I:1");
+    }
+    return o.str();
+  }
+  const std::vector<double> x = doubles(file, g + "/x"), ye = doubles(file, g + "/y_e"),
+                            yi = doubles(file, g + "/y_i"), r = doubles(file, g + "/radius");
+  std::vector<double> dy(x.size());
+  for (std::size_t k = 0; k < x.size(); ++k) dy[k] = ye[k] - yi[k];
+  extxyz_frame(o, m, 0.0, {x, ye, r, yi, dy}, ":radius:R:1:y_i:R:1:delta_y:R:1");
+  return o.str();
+}
+
+}  // namespace
+
+std::vector<std::string> export_viewer_files(const std::string& path, ExportFormat format,
+                                             const ExportSelection& selection) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  const std::vector<MemberData> members = members_in(file, selection);
+  if (members.empty())
+    throw std::runtime_error(path + " holds no snapshot, failure snapshot or trajectory" +
+                             (selection.point >= 0 || selection.seed >= 0 ? " of that selection"
+                                                                          : "") +
+                             ": run with --snapshots or observables.trajectory_every");
+  const fs::path p(path);
+  const std::string base = (p.parent_path() / p.stem()).string();
+  const std::string h5 = p.filename().string();  // the viewer files lie next to it
+  std::vector<std::string> written;
+  if (format == ExportFormat::Extxyz) {
+    for (const auto& m : members) {
+      written.push_back(base + stem_name(m) + ".extxyz");
+      write_text(written.back(), extxyz_member(file, m));
+    }
+    return written;
+  }
+  const std::string side_path = base + "_xdmf.h5";
+  const std::string side = fs::path(side_path).filename().string();
+  const std::string side_tmp = side_path + ".tmp";
+  {
+    H5 sidecar(H5Fcreate(side_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+               "create " + side_tmp);
+    for (const auto& m : members) {
+      written.push_back(base + stem_name(m) + ".xmf");
+      write_text(written.back(), xdmf_document(m.kind == "trajectory"
+                                                   ? xdmf_trajectory(file, m, h5)
+                                                   : xdmf_snapshot(file, sidecar, m, h5, side)));
+    }
+  }
+  fs::rename(side_tmp, side_path);
+  written.push_back(side_path);
+  return written;
+}
+
+}  // namespace loosepack

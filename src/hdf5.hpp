@@ -1,0 +1,50 @@
+// The HDF5 pieces the result file's writer (src/output.cpp) and its exporters (src/export.cpp)
+// share: an owning handle, the error check, opening a group, reading a dataset as doubles.
+#pragma once
+#include <hdf5.h>
+
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace loosepack {
+
+class H5 {
+ public:
+  H5(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
+    if (id_ < 0) throw std::runtime_error("HDF5: cannot " + what);
+  }
+  ~H5() {
+    if (id_ >= 0) close_(id_);
+  }
+  H5(const H5&) = delete;
+  H5& operator=(const H5&) = delete;
+  H5(H5&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
+  operator hid_t() const { return id_; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+inline void check(herr_t e, const std::string& what) {
+  if (e < 0) throw std::runtime_error("HDF5: cannot " + what);
+}
+
+inline H5 open_group(hid_t parent, const std::string& name) {
+  return H5(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose, "open group " + name);
+}
+
+inline std::vector<double> doubles(hid_t loc, const std::string& name) {
+  H5 set(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+  H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
+  const hssize_t n = H5Sget_simple_extent_npoints(space);
+  std::vector<double> v(static_cast<std::size_t>(n));
+  if (n > 0)
+    check(H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()),
+          "read dataset " + name);
+  return v;
+}
+
+
+}  // namespace loosepack

@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# `cmake --install` of the build into a scratch prefix, then a project outside loosepack
+# (tests/consumer) configured with find_package(loosepack) against it, built and run: it runs
+# two small protocol-A members through the installed library. Usage: install_test.sh BUILD_DIR
+set -euo pipefail
+build=$(realpath "$1")
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+dir=$(mktemp -d)
+trap 'rm -rf "$dir"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+cmake --install "$build" --prefix "$dir/prefix" >"$dir/install.log" ||
+  { cat "$dir/install.log"; fail "cmake --install"; }
+for f in bin/loosepack include/loosepack/scan.hpp lib/cmake/loosepack/loosepackConfig.cmake \
+  share/loosepack/python/loosepack/__init__.py; do
+  [ -e "$dir/prefix/$f" ] || fail "the install lacks $f"
+done
+"$dir/prefix/bin/loosepack" --version | grep -q "^loosepack " || fail "the installed program"
+
+cmake -S "$here/consumer" -B "$dir/consumer" -DCMAKE_PREFIX_PATH="$dir/prefix" \
+  -DCMAKE_BUILD_TYPE=Release >"$dir/configure.log" 2>&1 ||
+  { cat "$dir/configure.log"; fail "find_package(loosepack) against the install"; }
+cmake --build "$dir/consumer" >"$dir/build.log" 2>&1 ||
+  { cat "$dir/build.log"; fail "building the consumer"; }
+out=$("$dir/consumer/consumer")
+echo "$out"
+# Two members ran and deposited disks; a cohesionless deposit's bulk density lies between a
+# loose random packing and the densest packing of equal disks (pi / (2 sqrt 3) = 0.9069).
+read -r _ members _ disks _ nu _ _ <<<"$out"
+[ "$members" = 2 ] || fail "members: $members"
+[ "$disks" -gt 20 ] || fail "disks: $disks"
+awk -v nu="$nu" 'BEGIN { exit !(nu > 0.6 && nu < 0.9069) }' || fail "nu_lower_half $nu"
+echo "install: ok"

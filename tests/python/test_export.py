@@ -1,0 +1,133 @@
+"""`loosepack export`: the XDMF files opened by ParaView's own reader and the extended XYZ read
+back by ASE, each compared with the disks, contacts and trajectories of the result file."""
+
+import subprocess
+
+import h5py
+import numpy as np
+import pytest
+
+import loosepack
+
+SCAN = {
+    "scan": {"name": "export", "seed": 11, "seeds": 2, "protocol": "A"},
+    "system": {"width": 16.0, "height": 16.0, "bond_number": 1000},
+    "observables": {"trajectory_every": 3},
+}
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("export") / "deposit.h5"
+    res = loosepack.run(SCAN, out, progress=False, args=["--snapshots"])
+    exe = loosepack.find_program()
+    files = {}
+    for fmt in ("xdmf", "extxyz"):
+        done = subprocess.run([exe, "export", str(out), "--format", fmt, "--point", "0"],
+                              capture_output=True, text=True, check=True)
+        files[fmt] = done.stdout.split()
+    return res, files
+
+
+def snapshot(res, seed):
+    with h5py.File(res.path, "r") as f:
+        g = f["points/0000/members/snapshot_%d" % seed]
+        return {k: g[k][()] for k in g}
+
+
+def trajectory(res, seed):
+    with h5py.File(res.path, "r") as f:
+        g = f["points/0000/members/trajectory_%d" % seed]
+        return {k: g[k][()] for k in g}
+
+
+def test_export_names_every_file(exported):
+    res, files = exported
+    stem = res.path[:-len(".h5")]
+    assert sorted(files["xdmf"]) == sorted(
+        [stem + "_p0000_s%d%s.xmf" % (s, t) for s in (0, 1) for t in ("", "_trajectory")] +
+        [stem + "_xdmf.h5"])
+    assert len(files["extxyz"]) == 4
+
+
+def test_paraview_reads_disks_contacts_and_forces(exported):
+    pv = pytest.importorskip("paraview.simple",
+                             reason="python3-paraview is not installed (scripts/install-deps.sh --test)")
+    from paraview import servermanager
+    res, files = exported
+    snap = snapshot(res, 1)
+    xmf = [f for f in files["xdmf"] if f.endswith("_s1.xmf")][0]
+    data = servermanager.Fetch(pv.XDMFReader(FileNames=[xmf]))
+    disks, contacts = data.GetBlock(0), data.GetBlock(1)
+    n, nc = len(snap["x"]), len(snap["contact_i"])
+    assert disks.GetNumberOfPoints() == n and disks.GetNumberOfCells() == n
+    radius = disks.GetPointData().GetArray("radius")
+    assert [radius.GetValue(k) for k in range(n)] == list(snap["radius"])
+    dy = disks.GetPointData().GetArray("delta_y")
+    assert np.allclose([dy.GetValue(k) for k in range(n)], snap["y_e"] - snap["y_i"])
+    assert contacts.GetNumberOfCells() == nc
+    normal = contacts.GetCellData().GetArray("normal")
+    assert np.allclose([normal.GetValue(k) for k in range(nc)], snap["contact_normal"])
+    # Each contact is a line from disk i's centre to disk j's (its periodic image nearest to i),
+    # or to the floor below disk i; its length is the distance of the two centres, at most the
+    # sum of the radii plus the cohesion range and the contact detection's reach.
+    width = 16.0
+    for c in range(nc):
+        cell = contacts.GetCell(c)
+        ends = np.array([contacts.GetPoint(cell.GetPointId(k))[:2] for k in range(2)])
+        i, j = snap["contact_i"][c], snap["contact_j"][c]
+        if j < 0:
+            assert np.allclose(ends, [(snap["x"][i], snap["y_e"][i]), (snap["x"][i], 0.0)])
+            continue
+        dx = snap["x"][j] - snap["x"][i]
+        dx -= width * np.round(dx / width)
+        assert np.allclose(ends, [(snap["x"][i], snap["y_e"][i]),
+                                  (snap["x"][i] + dx, snap["y_e"][j])])
+        assert np.hypot(*(ends[1] - ends[0])) < snap["radius"][i] + snap["radius"][j] + 1.5
+
+
+def test_paraview_steps_through_the_trajectory(exported):
+    pv = pytest.importorskip("paraview.simple",
+                             reason="python3-paraview is not installed (scripts/install-deps.sh --test)")
+    from paraview import servermanager
+    res, files = exported
+    t = trajectory(res, 0)
+    times = np.unique(t["time"])
+    reader = pv.XDMFReader(FileNames=[f for f in files["xdmf"] if f.endswith("_s0_trajectory.xmf")][0])
+    assert list(reader.TimestepValues) == list(times.astype(float))
+    last = times[-1]
+    reader.UpdatePipeline(float(last))
+    grid = servermanager.Fetch(reader)
+    at = t["time"] == last
+    assert grid.GetNumberOfPoints() == at.sum()
+    disk = grid.GetPointData().GetArray("disk")
+    assert [disk.GetValue(k) for k in range(at.sum())] == list(t["disk"][at])
+
+
+def test_extxyz_reads_back_with_ase(exported):
+    ase_io = pytest.importorskip("ase.io", reason="python3-ase is not installed")
+    res, files = exported
+    snap = snapshot(res, 0)
+    frames = ase_io.read([f for f in files["extxyz"] if f.endswith("_s0.extxyz")][0], index=":")
+    assert len(frames) == 1
+    atoms = frames[0]
+    assert len(atoms) == len(snap["x"])
+    assert np.allclose(atoms.positions[:, 0], snap["x"])
+    assert np.allclose(atoms.positions[:, 1], snap["y_e"])
+    assert np.allclose(atoms.arrays["radius"], snap["radius"])
+    assert list(atoms.pbc) == [True, False, False]
+    assert np.allclose(np.diag(atoms.cell), [16.0, 16.0, 1.0])
+    t = trajectory(res, 0)
+    steps = ase_io.read([f for f in files["extxyz"] if f.endswith("_s0_trajectory.extxyz")][0],
+                        index=":")
+    assert len(steps) == len(np.unique(t["time"]))
+    assert sum(len(s) for s in steps) == len(t["x"])
+
+
+def test_a_file_without_snapshots_is_refused(tmp_path):
+    out = tmp_path / "plain.h5"
+    loosepack.run({"system": {"width": 12.0, "height": 12.0, "bond_number": 0}}, out,
+                  progress=False)
+    done = subprocess.run([loosepack.find_program(), "export", str(out)], capture_output=True,
+                          text=True)
+    assert done.returncode == 1 and "--snapshots" in done.stderr

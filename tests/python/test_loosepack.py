@@ -1,0 +1,144 @@
+"""The Python package (python/loosepack) on a small scan run through it: every object it reads
+checked against what the file's own data or a formula says it must be."""
+
+import math
+import shutil
+import tomllib
+
+import h5py
+import numpy as np
+import pytest
+
+import loosepack
+
+SCAN = {
+    "scan": {"name": "python", "seed": 7, "seeds": 3, "protocol": "A"},
+    "system": {"width": 12.0, "height": 12.0, "bond_number": [0, 100]},
+    "observables": {"trajectory_every": 2},
+}
+
+
+@pytest.fixture(scope="module")
+def result(tmp_path_factory):
+    out = tmp_path_factory.mktemp("run") / "python.h5"
+    return loosepack.run(SCAN, out, progress=False, args=["--snapshots"])
+
+
+def test_points_table_has_parameters_scalars_and_integer_counts(result):
+    p = result.points
+    assert list(p.index) == [0, 1]
+    assert list(p["bond_number"]) == [0.0, 100.0]
+    assert p["members"].dtype.kind == "i" and list(p["members"]) == [3, 3]
+    assert list(p["failed"]) == [0, 0]
+    # The default time step resolves the cohesive barrier: 0.9 sqrt(d_c / (Bo g)), at most 0.01.
+    assert p.loc[0, "time_step"] == 0.01
+    assert p.loc[1, "time_step"] == pytest.approx(0.9 * math.sqrt(0.01 / 100.0))
+    # The observable lengths of a 12 R box: min(50, H/4) and min(20, H/6).
+    assert p.loc[0, "lower_half_from"] == 3.0 and p.loc[0, "cut_top"] == 2.0
+    assert (p["nu_lower_half_n"] == 3).all()
+    assert ((p["nu_lower_half"] > 0) & (p["nu_lower_half"] < math.pi / (2 * math.sqrt(3)))).all()
+    assert result.scan_text.startswith("[scan]")
+    assert isinstance(result.attrs["program"], str) and result.attrs["seeds"] == 3
+
+
+def test_nu_profile_is_the_mean_of_its_member_rows(result):
+    nu = result.nu(1)
+    assert nu["y"].attrs["units"] == "R" and nu["mean"].attrs["units"] == "1"
+    rows = nu["member_mean"]
+    assert rows.dims == ("member", "y") and list(nu["member"]) == [0, 1, 2]
+    full = nu["members"] == 3
+    assert np.allclose(rows.mean("member")[full], nu["mean"][full])
+    sem = rows.std("member", ddof=1) / math.sqrt(3)
+    assert np.allclose(sem[full], nu["sem"][full])
+
+
+def test_histogram_counts_every_disk_and_members_agree(result):
+    for point in (0, 1):
+        members = result.members(point)
+        assert members["disks"].dtype.kind == "i"
+        assert list(members["seed_index"]) == [0, 1, 2]
+        assert int(result.histogram(point).sum()) == int(members["disks"].sum())
+        assert int(result.histogram(point, cut=True).sum()) <= int(members["disks"].sum())
+    av = result.avalanche(1, by="y_e")
+    assert av["count"].sum() == result.members(1)["disks"].sum()
+    with pytest.raises(ValueError):
+        result.avalanche(1, by="z")
+
+
+def test_snapshots_contacts_and_trajectories(result):
+    members = result.members(1)
+    disks = result.snapshot(1, seed=2)
+    assert len(disks) == members["disks"][2]
+    assert np.allclose(disks["dy"], disks["y_e"] - disks["y_i"])
+    assert ((disks["x"] >= 0) & (disks["x"] < 12.0)).all()
+    contacts = result.contacts(1, seed=2)
+    assert contacts["i"].dtype.kind == "i"
+    assert ((contacts["j"] >= -1) & (contacts["j"] < len(disks))).all()
+    # Without cohesion the floor carries the whole deposit at rest: the floor contacts' normal
+    # forces sum to its weight (each disk m = 1 of radius R = 1, g = 1).
+    bare = result.snapshot(0, seed=2)
+    floor = result.contacts(0, seed=2).query("j == -1")
+    assert floor["normal"].sum() == pytest.approx(len(bare), rel=0.02)
+    trajectory = result.trajectory(1, seed=0)
+    assert (trajectory["disk"] % 2 == 0).all()
+    with pytest.raises(KeyError, match="snapshot_9"):
+        result.snapshot(1, seed=9)
+
+
+def test_fits_are_read_with_their_errors(result):
+    fits = result.fits(1)
+    assert {"avalanche_by_yi/fit", "avalanche_by_ye/fit", "nu_deposition/power_law"} <= set(fits)
+    for name, fit in fits.items():  # a valid fit has its parameters, an invalid one none
+        assert len(fit["coef"]) == len(fit["error"]), name
+        assert (len(fit["coef"]) > 0) == bool(fit["valid"]), name
+        assert "reduced_chi2" in fit
+
+
+def test_file_stores_integers_units_and_strings(result):
+    with h5py.File(result.path, "r") as f:
+        g = f["points/0001"]
+        assert g["members/seed_index"].dtype.kind == "i"
+        assert g["abs_dy_histogram/counts"].dtype.kind == "i"
+        assert g.attrs["members"].dtype.kind == "i"
+        assert g["nu/mean"].attrs["units"] == "1"
+        assert isinstance(g.attrs["protocol"], str)
+        assert isinstance(f["scan_text"].asstr()[()], str)
+
+
+def test_older_layout_still_loads(result, tmp_path):
+    old = tmp_path / "old.h5"
+    shutil.copy(result.path, old)
+    with h5py.File(old, "r+") as f:  # counts as float64, strings of fixed length, no rows
+        for name in ("0000", "0001"):
+            g = f["points"][name]
+            g.attrs.modify("members", np.float64(3.0))
+            g.attrs.create("protocol", np.bytes_(b"A"))
+            del g["nu/member_mean"]
+    res = loosepack.load(old)
+    assert list(res.points["members"]) == [3, 3] and res.points["members"].dtype.kind == "i"
+    assert list(res.points["protocol"]) == ["A", "A"]
+    assert "member_mean" not in res.nu(0)
+
+
+def test_scan_dicts_become_scan_files():
+    scan = {"scan": {"name": "x", "seeds": 2},
+            "system": {"bond_number": {"from": 1, "to": 1e4, "points": 5, "log": True},
+                       "friction": [0.3, 0.5], "capture_radius": float("inf")},
+            "point": [{"height": 24.0}, {"height": 48.0}]}
+    back = tomllib.loads(loosepack.to_toml(scan))
+    assert back["system"]["bond_number"] == scan["system"]["bond_number"]
+    assert back["system"]["capture_radius"] == "inf"
+    assert back["point"] == scan["point"]
+
+
+def test_bad_input_raises_with_the_programs_message(tmp_path):
+    bad = {"system": {"width": 12.0, "height": 12.0, "widht": 3.0}}
+    with pytest.raises(loosepack.LoosepackError) as e:
+        loosepack.run(bad, tmp_path / "bad.h5", progress=False)
+    assert e.value.returncode == 2 and "system.widht" in str(e.value)
+    assert not (tmp_path / "bad.h5").exists()
+
+
+def test_summary_prints_the_table(result):
+    text = loosepack.summary(result.path)
+    assert "nu_lower_half" in text and "0001" in text

@@ -1,0 +1,77 @@
+#!/usr/bin/env python3
+"""Render one deposit of a result file with ParaView: the disks as circles coloured by how far
+each fell during the deposition (Delta y = y_e - y_i), and the contacts as lines coloured by
+their normal force (force chains). Reads the XDMF files `loosepack export` writes.
+
+    loosepack run examples/render.toml -o out/render.h5 --snapshots
+    xvfb-run -a /usr/bin/python3 tools/render_deposit.py out/render.h5 docs/figures/deposit_bo1e3.png
+
+Needs Debian's python3-paraview (and an X display: xvfb-run on a machine without one)."""
+
+import argparse
+import os
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
+import loosepack  # noqa: E402
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("result", help="result file written with --snapshots")
+    ap.add_argument("png", help="picture to write")
+    ap.add_argument("--point", type=int, default=0)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--size", type=int, nargs=2, default=[900, 900], help="pixels")
+    args = ap.parse_args()
+
+    files = subprocess.run([loosepack.find_program(), "export", args.result, "--point",
+                            str(args.point), "--seed", str(args.seed)],
+                           capture_output=True, text=True)
+    if files.returncode != 0:
+        sys.exit(files.stderr.strip())
+    xmf = [f for f in files.stdout.split() if f.endswith("_s%d.xmf" % args.seed)][0]
+
+    from paraview import simple as pv
+    reader = pv.XDMFReader(FileNames=[xmf])
+    view = pv.CreateRenderView()
+    view.ViewSize = args.size
+    view.OrientationAxesVisibility = 0
+    view.Background = [1, 1, 1]
+    try:
+        view.UseColorPaletteForBackground = 0
+    except AttributeError:
+        pass
+    disks = pv.ExtractBlock(Input=reader, Selectors=["/Root/disks"])
+    contacts = pv.ExtractBlock(Input=reader, Selectors=["/Root/contacts"])
+    circles = pv.Glyph(Input=disks, GlyphType="2D Glyph")
+    circles.GlyphType.GlyphType = "Circle"
+    circles.GlyphType.Filled = 1
+    circles.ScaleArray = ["POINTS", "radius"]
+    circles.ScaleFactor = 2.0
+    circles.GlyphMode = "All Points"
+    shown = pv.Show(circles, view)
+    pv.ColorBy(shown, ("POINTS", "delta_y"))
+    lut = pv.GetColorTransferFunction("delta_y")
+    lut.ApplyPreset("Blues", True)
+    lut.InvertTransferFunction()
+    shown.SetScalarBarVisibility(view, True)
+    pv.GetScalarBar(lut, view).Title = "Delta y [R]"
+    pv.GetScalarBar(lut, view).ComponentTitle = ""
+    lines = pv.Show(contacts, view)
+    pv.ColorBy(lines, ("CELLS", "normal"))
+    forces = pv.GetColorTransferFunction("normal")
+    forces.ApplyPreset("Reds", True)
+    lines.LineWidth = 2.0
+    lines.SetScalarBarVisibility(view, True)
+    pv.GetScalarBar(forces, view).Title = "normal force [m g]"
+    pv.GetScalarBar(forces, view).ComponentTitle = ""
+    view.InteractionMode = "2D"
+    pv.ResetCamera(view)
+    pv.SaveScreenshot(args.png, view, ImageResolution=args.size)
+    print(args.png)
+
+
+if __name__ == "__main__":
+    main()
