@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Render one deposit of a result file with ParaView: the disks as circles coloured by how far
 each fell during the deposition (Delta y = y_e - y_i), and the contacts as lines coloured by
-their normal force (force chains). Reads the XDMF files `loosepack export` writes.
+their normal force (force chains; tension, which cohesion allows, blue). Reads the XDMF files `loosepack export` writes.
 
     loosepack run examples/render.toml -o out/render.h5 --snapshots
     xvfb-run -a /usr/bin/python3 tools/render_deposit.py out/render.h5 docs/figures/deposit_bo1e3.png
@@ -15,6 +15,14 @@ import sys
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
 import loosepack  # noqa: E402
+
+
+def label(bar, title):
+    """A colour legend's title, in black on the white background."""
+    bar.Title = title
+    bar.ComponentTitle = ""
+    bar.TitleColor = [0, 0, 0]
+    bar.LabelColor = [0, 0, 0]
 
 
 def main():
@@ -57,16 +65,17 @@ def main():
     lut.ApplyPreset("Blues", True)
     lut.InvertTransferFunction()
     shown.SetScalarBarVisibility(view, True)
-    pv.GetScalarBar(lut, view).Title = "Delta y [R]"
-    pv.GetScalarBar(lut, view).ComponentTitle = ""
+    label(pv.GetScalarBar(lut, view), "Delta y [R]")
     lines = pv.Show(contacts, view)
     pv.ColorBy(lines, ("CELLS", "normal"))
     forces = pv.GetColorTransferFunction("normal")
-    forces.ApplyPreset("Reds", True)
+    forces.ApplyPreset("Cool to Warm", True)  # tension (cohesion) blue, compression red
+    low, high = contacts.CellData["normal"].GetRange()
+    bound = max(abs(low), abs(high))
+    forces.RescaleTransferFunction(-bound, bound)
     lines.LineWidth = 2.0
     lines.SetScalarBarVisibility(view, True)
-    pv.GetScalarBar(forces, view).Title = "normal force [m g]"
-    pv.GetScalarBar(forces, view).ComponentTitle = ""
+    label(pv.GetScalarBar(forces, view), "normal force [m g]")
     view.InteractionMode = "2D"
     pv.ResetCamera(view)
     pv.SaveScreenshot(args.png, view, ImageResolution=args.size)
