@@ -11,9 +11,10 @@ packages=(
   python3-h5py python3-matplotlib python3-numpy python3-pandas python3-xarray
 )
 # --test: what the test suite needs beyond that (pytest; ParaView's Python and ASE, which read
-# the files `loosepack export` writes; xvfb for rendering with ParaView, tools/render_deposit.py).
+# the files `loosepack export` writes; venv and setuptools to pip-install python/ in a test; xvfb
+# for rendering with ParaView, tools/render_deposit.py).
 if [ "${1:-}" = "--test" ]; then
-  packages+=(python3-pytest python3-paraview python3-ase xvfb xauth)
+  packages+=(python3-pytest python3-paraview python3-ase python3-venv python3-setuptools xvfb xauth)
 fi
 missing=()
 for p in "${packages[@]}"; do

@@ -33,6 +33,13 @@ echo "$msg" | grep -q "bad.toml:3:12: key 'system.friction': mu must be >= 0" ||
 [ "$(cat "$dir/out.h5")" = "previous results" ] || fail "existing output was touched"
 ls "$dir" | grep -q tmp && fail "a temporary file was left behind"
 
+# Every default agrees with the others: a scan of a 24 R box and nothing else (protocol A at
+# Bo = 1e3, the time step and the observables' lengths from their defaults) runs without a
+# warning.
+printf '[scan]\nname = "defaults"\n[system]\nwidth = 24\nheight = 24\n' > "$dir/defaults.toml"
+msg=$("$exe" run "$dir/defaults.toml" -o "$dir/defaults.h5" 2>&1) || fail "the defaults: $msg"
+echo "$msg" | grep -qi "warning\|exceeds" && fail "the defaults warn: $msg"
+
 printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nheight = 20\n[observables]\nlower_half_from = 2\n' > "$dir/good.toml"
 # --dry-run lists the members with the cost model's estimate and writes nothing.
 "$exe" run "$dir/good.toml" -o "$dir/good.h5" --dry-run > "$dir/dry.txt"

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # `cmake --install` of the build into a scratch prefix, then a project outside loosepack
 # (tests/consumer) configured with find_package(loosepack) against it, built and run: it runs
-# two small protocol-A members through the installed library. Usage: install_test.sh BUILD_DIR
+# two small protocol-A members through the installed library; and the Python package, installed
+# and pip-installed. Usage: install_test.sh BUILD_DIR
 set -euo pipefail
 build=$(realpath "$1")
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -30,4 +31,18 @@ read -r _ members _ disks _ nu _ _ <<<"$out"
 [ "$members" = 2 ] || fail "members: $members"
 [ "$disks" -gt 20 ] || fail "disks: $disks"
 awk -v nu="$nu" 'BEGIN { exit !(nu > 0.6 && nu < 0.9069) }' || fail "nu_lower_half $nu"
+
+# The Python package: from the install tree, and installed by pip into a virtual environment
+# (which uses Debian's h5py, pandas and xarray), each reading a file of the installed program.
+printf '[scan]\nseeds = 2\n[system]\nwidth = 12\nheight = 12\nbond_number = 0\n' >"$dir/s.toml"
+"$dir/prefix/bin/loosepack" run "$dir/s.toml" -o "$dir/s.h5" -q
+check_load='import sys, loosepack; p = loosepack.load(sys.argv[1]).points
+assert list(p["members"]) == [2] and p["members"].dtype.kind == "i", p'
+PYTHONPATH="$dir/prefix/share/loosepack/python" /usr/bin/python3 -c "$check_load" "$dir/s.h5" ||
+  fail "the installed Python package"
+cp -r "$here/../python" "$dir/python"
+/usr/bin/python3 -m venv --system-site-packages "$dir/venv" || fail "python3 -m venv (python3-venv)"
+"$dir/venv/bin/pip" install -q --no-build-isolation --no-deps --no-index "$dir/python" ||
+  fail "pip install python/"
+(cd "$dir" && "$dir/venv/bin/python" -c "$check_load" "$dir/s.h5") || fail "the pip-installed package"
 echo "install: ok"
