@@ -1,7 +1,8 @@
 // Fault injection for the failure-handling tests (tests/failure_test.sh), kept out of the
 // scheduler and the command: LOOSEPACK_INJECT_NAN=<member id> starts that member with one disk
 // of NaN velocity, which fails it at its first dynamic step; LOOSEPACK_INJECT_WRITE_FAILURE=1
-// makes the final write of a run fail, as a full disk would.
+// makes the final write of a run fail, as a full disk would; LOOSEPACK_INJECT_FREE_BYTES=<n>
+// stands for the free space of the output's file system.
 #pragma once
 #include <cmath>
 #include <cstdlib>
@@ -27,6 +28,12 @@ inline void inject_write_failure() {
   const char* fail = std::getenv("LOOSEPACK_INJECT_WRITE_FAILURE");
   if (fail && std::string(fail) == "1")
     throw std::runtime_error("cannot write the result file (LOOSEPACK_INJECT_WRITE_FAILURE)");
+}
+
+// The free space to check the run against: the file system's, or the injected figure.
+inline double free_bytes_or_injected(double free) {
+  const char* injected = std::getenv("LOOSEPACK_INJECT_FREE_BYTES");
+  return injected ? std::atof(injected) : free;
 }
 
 }  // namespace loosepack

@@ -26,6 +26,8 @@
 #include "loosepack/protocols.hpp"
 #include "loosepack/scan.hpp"
 #include "loosepack_git_commit.hpp"
+#include "output_lock.hpp"
+#include "replace_file.hpp"
 
 using namespace loosepack;
 
@@ -36,11 +38,6 @@ std::string utc_now() {
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
   return buf;
-}
-
-std::string directory_of(const std::string& path) {
-  const auto k = path.find_last_of('/');
-  return k == std::string::npos ? "." : (k == 0 ? "/" : path.substr(0, k));
 }
 
 // Why `out` cannot take a result file ("" when it can): it must be a new name in a writable
@@ -56,9 +53,27 @@ std::string output_path_problem(const std::string& out, const std::string& input
     if (!fs::is_regular_file(st)) return out + " is not a regular file (a device, FIFO or socket)";
     if (fs::equivalent(out, input, ec)) return out + " is the input file " + input;
   }
-  if (::access(directory_of(out).c_str(), W_OK) != 0)
-    return "cannot write into " + directory_of(out) + " (for " + out + ")";
+  if (::access(directory_of_path(out).c_str(), W_OK) != 0)
+    return "cannot write into " + directory_of_path(out) + " (for " + out + ")";
   return "";
+}
+
+// Why the output's file system cannot take the run's results ("" when it can): the checkpoint
+// keeps each finished member's disks (their positions before and after, radius: about 48
+// bytes each at most) and the result file much less; a member holds at most member_capacity
+// disks. Checked before any work, so that a run of hours does not end on a full disk.
+std::string space_problem(const std::string& out, const std::vector<Member>& members) {
+  double bytes = 0.0;
+  for (const auto& m : members) bytes += 48.0 * member_capacity(m.params);
+  std::error_code ec;
+  const auto space = std::filesystem::space(directory_of_path(out), ec);
+  const double free = free_bytes_or_injected(static_cast<double>(space.available));
+  if (ec || free >= bytes) return "";
+  std::ostringstream o;
+  o << "the file system of " << out << " has " << free / 1048576.0
+    << " MiB free; this run's checkpoint and results may need up to " << bytes / 1048576.0
+    << " MiB";
+  return o.str();
 }
 
 // Set by SIGINT and SIGTERM: the run stops at the end of the step, checkpoints and exits. A
@@ -104,6 +119,7 @@ class RunCommand {
  private:
   int load();
   int dry_run() const;
+  int claim_output();
   int read_checkpoint();
   void share_out();
   void announce() const;
@@ -145,6 +161,7 @@ class RunCommand {
   std::vector<char> final;       // which ranks have finished
   Progress own;                  // this rank's latest
   std::vector<std::pair<std::string, double>> stages;
+  OutputLock lock;  // rank 0: the output and its checkpoint are this run's
 };
 
 int RunCommand::run() {
@@ -179,6 +196,7 @@ int RunCommand::load() {
     return kInvalid;
   }
   all_members = members_of(scan);
+  if (!o.dry_run && claim_output() != 0) return kInvalid;
   members = all_members;
   if (o.member >= 0) {
     if (o.member >= static_cast<long>(all_members.size())) {
@@ -189,6 +207,22 @@ int RunCommand::load() {
     members = {all_members[static_cast<std::size_t>(o.member)]};
   }
   return 0;
+}
+
+// Rank 0 locks the output (and so its checkpoint) for the whole run, removes what a dead run
+// left of a write (`<out>.tmp.<pid>`) and checks that the output's file system has room for
+// the results and the checkpoint; every rank learns whether the run goes on.
+int RunCommand::claim_output() {
+  std::string why;
+  if (ranks.root()) {
+    why = lock.acquire(o.out_path);
+    if (why.empty())
+      for (const auto& f : remove_stale_temporaries(o.out_path))
+        say("removed " + f + ", left by a run that ended while writing");
+    if (why.empty()) why = space_problem(o.out_path, all_members);
+  }
+  if (!why.empty()) say(why);
+  return ranks.broadcast(why.empty() ? 0 : 1);
 }
 
 // The finished members of an interrupted run and the snapshots of its running ones, read by
@@ -619,6 +653,12 @@ int main(int argc, char** argv) {
           return kInvalid;
         }
       }
+      OutputLock lock;  // a run or another analyse writing `out` now
+      if (const std::string why = lock.acquire(out); !why.empty()) {
+        std::cerr << "loosepack: " << why << "\n";
+        return kInvalid;
+      }
+      remove_stale_temporaries(out);
       reanalyse(analyse_path, out);
       return kOk;
     }

@@ -66,6 +66,11 @@ std::vector<std::string> Ranks::gather(const std::string& mine) const {
 
 void Ranks::barrier() const { MPI_Barrier(MPI_COMM_WORLD); }
 
+int Ranks::broadcast(int value) const {
+  MPI_Bcast(&value, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  return value;
+}
+
 void Ranks::abort(int code) const {
   if (size_ > 1) MPI_Abort(MPI_COMM_WORLD, code);
 }
@@ -112,6 +117,7 @@ Ranks::Ranks(int&, char**&) {}
 Ranks::~Ranks() = default;
 std::vector<std::string> Ranks::gather(const std::string& mine) const { return {mine}; }
 void Ranks::barrier() const {}
+int Ranks::broadcast(int value) const { return value; }
 void Ranks::abort(int) const {}
 void Ranks::send_progress(const Progress&, bool) {}
 void Ranks::receive_progress(std::vector<Progress>&, std::vector<char>&, bool) const {}

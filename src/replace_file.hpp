@@ -1,26 +1,68 @@
 // Writing a file so that nothing half-written is ever left at its path: `write(tmp)` fills a
-// temporary file beside it, which is then renamed over the path. On any error the temporary is
-// removed, the path is left as it was, and the error propagates.
+// temporary file beside it (`<path>.tmp.<pid>`), which is flushed to the disk, renamed over the
+// path, and the directory flushed, so that after a crash the path holds the old file or the new
+// one, whole. On any error the temporary is removed, the path is left as it was, and the error
+// propagates. A temporary of a run that died (kill -9 during a write) is removed by the next
+// run that writes the same path (remove_stale_temporaries).
 #pragma once
+#include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace loosepack {
+
+// fsync of a file or a directory (the directory holds the new name after a rename).
+inline void sync_path(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY);
+  if (fd < 0) throw std::runtime_error("cannot open " + path + " to flush it");
+  const int rc = ::fsync(fd);
+  ::close(fd);
+  if (rc != 0) throw std::runtime_error("cannot flush " + path + " to the disk");
+}
+
+inline std::string directory_of_path(const std::string& path) {
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  return dir.empty() ? "." : dir;
+}
 
 template <class Write>
 void replace_file(const std::string& path, Write write) {
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
   try {
     write(tmp);
+    sync_path(tmp);
     if (std::rename(tmp.c_str(), path.c_str()) != 0)
       throw std::runtime_error("cannot rename " + tmp + " to " + path);
+    sync_path(directory_of_path(path));
   } catch (...) {
     std::remove(tmp.c_str());
     throw;
   }
+}
+
+// The temporaries `<path>.tmp.<pid>` of `path` whose process no longer runs: removed; returns
+// their names (for a message).
+inline std::vector<std::string> remove_stale_temporaries(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> removed;
+  const std::string prefix = fs::path(path).filename().string() + ".tmp.";
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(directory_of_path(path), ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    const std::string pid = name.substr(prefix.size());
+    if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
+    if (::kill(static_cast<pid_t>(std::stol(pid)), 0) == 0 || errno != ESRCH) continue;
+    if (fs::remove(e.path(), ec)) removed.push_back(e.path().string());
+  }
+  return removed;
 }
 
 }  // namespace loosepack

@@ -72,6 +72,33 @@ done
 [ -p "$dir/fifo" ] && [ -c /dev/null ] && [ -d "$dir/adir" ] && [ -L "$dir/link.h5" ] ||
   fail "a refused output path was replaced"
 cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "the scan file was overwritten"
+# An output another run holds (its lock, with the holder's pid in it) is refused, run or
+# analyse -o, even with --force; free again once the holder ends.
+echo 4242 > "$dir/held.h5.lock"
+flock "$dir/held.h5.lock" sleep 60 &
+holder=$!
+for try in 1 2 3 4 5 6 7 8 9 10; do flock -n "$dir/held.h5.lock" true || break; sleep 0.2; done
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q --force 2>&1); rc=$?
+msg2=$("$exe" analyse "$dir/good.h5" -o "$dir/held.h5" --force 2>&1); rc2=$?
+set -e
+kill "$holder"; wait "$holder" 2>/dev/null || true
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "being written by another run (pid 4242" || fail "held lock (exit $rc): $msg"
+[ "$rc2" -eq 2 ] && echo "$msg2" | grep -q "being written by another run" || fail "held lock, analyse (exit $rc2): $msg2"
+[ -e "$dir/held.h5" ] && fail "a refused run wrote the held output"
+# A temporary left by a run that died while writing is removed by the next run of that output.
+sleep 0 & dead=$!; wait "$dead"
+echo "half a file" > "$dir/held.h5.tmp.$dead"
+msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q 2>&1)
+echo "$msg" | grep -q "removed .*held.h5.tmp.$dead, left by a run" || fail "stale temporary: $msg"
+[ -e "$dir/held.h5.tmp.$dead" ] && fail "the stale temporary is still there"
+[ -e "$dir/held.h5.lock" ] && fail "the lock file outlived its run"
+# A file system without room for the run's checkpoint and results is refused before any work.
+set +e
+msg=$(LOOSEPACK_INJECT_FREE_BYTES=1000 "$exe" run "$dir/good.toml" -o "$dir/full.h5" 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "MiB free; this run's checkpoint and results may need" ||
+  fail "no room (exit $rc): $msg"
 # analyse -o onto an existing file (here the scan file) is refused unless --force.
 set +e
 msg=$("$exe" analyse "$dir/good.h5" -o "$dir/good.toml" 2>&1)

@@ -26,6 +26,8 @@ class Ranks {
   // back. Sent point to point in chunks, so shares beyond 2 GiB travel too.
   std::vector<std::string> gather(const std::string& mine) const;
   void barrier() const;
+  // Rank 0's value, on every rank.
+  int broadcast(int value) const;
   // Ends every rank at once (MPI_Abort) when there are several; nothing with one rank.
   void abort(int code) const;
 

@@ -1,0 +1,66 @@
+// An advisory lock on an output path, held for a whole run: a second run writing the same `-o`
+// (or its checkpoint) is refused before any work, with the holder's pid. The lock is
+// `<path>.lock` (flock, LOCK_EX); the kernel releases it when the holder dies, so a run killed
+// by SIGKILL leaves a file that the next run simply locks again.
+#pragma once
+#include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <string>
+
+namespace loosepack {
+
+class OutputLock {
+ public:
+  OutputLock() = default;
+  OutputLock(const OutputLock&) = delete;
+  OutputLock& operator=(const OutputLock&) = delete;
+  ~OutputLock() { release(); }
+
+  // Takes the lock on `path`: "" when held now, else why not (another run holds it).
+  std::string acquire(const std::string& path) {
+    lock_path_ = path + ".lock";
+    for (int attempt = 0; attempt < 10; ++attempt) {
+      fd_ = ::open(lock_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+      if (fd_ < 0) return "cannot create the lock file " + lock_path_;
+      if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+        std::string pid;
+        std::ifstream(lock_path_) >> pid;
+        ::close(fd_);
+        fd_ = -1;
+        return path + " is being written by another run (pid " + (pid.empty() ? "?" : pid) +
+               ", lock " + lock_path_ + "); wait for it to end or give another -o";
+      }
+      // The holder before us may have removed the file after we opened it: lock the file that
+      // is at the path now.
+      struct stat held {}, at_path {};
+      if (::fstat(fd_, &held) == 0 && ::stat(lock_path_.c_str(), &at_path) == 0 &&
+          held.st_ino == at_path.st_ino && held.st_dev == at_path.st_dev) {
+        const std::string pid = std::to_string(::getpid()) + "\n";
+        if (::ftruncate(fd_, 0) != 0 || ::write(fd_, pid.data(), pid.size()) < 0) {
+        }  // the pid is for messages only
+        return "";
+      }
+      ::close(fd_);
+      fd_ = -1;
+    }
+    return "cannot lock " + lock_path_ + " (it keeps changing)";
+  }
+
+  // Removes the lock file (while holding it) and releases the lock.
+  void release() {
+    if (fd_ < 0) return;
+    ::unlink(lock_path_.c_str());
+    ::close(fd_);
+    fd_ = -1;
+  }
+
+ private:
+  std::string lock_path_;
+  int fd_ = -1;
+};
+
+}  // namespace loosepack
