@@ -75,14 +75,14 @@ cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "the scan file was overwri
 # An output another run holds (its lock, with the holder's pid in it) is refused, run or
 # analyse -o, even with --force; free again once the holder ends.
 echo 4242 > "$dir/held.h5.lock"
-flock "$dir/held.h5.lock" sleep 60 &
+flock -o "$dir/held.h5.lock" sleep 60 &
 holder=$!
 for try in 1 2 3 4 5 6 7 8 9 10; do flock -n "$dir/held.h5.lock" true || break; sleep 0.2; done
 set +e
 msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q --force 2>&1); rc=$?
 msg2=$("$exe" analyse "$dir/good.h5" -o "$dir/held.h5" --force 2>&1); rc2=$?
 set -e
-kill "$holder"; wait "$holder" 2>/dev/null || true
+pkill -P "$holder" sleep; wait "$holder" 2>/dev/null || true
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "being written by another run (pid 4242" || fail "held lock (exit $rc): $msg"
 [ "$rc2" -eq 2 ] && echo "$msg2" | grep -q "being written by another run" || fail "held lock, analyse (exit $rc2): $msg2"
 [ -e "$dir/held.h5" ] && fail "a refused run wrote the held output"
