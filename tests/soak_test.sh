@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# A soak of the scheduler, the checkpoints and MPI: 10 000 tiny members (protocol A without
+# cohesion in a 4 R x 4 R box, and ballistic deposits) on 2 ranks with a checkpoint every second.
+# The file must equal a serial run's, and the ranks' memory may grow during the run only by what
+# the results need: by no more than in the same run without checkpoints.
+# Usage: soak_test.sh LOOSEPACK MPIRUN
+source "$(dirname "$0")/common.sh"
+mpirun=$2
+cd "$dir"
+cat > soak.toml <<'TOML'
+[scan]
+name = "soak"
+seeds = 5000
+[[point]]
+protocol = "A"
+width = 4
+height = 4
+bond_number = 0
+[[point]]
+protocol = "B"
+width = 6
+height = 6
+[observables]
+lower_half_from = 0
+TOML
+"$exe" run soak.toml -o serial.h5 -q
+
+rss_of_ranks() {  # the resident memory of mpirun and the ranks writing $1 [KiB], summed
+  local total=0 pid kb
+  for pid in $(pgrep -f "loosepack run soak.toml -o $1"); do
+    kb=$(awk '/^VmRSS/ {print $2}' "/proc/$pid/status" 2>/dev/null || echo 0)
+    total=$((total + ${kb:-0}))
+  done
+  echo "$total"
+}
+# Runs on 2 ranks into $1 with a checkpoint every $2 seconds; prints how much the memory grew
+# from 1 s into the run to its end [KiB].
+growth_of_run() {
+  "$mpirun" -np 2 "$exe" run soak.toml -o "$1" -q --checkpoint-every "$2" &
+  local run=$! first=0 last=0 samples=0 now
+  while kill -0 "$run" 2>/dev/null; do
+    sleep 0.5
+    now=$(rss_of_ranks "$1")
+    [ "$now" -gt 0 ] || continue
+    samples=$((samples + 1))
+    [ "$samples" -eq 2 ] && first=$now
+    last=$now
+  done
+  wait "$run" || fail "the MPI run into $1 failed"
+  [ "$samples" -ge 4 ] || fail "the run was too short to sample its memory ($samples samples)"
+  echo $((last - first))
+}
+with=$(growth_of_run mpi.h5 1)
+without=$(growth_of_run plain.h5 1000000)
+same serial.h5 mpi.h5
+same serial.h5 plain.h5
+[ -d mpi.h5.checkpoint ] && fail "the checkpoint outlived the run"
+echo "soak: 10 000 members on 2 ranks; memory grew by $with KiB with a checkpoint every second, $without KiB without checkpoints"
+# The growth is the results the ranks gather; checkpoints must not add to it (8 MiB: the
+# allocator's slack and the last checkpoint's encoding).
+[ "$with" -le $((without + 8192)) ] || fail "checkpoints made the memory grow by $((with - without)) KiB more"
+echo "soak: ok"
