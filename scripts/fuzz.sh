@@ -4,8 +4,8 @@
 # `analyse` (fuzz/fuzz_results.cpp).
 #   scripts/fuzz.sh [seconds per target] [target...]     (default 60; every target)
 # Builds only the fuzz targets with clang (libFuzzer, ASan, UBSan) in build-fuzz/, runs each in
-# one process over a copy of its corpus (fuzz/corpus/ for the scan parser; the committed corpus
-# is never written to), and exits nonzero when one finds a crash, a leak, a timeout or an
+# one process over a copy of its corpus (fuzz/corpus/ for the scan parser, fuzz/corpus-results/
+# for the result-file readers; the committed corpora are never written to), and exits nonzero when one finds a crash, a leak, a timeout or an
 # allocation over the limits, printing the reproducer. Replay one: build-fuzz/fuzz/TARGET FILE
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -30,6 +30,8 @@ for target in "${targets[@]}"; do
   if [ "$target" = fuzz_scan ]; then
     cp fuzz/corpus/* "$work"/
     options=(-dict=fuzz/toml.dict -max_len=4096)
+  elif [ "$target" = fuzz_results ]; then
+    cp fuzz/corpus-results/* "$work"/  # earlier findings, kept as seeds
   fi
   set +e
   "$build/fuzz/$target" "$work" "${options[@]}" -max_total_time="$seconds" -timeout=10 \

@@ -668,7 +668,9 @@ int main(int argc, char** argv) {
         std::cout << f << "\n";
       return kOk;
     }
-    print_summary(summary_path, std::cout);
+    std::ostringstream text;  // printed whole, or not at all when the file is refused
+    print_summary(summary_path, text);
+    std::cout << text.str();
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return kError;

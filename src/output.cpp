@@ -740,10 +740,19 @@ void print_summary(const std::string& path, std::ostream& out) {
     return H5Lexists(file, object.c_str(), H5P_DEFAULT) > 0 &&
            H5Oexists_by_name(file, object.c_str(), H5P_DEFAULT) > 0;
   };
+  // A valid fit's coefficients and errors, at least `n` of each (else the file is refused).
+  auto coefficients = [&](const std::string& object, std::size_t n) {
+    auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
+    check_lengths(object, {{"coef", c.size()}, {"error", e.size()}});
+    if (c.size() < n)
+      throw std::runtime_error(object + "/coef has " + std::to_string(c.size()) +
+                               " values, fewer than its model has (the file is damaged or was "
+                               "edited)");
+    return std::make_pair(c, e);
+  };
   auto fit_text = [&](const std::string& object, const char* var) {
     if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
-    const auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
-    check_lengths(object, {{"coef", c.size()}, {"error", e.size()}});
+    const auto [c, e] = coefficients(object, 1);
     std::ostringstream o;
     o << std::setprecision(3);
     for (std::size_t k = 0; k < c.size(); ++k) {
@@ -757,7 +766,7 @@ void print_summary(const std::string& path, std::ostream& out) {
   // A power law A x^p, fitted as ln A + p ln x: the error of A is A times that of ln A.
   auto power_text = [&](const std::string& object) {
     if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
-    const auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
+    const auto [c, e] = coefficients(object, 2);
     std::ostringstream o;
     o << std::setprecision(3) << "A = " << std::exp(c[0]) << " +- " << std::exp(c[0]) * e[0]
       << ", p = " << c[1] << " +- " << e[1] << "  [chi2/dof "
@@ -781,7 +790,7 @@ void print_summary(const std::string& path, std::ostream& out) {
     if (!ye.empty()) out << "  Delta y(y_e) = " << ye << "\n";
     const std::string slice = n + "/avalanche_by_ye/slice_parabola";
     if (exists(slice) && double_attribute(file, slice, "valid") != 0.0) {
-      const auto c = doubles(file, slice + "/coef"), e = doubles(file, slice + "/error");
+      const auto [c, e] = coefficients(slice, 1);
       out << "  slice model Delta y(y_e) = -a y_e (1 - y_e/H): a = " << c[0] << " +- " << e[0]
           << "\n";
     }

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <sstream>
 #include <fstream>
 
 #include "loosepack/observables.hpp"
@@ -170,5 +171,34 @@ lower_half_from = 2.0
     }
     EXPECT_EQ(std::filesystem::last_write_time(bad), before);
     EXPECT_EQ(read_dataset(bad, name), values);
+  }
+  // A fit marked valid without its coefficients (found by fuzz/fuzz_results.cpp): summary
+  // refuses the file naming the dataset, and prints nothing of it.
+  const std::string bad = dir / "bad.h5";
+  std::filesystem::copy_file(good, bad, std::filesystem::copy_options::overwrite_existing);
+  for (const char* d : {"points/0000/avalanche_by_ye/fit/coef", "points/0000/avalanche_by_ye/fit/error"})
+    replace_dataset(bad, d, {});
+  {
+    const hid_t file = H5Fopen(bad.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    const char* fit = "points/0000/avalanche_by_ye/fit";
+    ASSERT_GE(H5Adelete_by_name(file, fit, "valid", H5P_DEFAULT), 0);
+    const hid_t space = H5Screate(H5S_SCALAR);
+    const hid_t valid = H5Acreate_by_name(file, fit, "valid", H5T_IEEE_F64LE, space, H5P_DEFAULT,
+                                          H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(valid, 0);
+    const double one = 1.0;
+    ASSERT_GE(H5Awrite(valid, H5T_NATIVE_DOUBLE, &one), 0);
+    H5Aclose(valid);
+    H5Sclose(space);
+    H5Fclose(file);
+  }
+  std::ostringstream text;
+  try {
+    print_summary(bad, text);
+    ADD_FAILURE() << "a fit without coefficients was printed: " << text.str();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("avalanche_by_ye/fit/coef"), std::string::npos)
+        << e.what();
   }
 }
