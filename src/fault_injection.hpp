@@ -1,6 +1,8 @@
 // Fault injection for the failure-handling tests (tests/failure_test.sh), kept out of the
 // scheduler and the command: LOOSEPACK_INJECT_NAN=<member id> starts that member with one disk
-// of NaN velocity, which fails it at its first dynamic step; LOOSEPACK_INJECT_WRITE_FAILURE=1
+// of NaN velocity, which fails it at its first dynamic step; LOOSEPACK_INJECT_OVERLAP=<member
+// id> starts it with two disks on the floor overlapping by 0.5 R (contact dynamics holds an
+// overlap; the member fails at its end, Failure::Overlap); LOOSEPACK_INJECT_WRITE_FAILURE=1
 // makes the final write of a run fail, as a full disk would; LOOSEPACK_INJECT_FREE_BYTES=<n>
 // stands for the free space of the output's file system.
 #pragma once
@@ -13,15 +15,25 @@
 
 namespace loosepack {
 
+inline bool injected_into(const char* variable, const Member& m) {
+  const char* member = std::getenv(variable);
+  return member && std::to_string(m.id) == member;
+}
+
 inline void inject_faults(const Member& m, SystemSetup& setup) {
-  const char* nan_member = std::getenv("LOOSEPACK_INJECT_NAN");
-  if (!nan_member || std::to_string(m.id) != nan_member) return;
   Disk d;
   d.x = 0.5 * m.params.width;
   d.y = m.params.radius;
   d.radius = m.params.radius;
-  d.vy = std::nan("");
-  setup.disks.insert(setup.disks.begin(), d);
+  if (injected_into("LOOSEPACK_INJECT_NAN", m)) {
+    d.vy = std::nan("");
+    setup.disks.insert(setup.disks.begin(), d);
+  }
+  if (injected_into("LOOSEPACK_INJECT_OVERLAP", m)) {  // two disks on the floor, 0.5 R deep
+    Disk e = d;
+    e.x += 1.5 * d.radius;
+    setup.disks.insert(setup.disks.begin(), {d, e});
+  }
 }
 
 inline void inject_write_failure() {

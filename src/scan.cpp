@@ -490,6 +490,14 @@ Scan ScanParser::parse() {
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   warn_unresolved_barrier(points);
+  // Without mass splitting each of a disk's k contacts applies its whole impulse change at once,
+  // k times too much: the iteration diverges unless the relaxation is small (a 12 R x 12 R pile
+  // at Bo = 0: converged at 0.5, blown up at 1.0, its members failed).
+  if (scan.solver_kind_given && scan.solver.kind == SolverKind::Jacobi &&
+      !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
+    scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
+                                   "relaxation > 0.5 (its members fail, their disks leaving the "
+                                   "box); set solver.relaxation <= 0.5 or mass_splitting = true");
   scan.points = std::move(points);
   return scan;
 }

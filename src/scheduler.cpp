@@ -194,6 +194,13 @@ static bool escaped(const std::vector<Disk>& disks, const SystemParams& p) {
                      [&](const Disk& d) { return !(d.y <= top) || d.y < 0.0; });
 }
 
+// Whether a finished member holds an overlap beyond kMaxFinalOverlap R: its failure too.
+static bool overlapping(const std::vector<ContactForce>& contacts, const SystemParams& p) {
+  return std::any_of(contacts.begin(), contacts.end(), [&](const ContactForce& c) {
+    return c.gap < -kMaxFinalOverlap * p.radius;
+  });
+}
+
 // The member of slot k has finished (or failed): its result is collected and handed to the
 // hooks, and the slot takes the next member.
 void MemberRun::finish(std::size_t k) {
@@ -210,7 +217,10 @@ void MemberRun::finish(std::size_t k) {
   }
   r.wall_time = std::chrono::duration<double>(Clock::now() - sl.start).count();
   const std::vector<Disk> disks = batch_->disks(s);
+  r.contacts = batch_->contacts(s);
   if (r.failure == Failure::None && escaped(disks, batch_->params(s))) r.failure = Failure::Escaped;
+  if (r.failure == Failure::None && overlapping(r.contacts, batch_->params(s)))
+    r.failure = Failure::Overlap;
   for (const auto& d : disks) {
     r.x.push_back(d.x);
     r.y_i.push_back(d.y_deposit);
@@ -221,7 +231,6 @@ void MemberRun::finish(std::size_t k) {
     r.vy.push_back(d.vy);
     r.w.push_back(d.w);
   }
-  r.contacts = batch_->contacts(s);
   taken_.erase(
       std::remove_if(taken_.begin(), taken_.end(),
                      [&](const MemberSnapshot& t) { return t.result.member.id == r.member.id; }),

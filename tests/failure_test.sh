@@ -37,6 +37,14 @@ with h5py.File("member-1.h5") as f:
 PY
 /usr/bin/python3 "$repo/tools/plot.py" serial.h5 -o fig >/dev/null
 [ -s fig/structure_0000_failure_1.png ] || fail "plot.py did not draw the failed member"
+# A member that ends with disks overlapping beyond 0.25 R fails too (the overlap injected).
+set +e
+LOOSEPACK_INJECT_OVERLAP=2 "$exe" run s.toml -o overlap.h5 --batch-size 2 2>overlap.log
+rc=$?
+set -e
+[ "$rc" -eq 3 ] || fail "a run with an overlapping member exited $rc, expected 3"
+grep -q "member 2 (point 0, seed 2, Bo 30) failed: two disks, or a disk and the floor, ended overlapping by more than 0.25 R" overlap.log ||
+  fail "overlap not reported: $(cat overlap.log)"
 echo "failure: all checks passed"
 # A solution that blows up (Jacobi without mass splitting diverges on a cohesive deposit: disks
 # thrown hundreds of R high) fails its member (a disk left the box) instead of passing its

@@ -359,6 +359,17 @@ TEST(Scan, ObservableLengthsFollowTheBoxUnlessSet) {
   EXPECT_NE(err.find("bad.toml:5:19: key 'observables.lower_half_from'"), std::string::npos) << err;
 }
 
+// Jacobi without mass splitting diverges at a relaxation above 0.5: the scan is valid (its
+// members would fail, not the run) but warned of.
+TEST(Scan, WarnsOfJacobiWithoutMassSplittingAtLargeRelaxation) {
+  const std::string base =
+      "[system]\nwidth = 12\nheight = 12\n[solver]\nkind = \"jacobi\"\nmass_splitting = false\n";
+  const auto loud = parse_scan(base + "relaxation = 1.0\n", "j.toml");
+  ASSERT_EQ(loud.warnings.size(), 1u);
+  EXPECT_NE(loud.warnings[0].find("without mass splitting diverges"), std::string::npos);
+  EXPECT_TRUE(parse_scan(base + "relaxation = 0.5\n", "j.toml").warnings.empty());
+}
+
 // Every scan file shipped in examples/ (the default job, the paper's figures) is valid.
 TEST(Scan, EveryExampleScanFileIsValid) {
   namespace fs = std::filesystem;

@@ -57,7 +57,12 @@ enum class Failure {
   ParticleOverflow = 3,
   Unconverged = 4,  // set by the protocols: protocol.max_unconverged_time exceeded
   Escaped = 5,      // set by the protocols: a disk ended outside the box (the solution blew up)
+  Overlap = 6,      // set by the protocols: two disks (or a disk and the floor) ended
+                    // overlapping by more than kMaxFinalOverlap (the solution blew up)
 };
+// The largest overlap a finished member may hold [R]: converged solves leave ~1e-4 R, moving
+// steps under the relative tolerance up to ~3e-3 R (docs/PERFORMANCE.md), this 80 times that.
+constexpr double kMaxFinalOverlap = 0.25;
 std::string failure_message(Failure f);
 
 // Host copy of the per-system status after a step.
