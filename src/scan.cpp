@@ -491,8 +491,9 @@ Scan ScanParser::parse() {
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   warn_unresolved_barrier(points);
   // Without mass splitting each of a disk's k contacts applies its whole impulse change at once,
-  // k times too much: the iteration diverges unless the relaxation is small (a 12 R x 12 R pile
-  // at Bo = 0: converged at 0.5, blown up at 1.0, its members failed).
+  // k times too much: the iteration diverges unless the relaxation is small (12 R x 12 R
+  // deposits converge at 0.5; at Bo = 1e2 they blow up at the default 0.8, at Bo = 0 at 1.0, and
+  // their members fail).
   if (scan.solver_kind_given && scan.solver.kind == SolverKind::Jacobi &&
       !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
     scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
