@@ -23,7 +23,7 @@ cmake -S "$here/consumer" -B "$dir/consumer" -DCMAKE_PREFIX_PATH="$dir/prefix" \
   { cat "$dir/configure.log"; fail "find_package(loosepack) against the install"; }
 cmake --build "$dir/consumer" >"$dir/build.log" 2>&1 ||
   { cat "$dir/build.log"; fail "building the consumer"; }
-out=$("$dir/consumer/consumer")
+out=$("$dir/consumer/consumer") || fail "the consumer ended with an error (exit $?)"
 echo "$out"
 # Two members ran and deposited disks; a cohesionless deposit's bulk density lies between a
 # loose random packing and the densest packing of equal disks (pi / (2 sqrt 3) = 0.9069).
@@ -35,7 +35,7 @@ awk -v nu="$nu" 'BEGIN { exit !(nu > 0.6 && nu < 0.9069) }' || fail "nu_lower_ha
 # The Python package: from the install tree, and installed by pip into a virtual environment
 # (which uses Debian's h5py, pandas and xarray), each reading a file of the installed program.
 printf '[scan]\nseeds = 2\n[system]\nwidth = 12\nheight = 12\nbond_number = 0\n' >"$dir/s.toml"
-"$dir/prefix/bin/loosepack" run "$dir/s.toml" -o "$dir/s.h5" -q
+"$dir/prefix/bin/loosepack" run "$dir/s.toml" -o "$dir/s.h5" -q || fail "the installed program's run (exit $?)"
 check_load='import sys, loosepack; p = loosepack.load(sys.argv[1]).points
 assert list(p["members"]) == [2] and p["members"].dtype.kind == "i", p'
 PYTHONPATH="$dir/prefix/share/loosepack/python" /usr/bin/python3 -c "$check_load" "$dir/s.h5" ||
