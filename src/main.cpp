@@ -524,20 +524,8 @@ std::vector<char*> without_kokkos_options(int argc, char** argv) {
   return out;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  Ranks ranks(argc, argv);
-  CLI::App app{
-      "loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)\n"
-      "Exit codes: 0 done, 1 an error while running or writing, 2 invalid input, 3 the "
-      "file is written but members failed, 128+N stopped by signal N (resume with "
-      "--resume). Kokkos options (--kokkos-num-threads=N, ...) pass through."};
-  app.require_subcommand(0, 1);
-  bool version = false;
-  app.add_flag("--version", version, "print the version, the Kokkos backend and MPI, and exit");
-  RunOptions o;
-  std::string summary_path;
+// `loosepack run`'s options, into `o`.
+CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
   auto* run_cmd = app.add_subcommand(
       "run",
       "Run a scan file and write one HDF5 result file (under mpirun: members sharded over "
@@ -576,39 +564,105 @@ int main(int argc, char** argv) {
           "FINITE"));
   run_cmd->add_option("--member", o.member, "run only this member (id as printed for a failure)")
       ->check(CLI::Range(0L, 1000000000L));
-  auto* sum_cmd = app.add_subcommand("summary", "Print a table per scan point of a result file");
-  sum_cmd->add_option("file", summary_path, "result file (HDF5)")
+  return run_cmd;
+}
+
+// The subcommands that read a result file: summary, analyse, export.
+struct FileCommands {
+  CLI::App *summary = nullptr, *analyse = nullptr, *exporter = nullptr;
+  std::string summary_path, analyse_path, analyse_out, export_path, export_format = "xdmf";
+  bool analyse_force = false;
+  ExportSelection export_selection;
+};
+
+void add_file_commands(CLI::App& app, FileCommands& f) {
+  f.summary = app.add_subcommand("summary", "Print a table per scan point of a result file");
+  f.summary->add_option("file", f.summary_path, "result file (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);
-  std::string analyse_path, analyse_out;
-  auto* an_cmd = app.add_subcommand(
+  f.analyse = app.add_subcommand(
       "analyse",
       "Recompute the fits of a result file from the aggregates it stores (a file of "
       "an older program gets the current analysis without a rerun)");
-  an_cmd->add_option("file", analyse_path, "result file (HDF5)")
+  f.analyse->add_option("file", f.analyse_path, "result file (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);
-  an_cmd->add_option("-o,--output", analyse_out,
-                     "write here instead of replacing FILE (atomically, either way); an existing "
-                     "file is refused unless --force");
-  bool analyse_force = false;
-  an_cmd->add_flag("--force", analyse_force, "replace an existing -o file");
-  std::string export_path, export_format = "xdmf";
-  ExportSelection export_selection;
-  auto* ex_cmd = app.add_subcommand(
+  f.analyse->add_option("-o,--output", f.analyse_out,
+                        "write here instead of replacing FILE (atomically, either way); an "
+                        "existing file is refused unless --force");
+  f.analyse->add_flag("--force", f.analyse_force, "replace an existing -o file");
+  f.exporter = app.add_subcommand(
       "export",
       "Write viewer files next to a result file from its snapshots and trajectories: XDMF "
       "for ParaView (reading the result file in place) or extended XYZ for OVITO");
-  ex_cmd->add_option("file", export_path, "result file (HDF5)")
+  f.exporter->add_option("file", f.export_path, "result file (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);
-  ex_cmd->add_option("--format", export_format, "xdmf or extxyz")
+  f.exporter->add_option("--format", f.export_format, "xdmf or extxyz")
       ->capture_default_str()
       ->check(CLI::IsMember({"xdmf", "extxyz"}));
-  ex_cmd->add_option("--point", export_selection.point, "this scan point only")
+  f.exporter->add_option("--point", f.export_selection.point, "this scan point only")
       ->check(CLI::Range(0, 1000000));
-  ex_cmd->add_option("--seed", export_selection.seed, "this seed index only")
+  f.exporter->add_option("--seed", f.export_selection.seed, "this seed index only")
       ->check(CLI::Range(0, 1000000000));
+}
+
+// `loosepack analyse`: the output checked and locked as a run's, then written atomically.
+int analyse_command(const FileCommands& f) {
+  const std::string out = f.analyse_out.empty() ? f.analyse_path : f.analyse_out;
+  std::string why;
+  if (out != f.analyse_path) {
+    why = output_path_problem(out, f.analyse_path);
+    if (why.empty() && !f.analyse_force && std::filesystem::exists(out))
+      why = "the output file " + out + " exists; add --force to replace it";
+  }
+  OutputLock lock;  // a run or another analyse writing `out` now
+  if (why.empty()) why = lock.acquire(out);
+  if (!why.empty()) {
+    std::cerr << "loosepack: " << why << "\n";
+    return kInvalid;
+  }
+  remove_stale_temporaries(out);
+  reanalyse(f.analyse_path, out);
+  return kOk;
+}
+
+// summary, analyse or export, on rank 0.
+int file_command(const FileCommands& f) {
+  try {
+    if (*f.analyse) return analyse_command(f);
+    if (*f.exporter) {
+      const auto format = f.export_format == "xdmf" ? ExportFormat::Xdmf : ExportFormat::Extxyz;
+      for (const auto& file : export_viewer_files(f.export_path, format, f.export_selection))
+        std::cout << file << "\n";
+      return kOk;
+    }
+    std::ostringstream text;  // printed whole, or not at all when the file is refused
+    print_summary(f.summary_path, text);
+    std::cout << text.str();
+  } catch (const std::exception& e) {
+    std::cerr << "loosepack: " << e.what() << "\n";
+    return kError;
+  }
+  return kOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Ranks ranks(argc, argv);
+  CLI::App app{
+      "loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)\n"
+      "Exit codes: 0 done, 1 an error while running or writing, 2 invalid input, 3 the "
+      "file is written but members failed, 128+N stopped by signal N (resume with "
+      "--resume). Kokkos options (--kokkos-num-threads=N, ...) pass through."};
+  app.require_subcommand(0, 1);
+  bool version = false;
+  app.add_flag("--version", version, "print the version, the Kokkos backend and MPI, and exit");
+  RunOptions o;
+  CLI::App* run_cmd = add_run_command(app, o);
+  FileCommands files;
+  add_file_commands(app, files);
   std::vector<char*> args = without_kokkos_options(argc, argv);
   const std::set<std::string> subcommands = {"run", "summary", "analyse", "export"};
   if (args.size() > 1 && args[1][0] != '-' && !subcommands.count(args[1])) {
@@ -640,40 +694,5 @@ int main(int argc, char** argv) {
     std::signal(SIGTERM, on_signal);
     return run(o, ranks);
   }
-  if (!ranks.root()) return 0;
-  try {
-    if (*an_cmd) {
-      const std::string out = analyse_out.empty() ? analyse_path : analyse_out;
-      if (out != analyse_path) {
-        std::string why = output_path_problem(out, analyse_path);
-        if (why.empty() && !analyse_force && std::filesystem::exists(out))
-          why = "the output file " + out + " exists; add --force to replace it";
-        if (!why.empty()) {
-          std::cerr << "loosepack: " << why << "\n";
-          return kInvalid;
-        }
-      }
-      OutputLock lock;  // a run or another analyse writing `out` now
-      if (const std::string why = lock.acquire(out); !why.empty()) {
-        std::cerr << "loosepack: " << why << "\n";
-        return kInvalid;
-      }
-      remove_stale_temporaries(out);
-      reanalyse(analyse_path, out);
-      return kOk;
-    }
-    if (*ex_cmd) {
-      const auto format = export_format == "xdmf" ? ExportFormat::Xdmf : ExportFormat::Extxyz;
-      for (const auto& f : export_viewer_files(export_path, format, export_selection))
-        std::cout << f << "\n";
-      return kOk;
-    }
-    std::ostringstream text;  // printed whole, or not at all when the file is refused
-    print_summary(summary_path, text);
-    std::cout << text.str();
-  } catch (const std::exception& e) {
-    std::cerr << "loosepack: " << e.what() << "\n";
-    return kError;
-  }
-  return 0;
+  return ranks.root() ? file_command(files) : kOk;
 }

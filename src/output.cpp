@@ -688,54 +688,8 @@ std::string read_attribute_string(const std::string& path, const std::string& ob
   return string_attribute(file, object, name);
 }
 
-void print_summary(const std::string& path, std::ostream& out) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
-          "open " + path + " (not an HDF5 file written by loosepack?)");
-  std::vector<std::string> names;
-  {
-    H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
-    H5G_info_t info;
-    check(H5Gget_info(g, &info), "list points");
-    for (hsize_t k = 0; k < info.nlinks; ++k) {
-      char buf[64];
-      H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, buf, sizeof buf, H5P_DEFAULT);
-      names.emplace_back(std::string("points/") + buf);
-    }
-  }
-  out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', "
-      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds") << " s\n";
-  out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
-      << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)
-      << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]"
-      << std::setw(22) << "dnu/nu_i"
-      << "members(failed)\n";
-  for (const auto& n : names) {
-    auto d = [&](const char* a) { return double_attribute(file, n, a); };
-    auto pm = [](double m, double s) {
-      std::ostringstream o;
-      o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4)
-        << (std::isnan(s) ? 0.0 : s);
-      return o.str();
-    };
-    const std::string prot = string_attribute(file, n, "protocol");
-    std::string rel = "-";
-    if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
-    std::ostringstream bo;
-    bo << d("bond_number");
-    const H5 g = open_group(file, n);
-    const int members = count_attribute(g, "members"), failed = count_attribute(g, "failed");
-    // Each line whole or not at all: an attribute that cannot be read stops before it.
-    std::ostringstream line;
-    line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
-         << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
-         << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction") << std::setw(22)
-         << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
-         << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members
-         << "(" << failed << ")\n";
-    out << line.str();
-  }
-  // The fits of the analysis, where the file has them.
+// The fits of the analysis under the summary's table, where the file has them.
+static void print_fits(hid_t file, const std::vector<std::string>& names, std::ostream& out) {
   auto exists = [&](const std::string& object) {
     return H5Lexists(file, object.c_str(), H5P_DEFAULT) > 0 &&
            H5Oexists_by_name(file, object.c_str(), H5P_DEFAULT) > 0;
@@ -830,6 +784,56 @@ void print_summary(const std::string& path, std::ostream& out) {
   if (!nu_i.empty()) out << "  dnu/nu_i = A nu_i^p: " << nu_i << "\n";
   if (!c_h.empty()) out << "  abs(c2) of Delta y(y_e) = A H^p: " << c_h << "\n";
   if (!a_h.empty()) out << "  slice model a = A H^p: " << a_h << "\n";
+}
+
+void print_summary(const std::string& path, std::ostream& out) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
+          "open " + path + " (not an HDF5 file written by loosepack?)");
+  std::vector<std::string> names;
+  {
+    H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
+    H5G_info_t info;
+    check(H5Gget_info(g, &info), "list points");
+    for (hsize_t k = 0; k < info.nlinks; ++k) {
+      char buf[64];
+      H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, buf, sizeof buf, H5P_DEFAULT);
+      names.emplace_back(std::string("points/") + buf);
+    }
+  }
+  out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', "
+      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds") << " s\n";
+  out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
+      << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)
+      << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]"
+      << std::setw(22) << "dnu/nu_i"
+      << "members(failed)\n";
+  for (const auto& n : names) {
+    auto d = [&](const char* a) { return double_attribute(file, n, a); };
+    auto pm = [](double m, double s) {
+      std::ostringstream o;
+      o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4)
+        << (std::isnan(s) ? 0.0 : s);
+      return o.str();
+    };
+    const std::string prot = string_attribute(file, n, "protocol");
+    std::string rel = "-";
+    if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
+    std::ostringstream bo;
+    bo << d("bond_number");
+    const H5 g = open_group(file, n);
+    const int members = count_attribute(g, "members"), failed = count_attribute(g, "failed");
+    // Each line whole or not at all: an attribute that cannot be read stops before it.
+    std::ostringstream line;
+    line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
+         << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
+         << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction") << std::setw(22)
+         << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
+         << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members
+         << "(" << failed << ")\n";
+    out << line.str();
+  }
+  print_fits(file, names, out);
 }
 
 }  // namespace loosepack

@@ -421,6 +421,7 @@ class ScanParser {
   void check_rest_window(const ScanPoint& sp);
   void check_counts(const std::vector<ScanPoint>& points);
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
+  void warn_diverging_jacobi();
   int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
     auto i = v.as_integer();
     if (!i || i->get() < lo || i->get() > hi)
@@ -490,15 +491,7 @@ Scan ScanParser::parse() {
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   warn_unresolved_barrier(points);
-  // Without mass splitting each of a disk's k contacts applies its whole impulse change at once,
-  // k times too much: the iteration diverges unless the relaxation is small (12 R x 12 R
-  // deposits converge at 0.5; at Bo = 1e2 they blow up at the default 0.8, at Bo = 0 at 1.0, and
-  // their members fail).
-  if (scan.solver_kind_given && scan.solver.kind == SolverKind::Jacobi &&
-      !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
-    scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
-                                   "relaxation > 0.5 (its members fail, their disks leaving the "
-                                   "box); set solver.relaxation <= 0.5 or mass_splitting = true");
+  warn_diverging_jacobi();
   scan.points = std::move(points);
   return scan;
 }
@@ -767,6 +760,18 @@ void ScanParser::check_counts(const std::vector<ScanPoint>& points) {
     fail(file, *seeds_node, "scan.seeds",
          std::to_string(points.size()) + " scan points x " + std::to_string(scan.seeds) +
              " seeds make more than " + std::to_string(kMaxMembers) + " members");
+}
+
+// Without mass splitting each of a disk's k contacts applies its whole impulse change at once,
+// k times too much: the iteration diverges unless the relaxation is small (12 R x 12 R deposits
+// converge at 0.5; at Bo = 1e2 they blow up at the default 0.8, at Bo = 0 at 1.0, and their
+// members fail).
+void ScanParser::warn_diverging_jacobi() {
+  if (scan.solver_kind_given && scan.solver.kind == SolverKind::Jacobi &&
+      !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
+    scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
+                                   "relaxation > 0.5 (its members fail, their disks leaving the "
+                                   "box); set solver.relaxation <= 0.5 or mass_splitting = true");
 }
 
 // The discrete pull-off barrier matches F_c d_c only for h well below sqrt(2 m_n d_c / F_c),
