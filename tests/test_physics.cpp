@@ -115,9 +115,14 @@ std::vector<Disk> one_disk(bool lock_rotation = false) {
   d[0].lock_rotation = lock_rotation;
   return d;
 }
-// Distance the disk travels down the slope in time t.
-double slide(double theta, double mu, double mu_r, bool lock, double t, double* speed = nullptr) {
-  Batch batch({setup(incline(theta, mu, mu_r), one_disk(lock))}, tight());
+// Distance the disk travels down the slope in time t (with floor cohesion Bo: the disk stuck to
+// the incline by F_c = Bo m g).
+double slide(double theta, double mu, double mu_r, bool lock, double t, double* speed = nullptr,
+             double bo = 0.0) {
+  SystemParams p = incline(theta, mu, mu_r);
+  p.bond_number = bo;
+  p.floor_cohesion = bo > 0.0;
+  Batch batch({setup(p, one_disk(lock))}, tight());
   const int steps = static_cast<int>(std::lround(t / 0.01));
   for (int k = 0; k < steps; ++k) batch.step();
   const auto d = batch.disks(0);
@@ -135,6 +140,23 @@ TEST(Validation, InclineRotationLockedStaticIffTanBelowMu) {
   slide(theta, mu, 0.0, true, 2.0, &v);
   const double a = std::sin(theta) - mu * std::cos(theta);  // g = 1
   EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0 + 1e-12);
+}
+
+// The cohesive shift of the Coulomb bound, |P_t| <= mu (P_n + h F_c), binding: a disk stuck to
+// the incline by floor cohesion F_c = Bo m g (rotation locked) holds iff
+// sin theta <= mu (cos theta + Bo), and beyond slides with a = g (sin theta - mu (cos theta + Bo)).
+// Checked against the wrong law: with the bound unshifted (mu P_n in kernels/solver.hpp) both
+// assertions fail (the disk slides from tan theta = mu, 35 degrees below this threshold).
+TEST(Validation, CohesiveInclineStaticIffSinBelowMuTimesCosPlusBo) {
+  const double mu = 0.3, bo = 2.0;
+  const double theta_c = std::atan(mu) + std::asin(mu * bo / std::sqrt(1.0 + mu * mu));
+  EXPECT_LT(std::fabs(slide(0.995 * theta_c, mu, 0.0, true, 2.0, nullptr, bo)), 1e-9);
+  const double theta = 1.005 * theta_c;
+  double v = 0.0;
+  slide(theta, mu, 0.0, true, 2.0, &v, bo);
+  const double a = std::sin(theta) - mu * (std::cos(theta) + bo);  // g = 1
+  ASSERT_GT(a, 0.0);
+  EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0);
 }
 
 TEST(Validation, InclineRollingFrictionStaticIffTanBelowMuR) {
