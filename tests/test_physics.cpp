@@ -181,6 +181,29 @@ TEST(Validation, InclineRollsWithTwoThirdsGSinTheta) {
   EXPECT_GT(v, 1.02 * 2.0 / 3.0 * std::sin(theta) * 2.0);
 }
 
+// Free fall is Moreau-Jean's discrete motion exactly (v_n = v_0 - n g h, y_n = y_(n-1) + h v_n):
+// y_n = y_0 + n h v_0 - g h^2 n (n + 1) / 2, to rounding, whatever h; the continuous parabola
+// differs from it by g h t / 2 (first order in h).
+TEST(Validation, FreeFallIsTheDiscreteMotionExactly) {
+  for (double h : {0.01, 0.0028, 1e-3}) {
+    auto p = bare_params(20.0, 200.0);
+    p.time_step = h;
+    std::vector<Disk> d(1);
+    d[0].x = 10.0;
+    d[0].y = 150.0;
+    d[0].vy = 0.5;
+    Batch batch({setup(p, d)}, tight());
+    const int n = static_cast<int>(std::lround(2.0 / h));
+    for (int k = 0; k < n; ++k) batch.step();
+    const auto e = batch.disks(0);
+    const double expected = 150.0 + n * h * 0.5 - h * h * n * (n + 1) / 2.0;  // g = 1
+    EXPECT_NEAR(e[0].y, expected, 1e-9) << "h = " << h;
+    EXPECT_NEAR(e[0].vy, 0.5 - n * h, 1e-12) << "h = " << h;
+    const double t = n * h, parabola = 150.0 + 0.5 * t - t * t / 2.0;
+    EXPECT_NEAR(e[0].y - parabola, -h * t / 2.0, 1e-9) << "h = " << h;
+  }
+}
+
 // 4. Disk launched sliding on the floor.
 TEST(Validation, SlidingDiskStartsRollingAtTwoThirdsV0) {
   const double mu = 0.3, v0 = 2.0, h = 1e-3;
