@@ -159,10 +159,19 @@ TEST(Validation, CohesiveInclineStaticIffSinBelowMuTimesCosPlusBo) {
   EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0);
 }
 
+// Beyond the threshold it rolls against the rolling moment mu_r R N: m a = m g sin theta - F,
+// (m R^2 / 2) a / R = F R - mu_r R m g cos theta, so a = (2/3) g (sin theta - mu_r cos theta);
+// in n steps of h the discrete motion covers a h^2 n (n + 1) / 2 (2.67e-3 R here).
 TEST(Validation, InclineRollingFrictionStaticIffTanBelowMuR) {
   const double mu = 0.3, mu_r = 0.1;  // threshold atan(0.1) = 5.71 degrees
   EXPECT_LT(std::fabs(slide(std::atan(0.98 * mu_r), mu, mu_r, false, 2.0)), 1e-9);
-  EXPECT_GT(slide(std::atan(1.02 * mu_r), mu, mu_r, false, 2.0), 1e-3);
+  const double theta = std::atan(1.02 * mu_r), t = 2.0, h = 0.01;
+  const double a = 2.0 / 3.0 * (std::sin(theta) - mu_r * std::cos(theta));
+  const double n = std::round(t / h);
+  double v = 0.0;
+  const double x = slide(theta, mu, mu_r, false, t, &v);
+  EXPECT_NEAR(x, a * h * h * n * (n + 1) / 2.0, 1e-3 * x);
+  EXPECT_NEAR(v, a * n * h, 1e-3 * v);
 }
 
 TEST(Validation, InclineRollsWithTwoThirdsGSinTheta) {
