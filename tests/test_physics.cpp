@@ -348,6 +348,33 @@ TEST(Validation, CantileverHoldsIffJSquaredAtMostMuRBo) {
   }
 }
 
+// The same cantilever where shear decides: the root carries the shear j m g with no normal load,
+// so the cohesive shift alone bounds it, j <= mu Bo (6.3 here: j = 6 holds, 7 slides off the
+// wall), while the moment j^2 m g R stays far inside mu_r Bo = 105. Checked against the wrong
+// law: with the Coulomb bound unshifted (mu P_n in kernels/solver.hpp) j = 6 falls too.
+TEST(Validation, CantileverHoldsIffJAtMostMuBoWhereShearDecides) {
+  const double bo = 21.0, mu = 0.3, mu_r = 5.0;
+  for (int j : {6, 7}) {
+    auto p = bare_params(60.0, 30.0);
+    p.bond_number = bo;
+    p.friction = mu;
+    p.rolling_friction = mu_r;
+    p.gravity_dir_x = 1.0;
+    p.gravity_dir_y = 0.0;
+    Batch batch({setup(p, column(j, 10.0))}, tight());
+    for (int k = 0; k < 300; ++k) batch.step();
+    const auto d = batch.disks(0);
+    const double tip = d[static_cast<std::size_t>(j - 1)].x - 10.0;
+    if (j <= mu * bo) {
+      EXPECT_LT(std::fabs(tip), 1e-6) << j << " disks should hold";
+      for (const auto& c : batch.contacts(0))
+        if (c.j == -1) EXPECT_NEAR(std::fabs(c.tangential), j * 1.0, 1e-6 * j);
+    } else {
+      EXPECT_GT(tip, 0.1) << j << " disks should slide off";
+    }
+  }
+}
+
 // A system that goes non-finite stops with its reason; the others in the batch go on unchanged.
 TEST(Guard, NonFiniteStopsOnlyItsSystem) {
   auto p = bare_params();
