@@ -134,14 +134,18 @@ double slide(double theta, double mu, double mu_r, bool lock, double t, double* 
 }
 }  // namespace
 
+// Static iff tan theta <= mu, to 1e-6 of the threshold on both sides, and beyond it slides with
+// a = g (sin theta - mu cos theta) however small.
 TEST(Validation, InclineRotationLockedStaticIffTanBelowMu) {
   const double mu = 0.3;
-  EXPECT_LT(std::fabs(slide(std::atan(0.98 * mu), mu, 0.0, true, 2.0)), 1e-9);
-  const double theta = std::atan(1.02 * mu);
-  double v = 0.0;
-  slide(theta, mu, 0.0, true, 2.0, &v);
-  const double a = std::sin(theta) - mu * std::cos(theta);  // g = 1
-  EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0 + 1e-12);
+  for (double f : {1e-6, 0.02}) {
+    EXPECT_LT(std::fabs(slide(std::atan((1.0 - f) * mu), mu, 0.0, true, 2.0)), 1e-12) << f;
+    const double theta = std::atan((1.0 + f) * mu);
+    double v = 0.0;
+    slide(theta, mu, 0.0, true, 2.0, &v);
+    const double a = std::sin(theta) - mu * std::cos(theta);  // g = 1
+    EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0) << f;
+  }
 }
 
 // The cohesive shift of the Coulomb bound, |P_t| <= mu (P_n + h F_c), binding: a disk stuck to
