@@ -180,6 +180,20 @@ TEST(Validation, InclineRollingFrictionStaticIffTanBelowMuR) {
   EXPECT_NEAR(v, a * n * h, 1e-3 * v);
 }
 
+// With mu < mu_r the rolling moment holds the rotation that sliding friction drives (mu N R <
+// mu_r N R): static iff tan theta <= mu, beyond it the disk slides without turning, with
+// a = g (sin theta - mu cos theta) as if its rotation were locked (the coupled friction and
+// rolling solve, kernels/contact_law.hpp).
+TEST(Validation, InclineWithMuBelowMuRSlidesWithoutTurning) {
+  const double mu = 0.1, mu_r = 0.3;
+  EXPECT_LT(std::fabs(slide(std::atan(0.98 * mu), mu, mu_r, false, 2.0)), 1e-9);
+  const double theta = std::atan(1.02 * mu);
+  double v = 0.0;
+  slide(theta, mu, mu_r, false, 2.0, &v);
+  const double a = std::sin(theta) - mu * std::cos(theta);
+  EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0);
+}
+
 TEST(Validation, InclineRollsWithTwoThirdsGSinTheta) {
   const double mu = 0.3;
   for (double theta : {0.2, std::atan(2.9 * mu)}) {  // below the 3 mu rolling limit
