@@ -5,13 +5,19 @@
 
 For every scan point it can judge (from the fits the program stored, docs/OUTPUT.md):
 
-  A, 0 < Bo < inf   the avalanche profile Delta y(y_e) is a parabola with positive curvature:
-                    c2 > 0 by at least two standard errors (paper figs. 6, 7, 11)
+  A, 0 < Bo < inf   the avalanche profile Delta y(y_e) is a parabola with positive curvature
+                    (paper figs. 6, 7, 11): fitted to the bins between the bottom and top cuts
+                    (`cut_bottom`, `cut_top`), the parabola is acceptable (chi2 below its 99 %
+                    quantile), c2 > 0 by two standard errors, its vertex lies inside the band,
+                    and a constant and a straight line are both rejected (chi2 above it)
+  A, Bo = 0         no parabola: in the same band a constant Delta y is acceptable (the paper:
+                    about 1.5 R at every height) and the parabola claim fails
   A, Bo = 0         the |Delta y| histogram is better described by an exponential (fig. 9)
   A, Bo >= 1e3      the |Delta y| histogram is better described by a Gaussian (fig. 8)
-  C                 Delta y is a straight line in y_e and in y_i (chi2/dof of the lines below 3),
-                    and the coefficient identity b' = b/(1+b), a' = a/(1+b) holds within two
-                    combined standard errors (figs. 14, 15)
+  C                 Delta y is a straight line in y_e and in y_i (each line acceptable), and
+                    the coefficient identity b' = b/(1+b), a' = a/(1+b) holds: each difference
+                    within two standard errors of zero, its error a jackknife of the difference
+                    itself (figs. 14, 15)
 
 and, across the points of a scan (the fits in `analysis/`, made when three or more points
 differ only in that variable):
@@ -21,6 +27,11 @@ differ only in that variable):
   C, heights        dnu/nu_i grows with ln H: slope above zero by two standard errors (fig. 16)
   C, r_capt         dnu/nu_i falls with nu_i as a power law: exponent below zero by two
                     standard errors (fig. 17; the paper's is -1.64)
+
+The profile fits are unweighted least squares through the bins' pooled means (at least 10 disks,
+every member's disks in it), their errors a jackknife over the members (each left out in turn),
+and their chi2 that of the residuals against the residuals' own jackknife errors, scaled by
+(n-3)/(n-1), as the program's fits (docs/OUTPUT.md, "Analysis").
 
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
@@ -32,8 +43,94 @@ import sys
 
 try:
     import h5py
+    import numpy as np
 except ImportError as e:  # pragma: no cover
     sys.exit(f"claims.py: {e}; install python3-h5py (scripts/install-deps.sh)")
+
+Z99 = 2.3263  # the standard normal's 99 % quantile
+
+
+def chi2_quantile99(dof):
+    """The 99 % quantile of chi2 with dof degrees of freedom (Wilson and Hilferty)."""
+    a = 2.0 / (9.0 * dof)
+    return dof * (1.0 - a + Z99 * math.sqrt(a)) ** 3
+
+
+class Profile:
+    """A binned avalanche profile's per-member rows in a band of heights: the pooled means of
+    all members and of all but one, for fits with jackknife errors."""
+
+    def __init__(self, group, low, high):
+        count = group["member_count"][()]
+        mean = group["member_mean"][()]
+        pos = group["member_position"][()]
+        ok = count.sum(axis=1) > 0  # failed members have no disks
+        count, mean, pos = count[ok], np.nan_to_num(mean[ok]), np.nan_to_num(pos[ok])
+        centre = group["centre"][()]
+        use = (count.sum(axis=0) >= 10) & (count > 0).all(axis=0) & (centre >= low) & \
+            (centre <= high)
+        self.count, self.mean, self.pos = count[:, use], mean[:, use], pos[:, use]
+        self.members, self.bins = self.count.shape
+
+    def pooled(self, leave_out=None):
+        keep = np.ones(self.members, bool)
+        if leave_out is not None:
+            keep[leave_out] = False
+        c = self.count[keep]
+        n = c.sum(axis=0)
+        return (c * self.pos[keep]).sum(axis=0) / n, (c * self.mean[keep]).sum(axis=0) / n
+
+    def fit(self, degree):
+        """Coefficients (c0, c1, ...), their jackknife errors, chi2 and dof; None when the band
+        has too few bins or members."""
+        dof = self.bins - degree - 1
+        if dof < 1 or self.members < 4:
+            return None
+        x, y = self.pooled()
+        coef = np.polynomial.polynomial.polyfit(x, y, degree)
+        resid = y - np.polynomial.polynomial.polyval(x, coef)
+        loo_coef, loo_resid = [], []
+        for m in range(self.members):
+            xm, ym = self.pooled(m)
+            cm = np.polynomial.polynomial.polyfit(xm, ym, degree)
+            loo_coef.append(cm)
+            loo_resid.append(ym - np.polynomial.polynomial.polyval(xm, cm))
+        n = self.members
+        jack = lambda v: np.sqrt((n - 1) / n * ((v - v.mean(axis=0)) ** 2).sum(axis=0))
+        err, resid_err = jack(np.array(loo_coef)), jack(np.array(loo_resid))
+        chi2 = float(((resid / resid_err) ** 2).sum()) * (n - 3) / (n - 1)
+        return coef, err, chi2, dof
+
+
+def profile_shapes(point, path):
+    """The avalanche profile Delta y(y_e) in the band between the cuts: the fits of a constant,
+    a line and a parabola (Profile.fit), or None where the file lacks the per-member rows."""
+    group = point.get("avalanche_by_ye")
+    if group is None or "member_mean" not in group:
+        fail_missing(path, f"{point.name}/avalanche_by_ye/member_mean")
+    a, h = point.attrs, float(point.attrs["height"])
+    settings = point.file["settings"].attrs if "settings" in point.file else {}
+    cut = lambda k, default: float(a[k]) if k in a else float(settings.get(k, default))
+    low, high = cut("cut_bottom", min(20.0, h / 6)), h - cut("cut_top", min(20.0, h / 6))
+    prof = Profile(group, low, high)
+    return (low, high), [prof.fit(d) for d in (0, 1, 2)]
+
+
+def parabola_verdict(band, fits):
+    """(parabola holds, constant acceptable, detail) from the band's three fits."""
+    if any(f is None for f in fits):
+        return False, False, "too few bins or members in the band between the cuts"
+    (c0, e0, x0, d0), (c1, e1, x1, d1), (c2, e2, x2, d2) = fits
+    accept = lambda chi2, dof: chi2 <= chi2_quantile99(dof)
+    curv, curv_err = c2[2], e2[2]
+    vertex = -c2[1] / (2 * curv) if curv != 0 else math.inf
+    holds = (accept(x2, d2) and curv > 2 * curv_err and band[0] < vertex < band[1]
+             and not accept(x0, d0) and not accept(x1, d1))
+    detail = (f"band {band[0]:g}-{band[1]:g} R: c2 = {curv:.3g} +- {curv_err:.2g}, vertex "
+              f"{vertex:.3g} R; chi2/dof constant {x0:.3g}/{d0}, line {x1:.3g}/{d1}, parabola "
+              f"{x2:.3g}/{d2} (99 % bounds {chi2_quantile99(d0):.3g}, {chi2_quantile99(d1):.3g}, "
+              f"{chi2_quantile99(d2):.3g}); constant {c0[0]:.3g} +- {e0[0]:.2g} R")
+    return holds, accept(x0, d0), detail
 
 
 def fail_missing(path, name):
@@ -72,10 +169,12 @@ def check_point(point, path):
     protocol, bo = text(a["protocol"]), float(a["bond_number"])
     where = f"point {point.name.split('/')[-1]} ({protocol}, Bo = {bo:g}, H = {a['height']:g})"
     if protocol == "A" and 0 < bo < math.inf:
-        coef, err, attrs = fit(point["avalanche_by_ye/fit"], path)
-        ok = bool(attrs.get("valid", 1)) and len(coef) == 3 and coef[2] > 2 * err[2]
-        c2 = f"{coef[2]:.3g} +- {err[2]:.2g}" if len(coef) == 3 else "no fit"
-        yield (f"{where}: Delta y(y_e) is a parabola with positive curvature", ok, f"c2 = {c2}")
+        holds, _, detail = parabola_verdict(*profile_shapes(point, path))
+        yield (f"{where}: Delta y(y_e) is a parabola with positive curvature", holds, detail)
+    if protocol == "A" and bo == 0:
+        holds, constant, detail = parabola_verdict(*profile_shapes(point, path))
+        yield (f"{where}: Delta y(y_e) is constant in the bulk, no parabola",
+               constant and not holds, detail)
     if protocol == "A" and (bo == 0 or 1e3 <= bo < math.inf):  # at Bo = inf nothing moves
         expected = "exponential" if bo == 0 else "gaussian"
         which, preferred, g = histogram_verdict(point, path)
@@ -83,22 +182,44 @@ def check_point(point, path):
                   f"{g['exponential'].attrs['chi2']:.3g}, gaussian {g['gaussian'].attrs['chi2']:.3g}")
         yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
     if protocol == "C":
-        lines_ok, rchi = True, []
-        for key in ("avalanche_by_ye/fit", "avalanche_by_yi/fit"):
-            coef, err, attrs = fit(point[key], path)
-            r = float(attrs.get("reduced_chi2", math.nan))
-            rchi.append(f"{key.split('/')[0]} chi2/dof {r:.2g}")
-            lines_ok = lines_ok and bool(attrs.get("valid", 1)) and len(coef) == 2 and r < 3
-        yield (f"{where}: Delta y is a straight line in y_e and y_i", lines_ok, ", ".join(rchi))
-        if "collapse_identity" not in point:
-            fail_missing(path, f"{point.name}/collapse_identity")
-        c = point["collapse_identity"].attrs
-        for p in ("b_prime", "a_prime"):
-            v, e = float(c[p]), float(c[p + "_error"])
-            w, f = float(c[p + "_predicted"]), float(c[p + "_predicted_error"])
-            ok = abs(v - w) <= 2 * math.hypot(e, f)
-            name = p.replace("_prime", "'")
-            yield (f"{where}: {name} = {p[0]}/(1+b)", ok, f"{v:.3g} +- {e:.2g} against {w:.3g} +- {f:.2g}")
+        yield from collapse_claims(point, path, where)
+
+
+def collapse_claims(point, path, where):
+    """Protocol C: Delta y is a straight line in y_e and in y_i (each acceptable, chi2 below its
+    99 % quantile), and the identity b' = b/(1+b), a' = a/(1+b) between the two lines, each
+    difference with the jackknife error of the difference itself (the two lines come from the
+    same members)."""
+    profiles = {}
+    for key in ("avalanche_by_ye", "avalanche_by_yi"):
+        if key not in point or "member_mean" not in point[key]:
+            fail_missing(path, f"{point.name}/{key}/member_mean")
+        profiles[key] = Profile(point[key], -math.inf, math.inf)
+    fits = {k: p.fit(1) for k, p in profiles.items()}
+    if any(f is None for f in fits.values()):
+        yield (f"{where}: Delta y is a straight line in y_e and y_i", False, "too few bins")
+        return
+    lines_ok = all(f[2] <= chi2_quantile99(f[3]) for f in fits.values())
+    yield (f"{where}: Delta y is a straight line in y_e and y_i", lines_ok,
+           ", ".join(f"{k} chi2/dof {f[2]:.3g}/{f[3]} (99 % bound {chi2_quantile99(f[3]):.3g})"
+                     for k, f in fits.items()))
+
+    def identity(ye, yi):  # b' - b/(1+b), a' - a/(1+b) from the lines' coefficients
+        a, b = ye[0], -ye[1]
+        return np.array([-yi[1] - b / (1 + b), yi[0] - a / (1 + b)])
+
+    line = lambda prof, m=None: np.polynomial.polynomial.polyfit(*prof.pooled(m), 1)
+    ye, yi = profiles["avalanche_by_ye"], profiles["avalanche_by_yi"]
+    if ye.members != yi.members:
+        fail_missing(path, f"{point.name}: avalanche profiles of equal member counts")
+    full = identity(line(ye), line(yi))
+    loo = np.array([identity(line(ye, m), line(yi, m)) for m in range(ye.members)])
+    n = ye.members
+    err = np.sqrt((n - 1) / n * ((loo - loo.mean(axis=0)) ** 2).sum(axis=0))
+    for k, name in enumerate(("b'", "a'")):
+        yield (f"{where}: {name} = {name[0]}/(1+b)", abs(full[k]) <= 2 * err[k],
+               f"{name} - {name[0]}/(1+b) = {full[k]:.3g} +- {err[k]:.2g} (jackknife of the "
+               f"difference)")
 
 
 def check_scan(f, path):

@@ -1,0 +1,108 @@
+"""tools/claims.py's profile checks on synthetic ensembles that must pass and ones that must
+fail: the parabola against a constant profile and against a line, the constant at Bo = 0, the
+straight line of protocol C against a parabola, and the collapse identity on lines that obey it
+and on lines that do not."""
+
+import importlib.util
+import math
+import os
+
+import h5py
+import numpy as np
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+spec = importlib.util.spec_from_file_location(
+    "claims", os.path.join(HERE, "..", "..", "tools", "claims.py"))
+claims = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(claims)
+
+H, BIN, MEMBERS, PER_BIN = 120.0, 4.0, 16, 12
+
+
+def write_profile(group, profile, rng, noise, key="y"):
+    """Per-member rows of Delta y binned in bins of 4 R: each member's bin mean is the profile
+    at the bin's centre plus its own noise (as members scatter about the ensemble)."""
+    centre = np.arange(BIN / 2, H, BIN)
+    count = np.full((MEMBERS, centre.size), PER_BIN, float)
+    pos = np.tile(centre, (MEMBERS, 1)) + rng.normal(0, 0.2, (MEMBERS, centre.size))
+    mean = profile(pos) + rng.normal(0, noise, (MEMBERS, centre.size))
+    group["centre"] = centre
+    group["member_count"] = count
+    group["member_position"] = pos
+    group["member_mean"] = mean
+
+
+def point_file(tmp_path, name, protocol, bo, profiles, noise=0.3, seed=1):
+    path = tmp_path / f"{name}.h5"
+    rng = np.random.default_rng(seed)
+    with h5py.File(path, "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update({"protocol": protocol, "bond_number": bo, "height": H,
+                        "cut_bottom": 20.0, "cut_top": 20.0})
+        for key, profile in profiles.items():
+            write_profile(g.create_group(key), profile, rng, noise)
+    return path
+
+
+def verdicts(path):
+    """The profile claims of the file's point (the histogram claims, which come after them,
+    need a histogram these files lack)."""
+    out = {}
+    with h5py.File(path, "r") as f:
+        try:
+            for claim, ok, detail in claims.check_point(f["points/0000"], str(path)):
+                out[claim.split(": ", 1)[1]] = (ok, detail)
+        except SystemExit:
+            if not out:
+                raise
+    return out
+
+
+PARABOLA = lambda y: -0.004 * y * (H - y)  # -a y (1 - y/H), a = 0.48: the slice model
+CONSTANT = lambda y: -1.5 + 0 * y
+LINE = lambda y: 0.5 - 0.02 * y
+
+
+def test_chi2_quantile_matches_known_values():
+    # chi2 99 % quantiles: 6.635 (1 dof), 23.209 (10), 50.892 (30)
+    for dof, q in ((1, 6.635), (10, 23.209), (30, 50.892)):
+        assert claims.chi2_quantile99(dof) == pytest.approx(q, rel=0.02)
+
+
+def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_path):
+    claim = "Delta y(y_e) is a parabola with positive curvature"
+    with pytest.raises(SystemExit):  # the per-member rows are needed, and said so
+        verdicts(point_file(tmp_path, "none", "A", 100.0, {}))
+    assert verdicts(point_file(tmp_path, "p", "A", 100.0, {"avalanche_by_ye": PARABOLA}))[claim][0]
+    assert not verdicts(point_file(tmp_path, "c", "A", 100.0, {"avalanche_by_ye": CONSTANT}))[claim][0]
+    assert not verdicts(point_file(tmp_path, "l", "A", 100.0, {"avalanche_by_ye": LINE}))[claim][0]
+    # A parabola whose vertex lies outside the band is a curved line, not the paper's profile.
+    shifted = lambda y: 0.0004 * (y + 60.0) ** 2
+    assert not verdicts(point_file(tmp_path, "s", "A", 100.0, {"avalanche_by_ye": shifted}))[claim][0]
+
+
+def test_bo0_passes_a_constant_and_fails_a_parabola(tmp_path):
+    claim = "Delta y(y_e) is constant in the bulk, no parabola"
+    assert verdicts(point_file(tmp_path, "c", "A", 0.0, {"avalanche_by_ye": CONSTANT}))[claim][0]
+    assert not verdicts(point_file(tmp_path, "p", "A", 0.0, {"avalanche_by_ye": PARABOLA}))[claim][0]
+
+
+def test_collapse_lines_and_identity(tmp_path):
+    # Delta y = a - b y_e exactly per member, so that binned by y_i it is a/(1+b) - b/(1+b) y_i.
+    a, b = 2.0, 0.1
+    ye = lambda y: a - b * y
+    yi = lambda y: a / (1 + b) - b / (1 + b) * y
+    good = verdicts(point_file(tmp_path, "g", "C", 1000.0,
+                               {"avalanche_by_ye": ye, "avalanche_by_yi": yi}))
+    assert good["Delta y is a straight line in y_e and y_i"][0]
+    assert good["b' = b/(1+b)"][0] and good["a' = a/(1+b)"][0]
+    # b' = b instead of b/(1+b): the identity fails, by the jackknife of the difference.
+    wrong = lambda y: a - b * y
+    bad = verdicts(point_file(tmp_path, "w", "C", 1000.0,
+                              {"avalanche_by_ye": ye, "avalanche_by_yi": wrong}))
+    assert not bad["b' = b/(1+b)"][0]
+    # A parabola is not the collapse's straight line.
+    curved = verdicts(point_file(tmp_path, "p", "C", 1000.0,
+                                 {"avalanche_by_ye": PARABOLA, "avalanche_by_yi": PARABOLA}))
+    assert not curved["Delta y is a straight line in y_e and y_i"][0]
