@@ -111,8 +111,7 @@ void MemberRun::advance_region(std::size_t k, Mask& closing) {
     sl.event_capped = true;
     closing[k] = 1;
   } else if (state == Regions::State::Rested && !sl.final_check &&
-             !region_check_due(sl.deposited, scan_.protocol.region_check_every,
-                               scan_.protocol.region_check_growth)) {
+             sl.deposited % scan_.protocol.region_check_every != 0) {
     sl.event_capped = false;
     sl.event_open = true;
     await_disk(k);

@@ -370,24 +370,6 @@ TEST(Scan, WarnsOfJacobiWithoutMassSplittingAtLargeRelaxation) {
   EXPECT_TRUE(parse_scan(base + "relaxation = 0.5\n", "j.toml").warnings.empty());
 }
 
-// The checks' schedule: every k-th disk without growth; with growth f, disk counts from
-// n_(j+1) = max(n_j + k, ceil(n_j (1 + f))): k apart while k > f n, then a fraction f apart.
-TEST(Scan, RegionChecksSpreadWithTheDeposit) {
-  for (int n = 0; n <= 100; ++n) EXPECT_EQ(region_check_due(n, 10, 0.0), n % 10 == 0) << n;
-  std::vector<int> due;
-  for (int n = 1; n <= 2000; ++n)
-    if (region_check_due(n, 10, 0.01)) due.push_back(n);
-  ASSERT_GE(due.size(), 3u);
-  EXPECT_EQ(due[0], 10);
-  for (std::size_t j = 1; j < due.size(); ++j) {
-    const int expected =
-        std::max(due[j - 1] + 10, static_cast<int>(std::ceil(due[j - 1] * 1.01)));
-    EXPECT_EQ(due[j], expected) << j;
-  }
-  EXPECT_EQ(due[99], 1000);  // k apart up to k / f = 1 000 disks
-  EXPECT_GT(due.back() - due[due.size() - 2], 10);  // then more than k apart
-}
-
 // Every scan file shipped in examples/ (the default job, the paper's figures) is valid.
 TEST(Scan, EveryExampleScanFileIsValid) {
   namespace fs = std::filesystem;

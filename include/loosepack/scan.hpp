@@ -80,23 +80,8 @@ struct ProtocolSettings {
   // A with regions: after every k-th disk the whole system is stepped to rest as well (1: after
   // every disk, which keeps the rest criterion of the whole system on every event).
   int region_check_every = 1;
-  // A with regions: at least this fraction of the deposit's disks between two checks (0: every
-  // k-th disk). A check costs a step of the whole deposit, so checks spaced by a fixed fraction
-  // of its weight cost the same per deposited disk at any size (region_check_due).
-  double region_check_growth = 0.0;
   int region_max_disks = 4000;  // a larger region relaxes in the whole system instead
 };
-
-// Whether the whole system is checked after the n-th deposited disk: at every k-th disk when
-// growth = 0, else at the disk counts n_0 = 0, n_(j+1) = max(n_j + k, ceil(n_j (1 + growth))).
-// A function of n alone, so a resumed member checks where it would have.
-inline bool region_check_due(int n, int k, double growth) {
-  if (!(growth > 0.0)) return n % k == 0;
-  long m = 0;
-  while (m < n)
-    m = std::max(m + k, static_cast<long>(std::ceil(static_cast<double>(m) * (1.0 + growth))));
-  return m == n;
-}
 
 struct ScanPoint {
   int index = 0;
