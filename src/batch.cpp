@@ -38,6 +38,9 @@ std::string failure_message(Failure f) {
       return "a disk ended outside the box (above H + 4 R_max or below the floor): the solution "
              "blew up (a solver setting that does not converge, e.g. Jacobi without mass "
              "splitting)";
+    case Failure::Runaway:
+      return "a disk moved faster than a fall through the box and cohesion can make it: the "
+             "solution blew up";
     case Failure::Overlap:
       return "two disks, or a disk and the floor, ended overlapping by more than 0.25 R: the "
              "solution blew up";

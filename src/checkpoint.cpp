@@ -119,7 +119,7 @@ MemberResult decode(Reader& in, const std::vector<Member>& members) {
             std::to_string(members.size()) + ")");
   r.member = members[id];
   const auto failure = in.get<std::int32_t>();
-  if (failure < 0 || failure > static_cast<std::int32_t>(Failure::Overlap))
+  if (failure < 0 || failure > static_cast<std::int32_t>(Failure::Runaway))
     in.fail("unknown failure code " + std::to_string(failure));
   r.failure = static_cast<Failure>(failure);
   r.steps = in.get<std::int64_t>();

@@ -44,6 +44,9 @@ class MemberRun {
     Phase phase = Phase::Empty;
     std::size_t member = 0;
     long region_steps = 0, region_sweeps = 0;  // the slot's region counters when it began
+    // A disk moved faster than anything in the box can make it (count_step): Failure::Runaway.
+    // Never set in a snapshot: the member finishes at once.
+    bool runaway = false;
     Clock::time_point start;
     MemberResult result;
   };
@@ -83,7 +86,7 @@ class MemberRun {
   void await_disk(std::size_t k);
   // Bookkeeping shared by the phases.
   bool whole_step_counted(std::size_t k);
-  void count_step(Slot& sl, const SystemStatus& st, double time_step);
+  void count_step(Slot& sl, const SystemStatus& st, const SystemParams& p);
   void count_disk(std::size_t k, const Deposit& d);
   void sample(std::size_t k, double when, std::size_t count = static_cast<std::size_t>(-1));
   long steps_for(std::size_t k, double time) const;

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "loosepack/geometry.hpp"
 #include "member_run.hpp"
 
 namespace loosepack {
@@ -92,8 +93,8 @@ void MemberRun::advance_dynamics() {
 void MemberRun::advance_region(std::size_t k, Mask& closing) {
   Slot& sl = slots_[k];
   const int s = static_cast<int>(k);
-  count_step(sl, regions_->status(s), batch_->params(s).time_step);
-  if (sl.gave_up) {
+  count_step(sl, regions_->status(s), batch_->params(s));
+  if (sl.gave_up || sl.runaway) {
     regions_->stop(*batch_, s);
     finish(k);
     return;
@@ -256,8 +257,8 @@ bool MemberRun::whole_step_counted(std::size_t k) {
   Slot& sl = slots_[k];
   const int s = static_cast<int>(k);
   const auto& st = batch_->status(s);
-  count_step(sl, st, batch_->params(s).time_step);
-  if (st.failure == Failure::None && !sl.gave_up) return true;
+  count_step(sl, st, batch_->params(s));
+  if (st.failure == Failure::None && !sl.gave_up && !sl.runaway) return true;
   finish(k);
   return false;
 }
@@ -265,12 +266,13 @@ bool MemberRun::whole_step_counted(std::size_t k) {
 // A slot's counters after one step of its system (whole or region): steps, consecutive
 // unconverged steps (with rest.converged false a capped solve blocks nothing, so it is not a
 // failure either) and consecutive steps with no disk above the wake speed.
-void MemberRun::count_step(Slot& sl, const SystemStatus& st, double time_step) {
+void MemberRun::count_step(Slot& sl, const SystemStatus& st, const SystemParams& p) {
   ++sl.steps;
   sl.unconverged = st.converged || !scan_.rest.converged ? 0 : sl.unconverged + 1;
   sl.gave_up =
-      static_cast<double>(sl.unconverged) * time_step > scan_.protocol.max_unconverged_time;
+      static_cast<double>(sl.unconverged) * p.time_step > scan_.protocol.max_unconverged_time;
   sl.quiet = st.max_speed < wake_ ? sl.quiet + 1 : 0;
+  sl.runaway = st.max_speed > runaway_speed(p);
 }
 
 void MemberRun::count_disk(std::size_t k, const Deposit& d) {

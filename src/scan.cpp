@@ -770,8 +770,8 @@ void ScanParser::warn_diverging_jacobi() {
   if (scan.solver_kind_given && scan.solver.kind == SolverKind::Jacobi &&
       !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
     scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
-                                   "relaxation > 0.5 (its members fail, their disks leaving the "
-                                   "box); set solver.relaxation <= 0.5 or mass_splitting = true");
+                                   "relaxation > 0.5 (its members fail, their disks thrown "
+                                   "about); set solver.relaxation <= 0.5 or mass_splitting = true");
 }
 
 // The discrete pull-off barrier matches F_c d_c only for h well below sqrt(2 m_n d_c / F_c),

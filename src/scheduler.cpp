@@ -208,7 +208,7 @@ void MemberRun::finish(std::size_t k) {
   const int s = static_cast<int>(k);
   MemberResult& r = sl.result;
   const auto& st = batch_->status(s);
-  r.failure = sl.gave_up ? Failure::Unconverged : st.failure;
+  r.failure = sl.gave_up ? Failure::Unconverged : sl.runaway ? Failure::Runaway : st.failure;
   r.steps = st.steps;
   r.sweeps = st.sweeps;
   if (regions_) {

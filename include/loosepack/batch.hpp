@@ -59,6 +59,7 @@ enum class Failure {
   Escaped = 5,      // set by the protocols: a disk ended outside the box (the solution blew up)
   Overlap = 6,      // set by the protocols: two disks (or a disk and the floor) ended
                     // overlapping by more than kMaxFinalOverlap (the solution blew up)
+  Runaway = 7,      // set by the protocols: a disk moved faster than runaway_speed
 };
 // The largest overlap a finished member may hold [R]: converged solves leave ~1e-4 R, moving
 // steps under the relative tolerance up to ~3e-3 R (docs/PERFORMANCE.md), this 80 times that.

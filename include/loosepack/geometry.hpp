@@ -54,6 +54,19 @@ inline double default_time_step(const SystemParams& p) {
   return std::min(kDefaultTimeStep, kBarrierTimeFraction * cohesive_barrier_time(p));
 }
 
+// Faster than any disk of the box can move: twice the speed of a fall from H + 4 R_max plus
+// what the cohesive pull-in of six contacts can add, m v^2 / 2 = 6 F_c d_c. A disk beyond it has
+// taken energy from no source in the model: the solution blew up (Failure::Runaway). Infinite
+// where nothing bounds it (Bo = inf has no gravity and no dynamics).
+inline double runaway_speed(const SystemParams& p) {
+  const double g = std::abs(p.gravity);
+  const double fall = fall_speed(g, p.height + 4.0 * largest_radius(p));
+  const double pull = std::sqrt(2.0 * 6.0 * p.cohesive_force() * p.cohesion_range /
+                                p.reference_mass());
+  const double v = 2.0 * (fall + pull);
+  return std::isfinite(v) && v > 0.0 ? v : INFINITY;
+}
+
 // The largest detection margin the contact capacity allows: with 2 R + d_c + margin below the
 // second neighbour shell of a hexagonal packing (2 sqrt(3) R), kSlots contact slots per disk
 // suffice.
