@@ -52,6 +52,48 @@ TEST(Validation, ColumnCarriesWeights) {
   std::printf("column of %d: %ld sweeps over 20 steps\n", n, batch.status(0).sweeps);
 }
 
+// The same with disks of any radius: a column of radii alternating 1 and 2.5 R (masses
+// rho pi r^2, 1 and 6.25 m) carries under each disk the weight of those above it, m_k = rho pi
+// r_k^2 each, and the disks stack at y_k = y_(k-1) + r_(k-1) + r_k. Checked against the wrong
+// law: every disk given the reference mass (rho pi R^2) fails it.
+TEST(Validation, ColumnOfUnequalDisksCarriesTheirR2Weights) {
+  const int n = 20;
+  auto p = bare_params(20.0, 120.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  std::vector<Disk> disks(static_cast<std::size_t>(n));
+  double y = 0.0;
+  for (int k = 0; k < n; ++k) {
+    Disk& d = disks[static_cast<std::size_t>(k)];
+    d.radius = k % 2 == 0 ? 1.0 : 2.5;
+    y += (k == 0 ? 0.0 : disks[static_cast<std::size_t>(k - 1)].radius) + d.radius;
+    d.x = 10.0;
+    d.y = y;
+  }
+  Batch batch({setup(p, disks)}, tight());
+  for (int k = 0; k < 20; ++k) batch.step();
+  ASSERT_EQ(batch.status(0).failure, Failure::None);
+  auto weight = [&](int from) {  // of disks from..n-1
+    double w = 0.0;
+    for (int k = from; k < n; ++k) {
+      const double r = disks[static_cast<std::size_t>(k)].radius;
+      w += p.disk_density * M_PI * r * r * p.gravity;
+    }
+    return w;
+  };
+  int checked = 0;
+  for (const auto& c : batch.contacts(0)) {
+    if (c.j >= 0 && c.j != c.i + 1) continue;
+    const int upper = c.j < 0 ? c.i : c.j;
+    EXPECT_NEAR(c.normal, weight(upper), 1e-6 * weight(upper)) << "contact below disk " << upper;
+    ++checked;
+  }
+  EXPECT_EQ(checked, n);
+  const auto d = batch.disks(0);
+  for (int k = 0; k < n; ++k)
+    EXPECT_NEAR(d[static_cast<std::size_t>(k)].y, disks[static_cast<std::size_t>(k)].y, 1e-6);
+}
+
 // The column converges with Jacobi too (mass splitting), to the same forces.
 TEST(Validation, ColumnJacobiMatchesWeights) {
   const int n = 20;
