@@ -152,26 +152,28 @@ SystemParams incline(double theta, double mu, double mu_r) {
   p.gravity_dir_y = -std::cos(theta);
   return p;
 }
-std::vector<Disk> one_disk(bool lock_rotation = false) {
+std::vector<Disk> one_disk(bool lock_rotation = false, double radius = 1.0) {
   std::vector<Disk> d(1);
   d[0].x = 100.0;
-  d[0].y = 1.0;
+  d[0].y = radius;
+  d[0].radius = radius;
   d[0].lock_rotation = lock_rotation;
   return d;
 }
 // Distance the disk travels down the slope in time t (with floor cohesion Bo: the disk stuck to
 // the incline by F_c = Bo m g).
 double slide(double theta, double mu, double mu_r, bool lock, double t, double* speed = nullptr,
-             double bo = 0.0) {
+             double bo = 0.0, double radius = 1.0) {
   SystemParams p = incline(theta, mu, mu_r);
   p.bond_number = bo;
   p.floor_cohesion = bo > 0.0;
-  Batch batch({setup(p, one_disk(lock))}, tight());
+  p.radius = radius;
+  Batch batch({setup(p, one_disk(lock, radius))}, tight());
   const int steps = static_cast<int>(std::lround(t / 0.01));
   for (int k = 0; k < steps; ++k) batch.step();
   const auto d = batch.disks(0);
   if (speed) *speed = d[0].vx;
-  EXPECT_NEAR(d[0].y, 1.0, 1e-9);  // stays on the incline
+  EXPECT_NEAR(d[0].y, radius, 1e-9);  // stays on the incline
   return d[0].x - 100.0;
 }
 }  // namespace
@@ -212,14 +214,20 @@ TEST(Validation, CohesiveInclineStaticIffSinBelowMuTimesCosPlusBo) {
 // in n steps of h the discrete motion covers a h^2 n (n + 1) / 2 (2.67e-3 R here).
 TEST(Validation, InclineRollingFrictionStaticIffTanBelowMuR) {
   const double mu = 0.3, mu_r = 0.1;  // threshold atan(0.1) = 5.71 degrees
-  EXPECT_LT(std::fabs(slide(std::atan(0.98 * mu_r), mu, mu_r, false, 2.0)), 1e-9);
-  const double theta = std::atan(1.02 * mu_r), t = 2.0, h = 0.01;
-  const double a = 2.0 / 3.0 * (std::sin(theta) - mu_r * std::cos(theta));
-  const double n = std::round(t / h);
-  double v = 0.0;
-  const double x = slide(theta, mu, mu_r, false, t, &v);
-  EXPECT_NEAR(x, a * h * h * n * (n + 1) / 2.0, 1e-3 * x);
-  EXPECT_NEAR(v, a * n * h, 1e-3 * v);
+  // At R = 1 and 2.5: the lever mu_r R_c makes the threshold and the acceleration independent
+  // of R (a lever mu_r, without R_c, fails at R = 2.5: it rolls at 0.98 of the threshold).
+  for (double radius : {1.0, 2.5}) {
+    EXPECT_LT(std::fabs(slide(std::atan(0.98 * mu_r), mu, mu_r, false, 2.0, nullptr, 0.0, radius)),
+              1e-9)
+        << "R = " << radius;
+    const double theta = std::atan(1.02 * mu_r), t = 2.0, h = 0.01;
+    const double a = 2.0 / 3.0 * (std::sin(theta) - mu_r * std::cos(theta));
+    const double n = std::round(t / h);
+    double v = 0.0;
+    const double x = slide(theta, mu, mu_r, false, t, &v, 0.0, radius);
+    EXPECT_NEAR(x, a * h * h * n * (n + 1) / 2.0, 1e-3 * x) << "R = " << radius;
+    EXPECT_NEAR(v, a * n * h, 1e-3 * v) << "R = " << radius;
+  }
 }
 
 // With mu < mu_r the rolling moment holds the rotation that sliding friction drives (mu N R <
