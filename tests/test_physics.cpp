@@ -399,34 +399,40 @@ TEST(Validation, PullOffBarrier) {
 }
 
 // 7. Cohesive cantilever: a chain standing on the wall (the floor) with gravity sideways.
+// At R = 1 and 2.5: the root moment j^2 m g R and the bound mu_r R (F_c + N) scale alike, so the
+// threshold is the same (a rolling lever mu_r without R_c fails it at R = 2.5).
 TEST(Validation, CantileverHoldsIffJSquaredAtMostMuRBo) {
   const double bo = 260.0, mu_r = 0.1;  // mu_r Bo = 26: j = 5 holds, j = 6 falls
-  for (int j : {5, 6}) {
-    auto p = bare_params(60.0, 30.0);
-    p.bond_number = bo;
-    p.friction = 0.3;  // j <= mu Bo = 78 either way
-    p.rolling_friction = mu_r;
-    p.gravity_dir_x = 1.0;
-    p.gravity_dir_y = 0.0;
-    Batch batch({setup(p, column(j, 10.0))}, tight());
-    for (int k = 0; k < 300; ++k) batch.step();
-    const auto d = batch.disks(0);
-    const double tip = d[static_cast<std::size_t>(j - 1)].x - 10.0;
-    if (j * j <= mu_r * bo) {
-      EXPECT_LT(std::fabs(tip), 1e-6) << j << " disks should hold";
-      // Root contact: moment j^2 m g R and shear j m g.
-      int roots = 0;
-      for (const auto& c : batch.contacts(0)) {
-        if (c.j != -1) continue;
-        ++roots;
-        EXPECT_NEAR(std::fabs(c.moment), j * j * 1.0, 1e-6 * j * j);
-        EXPECT_NEAR(std::fabs(c.tangential), j * 1.0, 1e-6 * j);
+  for (double radius : {1.0, 2.5})
+    for (int j : {5, 6}) {
+      auto p = bare_params(60.0 * radius, 30.0 * radius);
+      p.radius = radius;
+      p.bond_number = bo;
+      p.friction = 0.3;  // j <= mu Bo = 78 either way
+      p.rolling_friction = mu_r;
+      p.gravity_dir_x = 1.0;
+      p.gravity_dir_y = 0.0;
+      const double x0 = 10.0 * radius;
+      Batch batch({setup(p, column(j, x0, radius))}, tight());
+      for (int k = 0; k < 300; ++k) batch.step();
+      const auto d = batch.disks(0);
+      const double tip = d[static_cast<std::size_t>(j - 1)].x - x0;
+      const double mg = p.reference_mass() * p.gravity;
+      if (j * j <= mu_r * bo) {
+        EXPECT_LT(std::fabs(tip), 1e-6 * radius) << j << " disks of R = " << radius << " should hold";
+        // Root contact: moment j^2 m g R and shear j m g.
+        int roots = 0;
+        for (const auto& c : batch.contacts(0)) {
+          if (c.j != -1) continue;
+          ++roots;
+          EXPECT_NEAR(std::fabs(c.moment), j * j * mg * radius, 1e-6 * j * j * mg * radius);
+          EXPECT_NEAR(std::fabs(c.tangential), j * mg, 1e-6 * j * mg);
+        }
+        EXPECT_EQ(roots, 1) << j << " disks";
+      } else {
+        EXPECT_GT(tip, 0.1 * radius) << j << " disks of R = " << radius << " should fall";
       }
-      EXPECT_EQ(roots, 1) << j << " disks";
-    } else {
-      EXPECT_GT(tip, 0.1) << j << " disks should fall";
     }
-  }
 }
 
 // The same cantilever where shear decides: the root carries the shear j m g with no normal load,
