@@ -13,7 +13,8 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
   A, Bo = 0         no parabola: in the same band a constant Delta y is acceptable (the paper:
                     about 1.5 R at every height) and the parabola claim fails
   A, Bo = 0         the |Delta y| histogram is better described by an exponential (fig. 9)
-  A, Bo >= 1e3      the |Delta y| histogram is better described by a Gaussian (fig. 8)
+  A, Bo = 1e3       the |Delta y| histogram is better described by a Gaussian (fig. 8; the paper
+                    says it of Bo = 1e3, not of larger Bond numbers)
   C                 Delta y is a straight line in y_e and in y_i (each line acceptable), and
                     the coefficient identity b' = b/(1+b), a' = a/(1+b) holds: each difference
                     within two standard errors of zero, its error a jackknife of the difference
@@ -175,7 +176,7 @@ def check_point(point, path):
         holds, constant, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is constant in the bulk, no parabola",
                constant and not holds, detail)
-    if protocol == "A" and (bo == 0 or 1e3 <= bo < math.inf):  # at Bo = inf nothing moves
+    if protocol == "A" and bo in (0.0, 1e3):  # the two Bond numbers the paper says it of
         expected = "exponential" if bo == 0 else "gaussian"
         which, preferred, g = histogram_verdict(point, path)
         detail = (f"{which}: preferred {preferred}; chi2 exponential "
