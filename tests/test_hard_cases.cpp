@@ -282,6 +282,19 @@ TEST(HardCase, PerturbedColumnOf200TopplesAndSettles) {
   EXPECT_TRUE(st.at_rest) << "not at rest after " << steps << " steps";
   EXPECT_LT(overlap, p.cohesion_range);
   expect_in_domain(d, p, p.cohesion_range, "toppled column");
+  // The control: with rolling friction mu_r = 0.1 the same perturbed column stands as long as
+  // the bare one took to topple (the offset tilts its contacts by 5e-7 rad << mu_r), so the
+  // toppling is the pendulum's and not the solver's.
+  p.rolling_friction = 0.1;
+  Batch standing({setup(p, disks)}, solver);
+  for (long k = 0; k < toppled_after; ++k) standing.step();
+  double standing_top = 0.0, drift = 0.0;
+  for (const auto& a : standing.disks(0)) {
+    standing_top = std::max(standing_top, a.y + a.radius);
+    drift = std::max(drift, std::fabs(a.x - 10.0));
+  }
+  EXPECT_GT(standing_top, 2.0 * n - 1e-2) << "the column with rolling friction fell";
+  EXPECT_LT(drift, 1e-3) << "the column with rolling friction leans";
 }
 
 // ---------------------------------------------------------------------------------------------
