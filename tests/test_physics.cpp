@@ -354,7 +354,8 @@ TEST(Validation, HangingChainHoldsIffNAtMostBo) {
 
 // 6. Pull-off barrier: escape iff v > sqrt(2 F_c d_c / m_n), approached as h shrinks.
 namespace {
-bool escapes(double v, double h, double bo, double dc) {
+// Disk 1 (radius r1, mass r1^2 m) leaves disk 0 (R, m) at speed v: whether it gets away.
+bool escapes(double v, double h, double bo, double dc, double r1 = 1.0) {
   auto p = bare_params(40.0, 10.0);
   p.gravity_on = false;
   p.bond_number = bo;
@@ -363,15 +364,16 @@ bool escapes(double v, double h, double bo, double dc) {
   std::vector<Disk> d(2);
   d[0].x = 10.0;
   d[0].y = 5.0;
-  d[1].x = 12.0;
+  d[1].x = 11.0 + r1;
   d[1].y = 5.0;
+  d[1].radius = r1;
   d[1].vx = v;
   Batch batch({setup(p, d)}, tight());
   // Long enough to cross the range at a tenth of the threshold speed several times over.
   const int steps = static_cast<int>(std::ceil(20.0 * dc / (0.1 * v) / h)) + 10;
   for (int k = 0; k < steps; ++k) batch.step();
   const auto e = batch.disks(0);
-  return e[1].x - e[0].x - 2.0 > dc;
+  return e[1].x - e[0].x - 1.0 - r1 > dc;
 }
 
 double escape_threshold(double h, double bo, double dc, double v_lo, double v_hi) {
@@ -396,6 +398,18 @@ TEST(Validation, PullOffBarrier) {
               t2 / v_star);
   EXPECT_LT(std::fabs(t2 - v_star), std::fabs(t1 - v_star));  // converges as h shrinks
   EXPECT_NEAR(t2, v_star, 0.02 * v_star);
+}
+
+// Unequal disks: the barrier F_c d_c is the same (F_c = Bo m g from the reference disk's mass,
+// whatever the pair), the kinetic energy of the relative motion m_n v^2 / 2 with the reduced
+// mass m_n = m_0 m_1 / (m_0 + m_1) = 0.8 m for radii R and 2 R (masses m and 4 m). Checked
+// against the wrong law: F_c from the larger disk's mass (4 Bo m g) fails the escape at 1.05 v*.
+TEST(Validation, PullOffBarrierOfUnequalDisks) {
+  const double bo = 10.0, dc = 0.01, m_n = 1.0 * 4.0 / (1.0 + 4.0);
+  const double v_star = std::sqrt(2.0 * bo * dc / m_n);
+  const double h = std::sqrt(2.0 * m_n * dc / bo) / 100.0;
+  EXPECT_FALSE(escapes(0.95 * v_star, h, bo, dc, 2.0));
+  EXPECT_TRUE(escapes(1.05 * v_star, h, bo, dc, 2.0));
 }
 
 // 7. Cohesive cantilever: a chain standing on the wall (the floor) with gravity sideways.
