@@ -2,6 +2,7 @@
 #include "loosepack/analysis.hpp"
 
 #include <Eigen/Dense>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -189,6 +190,7 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
   if (coefs.size() < 2) return f;
   const auto n = static_cast<double>(coefs.size());
   for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife(coefs, j);
+  f.replicas = coefs;
   // chi2 of the residuals against their own jackknife errors. The bins' standard errors are
   // strongly correlated (a member that moved more moved more in every bin), so chi2 against
   // them says little; the residuals' errors have the fitted common modes taken out.
@@ -208,6 +210,32 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
 }
 
 double power(double v, int j) { return std::pow(v, j); }
+
+// The collapse identity's differences b' - b/(1+b), a' - a/(1+b) from the two lines, and their
+// jackknife errors from the lines' replicas (the same members left out of both).
+void identity_differences(PointAnalysis& a) {
+  auto differences = [](const std::vector<double>& ye, const std::vector<double>& yi) {
+    const double b = -ye[1];
+    return std::array<double, 2>{-yi[1] - b / (1.0 + b), yi[0] - ye[0] / (1.0 + b)};
+  };
+  const auto full = differences(a.dy_by_ye.coef, a.dy_by_yi.coef);
+  a.b_prime_difference = full[0];
+  a.a_prime_difference = full[1];
+  a.b_prime_difference_error = a.a_prime_difference_error = kNaN;
+  const auto& re = a.dy_by_ye.replicas;
+  const auto& ri = a.dy_by_yi.replicas;
+  if (re.size() != ri.size() || re.size() < 2) return;
+  std::vector<std::array<double, 2>> reps;
+  for (std::size_t m = 0; m < re.size(); ++m) reps.push_back(differences(re[m], ri[m]));
+  const double n = static_cast<double>(reps.size());
+  for (std::size_t j = 0; j < 2; ++j) {
+    double mean = 0.0, ss = 0.0;
+    for (const auto& r : reps) mean += r[j] / n;
+    for (const auto& r : reps) ss += (r[j] - mean) * (r[j] - mean);
+    (j == 0 ? a.b_prime_difference_error : a.a_prime_difference_error) =
+        std::sqrt((n - 1.0) / n * ss);
+  }
+}
 
 std::function<double(double, int)> slice_basis(double H) {
   return [H](double y, int) { return -y * (1.0 - y / H); };
@@ -376,6 +404,7 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
       a.a_prime_predicted_error = std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
       a.slope_increase = b;
       a.slope_increase_error = sb;
+      identity_differences(a);
     }
     // Final density from the deposition density.
     {

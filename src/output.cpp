@@ -292,6 +292,10 @@ void point_analysis(hid_t g, Protocol protocol, const PointAnalysis& an) {
     attribute(c, "a_prime_predicted_error", an.a_prime_predicted_error);
     attribute(c, "slope_increase", an.slope_increase);
     attribute(c, "slope_increase_error", an.slope_increase_error);
+    attribute(c, "b_prime_difference", an.b_prime_difference);
+    attribute(c, "b_prime_difference_error", an.b_prime_difference_error);
+    attribute(c, "a_prime_difference", an.a_prime_difference);
+    attribute(c, "a_prime_difference_error", an.a_prime_difference_error);
   }
 }
 
@@ -757,6 +761,11 @@ static void print_fits(hid_t file, const std::vector<std::string>& names, std::o
           << "; -dDelta y/dy_e = " << c("slope_increase") << " +- " << c("slope_increase_error")
           << " vs dnu/nu_i = " << double_attribute(file, n, "relative_increase_mean") << " +- "
           << double_attribute(file, n, "relative_increase_sem") << "\n";
+      if (H5Aexists_by_name(file, (n + "/collapse_identity").c_str(), "b_prime_difference",
+                            H5P_DEFAULT) > 0)  // files from 2026-11-25 on
+        out << "  b' - b/(1+b) = " << c("b_prime_difference") << " +- "
+            << c("b_prime_difference_error") << ", a' - a/(1+b) = " << c("a_prime_difference")
+            << " +- " << c("a_prime_difference_error") << " (jackknife of the differences)\n";
     }
     const std::string nud = power_text(n + "/nu_deposition/power_law");
     if (!nud.empty()) out << "  deposition density nu_d = A y_i^p: " << nud << "\n";

@@ -18,6 +18,10 @@ namespace loosepack {
 // and chi2 of the residuals against their jackknife errors (src/analysis.cpp, ensemble_fit).
 struct Fit {
   std::vector<double> coef, error;
+  // Avalanche-profile fits: the coefficients refitted with each member left out in turn (the
+  // members with disks, in member order), for the jackknife of quantities derived from several
+  // fits of the same members. Not stored in the file.
+  std::vector<std::vector<double>> replicas;
   double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
   int points = 0;     // data points used
   int dof = 0;        // points - parameters
@@ -62,6 +66,11 @@ struct PointAnalysis {
   // y_i, then b' = b/(1+b), a' = a/(1+b)): the fitted b', a' and the ones predicted from b, a.
   double b_prime = 0.0, b_prime_error = 0.0, b_prime_predicted = 0.0, b_prime_predicted_error = 0.0;
   double a_prime = 0.0, a_prime_error = 0.0, a_prime_predicted = 0.0, a_prime_predicted_error = 0.0;
+  // The differences b' - b/(1+b) and a' - a/(1+b), with the jackknife error of each difference
+  // over the members (the two lines come from the same members, so the combined errors above
+  // overstate it); NaN errors without per-member rows.
+  double b_prime_difference = 0.0, b_prime_difference_error = 0.0;
+  double a_prime_difference = 0.0, a_prime_difference_error = 0.0;
   // C: -d(Delta y)/dy_e (= b) beside the measured relative density increase.
   double slope_increase = 0.0, slope_increase_error = 0.0;
   // Final density from the deposition density, rho_f(y_e) = rho_d(y_i(y_e)) (1 - dDelta y/dy_e),
