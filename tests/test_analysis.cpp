@@ -224,7 +224,8 @@ lower_half_from = 8.0
         return std::pair(yi, yi + a_prime - bm * yi);
       });
   const auto vpoints = aggregate(scan, varied);
-  const PointAnalysis& v = analyse(scan, vpoints).points.at(0);
+  const Analysis van = analyse(scan, vpoints);
+  const PointAnalysis& v = van.points.at(0);
   ASSERT_GT(v.b_prime_error, 1e-3);
   EXPECT_GT(v.b_prime_difference_error, 0.0);
   EXPECT_LT(v.b_prime_difference_error, std::hypot(v.b_prime_error, v.b_prime_predicted_error));
