@@ -46,14 +46,6 @@ std::vector<std::string> children(hid_t loc, const std::string& name) {
   return out;
 }
 
-double attribute_of(hid_t loc, const std::string& object, const std::string& name) {
-  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-       "open attribute " + object + "@" + name);
-  double v = 0.0;
-  check(H5Aread(a, H5T_NATIVE_DOUBLE, &v), "read attribute " + name);
-  return v;
-}
-
 std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
   std::vector<MemberData> out;
   for (const auto& point : children(file, "points")) {
@@ -64,8 +56,8 @@ std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
         const std::string prefix = std::string(kind) + "_";
         if (child.rfind(prefix, 0) != 0) continue;
         MemberData m{point, std::stoi(child.substr(prefix.size())), kind,
-                     "/" + pg + "/members/" + child, attribute_of(file, pg, "width"),
-                     attribute_of(file, pg, "height")};
+                     "/" + pg + "/members/" + child, double_attribute(file, pg, "width"),
+                     double_attribute(file, pg, "height")};
         if (sel.seed < 0 || m.seed == sel.seed) out.push_back(m);
       }
     }

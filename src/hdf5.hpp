@@ -1,5 +1,6 @@
 // The HDF5 pieces the result file's writer (src/output.cpp) and its exporters (src/export.cpp)
-// share: an owning handle, the error check, opening a group, reading a dataset as doubles.
+// share: an owning handle, the error check, opening a group, reading a dataset or an attribute
+// as doubles.
 #pragma once
 #include <hdf5.h>
 
@@ -46,5 +47,14 @@ inline std::vector<double> doubles(hid_t loc, const std::string& name) {
   return v;
 }
 
+
+// A numeric attribute `name` of `object` (below loc), as a double.
+inline double double_attribute(hid_t loc, const std::string& object, const std::string& name) {
+  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+       "open attribute " + object + "@" + name);
+  double v = 0.0;
+  check(H5Aread(a, H5T_NATIVE_DOUBLE, &v), "read attribute " + name);
+  return v;
+}
 
 }  // namespace loosepack

@@ -498,14 +498,6 @@ std::vector<std::vector<double>> rows(hid_t loc, const std::string& name) {
   return out;
 }
 
-double double_attribute(hid_t loc, const std::string& object, const std::string& name) {
-  H5 a(H5Aopen_by_name(loc, object.c_str(), name.c_str(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-       "open attribute " + object + "@" + name);
-  double v = 0.0;
-  check(H5Aread(a, H5T_NATIVE_DOUBLE, &v), "read attribute " + name);
-  return v;
-}
-
 // A scalar string of an attribute or a dataset, variable-length (files from 2026-11-25 on) or
 // of fixed length (older files); `read` reads it into memory of the given type.
 template <class Read>

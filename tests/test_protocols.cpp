@@ -127,36 +127,19 @@ static Scalar band_difference(const std::vector<MemberResult>& results, double w
 // 32 R x 96 R (4 seeds, 16 minutes) the bulk slope of nu(y) is -0.0014 +- 0.0002 per R:
 // docs/REPRODUCTION.md.
 TEST(ProtocolA, DensityDecreasesWithHeightAtIntermediateBond) {
-  const auto scan = scan_of(R"(
-[scan]
-protocol = "A"
-seeds = 16
-[system]
-width = 24.0
-height = 72.0
-bond_number = 100
-[observables]
-lower_half_from = 4.0
-)");
-  const auto results = run_all(scan);
+  auto box = [](const std::string& bond_number) {  // 16 members of 24 R x 72 R
+    return scan_of("[scan]\nprotocol = \"A\"\nseeds = 16\n[system]\nwidth = 24.0\n"
+                   "height = 72.0\nbond_number = " + bond_number +
+                   "\n[observables]\nlower_half_from = 4.0\n");
+  };
+  const auto results = run_all(box("100"));
   const Scalar d = band_difference(results, 24.0, 6.0, 30.0, 54.0);
   std::printf("Bo = 1e2: nu[6, 30) - nu[30, 54) = %.4f +- %.4f (%d members)\n", d.mean, d.sem, d.n);
   EXPECT_GT(d.mean, 2.5 * d.sem);
   // The control: at Bo = inf (ballistic deposition, nothing relaxes) the same bands of the same
   // boxes hold the same density, within 2.5 standard errors, so the gradient above is the
   // relaxation's and not the bands' (the floor layer, the surface).
-  const auto ballistic = scan_of(R"(
-[scan]
-protocol = "A"
-seeds = 16
-[system]
-width = 24.0
-height = 72.0
-bond_number = "inf"
-[observables]
-lower_half_from = 4.0
-)");
-  const Scalar c = band_difference(run_all(ballistic), 24.0, 6.0, 30.0, 54.0);
+  const Scalar c = band_difference(run_all(box("\"inf\"")), 24.0, 6.0, 30.0, 54.0);
   std::printf("Bo = inf: nu[6, 30) - nu[30, 54) = %.4f +- %.4f\n", c.mean, c.sem);
   EXPECT_LT(std::fabs(c.mean), 2.5 * c.sem);
 }
