@@ -4,7 +4,6 @@
 #include <hdf5.h>
 
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
