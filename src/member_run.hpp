@@ -71,6 +71,7 @@ class MemberRun {
   // The protocol phases (src/phases.cpp): one round of each.
   void advance_ballistic();
   void advance_deposit();
+  void redraw_where_room(const Mask& depositing, DropRule rule, std::vector<Deposit>& placed);
   void advance_dynamics();
   void advance_region(std::size_t k, Mask& closing);
   void advance_relax(std::size_t k, Mask& closing);

@@ -13,8 +13,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "kernels/random.hpp"
 #include "loosepack/geometry.hpp"
 #include "member_run.hpp"
+#include "room_below.hpp"
 
 namespace loosepack {
 
@@ -25,7 +27,8 @@ void MemberRun::advance_ballistic() {
   bool any = false;
   const Mask ballistic = mask_of(Phase::Ballistic, &any);
   if (!any) return;
-  const auto placed = batch_->deposit(ballistic, DropRule::Capture);
+  auto placed = batch_->deposit(ballistic, DropRule::Capture);
+  redraw_where_room(ballistic, DropRule::Capture, placed);
   for (std::size_t k = 0; k < n_slots_; ++k) {
     if (!ballistic[k]) continue;
     const int s = static_cast<int>(k);
@@ -44,7 +47,8 @@ void MemberRun::advance_deposit() {
   bool any = false;
   const Mask depositing = mask_of(Phase::Deposit, &any);
   if (!any) return;
-  const auto placed = batch_->deposit(depositing, DropRule::Touch);
+  auto placed = batch_->deposit(depositing, DropRule::Touch);
+  redraw_where_room(depositing, DropRule::Touch, placed);
   // The open events close now: the new disk has not moved, the others have not since. When the
   // box is full the whole system is checked first, and that check belongs to the event.
   Mask open(n_slots_, 0);
@@ -63,6 +67,37 @@ void MemberRun::advance_deposit() {
     else
       finish(k);
   }
+}
+
+// The paper's stop rule for protocol A (StopRule::NoRoom; A at Bo = inf deposits ballistically
+// with r_capt = 1, the same drop): each drop that would pass H is drawn again, once, uniformly
+// among the abscissae where a disk of the mean radius lands below H (so the accepted drops are
+// uniform over them, as if drawn again until one fits). The draw is keyed by the member and its
+// disk count, so a resumed member draws the same. Where there is no such abscissa, the drop
+// stays unplaced and the box is full.
+void MemberRun::redraw_where_room(const Mask& depositing, DropRule rule,
+                                  std::vector<Deposit>& placed) {
+  if (scan_.protocol.stop_rule != StopRule::NoRoom) return;
+  constexpr std::uint64_t kRoomDraws = std::uint64_t{1} << 62;  // apart from the drops' draws
+  Mask again(n_slots_, 0);
+  std::vector<double> x(n_slots_, 0.0);
+  for (std::size_t k = 0; k < n_slots_; ++k) {
+    const int s = static_cast<int>(k);
+    if (!depositing[k] || placed[k].placed || batch_->status(s).failure != Failure::None ||
+        members_[slots_[k].member].protocol != Protocol::A)
+      continue;
+    const SystemParams& p = batch_->params(s);
+    const auto disks = batch_->disks(s);
+    const double u = uniform01(scan_.seed, members_[slots_[k].member].id, kRoomDraws + disks.size());
+    const auto at = free_abscissa(room_below(disks, p.width, p.height, p.radius), u);
+    if (!at) continue;
+    again[k] = 1;
+    x[k] = *at;
+  }
+  if (std::find(again.begin(), again.end(), 1) == again.end()) return;
+  const auto redrawn = batch_->deposit_at(again, x, rule);
+  for (std::size_t k = 0; k < n_slots_; ++k)
+    if (again[k]) placed[k] = redrawn[k];
 }
 
 // One step of every system in a dynamic phase (the batch's and the regions'), then what each

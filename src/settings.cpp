@@ -104,6 +104,24 @@ std::vector<SettingKey> make_table() {
       {"protocol", "region_max_disks", Type::Integer, 10, 1e7, "disks",
        "a larger region relaxes in the whole system", "region_max_disks",
        LOOSEPACK_FIELD(protocol.region_max_disks), nullptr, nullptr},
+      {"protocol", "stop_rule", Type::Choice, 0, 0, "",
+       "A: deposition stops at the first drop over H, or when no drop lands below H",
+       "stop_rule", nullptr, nullptr,
+       [] {
+         std::vector<std::string> names;
+         for (StopRule r : kStopRules) names.emplace_back(stop_rule_name(r));
+         return names;
+       },
+       [](const Scan& s) { return std::string(stop_rule_name(s.protocol.stop_rule)); },
+       [](Scan& s, const std::string& n) {
+         for (StopRule r : kStopRules)
+           if (n == stop_rule_name(r)) {
+             s.protocol.stop_rule = r;
+             return true;
+           }
+         return false;
+       },
+       nullptr, nullptr},
       // [observables]
       {"observables", "strip_width", Type::Real, 1e-3, 1e6, "R", "nu(y) strip width", "strip_width",
        LOOSEPACK_FIELD(observables.strip_width), nullptr, nullptr},

@@ -10,6 +10,8 @@
 #include "loosepack/observables.hpp"
 #include "loosepack/output.hpp"
 #include "loosepack/protocols.hpp"
+#include "loosepack/scenes.hpp"
+#include "src/room_below.hpp"
 #include "tests/run_helpers.hpp"
 
 using namespace loosepack;
@@ -353,5 +355,103 @@ lower_half_from = 1.0
     EXPECT_NEAR(floor, weight, 1e-3 * weight) << "member " << k;
     EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
     EXPECT_EQ(a[k].sweeps, b[k].sweeps) << "member " << k;
+  }
+}
+
+// The paper's stop rule (protocol.stop_rule = "no_room"): the abscissae where a drop still lands
+// below H (src/room_below.hpp), by hand for a deposit of two disks on the floor, one held at
+// y = 6 and one at y = 5.5 across the seam (12 R wide). A disk of r = 1 lands below H where its
+// centre stays at or below H - 1, and disk j blocks |dx| < sqrt(4 - (H - 1 - y_j)^2) (all of
+// |dx| < 2 where y_j > H - 1). Then the deposition kernel itself: 200 systems hold the same
+// deposit and each gets one drop at its own x; a drop is placed exactly where x is free.
+TEST(StopRule, TheFreeAbscissaeAreWhereADropLandsBelowH) {
+  std::vector<Disk> deposit(4);
+  const double at[4][2] = {{2.0, 1.0}, {4.0, 1.0}, {6.0, 6.0}, {11.6, 5.5}};
+  for (int k = 0; k < 4; ++k) {
+    deposit[k].x = at[k][0];
+    deposit[k].y = at[k][1];
+  }
+  struct Case {
+    double height;
+    std::vector<std::pair<double, double>> free;
+  };
+  const double s3 = std::sqrt(3.0), s175 = std::sqrt(1.75), s039 = std::sqrt(4.0 - 1.9 * 1.9);
+  const std::vector<Case> cases = {
+      {8.0, {{11.6 + s175 - 12.0, 6.0 - s3}, {6.0 + s3, 11.6 - s175}}},  // only the high two
+      {6.5, {{1.6, 4.0}, {8.0, 9.6}}},            // the high two block their whole reach
+      {3.9, {{2.0 + s039, 4.0 - s039}, {8.0, 9.6}}},  // and the floor disks part of theirs
+      {2.9, {{8.0, 9.6}}},  // only the floor between the high two
+      {1.9, {}},            // not even the floor
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE("H = " + std::to_string(c.height));
+    const auto free = room_below(deposit, 12.0, c.height, 1.0);
+    ASSERT_EQ(free.size(), c.free.size());
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      EXPECT_NEAR(free[k].first, c.free[k].first, 1e-8);
+      EXPECT_NEAR(free[k].second, c.free[k].second, 1e-8);
+    }
+    const int n = 200;
+    SystemParams p = scenes::bare_params(12.0, c.height);
+    Batch batch(std::vector<SystemSetup>(n, scenes::setup(p, deposit, 8)));
+    std::vector<double> x(n);
+    for (int s = 0; s < n; ++s) x[s] = p.width * (s + 0.37) / n;
+    const auto placed = batch.deposit_at(std::vector<char>(n, 1), x, DropRule::Touch);
+    for (int s = 0; s < n; ++s) {
+      bool in = false;
+      for (const auto& [a, b] : free) in = in || (x[s] >= a && x[s] < b);
+      EXPECT_EQ(placed[s].placed, in) << "x = " << x[s];
+    }
+  }
+  EXPECT_FALSE(free_abscissa({}, 0.5).has_value());
+  EXPECT_DOUBLE_EQ(*free_abscissa({{1.0, 2.0}, {5.0, 8.0}}, 0.5), 6.0);  // 2 of the 4 free R
+}
+
+// The rule end to end. Until the first drop that would pass H both rules draw the same, so a
+// member of "no_room" holds every disk of the same member of "first_over" and more; at Bo = inf
+// (ballistic, nothing moves after landing) its final deposit leaves no room below H, while the
+// first_over deposit of some member still does (the control: the check can fail). At Bo = 1e2
+// the relaxations run between the drops, and the same prefix holds.
+TEST(StopRule, NoRoomFillsTheBoxUntilNoDropLandsBelowH) {
+  for (const char* bond : {"\"inf\"", "100"}) {
+    SCOPED_TRACE(std::string("Bo = ") + bond);
+    std::vector<std::vector<MemberResult>> runs;
+    for (const char* rule : {"first_over", "no_room"})
+      runs.push_back(run_all(scan_of(std::string(R"(
+[scan]
+protocol = "A"
+seeds = 4
+[system]
+width = 16.0
+height = 16.0
+bond_number = )") + bond + R"(
+[protocol]
+stop_rule = ")" + rule + "\"\n")));
+    int first_over_left_room = 0, more = 0;
+    for (std::size_t m = 0; m < runs[0].size(); ++m) {
+      const auto& a = runs[0][m];
+      const auto& b = runs[1][m];
+      ASSERT_TRUE(a.ok() && b.ok());
+      ASSERT_GE(b.y_i.size(), a.y_i.size());
+      for (std::size_t d = 0; d < a.y_i.size(); ++d) EXPECT_EQ(a.y_i[d], b.y_i[d]);
+      more += b.y_i.size() > a.y_i.size();
+      if (std::string(bond) != "100") {
+        const auto room_of = [](const MemberResult& r) {
+          std::vector<Disk> disks(r.x.size());
+          for (std::size_t d = 0; d < disks.size(); ++d) {
+            disks[d].x = r.x[d];
+            disks[d].y = r.y_e[d];
+            disks[d].radius = r.radius[d];
+          }
+          return room_below(disks, 16.0, 16.0, 1.0);
+        };
+        EXPECT_TRUE(room_of(b).empty());
+        first_over_left_room += !room_of(a).empty();
+      }
+    }
+    EXPECT_GT(more, 0);
+    if (std::string(bond) != "100") {
+      EXPECT_GT(first_over_left_room, 0);
+    }
   }
 }

@@ -67,6 +67,17 @@ struct ObservableSettings {
   int trajectory_interval = 100;  // C: steps between trajectory samples during the collapse
 };
 
+// When protocol A's deposition stops (docs/MODEL.md, "Protocols").
+enum class StopRule {
+  FirstOver,  // at the first drop whose top would pass H
+  NoRoom,     // the paper's: a drop that would pass H is drawn again among the abscissae where a
+              // disk still lands below H (src/room_below.hpp); it stops where there are none
+};
+constexpr StopRule kStopRules[] = {StopRule::FirstOver, StopRule::NoRoom};
+inline const char* stop_rule_name(StopRule r) {
+  return r == StopRule::NoRoom ? "no_room" : "first_over";
+}
+
 // Limits of the protocols' dynamics.
 struct ProtocolSettings {
   double max_relax_time = 20.0;       // A: relaxation after one disk is capped here [sqrt(R/g)]
@@ -81,6 +92,7 @@ struct ProtocolSettings {
   // every disk, which keeps the rest criterion of the whole system on every event).
   int region_check_every = 1;
   int region_max_disks = 4000;  // a larger region relaxes in the whole system instead
+  StopRule stop_rule = StopRule::FirstOver;  // A: when the deposition stops
 };
 
 struct ScanPoint {
