@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <utility>
 
 #include "kernels/contact_law.hpp"
 
@@ -80,6 +81,33 @@ TEST(ContactLaw, CoupledFrictionRollingSatisfiesStickSlipLaws) {
     for (double om : {-3.0, -0.1, 0.0, 0.5, 6.0})
       for (double bt : {0.0, 0.05, 1.0})
         for (double br : {0.0, 0.01, 0.5}) check_kkt(ut, om, a, b, c, bt, br);
+}
+
+// Unequal disks (R_i = 1, R_j = 2.5, masses r^2 and 3 r^2, I = m r^2 / 2): the Delassus block
+// against the rigid-body response it stands for. An impulse P_t on j (and -P_t on i) at the
+// contact point, with the torques -R_i P_t on i and -R_j P_t on j, and a moment M on j (-M on i)
+// change the velocities by P/m and torque/I; by the definitions of u_t and Omega (top of
+// kernels/contact_law.hpp) that is du_t = a P_t + c M and dOmega = c P_t + b M. The coupling c =
+// R_i/I_i - R_j/I_j vanishes for equal disks, so only this case can tell it from 0 or from the
+// sum (each fails here). Then the coupled solve on this block: the KKT conditions hold.
+TEST(ContactLaw, CouplingOfUnequalDisksIsTheRigidBodyResponse) {
+  const double ri = 1.0, rj = 2.5, mi = ri * ri, mj = 3.0 * rj * rj;
+  const double Ii = 0.5 * mi * ri * ri, Ij = 0.5 * mj * rj * rj;
+  const auto w = contact_mobility(1.0 / mi, 1.0 / Ii, ri, 1.0 / mj, 1.0 / Ij, rj);
+  for (const auto& [pt, m] : {std::pair{0.7, 0.0}, std::pair{0.0, 0.4}, std::pair{-0.3, 1.1}}) {
+    const double dvi = -pt / mi, dvj = pt / mj;  // along t
+    const double dwi = (-ri * pt - m) / Ii, dwj = (-rj * pt + m) / Ij;
+    const double dut = (dvj - dvi) - (ri * dwi + rj * dwj);
+    const double dom = dwj - dwi;
+    EXPECT_NEAR(dut, w.a * pt + w.c * m, 1e-14);
+    EXPECT_NEAR(dom, w.c * pt + w.b * m, 1e-14);
+  }
+  EXPECT_NEAR(w.c, 1.0 / Ii * ri - rj / Ij, 1e-15);
+  EXPECT_GT(std::fabs(w.c), 0.1);
+  for (double ut : {-2.0, 0.1, 3.0})
+    for (double om : {-1.0, 0.0, 0.7})
+      for (double bt : {0.0, 0.05, 1.0})
+        for (double br : {0.0, 0.02, 0.5}) check_kkt(ut, om, w.a, w.b, w.c, bt, br);
 }
 
 TEST(ContactLaw, DiskStripAreaIsExact) {

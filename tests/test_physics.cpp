@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <vector>
 
 #include "loosepack/batch.hpp"
 #include "loosepack/scenes.hpp"
@@ -412,6 +413,71 @@ TEST(Validation, PullOffBarrierOfUnequalDisks) {
   EXPECT_TRUE(escapes(1.05 * v_star, h, bo, dc, 2.0));
 }
 
+// Order in h of Moreau-Jean (first order), from the discrete motion worked out in closed form.
+// Pull-off: a disk leaving at u under the constant pull a = F_c / m_n has u_k = u - k h a and
+// gap_k = h (u_1 + ... + u_k), largest at K = floor(u / (h a)) = u / (h a) - f:
+// gap_K = u^2 / (2 a) - h u / 2 + h^2 a f (1 - f) / 2. It escapes when that passes d_c, so the
+// threshold is v_t = v* + a h / 2 + O(h^2) (v* = sqrt(2 a d_c)): first order, with that slope.
+// Sliding: the slip speed falls by 3 mu g h per step until the step that sticks, which ends at
+// exactly 2 v0 / 3 (the friction impulse is the same on v and R w); with x advanced by h v_k,
+// x(T) = x_continuous - h v0 / 6 + mu g h^2 f (1 - f) / 2, f the fraction of a step at which
+// the continuous slip ends. Each error is checked against its first-order term to within the
+// bound of its h^2 term, and the order fitted over h spanning a factor of 8 is 1 +- 0.05. A
+// scheme of second order (or a first-order term with another slope) fails both.
+namespace {
+double fitted_order(const std::vector<double>& h, const std::vector<double>& err) {
+  const double n = static_cast<double>(h.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (std::size_t k = 0; k < h.size(); ++k) {
+    const double x = std::log(h[k]), y = std::log(std::fabs(err[k]));
+    sx += x, sy += y, sxx += x * x, sxy += x * y;
+  }
+  return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+}
+}  // namespace
+
+TEST(Validation, PullOffThresholdIsFirstOrderInH) {
+  const double bo = 10.0, dc = 0.01, m_n = 0.5, a = bo / m_n;
+  const double v_star = std::sqrt(2.0 * a * dc);
+  const double h_scale = std::sqrt(2.0 * m_n * dc / bo);
+  std::vector<double> hs, errs;
+  for (double div : {4.0, 8.0, 16.0, 32.0}) {
+    const double h = h_scale / div;
+    const double err = escape_threshold(h, bo, dc, 0.5 * v_star, 2.0 * v_star) - v_star;
+    std::printf("h = %.3g: v_t - v* = %.5f, a h / 2 = %.5f\n", h, err, 0.5 * a * h);
+    EXPECT_NEAR(err, 0.5 * a * h, a * a * h * h / v_star) << "h = " << h;
+    hs.push_back(h);
+    errs.push_back(err);
+  }
+  EXPECT_NEAR(fitted_order(hs, errs), 1.0, 0.05);
+}
+
+TEST(Validation, SlipDistanceIsFirstOrderInH) {
+  const double mu = 0.3, v0 = 2.0, g = 1.0;
+  const double t_slide = v0 / (3.0 * mu * g), t_end = 2.0 * t_slide;
+  const double x_continuous =
+      v0 * t_slide - 0.5 * mu * g * t_slide * t_slide + 2.0 * v0 / 3.0 * (t_end - t_slide);
+  std::vector<double> hs, errs;
+  for (double h : {8e-3, 4e-3, 2e-3, 1e-3}) {
+    auto p = bare_params(1000.0, 10.0);
+    p.friction = mu;
+    p.time_step = h;
+    auto d = one_disk();
+    d[0].vx = v0;
+    SolverSettings solver = tight();
+    solver.relative_tolerance = 0.0;
+    Batch batch({setup(p, d)}, solver);
+    const int steps = static_cast<int>(std::lround(t_end / h));
+    for (int k = 0; k < steps; ++k) batch.step();
+    const double err = batch.disks(0)[0].x - 100.0 - (x_continuous + (steps * h - t_end) * 2.0 * v0 / 3.0);
+    std::printf("h = %.3g: x - x_continuous = %.3e, -h v0 / 6 = %.3e\n", h, err, -h * v0 / 6.0);
+    EXPECT_NEAR(err, -h * v0 / 6.0, mu * g * h * h / 8.0 + 1e-7) << "h = " << h;
+    hs.push_back(h);
+    errs.push_back(err);
+  }
+  EXPECT_NEAR(fitted_order(hs, errs), 1.0, 0.05);
+}
+
 // 7. Cohesive cantilever: a chain standing on the wall (the floor) with gravity sideways.
 // At R = 1 and 2.5: the root moment j^2 m g R and the bound mu_r R (F_c + N) scale alike, so the
 // threshold is the same (a rolling lever mu_r without R_c fails it at R = 2.5).
@@ -468,8 +534,11 @@ TEST(Validation, CantileverHoldsIffJAtMostMuBoWhereShearDecides) {
     const double tip = d[static_cast<std::size_t>(j - 1)].x - 10.0;
     if (j <= mu * bo) {
       EXPECT_LT(std::fabs(tip), 1e-6) << j << " disks should hold";
-      for (const auto& c : batch.contacts(0))
-        if (c.j == -1) EXPECT_NEAR(std::fabs(c.tangential), j * 1.0, 1e-6 * j);
+      for (const auto& c : batch.contacts(0)) {
+        if (c.j == -1) {
+          EXPECT_NEAR(std::fabs(c.tangential), j * 1.0, 1e-6 * j);
+        }
+      }
     } else {
       EXPECT_GT(tip, 0.1) << j << " disks should slide off";
     }
