@@ -31,38 +31,53 @@ double total_energy(const std::vector<Disk>& d, const SystemParams& p) {
 }
 }  // namespace
 
-// 8. Energy never increases beyond the solver tolerance in a settling pile.
+// 8. Energy never increases beyond the solver tolerance in a settling pile, with every solver,
+// with the overlap correction off and on, without and with cohesion. The solver stops when no
+// impulse changes by more than tol h m g in a sweep; over all contacts (about 3 per disk) and
+// speeds below 10 sqrt(gR), that bounds the energy error per step by about 3 n tol h m g 10 R.
+// With the relative tolerance kappa a moving step's tolerance is kappa v_max / (g h) [h m g]
+// instead, and the bound 3 n kappa m v_max 10 sqrt(gR) per step: the rises of up to 2e-3 per step
+// seen with kappa = 1e-3 (Jacobi at Bo = 10) are that loosened solve, not the contact law; with
+// kappa = 0 every solver's largest rise is at rounding level (1e-12).
 TEST(Energy, SettlingPileNeverGainsEnergy) {
-  for (double bo : {0.0, 10.0}) {
-    auto p = bare_params(24.0, 60.0);
-    p.friction = 0.3;
-    p.rolling_friction = 0.1;
-    p.bond_number = bo;
-    p.time_step = 0.005;
-    const int n = 40;
-    SolverSettings s;
-    s.tolerance = 1e-8;
-    s.max_sweeps = 100000;
-    Batch batch({setup(p, random_drop(n, p.width, 7))}, s);
-    double e_prev = total_energy(batch.disks(0), p);
-    const double e0 = e_prev;
-    double worst = 0.0;
-    for (int k = 0; k < 1000; ++k) {
-      batch.step();
-      const double e = total_energy(batch.disks(0), p);
-      worst = std::max(worst, e - e_prev);
-      e_prev = e;
-    }
-    ASSERT_EQ(batch.status(0).failure, Failure::None);
-    // The solver stops when impulses change by less than tol * h m g per sweep; over all
-    // contacts (about 3 per disk) and speeds below 10 sqrt(gR), that bounds the energy error
-    // per step by about 3 n tol h m g * 10 R.
-    const double bound = 3.0 * n * s.tolerance * p.time_step * 10.0;
-    std::printf("Bo = %g: energy %.3f -> %.3f, largest rise in one step %.3g (bound %.3g)\n", bo,
-                e0, e_prev, worst, bound);
-    EXPECT_LE(worst, bound) << "Bo = " << bo;
-    EXPECT_LT(e_prev, e0);
-  }
+  const int n = 40;
+  for (SolverKind kind : kSolverKinds)
+    for (double beta : {0.0, 0.2})
+      for (double kappa : {0.0, 1e-3})
+        for (double bo : {0.0, 10.0}) {
+          if (kappa > 0.0 && (beta > 0.0 || kind != SolverKind::Jacobi)) continue;
+          SCOPED_TRACE(std::string(solver_kind_name(kind)) + ", beta " + std::to_string(beta) +
+                       ", kappa " + std::to_string(kappa) + ", Bo " + std::to_string(bo));
+          auto p = bare_params(24.0, 60.0);
+          p.friction = 0.3;
+          p.rolling_friction = 0.1;
+          p.bond_number = bo;
+          p.time_step = 0.005;
+          SolverSettings s;
+          s.kind = kind;
+          s.tolerance = 1e-8;
+          s.max_sweeps = 100000;
+          s.relative_tolerance = kappa;
+          s.overlap_correction = beta;
+          if (kind == SolverKind::Jacobi) s.relaxation = 0.5;
+          Batch batch({setup(p, random_drop(n, p.width, 7))}, s);
+          double e_prev = total_energy(batch.disks(0), p);
+          const double e0 = e_prev;
+          double worst = 0.0, v_max = 0.0;
+          for (int k = 0; k < 1000; ++k) {
+            batch.step();
+            const auto d = batch.disks(0);
+            for (const Disk& q : d) v_max = std::max(v_max, speed(q));
+            const double e = total_energy(d, p);
+            worst = std::max(worst, e - e_prev);
+            e_prev = e;
+          }
+          ASSERT_EQ(batch.status(0).failure, Failure::None);
+          const double tol = std::max(s.tolerance * p.time_step, kappa * v_max);
+          const double bound = 3.0 * n * tol * 10.0;
+          EXPECT_LE(worst, bound);
+          EXPECT_LT(e_prev, e0);
+        }
 }
 
 // 9. A random pile settles: finite, small overlaps, and bit-identical alone or in a batch.
