@@ -224,43 +224,27 @@ Member deposit_member(double bo, double width, double height) {
 }
 }  // namespace
 
-// Cohesion shortens the relaxation after each deposit: at the same box and time step a
-// protocol-A member expects less the larger the Bond number. Bo = 0 against Bo = 1e3: the
-// simulated time per disk, steps x h / disks, measured 5.3 against 0.21-0.25 sqrt(R/g) at
-// 40 R wide and H = 60-180 (docs/PERFORMANCE.md, "What a member costs"), a factor of 21-25.
-TEST(Checkpoint, ExpectedCostFallsWithTheBondNumber) {
+// The cost model's shape: at the same box and time step a protocol-A member expects less the
+// larger the Bond number (cohesion shortens each relaxation), and more in a taller or wider
+// box, growing with the height faster at Bo = 1e3 than at Bo = 0 (avalanches grow with the
+// height above them). Its numbers are checked against the recorded measurements it was fitted
+// on, not here: tests/python/test_cost_model.py.
+TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
   double before = std::numeric_limits<double>::infinity();
   for (double bo : {0.0, 1.0, 10.0, 100.0, 1000.0}) {
     const double c = expected_cost(deposit_member(bo, 40.0, 60.0));
     EXPECT_LT(c, before) << "Bo = " << bo;
     before = c;
   }
-  const double ratio = expected_cost(deposit_member(0.0, 40.0, 60.0)) /
-                       expected_cost(deposit_member(1e3, 40.0, 60.0));
-  EXPECT_GT(ratio, 15.0);
-  EXPECT_LT(ratio, 35.0);
-  // Taller and wider boxes expect more.
   EXPECT_GT(expected_cost(deposit_member(1e3, 40.0, 120.0)),
             expected_cost(deposit_member(1e3, 40.0, 60.0)));
   EXPECT_GT(expected_cost(deposit_member(1e3, 80.0, 60.0)),
             expected_cost(deposit_member(1e3, 40.0, 60.0)));
-}
-
-// A deposit H tall costs ~ H^q, and q grows with the Bond number (avalanches grow with the
-// height above them). The exponents measured (docs/PERFORMANCE.md, "What a member costs"):
-// Bo = 0, 24 R wide, from 24 to 48 R: 2.5-2.7 (6.1 -> 39 s and 6.5 -> 36 s in two runs), and
-// within members 2.2-2.6 at Bo <= 10;
-// Bo = 1e3, 40 R wide, from 120 to 180 R: 3.9 (16 members each), and within members 3.6-5.4.
-// The model's ratios must lie in those ranges.
-TEST(Checkpoint, ExpectedCostGrowsWithTheHeightAsMeasured) {
-  const double bo0 = expected_cost(deposit_member(0.0, 24.0, 48.0)) /
-                     expected_cost(deposit_member(0.0, 24.0, 24.0));
-  EXPECT_GT(bo0, std::pow(2.0, 2.2));
-  EXPECT_LT(bo0, std::pow(2.0, 2.7));
-  const double bo1k = expected_cost(deposit_member(1e3, 40.0, 180.0)) /
-                      expected_cost(deposit_member(1e3, 40.0, 120.0));
-  EXPECT_GT(bo1k, std::pow(1.5, 3.6));
-  EXPECT_LT(bo1k, std::pow(1.5, 5.4));
+  const auto taller = [](double bo) {
+    return expected_cost(deposit_member(bo, 40.0, 120.0)) /
+           expected_cost(deposit_member(bo, 40.0, 60.0));
+  };
+  EXPECT_GT(taller(1e3), taller(0.0));
 }
 
 namespace {

@@ -1,0 +1,72 @@
+"""The cost model (`expected_cost`, src/protocols.cpp) against the recorded measurements it
+was fitted on, not against numbers copied into a test: each record of
+bench/results/cost-relative-2026-11-25.jsonl (`bench_study --study cost`, with its environment)
+is one scene's CPU seconds per member; the program's own estimate for the same scene comes from
+`loosepack run --dry-run`. docs/PERFORMANCE.md ("What a member costs") says what the model
+claims: the seconds per unit of cost spread by a factor of 23 over these scenes (103 without
+the height exponent, 32 000 without the Bond number, so a model without either fails), and it
+orders the scenes as their measured costs do."""
+
+import json
+import os
+import re
+import subprocess
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+RECORD = os.path.join(HERE, "..", "..", "bench", "results", "cost-relative-2026-11-25.jsonl")
+PROGRAM = os.environ.get("LOOSEPACK", os.path.join(HERE, "..", "..", "build", "loosepack"))
+
+
+def records():
+    with open(RECORD) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+def expected_seconds(tmp_path, setups):
+    """The program's estimate of CPU seconds per member for each setup, in order."""
+    lines = ['[scan]\nname = "cost"\nseeds = 1\n']
+    for s in setups:
+        bond = '"inf"' if s["bond_number"] == "inf" else repr(float(s["bond_number"]))
+        lines.append(
+            f'[[point]]\nprotocol = "{s["protocol"]}"\nwidth = {float(s["width"])!r}\n'
+            f'height = {float(s["height"])!r}\nbond_number = {bond}\n'
+            f'capture_radius = {float(s["capture_radius"])!r}\n'
+            f'time_step = {float(s["time_step"])!r}\n')
+    scan = tmp_path / "cost.toml"
+    scan.write_text("".join(lines))
+    out = subprocess.run([PROGRAM, "run", str(scan), "--dry-run"], check=True,
+                         capture_output=True, text=True).stdout
+    rows = [line.split() for line in out.splitlines() if re.match(r"^\d{4}\s", line)]
+    assert len(rows) == len(setups), out
+    return [float(r[-1]) for r in rows]
+
+
+@pytest.fixture(scope="module")
+def measured(tmp_path_factory):
+    if not os.path.exists(PROGRAM):
+        pytest.skip(f"no program at {PROGRAM} (set LOOSEPACK)")
+    recs = [r for r in records() if "cpu_per_member_s" in r]
+    expected = expected_seconds(tmp_path_factory.mktemp("cost"), [r["setup"] for r in recs])
+    return {r["setup"]["label"]: (r["cpu_per_member_s"], e) for r, e in zip(recs, expected)}
+
+
+def test_every_scene_within_the_documented_spread(measured):
+    ratios = [m / e for m, e in measured.values()]
+    assert len(ratios) >= 10
+    assert max(ratios) / min(ratios) <= 23.0 * 1.05, ratios
+
+
+def test_the_model_orders_the_scenes_as_measured(measured):
+    """Every pair of scenes whose measured costs differ by more than the spread of one scene
+    (a factor of 3 between the two members of a scene and between runs) is ordered the same
+    way by the model: the costlier one expected costlier."""
+    items = list(measured.items())
+    pairs = 0
+    for a, (ma, ea) in items:
+        for b, (mb, eb) in items:
+            if ma > 3.0 * mb:
+                pairs += 1
+                assert ea > eb, (a, b, ma, mb, ea, eb)
+    assert pairs >= 20
