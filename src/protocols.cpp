@@ -36,7 +36,7 @@ int member_capacity(const SystemParams& p) {
 
 namespace {
 
-// The parts of expected_cost, in units of about 0.1 microseconds of one core of the AMD EPYC
+// The parts of expected_cost, in units of about 0.035 microseconds of one core of the AMD EPYC
 // VM the project is developed on (docs/PERFORMANCE.md, "What a member costs").
 double ballistic_cost(const SystemParams& p) { return p.width * p.height; }
 // Cohesion shortens the relaxation after each deposit, and with it a member's CPU time at the same
