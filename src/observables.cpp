@@ -173,6 +173,7 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
       if (!r.ok()) {
         ++pr.failed;
         pr.nu_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
+        pr.nu_deposition_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
         continue;  // failed members are excluded from every aggregate
       }
       ok.push_back(&r);
@@ -190,6 +191,7 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
         sum_abs += std::fabs(r.y_e[k] - r.y_i[k]);
       }
       nud_rows.push_back(nud);
+      pr.nu_deposition_member_rows.push_back(nud);
       lower_half.push_back(nlh);
       abs_dy_means.push_back(r.y_i.empty() ? kNaN : sum_abs / static_cast<double>(r.y_i.size()));
       if (pt.protocol == Protocol::C) {

@@ -417,6 +417,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
       dataset(g, "nu/depth", depth);
       fields(g, "nu_deposition", pr.nu_deposition, kProfileFields);
+      dataset(g, "nu_deposition/member_mean", pr.nu_deposition_member_rows);
       binned_stat(g, "avalanche_by_yi", pr.dy_by_yi);
       binned_stat(g, "avalanche_by_ye", pr.dy_by_ye);
       {

@@ -3,8 +3,9 @@
 # summarised with its fits, drawn by tools/plot.py, and judged by tools/claims.py, which must
 # find the claims of the paper that hold at this size: a parabola with positive curvature for
 # protocol A at Bo = 1e2 and none (a constant Delta y) at Bo = 0, an exponential |Delta y|
-# histogram at Bo = 0, straight lines for protocol C, and judge the identity b' = b/(1+b),
-# a' = a/(1+b). Several minutes on one core.
+# histogram at Bo = 0, straight lines for protocol C with flat initial and final densities, the
+# final density predicted from the initial one and dnu/nu_i below its limit, and judge the
+# identity b' = b/(1+b), a' = a/(1+b). Several minutes on one core.
 source "$(dirname "$0")/common.sh"
 
 "$exe" run "$repo/examples/paper/claims_reduced.toml" -o "$dir/claims.h5" -q
@@ -23,11 +24,15 @@ cat "$dir/claims.txt"
 [ "$rc" -le 1 ] || fail "claims.py found nothing to judge or failed (exit $rc)"
 # The claims that hold at this size (docs/REPRODUCTION.md, "The paper's claims"): the parabola
 # at Bo = 1e2, its absence (a constant Delta y) at Bo = 0, the exponential histogram at Bo = 0
-# and the collapse's straight lines.
+# and the collapse's straight lines, flat densities, predicted final density and upper limit.
 for claim in "Bo = 100, H = 48): Delta y(y_e) is a parabola with positive curvature" \
   "Bo = 0, H = 24): Delta y(y_e) is constant in the bulk, no parabola" \
   "Bo = 0, H = 24): |Delta y| histogram is exponential" \
-  "Bo = 1000, H = 60): Delta y is a straight line in y_e and y_i"; do
+  "Bo = 1000, H = 60): Delta y is a straight line in y_e and y_i" \
+  "Bo = 1000, H = 60): nu_i(y) is flat in the bulk" \
+  "Bo = 1000, H = 60): nu_f(y) is flat in the bulk" \
+  "Bo = 1000, H = 60): the final density predicted from the initial one matches" \
+  "Bo = 1000, H = 60): dnu/nu_i stays below its limit nu_rcp/nu_i - 1"; do
   grep -F "$claim" "$dir/claims.txt" | grep -q "^PASS" ||
     fail "claim '$claim' does not hold"
 done

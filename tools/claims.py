@@ -20,8 +20,24 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     within two standard errors of zero, its error a jackknife of the difference
                     itself (figs. 14, 15)
 
+  A, Bo >= 1e4      the parabola cannot be identified: the fluctuations are too large (the
+                    parabola claim above fails)
+  C                 nu_i(y) and nu_f(y) are flat in the bulk (from `lower_half_from` to half
+                    the deposit's height, as nu_lower_half: slope within two jackknife errors of
+                    zero), the final density predicted from the initial one and the line
+                    Delta y(y_e) matches the measured one up to `cut_top` below the lowest
+                    member's top (chi2 below the 99 % quantile of a chi2 of a third
+                    of the strips' number of degrees of freedom, tripled: neighbouring strips
+                    share disks), and dnu/nu_i stays below its upper limit nu_rcp/nu_i - 1 (the
+                    paper: 1.19, random close packing nu_rcp = 0.84 over nu_i ~ 0.38)
+
 and, across the points of a scan (the fits in `analysis/`, made when three or more points
 differ only in that variable):
+
+  A, Bond numbers   the typical avalanche size falls as Bo rises: over three or more points
+                    with 0 < Bo < inf that differ only in Bo, mean |Delta y| at the smallest Bo
+                    exceeds that at the largest by two combined standard errors, and it rises
+                    by no more than that between neighbouring Bond numbers
 
   A, heights        the curvature of Delta y(y_e) scales like 1/H: the exponent p of
                     abs(c2) = A H^p within two standard errors of -1 (fig. 7)
@@ -51,10 +67,20 @@ except ImportError as e:  # pragma: no cover
 Z99 = 2.3263  # the standard normal's 99 % quantile
 
 
+RCP = 0.84  # 2D random close packing of disks: the paper's upper limit of the collapse
+
+
 def chi2_quantile99(dof):
     """The 99 % quantile of chi2 with dof degrees of freedom (Wilson and Hilferty)."""
     a = 2.0 / (9.0 * dof)
     return dof * (1.0 - a + Z99 * math.sqrt(a)) ** 3
+
+
+def jackknife(values):
+    """The jackknife error of leave-one-out estimates (rows: the member left out)."""
+    v = np.asarray(values, float)
+    n = len(v)
+    return np.sqrt((n - 1) / n * ((v - v.mean(axis=0)) ** 2).sum(axis=0))
 
 
 class Profile:
@@ -97,8 +123,7 @@ class Profile:
             loo_coef.append(cm)
             loo_resid.append(ym - np.polynomial.polynomial.polyval(xm, cm))
         n = self.members
-        jack = lambda v: np.sqrt((n - 1) / n * ((v - v.mean(axis=0)) ** 2).sum(axis=0))
-        err, resid_err = jack(np.array(loo_coef)), jack(np.array(loo_resid))
+        err, resid_err = jackknife(loo_coef), jackknife(loo_resid)
         chi2 = float(((resid / resid_err) ** 2).sum()) * (n - 3) / (n - 1)
         return coef, err, chi2, dof
 
@@ -169,9 +194,12 @@ def check_point(point, path):
     a = point.attrs
     protocol, bo = text(a["protocol"]), float(a["bond_number"])
     where = f"point {point.name.split('/')[-1]} ({protocol}, Bo = {bo:g}, H = {a['height']:g})"
-    if protocol == "A" and 0 < bo < math.inf:
+    if protocol == "A" and 0 < bo < 1e4:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is a parabola with positive curvature", holds, detail)
+    if protocol == "A" and 1e4 <= bo < math.inf:
+        holds, _, detail = parabola_verdict(*profile_shapes(point, path))
+        yield (f"{where}: at Bo >= 1e4 no parabola can be identified", not holds, detail)
     if protocol == "A" and bo == 0:
         holds, constant, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is constant in the bulk, no parabola",
@@ -184,6 +212,7 @@ def check_point(point, path):
         yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
     if protocol == "C":
         yield from collapse_claims(point, path, where)
+        yield from collapse_density_claims(point, path, where)
 
 
 def collapse_claims(point, path, where):
@@ -215,12 +244,97 @@ def collapse_claims(point, path, where):
         fail_missing(path, f"{point.name}: avalanche profiles of equal member counts")
     full = identity(line(ye), line(yi))
     loo = np.array([identity(line(ye, m), line(yi, m)) for m in range(ye.members)])
-    n = ye.members
-    err = np.sqrt((n - 1) / n * ((loo - loo.mean(axis=0)) ** 2).sum(axis=0))
+    err = jackknife(loo)
     for k, name in enumerate(("b'", "a'")):
         yield (f"{where}: {name} = {name[0]}/(1+b)", abs(full[k]) <= 2 * err[k],
                f"{name} - {name[0]}/(1+b) = {full[k]:.3g} +- {err[k]:.2g} (jackknife of the "
                f"difference)")
+
+
+def density_slope(group, low, high):
+    """Slope of a density profile (`nu` or `nu_deposition`) over the strips in [low, high]:
+    least squares through the members' mean, with the jackknife error over the members."""
+    rows, centre = group["member_mean"][()], group["centre"][()]
+    rows = rows[np.isfinite(rows).any(axis=1)]  # a failed member's row is NaN
+    use = (centre >= low) & (centre <= high) & np.isfinite(rows).all(axis=0)
+    x, rows = centre[use], rows[:, use]
+    if x.size < 3 or len(rows) < 4:
+        return None
+    slope = lambda r: np.polynomial.polynomial.polyfit(x, r.mean(axis=0), 1)[1]
+    loo = [slope(np.delete(rows, m, axis=0)) for m in range(len(rows))]
+    return slope(rows), float(jackknife(loo)), x[0], x[-1]
+
+
+def collapse_density_claims(point, path, where):
+    """Protocol C: flat nu_i(y) and nu_f(y) in the bulk, the final density predicted from the
+    initial one, and dnu/nu_i below its upper limit nu_rcp/nu_i - 1."""
+    a = point.attrs
+    for name in ("nu/member_mean", "nu_deposition/member_mean", "members/top"):
+        if name not in point:
+            fail_missing(path, f"{point.name}/{name}")
+    settings = point.file["settings"].attrs if "settings" in point.file else {}
+    h = float(a["height"])
+    low = float(a.get("lower_half_from", settings.get("lower_half_from", min(50.0, h / 4))))
+    cut = float(a.get("cut_top", settings.get("cut_top", min(20.0, h / 6))))
+    tops = point["members/top"][()]
+    tops = tops[np.isfinite(tops) & (tops > 0)]
+    final_top = float(tops.min()) if tops.size else h
+    # The bulk as nu_lower_half has it: up to half the deposit's height (the top of a ballistic
+    # deposit is rough over several R: its density falls there, and a flat profile ends below).
+    for key, label, high in (("nu_deposition", "nu_i", h / 2), ("nu", "nu_f", final_top / 2)):
+        r = density_slope(point[key], low, high)
+        if r is None:
+            yield (f"{where}: {label}(y) is flat in the bulk", False, "too few strips or members")
+            continue
+        slope, err, lo, hi = r
+        yield (f"{where}: {label}(y) is flat in the bulk", abs(slope) <= 2 * err,
+               f"slope {slope:.3g} +- {err:.2g} per R over {lo:g}-{hi:g} R")
+    if "predicted" in point["nu"]:
+        nu = point["nu"]
+        centre, pred = nu["centre"][()], nu["predicted"][()]
+        mean, sem = nu["mean"][()], nu["sem"][()]
+        use = np.isfinite(pred) & (centre >= low) & (centre <= final_top - cut) & (sem > 0)
+        k, n = int(use.sum()), int(a["members"]) - int(a.get("failed", 0))
+        if k >= 3 and n > 3:
+            chi2 = float((((pred - mean) / sem)[use] ** 2).sum())
+            # Strips share disks: chi2 as 3 chi2 of k/3 degrees of freedom; errors from n
+            # members inflate each term by (n-1)/(n-3).
+            bound = 3 * chi2_quantile99(k / 3) * (n - 1) / (n - 3)
+            yield (f"{where}: the final density predicted from the initial one matches",
+                   chi2 <= bound, f"chi2 {chi2:.3g} over {k} strips (bound {bound:.3g})")
+    inc, inc_err = float(a["relative_increase_mean"]), float(a["relative_increase_sem"])
+    nu_i = float(a["nu_initial_mean"])
+    limit = RCP / nu_i - 1
+    yield (f"{where}: dnu/nu_i stays below its limit nu_rcp/nu_i - 1", inc - 2 * inc_err <= limit,
+           f"dnu/nu_i = {inc:.3g} +- {inc_err:.2g}, limit {limit:.3g} (nu_i = {nu_i:.3g})")
+
+
+def typical_size_claims(f):
+    """A points that differ only in the Bond number (0 < Bo < inf, three or more): the typical
+    avalanche size, mean |Delta y|, falls as Bo rises."""
+    groups = {}
+    for name in sorted(f["points"]):
+        a = f["points"][name].attrs
+        bo = float(a["bond_number"])
+        if text(a["protocol"]) != "A" or not 0 < bo < math.inf or "mean_abs_dy_mean" not in a:
+            continue
+        key = tuple((k, text(v) if isinstance(v, (bytes, str)) else float(v))
+                    for k, v in sorted(a.items())
+                    if k in ("width", "height", "friction", "rolling_friction", "cohesion_range",
+                             "radius", "polydispersity", "capture_radius", "floor_cohesion"))
+        groups.setdefault(key, []).append(
+            (bo, float(a["mean_abs_dy_mean"]), float(a["mean_abs_dy_sem"])))
+    for key, pts in groups.items():
+        if len(pts) < 3:
+            continue
+        pts.sort()
+        sig = lambda p, q: 2 * math.hypot(p[2], q[2])
+        falls = pts[0][1] - pts[-1][1] > sig(pts[0], pts[-1])
+        no_rise = all(q[1] - p[1] <= sig(p, q) for p, q in zip(pts, pts[1:]))
+        box = dict(key)
+        yield (f"A across Bond numbers ({box.get('width', 0):g} x {box.get('height', 0):g}): the "
+               f"typical avalanche size mean |Delta y| falls as Bo rises", falls and no_rise,
+               ", ".join(f"Bo {bo:g}: {m:.3g} +- {e:.2g} R" for bo, m, e in pts))
 
 
 def check_scan(f, path):
@@ -238,6 +352,7 @@ def check_scan(f, path):
         ("increase_vs_nu_initial", "C across capture radii: dnu/nu_i falls with nu_i (power law)",
          lambda p, e: p < -2 * e, "exponent p of dnu/nu_i = A nu_i^p"),
     )
+    yield from typical_size_claims(f)
     for key, claim, holds, what in claims:
         if key not in a:  # a file written before this fit existed
             print(f"claims.py: {path}: no /analysis/{key} (an older file): `loosepack analyse "

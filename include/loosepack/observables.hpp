@@ -52,6 +52,7 @@ struct PointResult {
   EnsembleProfile nu;             // nu(y), strips of strip_width from the floor up to H
   // nu(y) of each member, one row per member in member order (a failed member's row NaN).
   std::vector<std::vector<double>> nu_member_rows;
+  std::vector<std::vector<double>> nu_deposition_member_rows;  // the same for nu_d(y_i)
   EnsembleProfile nu_deposition;  // nu_d(y_i): deposited disk area per strip by y_i
   Scalar nu_lower_half;
   BinnedStat dy_by_yi, dy_by_ye;  // avalanche profiles: Delta y = y_e - y_i

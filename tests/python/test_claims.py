@@ -106,3 +106,78 @@ def test_collapse_lines_and_identity(tmp_path):
     curved = verdicts(point_file(tmp_path, "p", "C", 1000.0,
                                  {"avalanche_by_ye": PARABOLA, "avalanche_by_yi": PARABOLA}))
     assert not curved["Delta y is a straight line in y_e and y_i"][0]
+
+
+def test_no_parabola_at_bo_1e4_passes_noise_and_fails_a_clear_parabola(tmp_path):
+    claim = "at Bo >= 1e4 no parabola can be identified"
+    noisy = verdicts(point_file(tmp_path, "n", "A", 1e4, {"avalanche_by_ye": CONSTANT}, noise=3.0))
+    assert noisy[claim][0]
+    clear = verdicts(point_file(tmp_path, "p", "A", 1e4, {"avalanche_by_ye": PARABOLA}))
+    assert not clear[claim][0]
+
+
+def density_point(tmp_path, name, nu_i, nu_f, predicted, increase, seed=1):
+    """A protocol-C point with per-member density rows nu_i(y) (by y_i) and nu_f(y), the
+    predicted final density, and dnu/nu_i = increase (+- 0.01)."""
+    rng = np.random.default_rng(seed)
+    centre = np.arange(2.0, H, 4.0)
+    path = tmp_path / f"{name}.h5"
+    with h5py.File(path, "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update({"protocol": "C", "bond_number": 1e3, "height": H, "members": MEMBERS,
+                        "failed": 0, "lower_half_from": 8.0, "cut_top": 8.0,
+                        "relative_increase_mean": increase, "relative_increase_sem": 0.01,
+                        "nu_initial_mean": nu_i(H / 4)})
+        g["members/top"] = np.full(MEMBERS, H - 10.0)
+        for key, profile in (("nu_deposition", nu_i), ("nu", nu_f)):
+            rows = profile(centre) + rng.normal(0, 0.02, (MEMBERS, centre.size))
+            g[f"{key}/centre"] = centre
+            g[f"{key}/member_mean"] = rows
+            g[f"{key}/mean"] = rows.mean(axis=0)
+            g[f"{key}/sem"] = rows.std(axis=0, ddof=1) / np.sqrt(MEMBERS)
+        g["nu/predicted"] = predicted(centre)
+    return path
+
+
+def density_verdicts(path):
+    with h5py.File(path, "r") as f:
+        return {c.split(": ", 1)[1]: ok
+                for c, ok, _ in claims.collapse_density_claims(f["points/0000"], str(path), "C")}
+
+
+def test_collapse_densities_flat_predicted_and_below_the_limit(tmp_path):
+    flat_i, flat_f = (lambda y: 0.38 + 0 * y), (lambda y: 0.42 + 0 * y)
+    good = density_verdicts(density_point(tmp_path, "g", flat_i, flat_f, flat_f, 0.1))
+    assert all(good.values()), good
+    # A graded initial deposit (nu falling by 0.2 over the box) is not flat.
+    graded = lambda y: 0.5 - 0.2 * y / H
+    bad = density_verdicts(density_point(tmp_path, "b", graded, flat_f, flat_f, 0.1))
+    assert not bad["nu_i(y) is flat in the bulk"] and bad["nu_f(y) is flat in the bulk"]
+    # A prediction 10 % off is rejected; a collapse past random close packing breaks the limit.
+    off = density_verdicts(density_point(tmp_path, "o", flat_i, flat_f, lambda y: 0.46 + 0 * y,
+                                         0.1))
+    assert not off["the final density predicted from the initial one matches"]
+    over = density_verdicts(density_point(tmp_path, "x", flat_i, flat_f, flat_f, 1.3))
+    assert not over["dnu/nu_i stays below its limit nu_rcp/nu_i - 1"]
+
+
+def bond_scan(tmp_path, name, sizes):
+    """Protocol-A points of one box differing only in Bo, with mean |Delta y| (mean, sem)."""
+    path = tmp_path / f"{name}.h5"
+    with h5py.File(path, "w") as f:
+        for k, (bo, (mean, sem)) in enumerate(sizes.items()):
+            g = f.create_group(f"points/{k:04d}")
+            g.attrs.update({"protocol": "A", "bond_number": bo, "width": 40.0, "height": 60.0,
+                            "friction": 0.3, "rolling_friction": 0.1, "cohesion_range": 0.01,
+                            "mean_abs_dy_mean": mean, "mean_abs_dy_sem": sem})
+    return path
+
+
+def test_typical_avalanche_size_falls_with_the_bond_number(tmp_path):
+    def verdict(sizes):
+        with h5py.File(bond_scan(tmp_path, str(len(sizes)) + str(sizes[10][0]), sizes)) as f:
+            (claim, ok, _), = claims.typical_size_claims(f)
+            return ok
+    assert verdict({10: (3.0, 0.2), 100: (1.5, 0.2), 1000: (0.2, 0.05)})
+    assert not verdict({10: (0.2, 0.05), 100: (1.5, 0.2), 1000: (3.0, 0.2)})  # rises
+    assert not verdict({10: (3.0, 0.2), 100: (1.0, 0.1), 1000: (2.0, 0.1)})   # rises in between
