@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# A build with Kokkos OpenMP (scripts/build-kokkos.sh openmp): the results do not depend on the
+# number of threads. The mixed scan (protocols A, B and C; tests/common.sh) is run on 1, 2 and 4
+# threads with the host's solver (accelerated_gauss_seidel, one thread per system) and with the
+# coloured solver (one team per system; its team reductions sum in an order fixed by the team
+# size, which Kokkos OpenMP keeps at one thread here), and each file must equal the one-thread
+# file bit for bit (tests/h5_equal.py).
+source "$(dirname "$0")/common.sh"
+export OMP_PROC_BIND=false
+mixed_scan "$dir/mixed.toml"
+for kind in accelerated_gauss_seidel coloured_accelerated_gauss_seidel; do
+  sed "s/^\[scan\]$/[solver]\nkind = \"$kind\"\n[scan]/" "$dir/mixed.toml" > "$dir/$kind.toml"
+  for threads in 1 2 4; do
+    OMP_NUM_THREADS=$threads "$exe" run "$dir/$kind.toml" -o "$dir/$kind-$threads.h5" -q
+  done
+  same "$dir/$kind-1.h5" "$dir/$kind-2.h5"
+  same "$dir/$kind-1.h5" "$dir/$kind-4.h5"
+done
+echo "threads_test: bit-identical on 1, 2 and 4 threads"
