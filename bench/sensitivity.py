@@ -20,6 +20,7 @@ per variant for 16 members); bo1e3 is A at Bo = 1e3, 40 R x 120 R with the tall 
 and tolerance (about 5 minutes per variant for 16 members on one core).
 """
 import argparse
+import datetime
 import json
 import math
 import os
@@ -155,6 +156,19 @@ def text(r):
     return "| " + " | ".join(cells) + " |"
 
 
+def environment():
+    """Where the record was made: date, commit, CPU, cores."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    commit = subprocess.run(["git", "-C", here, "rev-parse", "--short", "HEAD"],
+                            capture_output=True, text=True).stdout.strip()
+    cpu = ""
+    if os.path.exists("/proc/cpuinfo"):
+        with open("/proc/cpuinfo") as f:
+            cpu = next((l.split(":", 1)[1].strip() for l in f if l.startswith("model name")), "")
+    return {"date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+            "commit": commit, "cpu": cpu, "cores": os.cpu_count()}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", choices=sorted(SCENES), default="bo1e2")
@@ -179,7 +193,7 @@ def main():
             m = Measured(path)
             base = base or m
             r = row(name, m, None if m is base else compare(base, m))
-            r.update(scene=args.scene, seeds=args.seeds)
+            r.update(scene=args.scene, seeds=args.seeds, env=environment())
             print(text(r), flush=True)
             log.write(json.dumps(r) + "\n")
 
