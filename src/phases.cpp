@@ -88,7 +88,8 @@ void MemberRun::redraw_where_room(const Mask& depositing, DropRule rule,
       continue;
     const SystemParams& p = batch_->params(s);
     const auto disks = batch_->disks(s);
-    const double u = uniform01(scan_.seed, members_[slots_[k].member].id, kRoomDraws + disks.size());
+    const double u =
+        uniform01(scan_.seed, members_[slots_[k].member].id, kRoomDraws + disks.size());
     const auto at = free_abscissa(room_below(disks, p.width, p.height, p.radius), u);
     if (!at) continue;
     again[k] = 1;

@@ -27,7 +27,7 @@ constexpr double kNarrowestRoom = 1e-6;
 inline std::vector<std::pair<double, double>> room_below(const std::vector<Disk>& disks,
                                                          double width, double height, double r) {
   const double limit = height - r - 1e-9 * r;  // the highest centre allowed
-  if (limit < r) return {};                     // not even the floor has room
+  if (limit < r) return {};                    // not even the floor has room
   std::vector<std::pair<double, double>> blocked;
   for (const Disk& d : disks) {
     const double reach = r + d.radius;

@@ -105,8 +105,8 @@ std::vector<SettingKey> make_table() {
        "a larger region relaxes in the whole system", "region_max_disks",
        LOOSEPACK_FIELD(protocol.region_max_disks), nullptr, nullptr},
       {"protocol", "stop_rule", Type::Choice, 0, 0, "",
-       "A: deposition stops at the first drop over H, or when no drop lands below H",
-       "stop_rule", nullptr, nullptr,
+       "A: deposition stops at the first drop over H, or when no drop lands below H", "stop_rule",
+       nullptr, nullptr,
        [] {
          std::vector<std::string> names;
          for (StopRule r : kStopRules) names.emplace_back(stop_rule_name(r));

@@ -322,8 +322,10 @@ lower_half_from = 8.0
     EXPECT_GE(compared, static_cast<int>(H / 8.0)) << "H " << H;
     const double dof = compared / 3.0, w = 2.0 / (9.0 * dof), z999 = 3.0902;
     const double bound = 3.0 * dof * std::pow(1.0 - w + z999 * std::sqrt(w), 3) * 15.0 / 13.0;
-    std::printf("H = %g: chi2 %.1f of the prediction, %.1f without the slope factor, bound %.1f "
-                "(%d strips)\n", H, chi2, chi2_wrong, bound, compared);
+    std::printf(
+        "H = %g: chi2 %.1f of the prediction, %.1f without the slope factor, bound %.1f "
+        "(%d strips)\n",
+        H, chi2, chi2_wrong, bound, compared);
     EXPECT_LT(chi2, bound) << "H " << H;
     EXPECT_GT(chi2_wrong, bound) << "H " << H;
   }

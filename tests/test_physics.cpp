@@ -469,7 +469,8 @@ TEST(Validation, SlipDistanceIsFirstOrderInH) {
     Batch batch({setup(p, d)}, solver);
     const int steps = static_cast<int>(std::lround(t_end / h));
     for (int k = 0; k < steps; ++k) batch.step();
-    const double err = batch.disks(0)[0].x - 100.0 - (x_continuous + (steps * h - t_end) * 2.0 * v0 / 3.0);
+    const double err =
+        batch.disks(0)[0].x - 100.0 - (x_continuous + (steps * h - t_end) * 2.0 * v0 / 3.0);
     std::printf("h = %.3g: x - x_continuous = %.3e, -h v0 / 6 = %.3e\n", h, err, -h * v0 / 6.0);
     EXPECT_NEAR(err, -h * v0 / 6.0, mu * g * h * h / 8.0 + 1e-7) << "h = " << h;
     hs.push_back(h);

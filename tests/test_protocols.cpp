@@ -171,8 +171,8 @@ lower_half_from = 4.0
     for (const auto& r : results)
       lower += band_volume_fraction(r.y_e, r.radius, 24.0, 8.0, 36.0) / results.size();
     *volume_fraction = lower;
-    std::printf("Bo = %s: nu[8, 36) = %.4f; nu[8, 22) - nu[22, 36) = %.4f +- %.4f\n", bond,
-                lower, d.mean, d.sem);
+    std::printf("Bo = %s: nu[8, 36) = %.4f; nu[8, 22) - nu[22, 36) = %.4f +- %.4f\n", bond, lower,
+                d.mean, d.sem);
     return std::pair(d.mean / lower, d.sem / lower);
   };
   double dense = 0.0, loose = 0.0;
@@ -386,10 +386,10 @@ TEST(StopRule, TheFreeAbscissaeAreWhereADropLandsBelowH) {
   const double s3 = std::sqrt(3.0), s175 = std::sqrt(1.75), s039 = std::sqrt(4.0 - 1.9 * 1.9);
   const std::vector<Case> cases = {
       {8.0, {{11.6 + s175 - 12.0, 6.0 - s3}, {6.0 + s3, 11.6 - s175}}},  // only the high two
-      {6.5, {{1.6, 4.0}, {8.0, 9.6}}},            // the high two block their whole reach
+      {6.5, {{1.6, 4.0}, {8.0, 9.6}}},                // the high two block their whole reach
       {3.9, {{2.0 + s039, 4.0 - s039}, {8.0, 9.6}}},  // and the floor disks part of theirs
-      {2.9, {{8.0, 9.6}}},  // only the floor between the high two
-      {1.9, {}},            // not even the floor
+      {2.9, {{8.0, 9.6}}},                            // only the floor between the high two
+      {1.9, {}},                                      // not even the floor
   };
   for (const Case& c : cases) {
     SCOPED_TRACE("H = " + std::to_string(c.height));
