@@ -22,9 +22,9 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
 
   A, Bo >= 1e4      the parabola cannot be identified: the fluctuations are too large (the
                     parabola claim above fails)
-  C                 nu_i(y) and nu_f(y) are flat in the bulk (from `lower_half_from` to half
-                    the deposit's height, as nu_lower_half: slope within two jackknife errors of
-                    zero), the final density predicted from the initial one and the line
+  C                 nu_i(y) and nu_f(y) are flat in the bulk (from a quarter of the deposit's
+                    height, or `lower_half_from` if higher, to half of it: slope within two
+                    jackknife errors of zero), the final density predicted from the initial one and the line
                     Delta y(y_e) matches the measured one up to `cut_top` below the lowest
                     member's top (chi2 below the 99 % quantile of a chi2 of a third
                     of the strips' number of degrees of freedom, tripled: neighbouring strips
@@ -32,7 +32,8 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     paper: 1.19, random close packing nu_rcp = 0.84 over nu_i ~ 0.38)
 
 and, across the points of a scan (the fits in `analysis/`, made when three or more points
-differ only in that variable):
+differ only in that variable; each fit must also be acceptable, its chi2 below the 99 %
+quantile, or the law it claims is rejected):
 
   A, Bond numbers   the typical avalanche size falls as Bo rises: over three or more points
                     with 0 < Bo < inf that differ only in Bo, mean |Delta y| at the smallest Bo
@@ -40,7 +41,7 @@ differ only in that variable):
                     by no more than that between neighbouring Bond numbers
 
   A, heights        the curvature of Delta y(y_e) scales like 1/H: the exponent p of
-                    abs(c2) = A H^p within two standard errors of -1 (fig. 7)
+                    abs(c2) = A H^p below zero and within two standard errors of -1 (fig. 7)
   C, heights        dnu/nu_i grows with ln H: slope above zero by two standard errors (fig. 16)
   C, r_capt         dnu/nu_i falls with nu_i as a power law: exponent below zero by two
                     standard errors (fig. 17; the paper's is -1.64)
@@ -279,10 +280,12 @@ def collapse_density_claims(point, path, where):
     tops = point["members/top"][()]
     tops = tops[np.isfinite(tops) & (tops > 0)]
     final_top = float(tops.min()) if tops.size else h
-    # The bulk as nu_lower_half has it: up to half the deposit's height (the top of a ballistic
-    # deposit is rough over several R: its density falls there, and a flat profile ends below).
-    for key, label, high in (("nu_deposition", "nu_i", h / 2), ("nu", "nu_f", final_top / 2)):
-        r = density_slope(point[key], low, high)
+    # The bulk: from at least a quarter of the height (a ballistic deposit is denser near the
+    # floor and approaches its bulk density over tens of R, Lubachevsky, Privman and Roy 1993;
+    # `lower_half_from` where a file sets it higher) up to half the deposit's height (its top
+    # is rough over several R, where the density falls).
+    for key, label, top in (("nu_deposition", "nu_i", h), ("nu", "nu_f", final_top)):
+        r = density_slope(point[key], max(low, top / 4), top / 2)
         if r is None:
             yield (f"{where}: {label}(y) is flat in the bulk", False, "too few strips or members")
             continue
@@ -344,7 +347,7 @@ def check_scan(f, path):
     a = f["analysis"]
     claims = (
         ("quadratic_vs_height", "A across heights: curvature c2 of Delta y(y_e) scales like 1/H",
-         lambda p, e: abs(p + 1) <= 2 * e, "exponent p of abs(c2) = A H^p"),
+         lambda p, e: p < -2 * e and abs(p + 1) <= 2 * e, "exponent p of abs(c2) = A H^p"),
         ("slice_vs_height", "A across heights: the slice model's a stays fixed (Delta y = H f(y/H))",
          lambda p, e: abs(p) <= 2 * e, "exponent p of a = A H^p"),
         ("increase_vs_log_height", "C across heights: dnu/nu_i grows with ln H",
@@ -362,8 +365,13 @@ def check_scan(f, path):
             continue  # the scan has no three points differing in that variable
         coef, err, attrs = fit(a[key], path)
         p, e = float(coef[1]), float(err[1])
-        yield (claim, holds(p, e),
-               f"{what} = {p:.3g} +- {e:.2g}, chi2/dof {float(attrs.get('reduced_chi2', math.nan)):.2g}")
+        chi2, dof = float(attrs.get("chi2", math.nan)), float(attrs.get("dof", 0))
+        # A law the points do not follow (chi2 above its 99 % quantile) holds nothing, however
+        # wide the errors its scatter gives the exponent.
+        acceptable = dof < 1 or chi2 <= chi2_quantile99(dof)
+        yield (claim, holds(p, e) and acceptable,
+               f"{what} = {p:.3g} +- {e:.2g}, chi2/dof {float(attrs.get('reduced_chi2', math.nan)):.2g}"
+               + ("" if acceptable else f" (the law rejected: chi2 above {chi2_quantile99(dof):.3g})"))
 
 
 def main():

@@ -181,3 +181,23 @@ def test_typical_avalanche_size_falls_with_the_bond_number(tmp_path):
     assert verdict({10: (3.0, 0.2), 100: (1.5, 0.2), 1000: (0.2, 0.05)})
     assert not verdict({10: (0.2, 0.05), 100: (1.5, 0.2), 1000: (3.0, 0.2)})  # rises
     assert not verdict({10: (3.0, 0.2), 100: (1.0, 0.1), 1000: (2.0, 0.1)})   # rises in between
+
+
+def across_heights(tmp_path, name, p, e, chi2, dof=2):
+    path = tmp_path / f"{name}.h5"
+    with h5py.File(path, "w") as f:
+        f.create_group("points")
+        g = f.create_group("analysis/quadratic_vs_height")
+        g["coef"], g["error"] = np.array([-5.0, p]), np.array([0.5, e])
+        g.attrs.update({"valid": 1.0, "chi2": chi2, "dof": float(dof),
+                        "reduced_chi2": chi2 / dof, "points": dof + 2.0})
+    with h5py.File(path, "r") as f:
+        (claim, ok, _), = [c for c in claims.check_scan(f, str(path)) if "1/H" in c[0]]
+        return ok
+
+
+def test_one_over_h_needs_a_resolved_exponent_near_minus_one_and_an_acceptable_fit(tmp_path):
+    assert across_heights(tmp_path, "a", -1.05, 0.1, 1.0)
+    assert not across_heights(tmp_path, "b", -0.31, 0.14, 0.6)  # resolved, but not -1
+    assert not across_heights(tmp_path, "c", -1.0, 0.1, 40.0)   # the points follow no power law
+    assert not across_heights(tmp_path, "d", 0.5, 2.0, 1.0)     # -1 within errors, but not falling
