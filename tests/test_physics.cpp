@@ -213,6 +213,36 @@ TEST(Validation, CohesiveInclineStaticIffSinBelowMuTimesCosPlusBo) {
 // Beyond the threshold it rolls against the rolling moment mu_r R N: m a = m g sin theta - F,
 // (m R^2 / 2) a / R = F R - mu_r R m g cos theta, so a = (2/3) g (sin theta - mu_r cos theta);
 // in n steps of h the discrete motion covers a h^2 n (n + 1) / 2 (2.67e-3 R here).
+// Detachment under combined tension and shear: the same disk stuck under a ceiling (the floor,
+// gravity pulling it away at theta from the normal), rotation locked. The contact carries the
+// tension m g cos theta (held while cos theta <= Bo) and the shear m g sin theta, bounded by
+// mu (P_n + F_c) with P_n = -m g cos theta in tension: static iff sin theta <= mu (Bo - cos theta),
+// theta_c = asin(mu Bo / sqrt(1 + mu^2)) - atan(mu), else it slides along the ceiling, still
+// attached, with a = g (sin theta - mu (Bo - cos theta)). Bo = 2, mu = 0.3: theta_c = 18.4 deg;
+// a bound written with + cos theta (compression's sign) would hold it to 43 deg and fails.
+TEST(Validation, CohesiveCeilingSlidesIffSinAboveMuTimesBoMinusCos) {
+  const double mu = 0.3, bo = 2.0, t = 2.0;
+  const double theta_c = std::asin(mu * bo / std::sqrt(1.0 + mu * mu)) - std::atan(mu);
+  const auto hang = [&](double theta, double* speed) {
+    SystemParams p = incline(theta, mu, 0.0);
+    p.gravity_dir_y = std::cos(theta);  // away from the floor
+    p.bond_number = bo;
+    Batch batch({setup(p, one_disk(true))}, tight());
+    for (int k = 0; k < static_cast<int>(std::lround(t / 0.01)); ++k) batch.step();
+    const auto d = batch.disks(0);
+    *speed = d[0].vx;
+    EXPECT_NEAR(d[0].y, 1.0, 1e-9) << "theta " << theta << ": it came off the ceiling";
+    return d[0].x - 100.0;
+  };
+  double v = 0.0;
+  EXPECT_LT(std::fabs(hang(0.995 * theta_c, &v)), 1e-9);
+  const double theta = 1.005 * theta_c;
+  hang(theta, &v);
+  const double a = std::sin(theta) - mu * (bo - std::cos(theta));  // g = 1
+  ASSERT_GT(a, 0.0);
+  EXPECT_NEAR(v, a * t, 1e-3 * a * t);
+}
+
 TEST(Validation, InclineRollingFrictionStaticIffTanBelowMuR) {
   const double mu = 0.3, mu_r = 0.1;  // threshold atan(0.1) = 5.71 degrees
   // At R = 1 and 2.5: the lever mu_r R_c makes the threshold and the acceleration independent
