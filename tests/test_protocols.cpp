@@ -366,6 +366,73 @@ lower_half_from = 1.0
   }
 }
 
+// Relaxation regions (the tall files' fast path) against the whole-system relaxation on the same
+// 16 members (A, Bo = 1e2, 24 R x 48 R, regions r = 8 checked after every 4th disk): nu_lower_half
+// and mean |Delta y| paired member by member, each mean difference within 2.5 standard errors of
+// the differences, and the curvature of Delta y(y_e) within 2.5 combined errors of the two fits.
+// The control: the same comparison against the whole system with mu_r = 0.2 (nu_lower_half
+// 0.06 lower, docs/REPRODUCTION.md "Sensitivity to the model's choices") must find a difference.
+namespace {
+struct Paths {
+  std::vector<MemberResult> members;
+  PointAnalysis fits;
+};
+Paths run_path(const std::string& protocol, double mu_r) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 16
+[system]
+width = 24.0
+height = 48.0
+bond_number = 100
+rolling_friction = )" + std::to_string(mu_r) + R"(
+[observables]
+lower_half_from = 4.0
+cut_bottom = 4.0
+cut_top = 4.0
+)" + protocol);
+  Paths p;
+  p.members = run_all(scan);
+  const auto points = aggregate(scan, p.members);
+  p.fits = analyse(scan, points).points.at(0);
+  return p;
+}
+// Differences (b - a) of nu_lower_half and of mean |Delta y| over the paired members, in units
+// of their standard errors; and of the curvature in units of the combined fit errors.
+std::vector<double> paired_sigmas(const Paths& a, const Paths& b) {
+  const auto per_member = [](const MemberResult& r, int which) {
+    if (which == 0) return band_volume_fraction(r.y_e, r.radius, 24.0, 4.0, 24.0);
+    double sum = 0.0;
+    for (std::size_t k = 0; k < r.y_e.size(); ++k) sum += std::fabs(r.y_e[k] - r.y_i[k]);
+    return sum / static_cast<double>(r.y_e.size());
+  };
+  std::vector<double> out;
+  for (int which : {0, 1}) {
+    std::vector<double> d;
+    for (std::size_t m = 0; m < a.members.size(); ++m)
+      d.push_back(per_member(b.members[m], which) - per_member(a.members[m], which));
+    const Scalar s = mean_sem(d);
+    out.push_back(s.mean / s.sem);
+  }
+  const Fit &fa = a.fits.dy_by_ye, &fb = b.fits.dy_by_ye;
+  out.push_back((fb.coef[2] - fa.coef[2]) / std::hypot(fa.error[2], fb.error[2]));
+  return out;
+}
+}  // namespace
+
+TEST(Regions, SameObservablesAsTheWholeSystemWithinErrors) {
+  const Paths whole = run_path("", 0.1);
+  const Paths regions = run_path("[protocol]\nregion_radius = 8\nregion_check_every = 4\n", 0.1);
+  for (const auto& r : regions.members) ASSERT_TRUE(r.ok());
+  const auto sigmas = paired_sigmas(whole, regions);
+  std::printf("regions against the whole system: nu_lower_half %+.2f, mean |dy| %+.2f, c2 %+.2f "
+              "errors\n", sigmas[0], sigmas[1], sigmas[2]);
+  for (double z : sigmas) EXPECT_LT(std::fabs(z), 2.5);
+  const auto control = paired_sigmas(whole, run_path("", 0.2));
+  EXPECT_GT(std::fabs(control[0]), 2.5) << "the comparison cannot tell mu_r = 0.2 from 0.1";
+}
+
 // The paper's stop rule (protocol.stop_rule = "no_room"): the abscissae where a drop still lands
 // below H (src/room_below.hpp), by hand for a deposit of two disks on the floor, one held at
 // y = 6 and one at y = 5.5 across the seam (12 R wide). A disk of r = 1 lands below H where its
