@@ -24,11 +24,11 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     parabola claim above fails)
   C                 nu_i(y) and nu_f(y) are flat in the bulk (from a quarter of the deposit's
                     height, or `lower_half_from` if higher, to half of it: slope within two
-                    jackknife errors of zero), the final density predicted from the initial one and the line
-                    Delta y(y_e) matches the measured one up to `cut_top` below the lowest
-                    member's top (chi2 below the 99 % quantile of a chi2 of a third
+                    jackknife errors of zero); the final density predicted from the initial one
+                    and the line Delta y(y_e) matches the measured one up to `cut_top` below
+                    the lowest member's top (chi2 below the 99 % quantile of a chi2 of a third
                     of the strips' number of degrees of freedom, tripled: neighbouring strips
-                    share disks), and dnu/nu_i stays below its upper limit nu_rcp/nu_i - 1 (the
+                    share disks); and dnu/nu_i stays below its upper limit nu_rcp/nu_i - 1 (the
                     paper: 1.19, random close packing nu_rcp = 0.84 over nu_i ~ 0.38)
 
 and, across the points of a scan (the fits in `analysis/`, made when three or more points
@@ -368,7 +368,7 @@ def check_scan(f, path):
         chi2, dof = float(attrs.get("chi2", math.nan)), float(attrs.get("dof", 0))
         # A law the points do not follow (chi2 above its 99 % quantile) holds nothing, however
         # wide the errors its scatter gives the exponent.
-        acceptable = dof < 1 or chi2 <= chi2_quantile99(dof)
+        acceptable = dof < 1 or not math.isfinite(chi2) or chi2 <= chi2_quantile99(dof)
         yield (claim, holds(p, e) and acceptable,
                f"{what} = {p:.3g} +- {e:.2g}, chi2/dof {float(attrs.get('reduced_chi2', math.nan)):.2g}"
                + ("" if acceptable else f" (the law rejected: chi2 above {chi2_quantile99(dof):.3g})"))
