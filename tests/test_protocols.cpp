@@ -377,7 +377,8 @@ struct Paths {
   std::vector<MemberResult> members;
   PointAnalysis fits;
 };
-Paths run_path(const std::string& protocol, double mu_r) {
+// `sections`: scan-file text appended (the [protocol] section of the regions path).
+Paths run_path(const std::string& sections, double mu_r) {
   const auto scan = scan_of(R"(
 [scan]
 protocol = "A"
@@ -391,7 +392,7 @@ rolling_friction = )" + std::to_string(mu_r) + R"(
 lower_half_from = 4.0
 cut_bottom = 4.0
 cut_top = 4.0
-)" + protocol);
+)" + sections);
   Paths p;
   p.members = run_all(scan);
   const auto points = aggregate(scan, p.members);
