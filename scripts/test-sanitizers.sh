@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Debug build with AddressSanitizer and UndefinedBehaviorSanitizer (LOOSEPACK_SANITIZE=ON), then
-# the unit and validation tests that run in reasonable time without optimisation.
+# the unit and validation tests that run in reasonable time without optimisation (not the
+# statistical comparison of 48 members, Regions.SameObservablesAsTheWholeSystemWithinErrors,
+# whose code paths Regions.DepositEndsAtRestCarryingItsWeight covers).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -10,4 +12,4 @@ cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Debug -DLOOSEPACK_SANITIZE=ON \
   { cat build-asan/configure.log; echo "cmake configure failed" >&2; exit 1; }
 cmake --build build-asan -j"$(nproc)" --target loosepack_tests
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ./build-asan/tests/loosepack_tests \
-  --gtest_filter='ContactLaw*:Validation*:Scan*:Output*:Solver*:Guard*:Reproducibility*:Analysis*:Checkpoint*:Failure*:Region*:ColouredSolver*:Newton*:Batch*:Collision*:Backend*'
+  --gtest_filter='ContactLaw*:Validation*:Scan*:Output*:Solver*:Guard*:Reproducibility*:Analysis*:Checkpoint*:Failure*:Region*:ColouredSolver*:Newton*:Batch*:Collision*:Backend*-Regions.SameObservablesAsTheWholeSystemWithinErrors'
