@@ -1,5 +1,8 @@
 // The loosepack command-line program.
 #include <unistd.h>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include <CLI/CLI.hpp>
 #include <Kokkos_Core.hpp>
@@ -296,6 +299,12 @@ void RunCommand::save_checkpoint() {
   std::vector<MemberSnapshot> snaps;
   for (const auto& [id, snap] : running) snaps.push_back(snap);
   write_checkpoint_part(part, fingerprint, fresh, snaps);
+  // Each checkpoint encodes every member finished so far in one buffer, larger each time; glibc
+  // keeps the freed buffers in the heap, so a run would grow by a few encodings' worth over its
+  // checkpoints (tests/soak_test.sh). Hand them back.
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
 }
 
 // Progress of all ranks, on rank 0, at most every 2 s unless forced.
