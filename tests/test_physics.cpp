@@ -7,6 +7,7 @@
 
 #include "loosepack/batch.hpp"
 #include "loosepack/scenes.hpp"
+#include "tests/run_helpers.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;
@@ -315,16 +316,24 @@ TEST(Validation, FreeFallIsTheDiscreteMotionExactly) {
 }
 
 // 4. Disk launched sliding on the floor.
-TEST(Validation, SlidingDiskStartsRollingAtTwoThirdsV0) {
-  const double mu = 0.3, v0 = 2.0, h = 1e-3;
+namespace {
+// A disk at x = 100 launched at v0 along the floor, friction mu, no spin, solved tightly while
+// it moves too (no relative tolerance).
+Batch sliding_disk(double mu, double v0, double h) {
   auto p = bare_params(1000.0, 10.0);
   p.friction = mu;
   p.time_step = h;
   auto d = one_disk();
   d[0].vx = v0;
   SolverSettings solver = tight();
-  solver.relative_tolerance = 0.0;  // converged while it moves too
-  Batch batch({setup(p, d)}, solver);
+  solver.relative_tolerance = 0.0;
+  return Batch({setup(p, d)}, solver);
+}
+}  // namespace
+
+TEST(Validation, SlidingDiskStartsRollingAtTwoThirdsV0) {
+  const double mu = 0.3, v0 = 2.0, h = 1e-3;
+  Batch batch = sliding_disk(mu, v0, h);
   const double t_slide = v0 / (3.0 * mu);
   const double x_slide = 5.0 * v0 * v0 / (18.0 * mu);
   const double t_end = 2.0 * t_slide;
@@ -457,13 +466,12 @@ TEST(Validation, PullOffBarrierOfUnequalDisks) {
 // x advanced by h (v_old + v_new) / 2 leaves the slip error at 1e-6 and fails).
 namespace {
 double fitted_order(const std::vector<double>& h, const std::vector<double>& err) {
-  const double n = static_cast<double>(h.size());
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  std::vector<double> log_h, log_err;
   for (std::size_t k = 0; k < h.size(); ++k) {
-    const double x = std::log(h[k]), y = std::log(std::fabs(err[k]));
-    sx += x, sy += y, sxx += x * x, sxy += x * y;
+    log_h.push_back(std::log(h[k]));
+    log_err.push_back(std::log(std::fabs(err[k])));
   }
-  return (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  return run_helpers::slope(log_h, log_err).first;
 }
 }  // namespace
 
@@ -490,14 +498,7 @@ TEST(Validation, SlipDistanceIsFirstOrderInH) {
       v0 * t_slide - 0.5 * mu * g * t_slide * t_slide + 2.0 * v0 / 3.0 * (t_end - t_slide);
   std::vector<double> hs, errs;
   for (double h : {8e-3, 4e-3, 2e-3, 1e-3}) {
-    auto p = bare_params(1000.0, 10.0);
-    p.friction = mu;
-    p.time_step = h;
-    auto d = one_disk();
-    d[0].vx = v0;
-    SolverSettings solver = tight();
-    solver.relative_tolerance = 0.0;
-    Batch batch({setup(p, d)}, solver);
+    Batch batch = sliding_disk(mu, v0, h);
     const int steps = static_cast<int>(std::lround(t_end / h));
     for (int k = 0; k < steps; ++k) batch.step();
     const double err =

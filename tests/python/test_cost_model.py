@@ -14,6 +14,8 @@ import subprocess
 
 import pytest
 
+from loosepack.runner import to_toml
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 RECORD = os.path.join(HERE, "..", "..", "bench", "results", "cost-relative-2026-11-25.jsonl")
 PROGRAM = os.environ.get("LOOSEPACK", os.path.join(HERE, "..", "..", "build", "loosepack"))
@@ -26,16 +28,10 @@ def records():
 
 def expected_seconds(tmp_path, setups):
     """The program's estimate of CPU seconds per member for each setup, in order."""
-    lines = ['[scan]\nname = "cost"\nseeds = 1\n']
-    for s in setups:
-        bond = '"inf"' if s["bond_number"] == "inf" else repr(float(s["bond_number"]))
-        lines.append(
-            f'[[point]]\nprotocol = "{s["protocol"]}"\nwidth = {float(s["width"])!r}\n'
-            f'height = {float(s["height"])!r}\nbond_number = {bond}\n'
-            f'capture_radius = {float(s["capture_radius"])!r}\n'
-            f'time_step = {float(s["time_step"])!r}\n')
+    keys = ("protocol", "width", "height", "bond_number", "capture_radius", "time_step")
     scan = tmp_path / "cost.toml"
-    scan.write_text("".join(lines))
+    scan.write_text(to_toml({"scan": {"name": "cost", "seeds": 1},
+                             "point": [{k: s[k] for k in keys} for s in setups]}))
     out = subprocess.run([PROGRAM, "run", str(scan), "--dry-run"], check=True,
                          capture_output=True, text=True).stdout
     rows = [line.split() for line in out.splitlines() if re.match(r"^\d{4}\s", line)]
