@@ -322,21 +322,93 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
   return polynomial_fit(lx, ly, ls, 1);
 }
 
+double chi2_quantile99(double dof) {
+  constexpr double kZ99 = 2.3263;  // the standard normal's 99 % quantile
+  const double a = 2.0 / (9.0 * dof);
+  return dof * std::pow(1.0 - a + kZ99 * std::sqrt(a), 3);
+}
+
+namespace {
+
+// ln n = polynomial of `degree` in x through the bins with counts (weights n).
+Fit log_count_fit(const std::vector<double>& x, const std::vector<double>& n, int degree) {
+  std::vector<double> xs, ln, ls;
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    if (!(n[k] > 0.0)) continue;
+    xs.push_back(x[k]);
+    ln.push_back(std::log(n[k]));
+    ls.push_back(1.0 / std::sqrt(n[k]));
+  }
+  return polynomial_fit(xs, ln, ls, degree);
+}
+
+// The histogram fit's chi2 and errors from the members' scatter (HistogramShape): each member
+// with disks left out in turn, the rest's counts scaled to the whole ensemble's and refitted;
+// errors the jackknife of the coefficients, chi2 the residuals against their jackknife errors.
+// Leaves `f` unchanged (Pearson's chi2) with fewer than 4 members with disks.
+void member_scatter(Fit& f, int degree, const std::vector<double>& x, const std::vector<double>& n,
+                    const std::vector<std::size_t>& bins,
+                    const std::vector<std::vector<double>>& member_counts, bool& used) {
+  std::vector<const std::vector<double>*> rows;
+  for (const auto& row : member_counts) {
+    double samples = 0.0;
+    for (double c : row) samples += c;
+    if (samples > 0.0) rows.push_back(&row);  // 0: a failed member, not in the counts
+  }
+  const auto m = static_cast<double>(rows.size());
+  if (rows.size() < 4 || !f.valid()) return;
+  std::vector<std::vector<double>> coefs, residuals;
+  for (const auto* row : rows) {
+    std::vector<double> rest;
+    for (std::size_t i = 0; i < bins.size(); ++i)
+      rest.push_back((n[i] - (*row)[bins[i]]) * m / (m - 1.0));
+    const Fit r = log_count_fit(x, rest, degree);
+    if (!r.valid() || r.coef.size() != f.coef.size()) {
+      f.chi2 = kNaN;  // a member without whom the bins do not determine the fit
+      return;
+    }
+    std::vector<double> res;
+    for (std::size_t i = 0; i < bins.size(); ++i)
+      res.push_back(rest[i] - std::exp(polynomial(r, x[i])));
+    coefs.push_back(r.coef);
+    residuals.push_back(std::move(res));
+  }
+  auto jackknife = [&](const std::vector<std::vector<double>>& reps, std::size_t j) {
+    double mean = 0.0, ss = 0.0;
+    for (const auto& v : reps) mean += v[j] / m;
+    for (const auto& v : reps) ss += (v[j] - mean) * (v[j] - mean);
+    return std::sqrt((m - 1.0) / m * ss);
+  };
+  for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife(coefs, j);
+  f.chi2 = 0.0;
+  for (std::size_t i = 0; i < bins.size(); ++i) {
+    const double e = jackknife(residuals, i);
+    if (!(e > 0.0)) continue;
+    const double z = (n[i] - std::exp(polynomial(f, x[i]))) / e;
+    f.chi2 += z * z;
+  }
+  f.chi2 *= (m - 3.0) / (m - 1.0);  // as ensemble_fit: E[z^2] of an error from m members
+  used = true;
+}
+
+}  // namespace
+
 HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
+                               const std::vector<std::vector<double>>& member_counts,
                                double min_count) {
   HistogramShape h;
   h.preferred = "none";
-  std::vector<double> x, n, lx, ln, ls;
+  std::vector<double> x, n;
+  std::vector<std::size_t> bins;
   for (std::size_t k = 0; k < counts.size() && k + 1 < edges.size(); ++k) {
     if (!(counts[k] >= min_count)) continue;
     x.push_back(0.5 * (edges[k] + edges[k + 1]));
     n.push_back(counts[k]);
-    ln.push_back(std::log(counts[k]));
-    ls.push_back(1.0 / std::sqrt(counts[k]));
+    bins.push_back(k);
   }
-  h.exponential = polynomial_fit(x, ln, ls, 1);
-  h.gaussian = polynomial_fit(x, ln, ls, 2);
-  // Pearson chi2 of the counts against each fitted model.
+  h.exponential = log_count_fit(x, n, 1);
+  h.gaussian = log_count_fit(x, n, 2);
+  // Pearson chi2 of the counts against each fitted model, unless the members give errors.
   auto pearson = [&](Fit& f) {
     if (!f.valid()) return;
     double chi2 = 0.0;
@@ -348,6 +420,14 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
   };
   pearson(h.exponential);
   pearson(h.gaussian);
+  bool rows_ok = !member_counts.empty();
+  for (const auto& row : member_counts) rows_ok = rows_ok && row.size() == counts.size();
+  if (rows_ok) {
+    bool used = false;
+    member_scatter(h.exponential, 1, x, n, bins, member_counts, used);
+    member_scatter(h.gaussian, 2, x, n, bins, member_counts, used);
+    h.member_errors = used;
+  }
   const double beta = coef(h.exponential, 1);
   h.decay_length = beta < 0.0 ? -1.0 / beta : kNaN;
   const double g = coef(h.gaussian, 2);
@@ -356,9 +436,12 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
   if (h.exponential.valid() && h.gaussian.valid() && h.gaussian.dof > 0) {
     const double aic_exp = h.exponential.chi2 + 2.0 * 2.0;
     const double aic_gauss = h.gaussian.chi2 + 2.0 * 3.0;
-    // The quadratic is a Gaussian only with a maximum (gamma < 0); when it fits better without
-    // one (a tail heavier than exponential), neither shape describes the histogram.
-    if (aic_exp <= aic_gauss)
+    const Fit& best = aic_exp <= aic_gauss ? h.exponential : h.gaussian;
+    // A shape that does not fit describes nothing, however much better than the other; nor
+    // does a quadratic without a maximum (a tail heavier than exponential).
+    if (!(best.chi2 <= chi2_quantile99(best.dof)))
+      h.preferred = "neither";
+    else if (aic_exp <= aic_gauss)
       h.preferred = "exponential";
     else
       h.preferred = g < 0.0 ? "gaussian" : "neither";
@@ -375,8 +458,9 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
     const double H = pr.point.params.height;
     const bool moves =
         prot == Protocol::C || (prot == Protocol::A && std::isfinite(pr.point.params.bond_number));
-    a.abs_dy = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts);
-    a.abs_dy_cut = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut);
+    a.abs_dy = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts, pr.abs_dy_member_counts);
+    a.abs_dy_cut =
+        histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut, pr.abs_dy_member_counts_cut);
     a.nu_predicted.assign(pr.nu.centre.size(), kNaN);
     a.nu_deviation.assign(pr.nu.centre.size(), kNaN);
     a.nu_rms_deviation = kNaN;

@@ -226,16 +226,22 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
     for (int k = 0; k <= n_hist; ++k) pr.abs_dy_edges.push_back(k * obs.abs_dy_bin);
     pr.abs_dy_counts.assign(static_cast<std::size_t>(n_hist), 0.0);
     pr.abs_dy_counts_cut.assign(static_cast<std::size_t>(n_hist), 0.0);
-    for (const auto* r : ok) {
-      const double top = deposit_top(r->y_e, r->radius);
-      for (std::size_t k = 0; k < r->y_i.size(); ++k) {
+    for (const auto* r : all) {
+      std::vector<double> counts(static_cast<std::size_t>(n_hist), 0.0), cut = counts;
+      const double top = r->ok() ? deposit_top(r->y_e, r->radius) : 0.0;
+      for (std::size_t k = 0; r->ok() && k < r->y_i.size(); ++k) {
         const double a = std::fabs(r->y_e[k] - r->y_i[k]);
         const auto j = static_cast<std::size_t>(
             std::min(n_hist - 1, static_cast<int>(std::floor(a / obs.abs_dy_bin))));
-        pr.abs_dy_counts[j] += 1.0;
-        if (r->y_e[k] >= cut_bottom && r->y_e[k] <= top - cut_top)
-          pr.abs_dy_counts_cut[j] += 1.0;
+        counts[j] += 1.0;
+        if (r->y_e[k] >= cut_bottom && r->y_e[k] <= top - cut_top) cut[j] += 1.0;
       }
+      for (std::size_t j = 0; j < counts.size(); ++j) {
+        pr.abs_dy_counts[j] += counts[j];
+        pr.abs_dy_counts_cut[j] += cut[j];
+      }
+      pr.abs_dy_member_counts.push_back(std::move(counts));
+      pr.abs_dy_member_counts_cut.push_back(std::move(cut));
     }
 
     // Avalanche events (protocol A): logarithmic bins, 4 per decade from 1e-3 to 1e5.

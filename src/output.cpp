@@ -33,12 +33,11 @@ struct DatasetMeta {
 };
 
 bool is_count(const std::string& name) {
-  for (const char* n : {"count", "members", "counts", "counts_cut", "downward_counts",
-                        "moved_counts", "steps_counts", "member_count", "seed_index", "disks",
-                        "steps", "sweeps", "failure", "capped", "contact_i", "contact_j", "disk",
-                        "time"})
-    if (name == n) return true;
-  return false;
+  static const std::string kCounts =
+      " count members counts counts_cut member_counts member_counts_cut downward_counts"
+      " moved_counts steps_counts member_count seed_index disks steps sweeps failure capped"
+      " contact_i contact_j disk time ";
+  return !name.empty() && kCounts.find(" " + name + " ") != std::string::npos;
 }
 
 DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
@@ -252,6 +251,7 @@ void fit(hid_t parent, const std::string& name, const Fit& f) {
 void histogram_shape(hid_t parent, const std::string& name, const HistogramShape& h) {
   H5 g = group(parent, name);
   attribute(g, "preferred", h.preferred);
+  attribute(g, "member_errors", h.member_errors ? 1.0 : 0.0);
   attribute(g, "decay_length", h.decay_length);
   attribute(g, "gaussian_mean", h.gaussian_mean);
   attribute(g, "gaussian_width", h.gaussian_width);
@@ -425,6 +425,8 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         dataset(h, "edges", pr.abs_dy_edges);
         dataset(h, "counts", pr.abs_dy_counts);
         dataset(h, "counts_cut", pr.abs_dy_counts_cut);
+        dataset(h, "member_counts", pr.abs_dy_member_counts);
+        dataset(h, "member_counts_cut", pr.abs_dy_member_counts_cut);
       }
       if (pr.point.protocol == Protocol::C) {
         scalar(g, "nu_initial", pr.nu_initial);
@@ -613,6 +615,16 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
                 {{"counts", pr.abs_dy_counts.size()},
                  {"counts_cut", pr.abs_dy_counts_cut.size()},
                  {"edges less one", pr.abs_dy_edges.empty() ? 0 : pr.abs_dy_edges.size() - 1}});
+  // Files of programs before the per-member counts lack them: the shapes' chi2 is then Pearson's.
+  for (auto [name, member] : {std::pair("member_counts", &pr.abs_dy_member_counts),
+                              std::pair("member_counts_cut", &pr.abs_dy_member_counts_cut)}) {
+    const std::string path = std::string("abs_dy_histogram/") + name;
+    if (H5Lexists(g, path.c_str(), H5P_DEFAULT) <= 0) continue;
+    *member = rows(g, path);
+    for (const auto& row : *member)
+      check_lengths(n + "/abs_dy_histogram",
+                    {{"counts", pr.abs_dy_counts.size()}, {name, row.size()}});
+  }
   if (point.protocol == Protocol::C) {
     pr.nu_initial = scalar_of("nu_initial");
     pr.nu_final = scalar_of("nu_final");

@@ -167,6 +167,69 @@ TEST(Analysis, HistogramShapeTellsGaussianFromExponential) {
   EXPECT_GT(sg.exponential.reduced_chi2(), 10.0 * sg.gaussian.reduced_chi2());
 }
 
+// Avalanches move disks in lumps: every disk of a lump gets the same |Delta y|, so the counts
+// scatter far beyond Poisson's sqrt(n). 16 members of 150 lumps (1 to 40 disks, geometric with
+// mean 8) each: with the members' counts, a shape that is right fits (chi2 within its 99 %
+// bound) and is preferred; judged by Pearson's chi2 instead, the same right shape is rejected
+// ("neither"); and a two-humped distribution, which neither shape describes, is "neither" with
+// the members' counts too, though one shape still has the lower AIC.
+TEST(Analysis, HistogramShapeNeedsAFitWithinTheMembersScatter) {
+  std::mt19937_64 rng(2026);
+  const int members = 16, lumps = 150, n_bins = 60;
+  const double bin = 0.5;
+  std::vector<double> edges;
+  for (int k = 0; k <= n_bins; ++k) edges.push_back(k * bin);
+  std::geometric_distribution<int> lump(1.0 / 8.0);
+  auto ensemble = [&](auto draw) {
+    std::vector<std::vector<double>> rows(members, std::vector<double>(n_bins, 0.0));
+    std::vector<double> total(n_bins, 0.0);
+    for (auto& row : rows)
+      for (int l = 0; l < lumps; ++l) {
+        const int b = static_cast<int>(std::fabs(draw()) / bin);
+        const double disks = std::min(40, 1 + lump(rng));
+        if (b >= n_bins) continue;
+        row[static_cast<std::size_t>(b)] += disks;
+        total[static_cast<std::size_t>(b)] += disks;
+      }
+    return std::pair(total, rows);
+  };
+  std::normal_distribution<double> gauss(12.0, 3.0), low(7.0, 1.0), high(17.0, 1.0);
+  std::exponential_distribution<double> expo(1.0 / 3.0);
+  std::bernoulli_distribution coin(0.5);
+  const auto [g, g_rows] = ensemble([&] { return gauss(rng); });
+  const auto [e, e_rows] = ensemble([&] { return expo(rng); });
+  const auto [b, b_rows] = ensemble([&] { return coin(rng) ? low(rng) : high(rng); });
+
+  const HistogramShape sg = histogram_shape(edges, g, g_rows);
+  EXPECT_TRUE(sg.member_errors);
+  EXPECT_EQ(sg.preferred, "gaussian");
+  EXPECT_LE(sg.gaussian.chi2, chi2_quantile99(sg.gaussian.dof));
+  EXPECT_NEAR(sg.gaussian_mean, 12.0, 0.5);
+  EXPECT_NEAR(sg.gaussian_width, 3.0, 0.4);
+  const HistogramShape se = histogram_shape(edges, e, e_rows);
+  EXPECT_EQ(se.preferred, "exponential");
+  EXPECT_NEAR(se.decay_length, 3.0, 0.4);
+
+  // Pearson's chi2 takes the lumps' scatter for misfit.
+  const HistogramShape pearson = histogram_shape(edges, g);
+  EXPECT_FALSE(pearson.member_errors);
+  EXPECT_GT(pearson.gaussian.chi2, chi2_quantile99(pearson.gaussian.dof));
+  EXPECT_EQ(pearson.preferred, "neither");
+
+  const HistogramShape sb = histogram_shape(edges, b, b_rows);
+  EXPECT_TRUE(sb.member_errors);
+  EXPECT_GT(std::min(sb.gaussian.chi2, sb.exponential.chi2),
+            chi2_quantile99(std::max(sb.gaussian.dof, sb.exponential.dof)));
+  EXPECT_EQ(sb.preferred, "neither");
+}
+
+// The 99 % quantile of chi2: Wilson and Hilferty's approximation against tabulated values.
+TEST(Analysis, Chi2QuantileMatchesTables) {
+  EXPECT_NEAR(chi2_quantile99(5), 15.086, 0.1);
+  EXPECT_NEAR(chi2_quantile99(10), 23.209, 0.1);
+  EXPECT_NEAR(chi2_quantile99(30), 50.892, 0.1);
+}
+
 // A synthetic protocol-C ensemble: disks of a uniform deposit (volume fraction nu_i) collapse
 // along the exact line y_e = y_i + a' - b' y_i. Then Delta y(y_e) = a - b y_e with b = b'/(1-b')
 // and a = a'/(1-b') (the paper's identity read backwards), the final density is nu_i (1 + b),

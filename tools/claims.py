@@ -12,14 +12,24 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     and a constant and a straight line are both rejected (chi2 above it)
   A, Bo = 0         no parabola: in the same band a constant Delta y is acceptable (the paper:
                     about 1.5 R at every height) and the parabola claim fails
-  A, Bo = 0         the |Delta y| histogram is better described by an exponential (fig. 9)
-  A, Bo = 1e3       the |Delta y| histogram is better described by a Gaussian (fig. 8; the paper
-                    says it of Bo = 1e3, not of larger Bond numbers)
+  A, Bo = 0         the |Delta y| histogram is exponential (fig. 9)
+  A, Bo = 1e3       the |Delta y| histogram is Gaussian (fig. 8; the paper says it of Bo = 1e3,
+                    not of larger Bond numbers): the program's verdict (`preferred`), which
+                    needs the lower information criterion and an acceptable fit, its errors
+                    from the members' scatter (docs/OUTPUT.md, "Analysis")
   C                 Delta y is a straight line in y_e and in y_i (each line acceptable), and
                     the coefficient identity b' = b/(1+b), a' = a/(1+b) holds: each difference
                     within two standard errors of zero, its error a jackknife of the difference
                     itself (figs. 14, 15)
 
+  A, Bo = 0         beyond 2 R the cut histogram decays exponentially (an acceptable fit with
+                    errors from the members' scatter), and between 1 and 2 R its probability is
+                    about constant (one constant acceptable through those bins): the paper's
+                    "exponential decay" with its stated deviation (fig. 9)
+  A, Bo = 1e2, 1e3  (H >= 220) the deposition density's fluctuation at y = 200: 15 % and 20 %
+                    (sec. V), measured in strips of 4 R between 180 and 220 R about a line in
+                    each member, scaled to the paper's 200 R width, within a quarter of the
+                    paper's value or two standard errors of it
   A, Bo >= 1e4      the parabola cannot be identified: the fluctuations are too large (the
                     parabola claim above fails)
   C                 nu_i(y) and nu_f(y) are flat in the bulk (from a quarter of the deposit's
@@ -190,6 +200,126 @@ def histogram_verdict(point, path):
     return "shape", "none", h["shape"]
 
 
+class Histogram:
+    """The cut |Delta y| histogram's per-member counts (`member_counts_cut`), for fits with errors
+    from the members' scatter, as the program's shapes (docs/OUTPUT.md, "Analysis"): ln n a
+    polynomial in |Delta y| (weights n), errors a jackknife over the members (the others'
+    counts scaled to the whole ensemble's), chi2 the counts' residuals against the residuals'
+    jackknife errors, scaled by (n-3)/(n-1)."""
+
+    def __init__(self, group, path):
+        if "member_counts_cut" not in group:
+            fail_missing(path, f"{group.name}/member_counts_cut")
+        edges = group["edges"][()]
+        rows = group["member_counts_cut"][()]
+        self.rows = rows[rows.sum(axis=1) > 0]  # failed members have no disks
+        self.centre = 0.5 * (edges[1:] + edges[:-1])
+        self.total = self.rows.sum(axis=0)
+        self.members = len(self.rows)
+
+    def replicas(self):
+        """The other members' counts scaled to the whole ensemble's, one per member left out."""
+        n = self.members
+        return [(self.total - r) * n / (n - 1) for r in self.rows]
+
+    def fit(self, degree, use):
+        """(coefficients (c0, c1, ...) of ln n, their errors, chi2, dof) over the bins `use`
+        with at least 5 disks; None with fewer than 4 members or no degree of freedom."""
+        use = use & (self.total >= 5)
+        x, dof = self.centre[use], int(use.sum()) - degree - 1
+        if dof < 1 or self.members < 4:
+            return None
+
+        def one(counts):
+            ok = counts > 0
+            c = np.polynomial.polynomial.polyfit(x[ok], np.log(counts[ok]), degree,
+                                                 w=np.sqrt(counts[ok]))
+            return c, counts - np.exp(np.polynomial.polynomial.polyval(x, c))
+
+        coef, resid = one(self.total[use])
+        loo = [one(r[use]) for r in self.replicas()]
+        err, resid_err = jackknife([c for c, _ in loo]), jackknife([r for _, r in loo])
+        n, ok = self.members, resid_err > 0
+        chi2 = float(((resid[ok] / resid_err[ok]) ** 2).sum()) * (n - 3) / (n - 1)
+        return coef, err, chi2, dof
+
+
+def bo0_histogram_claims(point, path, where):
+    """Bo = 0 (fig. 9): "basically shows an exponential decay. Deviation from this behavior can
+    be found for |Delta y| between 1 and 2 particle radii where the probability is about
+    constant": the decay beyond 2 R an acceptable exponential, and the bins between 1 and 2 R
+    one constant (chi2 of their mean against the jackknife errors of each bin's difference
+    from it, within its 99 % quantile)."""
+    hist = Histogram(point["abs_dy_histogram"], path)
+    tail = hist.fit(1, hist.centre > 2.0)
+    if tail is None:
+        yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R", False,
+               "too few bins or members beyond 2 R")
+    else:
+        coef, err, chi2, dof = tail
+        yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R",
+               coef[1] < -2 * err[1] and chi2 <= chi2_quantile99(dof),
+               f"decay length {-1 / coef[1]:.3g} R (slope {coef[1]:.3g} +- {err[1]:.2g} per R), "
+               f"chi2/dof {chi2:.3g}/{dof} (99 % bound {chi2_quantile99(dof):.3g}), "
+               f"{hist.members} members")
+    band = (hist.centre > 1.0) & (hist.centre < 2.0)
+    if band.sum() < 2 or hist.members < 4:
+        yield (f"{where}: the |Delta y| histogram is flat between 1 and 2 R", False,
+               "fewer than two bins between 1 and 2 R, or fewer than 4 members")
+        return
+    diff = lambda counts: counts[band] - counts[band].mean()
+    err = jackknife([diff(r) for r in hist.replicas()])
+    n, dof = hist.members, int(band.sum()) - 1
+    chi2 = float(((diff(hist.total) / err) ** 2).sum()) * (n - 3) / (n - 1)
+    counts = ", ".join(f"{c:g}" for c in hist.total[band])
+    yield (f"{where}: the |Delta y| histogram is flat between 1 and 2 R",
+           chi2 <= chi2_quantile99(dof),
+           f"disks per bin {counts}; chi2/dof of a constant {chi2:.3g}/{dof} (99 % bound "
+           f"{chi2_quantile99(dof):.3g})")
+
+
+PAPER_FLUCTUATION = {100.0: 0.15, 1000.0: 0.20}  # nu_d at y = 200 (the paper, sec. V)
+PAPER_WIDTH = 200.0  # R: the paper's box, whose strips of two diameters the estimate is of
+
+
+def deposition_fluctuation_claims(point, path, where):
+    """Bo = 1e2 and 1e3: "the fluctuations of the deposition density at vertical position
+    y = 200": around 15 % and 20 %. In each member the strips of nu_d(y_i) with centres from
+    180 to 220 R scatter about a straight line through them; their relative standard deviation
+    (about the strips' mean), averaged over the members (error: the members' standard error),
+    is scaled to the paper's 200 R wide strips by sqrt(width / 200) (an average over a strip
+    scatters like one over its area's square root while the lumps are narrower than the strip).
+    It holds when it lies within a quarter of the paper's value (our reading of "around") or
+    two standard errors of it."""
+    group = point.get("nu_deposition")
+    if group is None or "member_mean" not in group:
+        fail_missing(path, f"{point.name}/nu_deposition/member_mean")
+    centre, rows = group["centre"][()], group["member_mean"][()]
+    rows = rows[np.isfinite(rows).all(axis=1)]  # failed members' rows are NaN
+    window = (centre >= 180.0) & (centre <= 220.0)
+    claim = (f"{where}: the deposition density fluctuates by about "
+             f"{PAPER_FLUCTUATION[float(point.attrs['bond_number'])]:.0%} at y = 200")
+    covered = window.sum() >= 5 and centre[window].max() + 4.0 >= 220.0 and \
+        (rows[:, window] > 0).all()
+    if not covered or len(rows) < 2:
+        yield (claim, False, "no deposit above 220 R in two members or more")
+        return
+    x = centre[window]
+    rel = []
+    for row in rows:
+        y = row[window]
+        line = np.polynomial.polynomial.polyval(x, np.polynomial.polynomial.polyfit(x, y, 1))
+        rel.append(np.sqrt(((y - line) ** 2).sum() / (len(y) - 2)) / y.mean())
+    scale = math.sqrt(float(point.attrs["width"]) / PAPER_WIDTH)
+    value = float(np.mean(rel)) * scale
+    error = float(np.std(rel, ddof=1) / math.sqrt(len(rel))) * scale
+    paper = PAPER_FLUCTUATION[float(point.attrs["bond_number"])]
+    yield (claim, abs(value - paper) <= max(0.25 * paper, 2 * error),
+           f"{value:.1%} +- {error:.1%} scaled to 200 R wide strips ({value / scale:.1%} in "
+           f"these {float(point.attrs['width']):g} R wide ones), {len(rel)} members, strips "
+           f"{x[0]:g}-{x[-1]:g} R")
+
+
 def check_point(point, path):
     """Yields (claim, ok, detail) for one scan point."""
     a = point.attrs
@@ -208,9 +338,17 @@ def check_point(point, path):
     if protocol == "A" and bo in (0.0, 1e3):  # the two Bond numbers the paper says it of
         expected = "exponential" if bo == 0 else "gaussian"
         which, preferred, g = histogram_verdict(point, path)
-        detail = (f"{which}: preferred {preferred}; chi2 exponential "
-                  f"{g['exponential'].attrs['chi2']:.3g}, gaussian {g['gaussian'].attrs['chi2']:.3g}")
+        chi2 = lambda m: (f"{g[m].attrs['chi2']:.3g}/{g[m].attrs['dof']:g} (99 % bound "
+                          f"{chi2_quantile99(g[m].attrs['dof']):.3g})")
+        errors = ("the members' scatter" if g.attrs.get("member_errors", 0) else
+                  "Poisson's (no per-member counts)")
+        detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
+                  f"gaussian {chi2('gaussian')}, errors from {errors}")
         yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
+        if bo == 0:
+            yield from bo0_histogram_claims(point, path, where)
+    if protocol == "A" and bo in PAPER_FLUCTUATION and float(a["height"]) >= 220.0:
+        yield from deposition_fluctuation_claims(point, path, where)
     if protocol == "C":
         yield from collapse_claims(point, path, where)
         yield from collapse_density_claims(point, path, where)

@@ -47,16 +47,28 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
 // |Delta y| histogram shapes, fitted to the counts of bins with at least `min_count` samples
 // as ln n = alpha + beta x (exponential, decay length -1/beta) and ln n = alpha + beta x +
 // gamma x^2 (Gaussian: mean -beta / (2 gamma), width sqrt(-1 / (2 gamma))), weights n (the
-// variance of ln n is 1/n). The goodness of fit is Pearson's chi2 of the counts against each
-// model; the preferred shape has the lower Akaike criterion chi2 + 2 k (k parameters), and
-// "neither" when the quadratic wins without a maximum (no Gaussian).
+// variance of ln n is 1/n). With the members' own counts (`member_counts`, one row per member, a
+// failed member's row 0; at least 4 members with disks) each fit's errors come from a jackknife
+// over the members and its chi2 is that of the counts' residuals against the residuals' own
+// jackknife errors, scaled by (n-3)/(n-1), as the avalanche-profile fits do: the disks one
+// avalanche moves together land in the same bins, so the counts scatter far more than Poisson's
+// sqrt(n). Without them, chi2 is Pearson's (counts against the model). The preferred shape has
+// the lower Akaike criterion chi2 + 2 k (k parameters); it must also fit (chi2 at most the 99 %
+// quantile of chi2 with its degrees of freedom), and the Gaussian needs a maximum (gamma < 0):
+// otherwise "neither".
 struct HistogramShape {
   Fit exponential, gaussian;
   double decay_length = 0.0, gaussian_mean = 0.0, gaussian_width = 0.0;
+  bool member_errors = false;  // chi2 and errors from the members' scatter (else Pearson's chi2)
   std::string preferred;  // "gaussian", "exponential", "neither", or "none" (too few bins)
 };
 HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
+                               const std::vector<std::vector<double>>& member_counts = {},
                                double min_count = 5.0);
+
+// The 99 % quantile of chi2 with `dof` degrees of freedom (Wilson and Hilferty; within 1 % of
+// the exact quantile from 3 degrees of freedom on).
+double chi2_quantile99(double dof);
 
 struct PointAnalysis {
   // Avalanche profiles: parabolas (protocol A) or lines (C): Delta y = c0 + c1 y (+ c2 y^2).

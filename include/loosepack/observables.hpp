@@ -57,6 +57,9 @@ struct PointResult {
   Scalar nu_lower_half;
   BinnedStat dy_by_yi, dy_by_ye;  // avalanche profiles: Delta y = y_e - y_i
   std::vector<double> abs_dy_edges, abs_dy_counts, abs_dy_counts_cut;
+  // The same counts per member, one row per member in member order (a failed member's row 0):
+  // the histogram fits' errors come from the members' scatter.
+  std::vector<std::vector<double>> abs_dy_member_counts, abs_dy_member_counts_cut;
   Scalar mean_abs_dy;
   // Protocol C: bulk volume fraction before (nu_i) and after (nu_f), relative increase.
   Scalar nu_initial, nu_final, relative_increase;

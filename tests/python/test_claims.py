@@ -201,3 +201,78 @@ def test_one_over_h_needs_a_resolved_exponent_near_minus_one_and_an_acceptable_f
     assert not across_heights(tmp_path, "b", -0.31, 0.14, 0.6)  # resolved, but not -1
     assert not across_heights(tmp_path, "c", -1.0, 0.1, 40.0)   # the points follow no power law
     assert not across_heights(tmp_path, "d", 0.5, 2.0, 1.0)     # -1 within errors, but not falling
+
+
+def bo0_histogram(tmp_path, name, density, seed=3):
+    """A Bo = 0 point whose cut |Delta y| histogram has 16 members of 300 lumps each (1 to 6
+    disks with the same |Delta y|), |Delta y| drawn from `density` (a sampler)."""
+    rng = np.random.default_rng(seed)
+    edges = np.arange(0.0, 10.01, 0.5)
+    rows = np.zeros((MEMBERS, edges.size - 1))
+    for row in rows:
+        for v, disks in zip(density(rng, 300), rng.integers(1, 7, 300)):
+            k = int(v / 0.5)
+            if k < row.size:
+                row[k] += disks
+    path = tmp_path / f"{name}.h5"
+    with h5py.File(path, "w") as f:
+        h = f.create_group("points/0000/abs_dy_histogram")
+        h["edges"] = edges
+        h["member_counts_cut"] = rows
+    out = {}
+    with h5py.File(path, "r") as f:
+        for claim, ok, detail in claims.bo0_histogram_claims(f["points/0000"], str(path), "p"):
+            out[claim.split(": ", 1)[1]] = (ok, detail)
+    return out
+
+
+def test_bo0_histogram_tail_and_plateau(tmp_path):
+    tail = "the |Delta y| histogram decays exponentially beyond 2 R"
+    flat = "the |Delta y| histogram is flat between 1 and 2 R"
+
+    # The paper's shape: an exponential, with a constant density between 1 and 2 R.
+    def paper(rng, n):
+        v = rng.exponential(1.3, n)
+        plateau = (v > 1.0) & (v < 2.0)
+        v[plateau] = rng.uniform(1.0, 2.0, plateau.sum())
+        return v
+    ok = bo0_histogram(tmp_path, "paper", paper)
+    assert ok[tail][0] and ok[flat][0], ok
+
+    # A roll-off peak between sqrt(3) and 2 R (not flat), and a Gaussian tail (not exponential).
+    def peaked(rng, n):
+        v = np.abs(rng.normal(0.0, 2.0, n))
+        roll = rng.random(n) < 0.25
+        v[roll] = rng.uniform(math.sqrt(3.0), 2.0, roll.sum())
+        return v
+    bad = bo0_histogram(tmp_path, "peaked", peaked)
+    assert not bad[flat][0], bad
+    assert not bad[tail][0], bad
+
+
+def deposition_point(tmp_path, name, rel, bo=100.0, height=240.0, seed=5):
+    """nu_d(y_i) of 8 members of a 40 R wide box in strips of 3.97 R: a rising line with
+    relative Gaussian noise `rel`."""
+    rng = np.random.default_rng(seed)
+    centre = (np.arange(int(height / 3.97)) + 0.5) * 3.97
+    trend = 0.3 + 0.0005 * centre
+    rows = trend * (1 + rng.normal(0.0, rel, (8, centre.size)))
+    path = tmp_path / f"{name}.h5"
+    with h5py.File(path, "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update({"bond_number": bo, "width": 40.0, "height": height})
+        g["nu_deposition/centre"] = centre
+        g["nu_deposition/member_mean"] = rows
+    with h5py.File(path, "r") as f:
+        return list(claims.deposition_fluctuation_claims(f["points/0000"], str(path), "p"))
+
+
+def test_deposition_fluctuation_scaled_to_the_papers_width(tmp_path):
+    # 15 % in 200 R wide strips is 15 % x sqrt(200/40) = 33.5 % in 40 R wide ones.
+    [(claim, ok, detail)] = deposition_point(tmp_path, "right", 0.15 * math.sqrt(5.0))
+    assert ok and "15%" in claim, detail
+    assert not deposition_point(tmp_path, "calm", 0.05 * math.sqrt(5.0))[0][1]
+    assert not deposition_point(tmp_path, "wild", 0.30 * math.sqrt(5.0))[0][1]
+    assert "20%" in deposition_point(tmp_path, "bo1e3", 0.2 * math.sqrt(5.0), bo=1000.0)[0][0]
+    # A deposit below 220 R cannot show it.
+    assert not deposition_point(tmp_path, "low", 0.15 * math.sqrt(5.0), height=200.0)[0][1]
