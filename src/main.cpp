@@ -317,6 +317,8 @@ void RunCommand::show(bool force) {
   for (std::size_t r = 0; r < latest.size(); ++r) {
     p.members_done += latest[r].members_done;
     p.disks_deposited += latest[r].disks_deposited;
+    p.collapsing += latest[r].collapsing;
+    p.collapse_steps = std::max(p.collapse_steps, latest[r].collapse_steps);
     done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
     total_cost += shard_cost[r];
   }
@@ -326,6 +328,9 @@ void RunCommand::show(bool force) {
   std::fprintf(stderr, "  %d/%zu members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
                p.members_done + static_cast<int>(resumed.size()), members.size(), p.disks_deposited,
                el > 0 ? p.disks_deposited / el : 0.0, el);
+  if (p.collapsing > 0)
+    std::fprintf(stderr, ", %d collapsing (the longest for %ld steps)", p.collapsing,
+                 p.collapse_steps);
   if (p.fraction > 0.01 && !finished)
     std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction,
                  el * (1.0 - p.fraction) / p.fraction);

@@ -309,8 +309,14 @@ MemberSnapshot MemberRun::snapshot(std::size_t k) const {
 void MemberRun::report() {
   if (!hooks_.progress) return;
   double running = 0.0;
-  for (const auto& sl : slots_)
+  progress_.collapsing = 0;
+  progress_.collapse_steps = 0;
+  for (const auto& sl : slots_) {
     if (sl.phase != Phase::Empty) running += running_cost(members_[sl.member], sl.phase, sl.filled);
+    if (sl.phase != Phase::Collapse) continue;
+    ++progress_.collapsing;
+    progress_.collapse_steps = std::max(progress_.collapse_steps, sl.steps);
+  }
   progress_.fraction = (done_cost_ + running) / total_cost_;
   hooks_.progress(progress_);
 }

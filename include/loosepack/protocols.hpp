@@ -99,6 +99,10 @@ struct Progress {
   int members_done = 0;
   int members_total = 0;
   long disks_deposited = 0;
+  // Protocol C: members collapsing now, and the steps of the longest such collapse so far (a
+  // collapse deposits nothing, so without them a long one would look stalled).
+  int collapsing = 0;
+  long collapse_steps = 0;
   // Fraction of the run's expected cost (expected_cost) done, counting running members by how
   // far they got: for the ETA only.
   double fraction = 0.0;
