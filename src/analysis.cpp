@@ -110,6 +110,22 @@ std::vector<std::size_t> profile_bins(const BinnedStat& b, double x_max) {
   return out;
 }
 
+// Jackknife standard error of entry j of the replicas' vectors (one per member left out; NaN
+// entries skipped): sqrt((n - 1)/n sum (v_j - mean v_j)^2).
+double jackknife_error(const std::vector<std::vector<double>>& reps, std::size_t j) {
+  double n = 0.0, mean = 0.0, ss = 0.0;
+  for (const auto& v : reps)
+    if (std::isfinite(v[j])) {
+      n += 1.0;
+      mean += v[j];
+    }
+  if (n < 2.0) return kNaN;
+  mean /= n;
+  for (const auto& v : reps)
+    if (std::isfinite(v[j])) ss += (v[j] - mean) * (v[j] - mean);
+  return std::sqrt((n - 1.0) / n * ss);
+}
+
 // An avalanche-profile fit Delta y = sum_j basis_j(y) c_j with ensemble errors. The coefficients
 // come from an unweighted fit to the pooled bin means: weighting by the bins' standard errors
 // lets the bins that barely move (the bottom at large Bond numbers, the crust), whose errors are
@@ -173,23 +189,9 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
     for (std::size_t i = 0; i < used.size(); ++i) res[used[i]] = residual(r.coef, xr[i], yr[i]);
     residuals.push_back(std::move(res));
   }
-  // Jackknife standard error of each entry of the replicas' vectors (NaN entries skipped).
-  auto jackknife = [](const std::vector<std::vector<double>>& reps, std::size_t j) {
-    double n = 0.0, mean = 0.0, ss = 0.0;
-    for (const auto& v : reps)
-      if (std::isfinite(v[j])) {
-        n += 1.0;
-        mean += v[j];
-      }
-    if (n < 2.0) return kNaN;
-    mean /= n;
-    for (const auto& v : reps)
-      if (std::isfinite(v[j])) ss += (v[j] - mean) * (v[j] - mean);
-    return std::sqrt((n - 1.0) / n * ss);
-  };
   if (coefs.size() < 2) return f;
   const auto n = static_cast<double>(coefs.size());
-  for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife(coefs, j);
+  for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife_error(coefs, j);
   f.replicas = coefs;
   // chi2 of the residuals against their own jackknife errors. The bins' standard errors are
   // strongly correlated (a member that moved more moved more in every bin), so chi2 against
@@ -200,7 +202,7 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
   // expectation, and no chi2 (NaN).
   f.chi2 = 0.0;
   for (std::size_t i = 0; i < bins.size(); ++i) {
-    const double e = jackknife(residuals, i);
+    const double e = jackknife_error(residuals, i);
     if (!(e > 0.0)) continue;
     const double z = residual(f.coef, b.position[bins[i]], b.mean[bins[i]]) / e;
     f.chi2 += z * z;
@@ -225,16 +227,13 @@ void identity_differences(PointAnalysis& a) {
   const auto& re = a.dy_by_ye.replicas;
   const auto& ri = a.dy_by_yi.replicas;
   if (re.size() != ri.size() || re.size() < 2) return;
-  std::vector<std::array<double, 2>> reps;
-  for (std::size_t m = 0; m < re.size(); ++m) reps.push_back(differences(re[m], ri[m]));
-  const double n = static_cast<double>(reps.size());
-  for (std::size_t j = 0; j < 2; ++j) {
-    double mean = 0.0, ss = 0.0;
-    for (const auto& r : reps) mean += r[j] / n;
-    for (const auto& r : reps) ss += (r[j] - mean) * (r[j] - mean);
-    (j == 0 ? a.b_prime_difference_error : a.a_prime_difference_error) =
-        std::sqrt((n - 1.0) / n * ss);
+  std::vector<std::vector<double>> reps;
+  for (std::size_t m = 0; m < re.size(); ++m) {
+    const auto d = differences(re[m], ri[m]);
+    reps.push_back({d[0], d[1]});
   }
+  a.b_prime_difference_error = jackknife_error(reps, 0);
+  a.a_prime_difference_error = jackknife_error(reps, 1);
 }
 
 std::function<double(double, int)> slice_basis(double H) {
@@ -373,16 +372,10 @@ void member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
     coefs.push_back(r.coef);
     residuals.push_back(std::move(res));
   }
-  auto jackknife = [&](const std::vector<std::vector<double>>& reps, std::size_t j) {
-    double mean = 0.0, ss = 0.0;
-    for (const auto& v : reps) mean += v[j] / m;
-    for (const auto& v : reps) ss += (v[j] - mean) * (v[j] - mean);
-    return std::sqrt((m - 1.0) / m * ss);
-  };
-  for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife(coefs, j);
+  for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife_error(coefs, j);
   f.chi2 = 0.0;
   for (std::size_t i = 0; i < bins.size(); ++i) {
-    const double e = jackknife(residuals, i);
+    const double e = jackknife_error(residuals, i);
     if (!(e > 0.0)) continue;
     const double z = (n[i] - std::exp(polynomial(f, x[i]))) / e;
     f.chi2 += z * z;
