@@ -122,18 +122,28 @@ class Results:
             raise ValueError("by must be 'y_i' or 'y_e', not %r" % (by,))
         return self._profile(point, "avalanche_by_" + by.replace("_", ""), by)
 
-    def histogram(self, point, cut=False):
+    def histogram(self, point, cut=False, members=False):
         """The |Delta y| histogram (counts per bin; `cut`: without the bottom and top of the
-        deposit) as a DataArray over the bin centres, with the edges as a coordinate too."""
+        deposit) as a DataArray over the bin centres, with the edges as a coordinate too;
+        `members`: one row per member (dims member, abs_dy; files from 2026-11-26 on), whose
+        scatter gives the shapes' errors."""
+        name = ("member_counts" if members else "counts") + ("_cut" if cut else "")
         with h5py.File(self.path, "r") as f:
-            g = self._group(f, point)["abs_dy_histogram"]
-            edges = g["edges"][()]
-            counts = g["counts_cut" if cut else "counts"][()]
+            g = self._group(f, point)
+            h = g["abs_dy_histogram"]
+            if name not in h:
+                raise KeyError(f"{self.path}: {h.name}/{name} is missing (a file of a program "
+                               "before the per-member counts)")
+            edges = h["edges"][()]
+            counts = h[name][()]
+            seeds = g["members/seed_index"][()].astype(int) if members else None
         centres = 0.5 * (edges[1:] + edges[:-1])
-        return xr.DataArray(counts, dims=("abs_dy",),
-                            coords={"abs_dy": ("abs_dy", centres, {"units": "R"}),
-                                    "lower_edge": ("abs_dy", edges[:-1], {"units": "R"})},
-                            name="counts_cut" if cut else "counts",
+        coords = {"abs_dy": ("abs_dy", centres, {"units": "R"}),
+                  "lower_edge": ("abs_dy", edges[:-1], {"units": "R"})}
+        if members:
+            coords["member"] = ("member", seeds)
+        return xr.DataArray(counts, dims=(("member",) if members else ()) + ("abs_dy",),
+                            coords=coords, name=name,
                             attrs={"long_name": "disks per |Delta y| bin", "units": ""})
 
     def members(self, point):

@@ -59,6 +59,13 @@ def test_histogram_counts_every_disk_and_members_agree(result):
         assert list(members["seed_index"]) == [0, 1, 2]
         assert int(result.histogram(point).sum()) == int(members["disks"].sum())
         assert int(result.histogram(point, cut=True).sum()) <= int(members["disks"].sum())
+        # One row per member, each counting that member's disks; the rows add up to the counts.
+        rows = result.histogram(point, members=True)
+        assert list(rows["member"]) == [0, 1, 2]
+        assert list(rows.sum("abs_dy").values) == list(members["disks"].values)
+        for cut in (False, True):
+            assert np.array_equal(result.histogram(point, cut, members=True).sum("member"),
+                                  result.histogram(point, cut))
     av = result.avalanche(1, by="y_e")
     assert av["count"].sum() == result.members(1)["disks"].sum()
     with pytest.raises(ValueError):
