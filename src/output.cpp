@@ -757,8 +757,11 @@ static void print_fits(hid_t file, const std::vector<std::string>& names, std::o
       out << "  slice model Delta y(y_e) = -a y_e (1 - y_e/H): a = " << c[0] << " +- " << e[0]
           << "\n";
     }
-    if (exists(n + "/collapse_identity")) {
-      auto c = [&](const char* a) { return double_attribute(file, n + "/collapse_identity", a); };
+    auto identity = [&](const char* a) {
+      return double_attribute(file, n + "/collapse_identity", a);
+    };
+    if (exists(n + "/collapse_identity") && std::isfinite(identity("b_prime"))) {
+      const auto& c = identity;
       out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error")
           << ", from b/(1+b): " << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
           << "; a' = " << c("a_prime") << " +- " << c("a_prime_error")

@@ -3,6 +3,7 @@
 // predicted from the deposition density, the |Delta y| histogram shapes, and fits across scan
 // points. Stored in the result file next to the data they fit (docs/OUTPUT.md).
 #pragma once
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -75,16 +76,20 @@ struct PointAnalysis {
   Fit dy_by_yi, dy_by_ye;
   Fit slice_parabola;  // A: -a y_e (1 - y_e/H)
   // C: the lines' coefficient identity (paper: Delta y(y_e) = a - b y_e, Delta y(y_i) = a' - b'
-  // y_i, then b' = b/(1+b), a' = a/(1+b)): the fitted b', a' and the ones predicted from b, a.
-  double b_prime = 0.0, b_prime_error = 0.0, b_prime_predicted = 0.0, b_prime_predicted_error = 0.0;
-  double a_prime = 0.0, a_prime_error = 0.0, a_prime_predicted = 0.0, a_prime_predicted_error = 0.0;
+  // y_i, then b' = b/(1+b), a' = a/(1+b)): the fitted b', a' and the ones predicted from b, a;
+  // all of these NaN where the lines have no fit (fewer than two members).
+  static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
+  double b_prime = kNone, b_prime_error = kNone, b_prime_predicted = kNone,
+         b_prime_predicted_error = kNone;
+  double a_prime = kNone, a_prime_error = kNone, a_prime_predicted = kNone,
+         a_prime_predicted_error = kNone;
   // The differences b' - b/(1+b) and a' - a/(1+b), with the jackknife error of each difference
   // over the members (the two lines come from the same members, so the combined errors above
   // overstate it); NaN errors without per-member rows.
-  double b_prime_difference = 0.0, b_prime_difference_error = 0.0;
-  double a_prime_difference = 0.0, a_prime_difference_error = 0.0;
+  double b_prime_difference = kNone, b_prime_difference_error = kNone;
+  double a_prime_difference = kNone, a_prime_difference_error = kNone;
   // C: -d(Delta y)/dy_e (= b) beside the measured relative density increase.
-  double slope_increase = 0.0, slope_increase_error = 0.0;
+  double slope_increase = kNone, slope_increase_error = kNone;
   // Final density from the deposition density, rho_f(y_e) = rho_d(y_i(y_e)) (1 - dDelta y/dy_e),
   // with the fitted avalanche profile against y_e and a power law fitted to nu_d(y_i):
   // predicted nu per strip of the nu profile (NaN outside the fitted range) and the deviation
