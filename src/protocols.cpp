@@ -59,7 +59,13 @@ double slow_cost(const SystemParams& p) {
          std::pow(p.height / reference_height, height_exponent(p)) * relaxation_time(p) /
          p.time_step;
 }
-double collapse_cost(const SystemParams& p) { return p.width * p.height * p.height / p.time_step; }
+// A collapse: its steps grow like H / h (how far the column falls) and each steps the W H deposit.
+// 0.25: the collapse scenes' seconds per unit, 40 R x 60 R to the paper's 200 R x 800 R, lie a
+// fourth of the protocol-A scenes' (bench/results/cost-relative-2026-11-25.jsonl,
+// paper-size-C-2026-11-26.jsonl).
+double collapse_cost(const SystemParams& p) {
+  return 0.25 * p.width * p.height * p.height / p.time_step;
+}
 
 }  // namespace
 
