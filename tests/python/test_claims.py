@@ -250,29 +250,49 @@ def test_bo0_histogram_tail_and_plateau(tmp_path):
     assert not bad[tail][0], bad
 
 
-def deposition_point(tmp_path, name, rel, bo=100.0, height=240.0, seed=5):
-    """nu_d(y_i) of 8 members of a 40 R wide box in strips of 3.97 R: a rising line with
-    relative Gaussian noise `rel`."""
+def deposition_file(tmp_path, name, rels, width=200.0, height=240.0, seed=5):
+    """Protocol-A points at Bo = 1e2 and 1e3 (one per entry of `rels`), nu_d(y_i) of 16 members in
+    strips of 3.97 R: a rising line with relative Gaussian noise rels[bo]."""
     rng = np.random.default_rng(seed)
     centre = (np.arange(int(height / 3.97)) + 0.5) * 3.97
     trend = 0.3 + 0.0005 * centre
-    rows = trend * (1 + rng.normal(0.0, rel, (8, centre.size)))
     path = tmp_path / f"{name}.h5"
     with h5py.File(path, "w") as f:
-        g = f.create_group("points/0000")
-        g.attrs.update({"bond_number": bo, "width": 40.0, "height": height})
-        g["nu_deposition/centre"] = centre
-        g["nu_deposition/member_mean"] = rows
+        for k, (bo, rel) in enumerate(sorted(rels.items())):
+            g = f.create_group(f"points/{k:04d}")
+            g.attrs.update({"protocol": "A", "bond_number": bo, "width": width,
+                            "height": height})
+            g["nu_deposition/centre"] = centre
+            g["nu_deposition/member_mean"] = trend * (1 + rng.normal(0.0, rel, (16, centre.size)))
+    return path
+
+
+def fluctuation_verdicts(path):
+    out = []
     with h5py.File(path, "r") as f:
-        return list(claims.deposition_fluctuation_claims(f["points/0000"], str(path), "p"))
+        for name in sorted(f["points"]):
+            out += list(claims.deposition_fluctuation_claims(f["points"][name], str(path), name))
+        out += list(claims.deposition_fluctuation_order(f))
+    return out
 
 
-def test_deposition_fluctuation_scaled_to_the_papers_width(tmp_path):
-    # 15 % in 200 R wide strips is 15 % x sqrt(200/40) = 33.5 % in 40 R wide ones.
-    [(claim, ok, detail)] = deposition_point(tmp_path, "right", 0.15 * math.sqrt(5.0))
-    assert ok and "15%" in claim, detail
-    assert not deposition_point(tmp_path, "calm", 0.05 * math.sqrt(5.0))[0][1]
-    assert not deposition_point(tmp_path, "wild", 0.30 * math.sqrt(5.0))[0][1]
-    assert "20%" in deposition_point(tmp_path, "bo1e3", 0.2 * math.sqrt(5.0), bo=1000.0)[0][0]
+def test_deposition_fluctuation_at_the_papers_width(tmp_path):
+    # The paper's 15 % and 20 %: both hold, and Bo = 1e3 fluctuates more.
+    right = fluctuation_verdicts(deposition_file(tmp_path, "right", {100.0: 0.15, 1000.0: 0.20}))
+    assert [ok for _, ok, _ in right] == [True, True, True], right
+    assert "15%" in right[0][0] and "20%" in right[1][0]
+    # Too calm, too wild, and the order reversed.
+    calm = fluctuation_verdicts(deposition_file(tmp_path, "calm", {100.0: 0.05, 1000.0: 0.30}))
+    assert [ok for _, ok, _ in calm] == [False, False, True], calm
+    reversed_ = fluctuation_verdicts(deposition_file(tmp_path, "rev", {100.0: 0.20, 1000.0: 0.15}))
+    assert not reversed_[-1][1], reversed_
     # A deposit below 220 R cannot show it.
-    assert not deposition_point(tmp_path, "low", 0.15 * math.sqrt(5.0), height=200.0)[0][1]
+    low = fluctuation_verdicts(deposition_file(tmp_path, "low", {100.0: 0.15}, height=200.0))
+    assert low == [low[0]] and not low[0][1], low
+
+
+def test_deposition_fluctuation_magnitude_only_at_the_papers_width(tmp_path):
+    verdicts = fluctuation_verdicts(
+        deposition_file(tmp_path, "narrow", {100.0: 0.15, 1000.0: 0.20}, width=40.0))
+    # Only the order is judged in a box narrower than the paper's.
+    assert len(verdicts) == 1 and "more at Bo = 1e3" in verdicts[0][0] and verdicts[0][1]
