@@ -344,10 +344,10 @@ Fit log_count_fit(const std::vector<double>& x, const std::vector<double>& n, in
 // The histogram fit's chi2 and errors from the members' scatter (HistogramShape): each member
 // with disks left out in turn, the rest's counts scaled to the whole ensemble's and refitted;
 // errors the jackknife of the coefficients, chi2 the residuals against their jackknife errors.
-// Leaves `f` unchanged (Pearson's chi2) with fewer than 4 members with disks.
-void member_scatter(Fit& f, int degree, const std::vector<double>& x, const std::vector<double>& n,
+// Leaves `f` unchanged (Pearson's chi2) and returns false with fewer than 4 members with disks.
+bool member_scatter(Fit& f, int degree, const std::vector<double>& x, const std::vector<double>& n,
                     const std::vector<std::size_t>& bins,
-                    const std::vector<std::vector<double>>& member_counts, bool& used) {
+                    const std::vector<std::vector<double>>& member_counts) {
   std::vector<const std::vector<double>*> rows;
   for (const auto& row : member_counts) {
     double samples = 0.0;
@@ -355,7 +355,7 @@ void member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
     if (samples > 0.0) rows.push_back(&row);  // 0: a failed member, not in the counts
   }
   const auto m = static_cast<double>(rows.size());
-  if (rows.size() < 4 || !f.valid()) return;
+  if (rows.size() < 4 || !f.valid()) return false;
   std::vector<std::vector<double>> coefs, residuals;
   for (const auto* row : rows) {
     std::vector<double> rest;
@@ -364,7 +364,7 @@ void member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
     const Fit r = log_count_fit(x, rest, degree);
     if (!r.valid() || r.coef.size() != f.coef.size()) {
       f.chi2 = kNaN;  // a member without whom the bins do not determine the fit
-      return;
+      return true;
     }
     std::vector<double> res;
     for (std::size_t i = 0; i < bins.size(); ++i)
@@ -381,7 +381,7 @@ void member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
     f.chi2 += z * z;
   }
   f.chi2 *= (m - 3.0) / (m - 1.0);  // as ensemble_fit: E[z^2] of an error from m members
-  used = true;
+  return true;
 }
 
 }  // namespace
@@ -416,10 +416,9 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
   bool rows_ok = !member_counts.empty();
   for (const auto& row : member_counts) rows_ok = rows_ok && row.size() == counts.size();
   if (rows_ok) {
-    bool used = false;
-    member_scatter(h.exponential, 1, x, n, bins, member_counts, used);
-    member_scatter(h.gaussian, 2, x, n, bins, member_counts, used);
-    h.member_errors = used;
+    const bool exp_scatter = member_scatter(h.exponential, 1, x, n, bins, member_counts);
+    const bool gauss_scatter = member_scatter(h.gaussian, 2, x, n, bins, member_counts);
+    h.member_errors = exp_scatter || gauss_scatter;
   }
   const double beta = coef(h.exponential, 1);
   h.decay_length = beta < 0.0 ? -1.0 / beta : kNaN;
