@@ -1,0 +1,91 @@
+"""tools/compare.py: a file against itself agrees in every quantity; a run at another Bond
+number differs where the physics says it must (the volume fraction, the avalanche size); and its
+two-sample event test on counts drawn from one distribution and from two."""
+
+import importlib.util
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import loosepack
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+TOOL = os.path.join(HERE, "..", "..", "tools", "compare.py")
+spec = importlib.util.spec_from_file_location("compare", TOOL)
+compare = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(compare)
+
+
+def scan(bond_number):
+    return {"scan": {"name": "compare", "seed": 5, "seeds": 6, "protocol": "A"},
+            "system": {"width": 16.0, "height": 24.0, "bond_number": bond_number}}
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("compare")
+    cohesive = loosepack.run(scan(100.0), d / "bo100.h5", progress=False)
+    # Bo = 1: barely cohesive, so the disks roll into a much denser packing (nu_lower_half
+    # about 0.7 against 0.5, docs/PERFORMANCE.md "Effects on and off") and move further.
+    weak = loosepack.run(scan(1.0), d / "bo1.h5", progress=False)
+    return d, cohesive.path, weak.path
+
+
+def run_tool(a, b, *extra):
+    return subprocess.run([sys.executable, TOOL, str(a), str(b), *extra],
+                          capture_output=True, text=True)
+
+
+def test_a_file_agrees_with_itself(runs):
+    d, cohesive, _ = runs
+    out = run_tool(cohesive, cohesive, "--json", d / "self.jsonl")
+    assert out.returncode == 0, out.stdout + out.stderr
+    rows = json.loads(open(d / "self.jsonl").read().splitlines()[0])["rows"]
+    names = {r["quantity"] for r in rows}
+    assert {"nu_lower_half", "mean abs(Delta y) [R]", "nu(y)", "Delta y(y_e): c",
+            "events: distribution of steps"} <= names
+    assert all(r["distance"] == 0 for r in rows)
+
+
+def test_another_bond_number_differs(runs):
+    d, cohesive, weak = runs
+    out = run_tool(cohesive, weak, "--json", d / "bo.jsonl")
+    assert out.returncode == 1, out.stdout + out.stderr
+    rows = {r["quantity"]: r for r in json.loads(open(d / "bo.jsonl").read())["rows"]}
+    assert not rows["nu_lower_half"]["within"]
+    assert not rows["nu(y)"]["within"]
+    assert "| nu_lower_half |" in out.stdout and "NO |" in out.stdout
+
+
+def test_unusable_input_is_named():
+    out = run_tool("/nonexistent/a.h5", "/nonexistent/b.h5")
+    assert out.returncode != 0 and "a.h5" in out.stderr
+
+
+def test_homogeneity_tells_one_distribution_from_two():
+    rng = np.random.default_rng(3)
+    p = np.array([0.4, 0.3, 0.15, 0.1, 0.05])
+    same = [compare.homogeneity(rng.multinomial(400, p).astype(float),
+                                rng.multinomial(600, p).astype(float)) for _ in range(200)]
+    # The statistic has its chi2 distribution: mean dof, and the 99 % bound rarely crossed.
+    assert np.mean([c for c, _ in same]) == pytest.approx(4, rel=0.15)
+    assert sum(c > compare.chi2_quantile99(k) for c, k in same) <= 6
+    q = np.array([0.2, 0.2, 0.2, 0.2, 0.2])
+    chi2, dof = compare.homogeneity(rng.multinomial(400, p).astype(float),
+                                    rng.multinomial(600, q).astype(float))
+    assert chi2 > compare.chi2_quantile99(dof)
+    # Sparse tails are merged until each bin expects 5 events from each sample.
+    chi2, dof = compare.homogeneity(np.array([50.0, 30, 1, 0, 1]), np.array([60.0, 25, 0, 1, 0]))
+    assert dof == 1  # the three sparse bins join the 30 and 25 events: two bins
+
+
+def test_mean_log_of_binned_values():
+    edges = np.array([1.0, 10.0, 100.0])
+    m, e = compare.mean_log(edges, np.array([10.0, 10.0]))
+    assert m == pytest.approx(1.0)  # bin centres 0.5 and 1.5 in log10
+    assert e == pytest.approx(math.sqrt(20 * 0.25 / 19 / 20))
