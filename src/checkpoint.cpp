@@ -285,8 +285,9 @@ std::string checkpoint_directory(const std::string& output_path) {
   return output_path + ".checkpoint";
 }
 
-std::string checkpoint_part(const std::string& directory, int generation, int rank) {
-  return directory + "/part-" + std::to_string(generation) + "-" + std::to_string(rank) + ".bin";
+std::string checkpoint_part(const std::string& directory, int generation, int rank, int finished) {
+  return directory + "/part-" + std::to_string(generation) + "-" + std::to_string(rank) +
+         (finished > 0 ? "-" + std::to_string(finished) : std::string()) + ".bin";
 }
 
 void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,

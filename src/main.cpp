@@ -152,9 +152,10 @@ class RunCommand {
   std::string ck_dir, part;
   std::uint64_t fingerprint = 0;  // of the scan, in every checkpoint part (computed once)
   CheckpointContents ck;
-  // This rank's members finished since the last checkpoint, and the latest snapshot of each of
-  // its running members.
+  // This rank's members finished since the last checkpoint, the finished parts written so far,
+  // and the latest snapshot of each of its running members.
   std::vector<MemberResult> fresh;
+  int finished_parts = 0;
   std::map<std::uint64_t, MemberSnapshot> running;
   std::vector<MemberResult> computed;
   RunInfo info;
@@ -292,16 +293,23 @@ void RunCommand::announce() const {
               << started.size() << " of them from where they were)\n";
 }
 
-// This rank's checkpoint part: its members finished so far, and where its running ones are.
+// This rank's checkpoint: the members finished since the last one in a new part of their own
+// (each member encoded once), then the snapshots of the running ones (docs/OUTPUT.md).
 void RunCommand::save_checkpoint() {
   if (fresh.empty() && running.empty()) return;
   std::filesystem::create_directories(ck_dir);
+  if (!fresh.empty()) {
+    const int generation = ck.generation + 1;
+    write_checkpoint_part(checkpoint_part(ck_dir, generation, ranks.rank(), ++finished_parts),
+                          fingerprint, fresh);
+    fresh.clear();
+  }
   std::vector<MemberSnapshot> snaps;
   for (const auto& [id, snap] : running) snaps.push_back(snap);
-  write_checkpoint_part(part, fingerprint, fresh, snaps);
-  // Each checkpoint encodes every member finished so far in one buffer, larger each time; glibc
-  // keeps the freed buffers in the heap, so a run would grow by a few encodings' worth over its
-  // checkpoints (tests/soak_test.sh). Hand them back.
+  write_checkpoint_part(part, fingerprint, {}, snaps);
+  // A tall deposit's snapshot is megabytes; glibc keeps freed buffers in the heap, so a run
+  // would grow by a few encodings' worth over its checkpoints (tests/soak_test.sh). Hand them
+  // back.
 #if defined(__GLIBC__)
   malloc_trim(0);
 #endif

@@ -35,12 +35,16 @@ interrupt() {
 interrupt KILL k.h5 k.log
 [ "$rc" -eq 137 ] || fail "SIGKILL exit code $rc"
 [ ! -e k.h5 ] || fail "a killed run left an output file"
+# With a checkpoint after every member, each finished member is in a part of its own.
+finished_parts=$(ls k.h5.checkpoint | grep -c '^part-1-0-[0-9]*\.bin$' || true)
 msg=$("$exe" run s.toml -o k.h5 --batch-size 1 2>&1) && fail "a run over a checkpoint did not refuse"
 echo "$msg" | grep -q "add --resume" || fail "message: $msg"
 "$exe" run s.toml -o k.h5 --batch-size 1 --resume >resume.log 2>&1
 grep -q "resuming from k.h5.checkpoint" resume.log || fail "no resume message: $(cat resume.log)"
 done_before=$(sed -n 's/.*: \([0-9]*\) of 8 members finished.*/\1/p' resume.log)
 [ "$done_before" -ge 1 ] && [ "$done_before" -lt 8 ] || fail "checkpoint held $done_before members"
+[ "$finished_parts" -eq "$done_before" ] ||
+  fail "$done_before members finished in $finished_parts parts, not one part each"
 # Members in the checkpoint are not computed again: fewer disks deposited than a whole run.
 again=$(sed -n 's/.* 8\/8 members, \([0-9]*\) disks deposited.*/\1/p' resume.log)
 [ "$again" -lt "$total" ] || fail "resumed run deposited $again disks, a whole run $total"

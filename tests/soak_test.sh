@@ -60,11 +60,12 @@ same serial.h5 plain.h5
 [ -d mpi.h5.checkpoint ] && fail "the checkpoint outlived the run"
 echo "soak: 10 000 members on 2 ranks; memory grew by $with KiB with a checkpoint every second, $without KiB without checkpoints"
 # The growth is the results the ranks gather (the growth without checkpoints); checkpoints may
-# add only what one encoding of those results holds while it is written (at most as much again)
-# and the allocator's slack (8 MiB). Before each checkpoint handed its freed encoding back
-# (malloc_trim, src/main.cpp), glibc kept them: 14-26 MiB with checkpoints against 6-18 MiB
-# without, more the longer the run, a few encodings' worth; now about 6 MiB either way (peak
-# against the memory at 1 s). A leak of every checkpoint (about 20) fails it.
+# add only what one encoding of the members finished since the last one holds while it is
+# written (at most as much again) and the allocator's slack (8 MiB). When each checkpoint
+# encoded every member finished so far and glibc kept the freed buffers, the runs grew by 14-26
+# MiB with checkpoints against 6-18 MiB without; with the buffers handed back (malloc_trim,
+# src/main.cpp), about 6 MiB either way (peak against the memory at 1 s). A leak of every
+# checkpoint (about 20) fails it.
 [ "$with" -le $((2 * without + 8192)) ] ||
   fail "checkpoints made the memory grow by $((with - without)) KiB more"
 echo "soak: ok"

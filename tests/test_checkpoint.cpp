@@ -185,6 +185,32 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   std::filesystem::remove_all(dir);
 }
 
+// A run's finished members go to parts written once, its running members' snapshots to one part
+// rewritten each time: a member found finished in any part is not taken from a stale snapshot.
+TEST(Checkpoint, FinishedPartsWinOverSnapshots) {
+  const Scan scan = small_scan();
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("loosepack-parts-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string running = checkpoint_part(dir.string(), 2, 1);
+  const std::string first = checkpoint_part(dir.string(), 2, 1, 1);
+  EXPECT_EQ(std::filesystem::path(running).filename(), "part-2-1.bin");
+  EXPECT_EQ(std::filesystem::path(first).filename(), "part-2-1-1.bin");
+  const auto fp = scan_fingerprint(scan);
+  write_checkpoint_part(first, fp, {filled(scan, 1)});
+  write_checkpoint_part(checkpoint_part(dir.string(), 2, 1, 2), fp, {filled(scan, 3)});
+  // Written before member 1 finished, as a run killed between the two writes leaves it.
+  write_checkpoint_part(running, fp, {}, {snapshot(scan, 1), snapshot(scan, 2)});
+  const auto ck = read_checkpoint(dir.string(), scan);
+  ASSERT_EQ(ck.members.size(), 2u);
+  EXPECT_EQ(ck.members[0].member.id, 1u);
+  EXPECT_EQ(ck.members[1].member.id, 3u);
+  ASSERT_EQ(ck.running.size(), 1u);
+  EXPECT_EQ(ck.running[0].result.member.id, 2u);
+  EXPECT_EQ(ck.generation, 2);
+  std::filesystem::remove_all(dir);
+}
+
 // Largest expected cost first, each to the least loaded rank: one protocol-A member as costly
 // as all the others together gets a rank of its own; the shards are disjoint and complete.
 TEST(Checkpoint, ShardsBalanceExpectedCost) {

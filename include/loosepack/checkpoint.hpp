@@ -29,11 +29,16 @@ std::string encode_members(const std::vector<MemberResult>& results);
 std::vector<MemberResult> decode_members(const std::string& bytes, const Scan& scan,
                                          const std::string& what);
 
-// A checkpoint is a directory (next to the output file, `<output>.checkpoint/`) of part files,
-// one per rank and run: `part-<generation>-<rank>.bin`. A resumed run reads every part and
-// writes new ones under the next generation, so no part is ever rewritten by another run.
+// A checkpoint is a directory (next to the output file, `<output>.checkpoint/`) of part files.
+// Each rank of a run writes the members it finished since its last checkpoint into a new part,
+// written once (`part-<generation>-<rank>-<k>.bin`, k = 1, 2, ...), and the snapshots of its
+// running members into one part rewritten at every checkpoint (`part-<generation>-<rank>.bin`,
+// `finished` = 0), after the finished one: a member is encoded once, however long the run. A
+// resumed run reads every part and writes new ones under the next generation, so no part is
+// ever rewritten by another run.
 std::string checkpoint_directory(const std::string& output_path);
-std::string checkpoint_part(const std::string& directory, int generation, int rank);
+std::string checkpoint_part(const std::string& directory, int generation, int rank,
+                            int finished = 0);
 
 // Writes one part atomically (temporary file, then rename): header with the fingerprint,
 // the encoded members, snapshots of the running members, and a checksum of all of it.
