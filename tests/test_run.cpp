@@ -55,7 +55,8 @@ lower_half_from = 2.0
 
 // The progress fraction behind the ETA: it never falls (a running member counts the share of its
 // expected cost that a member as tall as its deposit so far would cost, and a finished one counts
-// whole), it moves while members run, not only when they finish, and it ends at 1.
+// whole), it moves while members run, not only when they finish, and it ends at 1; collapses
+// running are counted.
 TEST(Progress, FractionNeverFallsAndEndsAtOne) {
   const auto scan = scan_of(R"(
 [scan]
@@ -86,7 +87,22 @@ lower_half_from = 2.0
   // Over four rises per member: the fraction rises while members run (every new disk of A that
   // tops the deposit, every ballistic disk), not only when one finishes.
   EXPECT_GT(distinct, 6u * 4);
-  std::printf("%zu progress reports, %zu rises\n", seen.size(), distinct);
+  // The two protocol-C members' collapses are reported while they run (a collapse deposits
+  // nothing, so the line would look stalled), with the steps of the longest so far; none at the
+  // end.
+  int most = 0;
+  long longest = 0;
+  for (const auto& p : seen) {
+    most = std::max(most, p.collapsing);
+    if (p.collapsing > 0) longest = std::max(longest, p.collapse_steps);
+    if (p.collapsing == 0) EXPECT_EQ(p.collapse_steps, 0);
+  }
+  EXPECT_GE(most, 1);
+  EXPECT_LE(most, 2);
+  EXPECT_GT(longest, 10);
+  EXPECT_EQ(seen.back().collapsing, 0);
+  std::printf("%zu progress reports, %zu rises, collapses reported up to %ld steps\n", seen.size(),
+              distinct, longest);
 }
 
 // A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
