@@ -16,10 +16,13 @@ errors, sqrt(e_A^2 + e_B^2):
                                   the 99 % quantile of chi2 with a third of the strips' degrees
                                   of freedom (a disk spans neighbouring strips, so they are not
                                   independent), and the largest abs(z)
-  abs(Delta y) histogram          the cut histogram's verdict (the program's `preferred`) in each
-                                  file, which must agree; and each bin's fraction of the disks,
-                                  mean and standard error over the members, chi2 over the bins
-                                  with 10 disks or more in both (against its 99 % quantile)
+  abs(Delta y) histogram          the cut histogram's shape: a Gaussian or an exponential must
+                                  fit both files, chi2 within its 99 % quantile in each (the
+                                  program's verdict `preferred` between two shapes that both fit
+                                  may differ by chance), or neither verdict be a shape; each bin's
+                                  fraction of the disks, mean and standard error over the
+                                  members, chi2 over the bins with 10 disks or more in both
+                                  (against its 99 % quantile)
   avalanche events                the mean of log10(disks moved) of the events that moved disks,
                                   with its standard error; and a two-sample chi2 test of the
                                   event-size counts and of the steps-per-event counts (bins
@@ -27,7 +30,7 @@ errors, sqrt(e_A^2 + e_B^2):
                                   pooled counts are stored, so events count as independent.
 
 A scalar differs when its distance exceeds --sigma (2) combined standard errors; a profile or
-histogram when its chi2 exceeds the bound; the verdicts when they disagree. With n scalars
+histogram when its chi2 exceeds the bound; the shapes when no shape fits both and a verdict is one. With n scalars
 compared at 2 sigma, about n/20 differ by chance. Exits with 1 when anything differs, 2 on
 unusable input. --json appends one JSON line per point. Uses Debian's python3-h5py.
 """
@@ -117,23 +120,45 @@ def density_profile(pa, pb):
                    chi2, dof, bound, f", largest abs(z) {np.abs(z).max():.2f}")
 
 
-def member_fractions(group):
+def member_fractions(group, bins):
+    """Each member's share of its disks per bin, over `bins` bins (a histogram's bins reach its
+    largest abs(Delta y), so two files may have different numbers; the missing ones are 0)."""
     rows = group["member_counts_cut"][()].astype(float)
     rows = rows[rows.sum(axis=1) > 0]
+    rows = np.pad(rows, ((0, 0), (0, bins - rows.shape[1])))
     return rows / rows.sum(axis=1, keepdims=True), rows.sum(axis=0)
 
 
+def acceptable(group, shape):
+    """Whether the histogram's fit of `shape` is acceptable (chi2 within its 99 % quantile)."""
+    if shape not in group:
+        return False
+    a = group[shape].attrs
+    return bool(a.get("valid", 0)) and float(a["chi2"]) <= chi2_quantile99(max(float(a["dof"]), 1))
+
+
 def histogram(pa, pb):
+    """The cut histograms: one shape must fit both (or neither file's verdict be a shape), and
+    the members' fractions per bin must agree."""
     ha, hb = pa.get("abs_dy_histogram"), pb.get("abs_dy_histogram")
     if ha is None or hb is None:
         return
-    va, vb = (text(h["shape_cut"].attrs["preferred"]) for h in (ha, hb))
-    yield Row("abs(Delta y) histogram (cut): shape", va, vb, 0.0 if va == vb else 1.0, 0.0,
-              "same verdict" if va == vb else "verdicts differ")
+    sa, sb = ha["shape_cut"], hb["shape_cut"]
+    va, vb = text(sa.attrs["preferred"]), text(sb.attrs["preferred"])
+    fits = [v for v in ("gaussian", "exponential") if acceptable(sa, v) and acceptable(sb, v)]
+    same = bool(fits) or (va == vb and va not in ("gaussian", "exponential"))
+    yield Row("abs(Delta y) histogram (cut): shape", va, vb, 0.0 if same else 1.0, 0.0,
+              f"{' and '.join(fits)} fit{'s' if len(fits) == 1 else ''} both" if fits else
+              ("neither fits either" if same else "no shape fits both"))
     if "member_counts_cut" not in ha or "member_counts_cut" not in hb:
         return
-    (fa, ta), (fb, tb) = member_fractions(ha), member_fractions(hb)
-    if len(fa) < 2 or len(fb) < 2 or len(ta) != len(tb):
+    ea, eb = ha["edges"][()], hb["edges"][()]
+    bins = max(len(ea), len(eb)) - 1
+    common = min(len(ea), len(eb))
+    if not np.array_equal(ea[:common], eb[:common]):
+        return  # bins of different widths: not comparable bin by bin
+    (fa, ta), (fb, tb) = member_fractions(ha, bins), member_fractions(hb, bins)
+    if len(fa) < 2 or len(fb) < 2:
         return
     use = (ta >= 10) & (tb >= 10)
     err = np.hypot(fa.std(axis=0, ddof=1) / math.sqrt(len(fa)),
