@@ -1,6 +1,7 @@
 """tools/compare.py: a file against itself agrees in every quantity; a run at another Bond
-number differs where the physics says it must (the volume fraction, the avalanche size); and its
-two-sample event test on counts drawn from one distribution and from two."""
+number differs where the physics says it must (the volume fraction, the avalanche size); its
+two-sample event test on counts drawn from one distribution and from two; and the histogram
+shapes, which agree when one shape fits both files."""
 
 import importlib.util
 import json
@@ -89,3 +90,27 @@ def test_mean_log_of_binned_values():
     m, e = compare.mean_log(edges, np.array([10.0, 10.0]))
     assert m == pytest.approx(1.0)  # bin centres 0.5 and 1.5 in log10
     assert e == pytest.approx(math.sqrt(20 * 0.25 / 19 / 20))
+
+
+def shape_point(f, name, preferred, gaussian_chi2, exponential_chi2, dof=20):
+    """A point whose cut histogram has the two fits with these chi2 (no per-member counts)."""
+    cut = f.create_group(f"{name}/abs_dy_histogram/shape_cut")
+    cut.attrs["preferred"] = preferred
+    for shape, chi2 in (("gaussian", gaussian_chi2), ("exponential", exponential_chi2)):
+        g = cut.create_group(shape)
+        g.attrs.update(valid=1.0, chi2=chi2, dof=float(dof))
+    return f[name]
+
+
+def test_histogram_shapes_agree_when_one_shape_fits_both(tmp_path):
+    import h5py
+    bound = compare.chi2_quantile99(20)  # 37.6
+    with h5py.File(tmp_path / "shapes.h5", "w") as f:
+        a = shape_point(f, "a", "exponential", 21.0, 20.0)
+        b = shape_point(f, "b", "gaussian", 25.0, bound + 5)  # the Gaussian fits both
+        c = shape_point(f, "c", "gaussian", 18.0, bound + 30)
+        d = shape_point(f, "d", "exponential", bound + 30, 19.0)  # no shape fits c and d
+        e = shape_point(f, "e", "neither", bound + 9, bound + 8)
+        verdict = lambda p, q: next(compare.histogram(p, q)).within
+        assert verdict(a, b) and verdict(b, c) and verdict(e, e)
+        assert not verdict(c, d) and not verdict(c, e)
