@@ -25,7 +25,8 @@ lower_half_from = 0
 TOML
 "$exe" run soak.toml -o serial.h5 -q
 
-rss_of_ranks() {  # "N KIB": how many of mpirun and the ranks writing $1 run, their resident memory summed
+# Prints "N KIB": how many of mpirun and the ranks writing $1 run, and their resident memory summed.
+rss_of_ranks() {
   local total=0 count=0 pid kb
   for pid in $(pgrep -f "loosepack run soak.toml -o $1"); do
     kb=$(awk '/^VmRSS/ {print $2}' "/proc/$pid/status" 2>/dev/null) || continue
