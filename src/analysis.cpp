@@ -2,6 +2,7 @@
 #include "loosepack/analysis.hpp"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
@@ -254,8 +255,8 @@ double value_of(const SystemParams& p, Varying v) {
   return v == Varying::Height ? p.height : p.capture_radius;
 }
 
-// Points of `protocol` that agree with the first such point in every parameter but the varying
-// one; empty unless the varying one takes at least three distinct values among them.
+// Points of `protocol` that agree in every parameter but the varying one: the group with the
+// most distinct values of it; empty unless that is at least three.
 std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, Protocol protocol,
                                        Varying varying) {
   auto eq = [](double u, double v) { return u == v || (std::isinf(u) && std::isinf(v)); };
@@ -268,21 +269,35 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
            eq(a.height, b.height) && eq(a.capture_radius, b.capture_radius) &&
            eq(a.time_step, b.time_step);
   };
+  // The points that share everything else with `ref`, and how many values of the variable
+  // they hold.
+  auto group_of = [&](const SystemParams& ref, std::size_t* values) {
+    std::vector<std::size_t> group;
+    std::vector<double> distinct;
+    for (std::size_t k = 0; k < points.size(); ++k) {
+      if (points[k].point.protocol != protocol || !same_except(ref, points[k].point.params))
+        continue;
+      group.push_back(k);
+      const double v = value_of(points[k].point.params, varying);
+      if (std::find(distinct.begin(), distinct.end(), v) == distinct.end()) distinct.push_back(v);
+    }
+    *values = distinct.size();
+    return group;
+  };
+  // The group with the most values (the first such), so that a scan that varies the height in
+  // some points and the capture radius in others gets both fits.
   std::vector<std::size_t> out;
-  const SystemParams* ref = nullptr;
-  for (std::size_t k = 0; k < points.size(); ++k) {
-    if (points[k].point.protocol != protocol) continue;
-    if (!ref) ref = &points[k].point.params;
-    if (same_except(*ref, points[k].point.params)) out.push_back(k);
+  std::size_t most = 0;
+  for (const auto& p : points) {
+    if (p.point.protocol != protocol) continue;
+    std::size_t values = 0;
+    auto group = group_of(p.point.params, &values);
+    if (values > most) {
+      most = values;
+      out = std::move(group);
+    }
   }
-  std::vector<double> distinct;
-  for (std::size_t k : out) {
-    const double v = value_of(points[k].point.params, varying);
-    bool seen = false;
-    for (double d : distinct) seen = seen || d == v;
-    if (!seen) distinct.push_back(v);
-  }
-  if (distinct.size() < 3) out.clear();
+  if (most < 3) out.clear();
   return out;
 }
 

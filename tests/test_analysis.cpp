@@ -406,7 +406,9 @@ lower_half_from = 8.0
 
 // Protocol C at three capture radii, with initial densities nu_i set per point and uniform
 // collapses of relative increase b = K nu_i^s: the fit of dnu/nu_i against the measured nu_i
-// across the points (the paper's fig. 17) recovers the exponent s.
+// across the points (the paper's fig. 17) recovers the exponent s. The scan's first point has
+// another height (as in a file that runs fig. 16's heights first): the three radii are still
+// found together.
 TEST(Analysis, RelativeIncreaseAgainstInitialDensityIsAPowerLaw) {
   const auto scan = parse_scan(R"(
 [scan]
@@ -414,21 +416,34 @@ protocol = "C"
 seeds = 8
 [system]
 width = 200.0
-height = 120.0
 bond_number = 1000
-capture_radius = [1.0, 1.5, 2.0]
 [observables]
 lower_half_from = 8.0
+[[point]]
+height = 60.0
+capture_radius = 1.0
+[[point]]
+height = 120.0
+capture_radius = 1.0
+[[point]]
+height = 120.0
+capture_radius = 1.5
+[[point]]
+height = 120.0
+capture_radius = 2.0
 )",
                                "synthetic.toml");
-  const double nu_i[3] = {0.40, 0.33, 0.27}, K = 0.1, s = -1.64;
-  std::uniform_real_distribution<double> uy(1.0, 119.0);
+  const double nu_i[4] = {0.40, 0.40, 0.33, 0.27}, height[4] = {60.0, 120.0, 120.0, 120.0};
+  const double K = 0.1, s = -1.64;
   const auto results = synthetic_ensemble(
       scan, 13,
-      [&](const Member& m) { return static_cast<int>(nu_i[m.point] * 200.0 * 118.0 / M_PI); },
+      [&](const Member& m) {
+        return static_cast<int>(nu_i[m.point] * 200.0 * (height[m.point] - 2.0) / M_PI);
+      },
       [&](const Member& m, std::mt19937_64& rng) {
         const double b = K * std::pow(nu_i[m.point] / 0.33, s);
         const double b_prime = b / (1.0 + b);  // y_e = (1 - b') y_i compresses by 1 + b
+        std::uniform_real_distribution<double> uy(1.0, height[m.point] - 1.0);
         const double yi = uy(rng);
         return std::pair(yi, (1.0 - b_prime) * yi);
       });
