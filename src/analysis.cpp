@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <utility>
 
 namespace loosepack {
 
@@ -271,7 +272,7 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
   };
   // The points that share everything else with `ref`, and how many values of the variable
   // they hold.
-  auto group_of = [&](const SystemParams& ref, std::size_t* values) {
+  auto group_of = [&](const SystemParams& ref) {
     std::vector<std::size_t> group;
     std::vector<double> distinct;
     for (std::size_t k = 0; k < points.size(); ++k) {
@@ -281,8 +282,7 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
       const double v = value_of(points[k].point.params, varying);
       if (std::find(distinct.begin(), distinct.end(), v) == distinct.end()) distinct.push_back(v);
     }
-    *values = distinct.size();
-    return group;
+    return std::make_pair(group, distinct.size());
   };
   // The group with the most values (the first such), so that a scan that varies the height in
   // some points and the capture radius in others gets both fits.
@@ -290,8 +290,7 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
   std::size_t most = 0;
   for (const auto& p : points) {
     if (p.point.protocol != protocol) continue;
-    std::size_t values = 0;
-    auto group = group_of(p.point.params, &values);
+    auto [group, values] = group_of(p.point.params);
     if (values > most) {
       most = values;
       out = std::move(group);

@@ -156,6 +156,7 @@ class RunCommand {
   // and the latest snapshot of each of its running members.
   std::vector<MemberResult> fresh;
   int finished_parts = 0;
+  bool running_part_holds = false;  // whether the running part on disk holds any snapshot
   std::map<std::uint64_t, MemberSnapshot> running;
   std::vector<MemberResult> computed;
   RunInfo info;
@@ -304,9 +305,14 @@ void RunCommand::save_checkpoint() {
                           fingerprint, fresh);
     fresh.clear();
   }
-  std::vector<MemberSnapshot> snaps;
-  for (const auto& [id, snap] : running) snaps.push_back(snap);
-  write_checkpoint_part(part, fingerprint, {}, snaps);
+  // The running part, unless it would stay empty (each write is flushed to the disk; with
+  // --checkpoint-every 0 and no snapshots taken, every finished member would write one).
+  if (!running.empty() || running_part_holds) {
+    std::vector<MemberSnapshot> snaps;
+    for (const auto& [id, snap] : running) snaps.push_back(snap);
+    write_checkpoint_part(part, fingerprint, {}, snaps);
+    running_part_holds = !snaps.empty();
+  }
   // A tall deposit's snapshot is megabytes; glibc keeps freed buffers in the heap, so a run
   // would grow by a few encodings' worth over its checkpoints (tests/soak_test.sh). Hand them
   // back.

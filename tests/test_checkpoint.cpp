@@ -18,6 +18,22 @@ using namespace loosepack;
 
 namespace {
 
+// A fresh directory under the system's temporary one, removed with everything in it when the
+// test ends, passed or failed.
+struct ScratchDir {
+  explicit ScratchDir(const std::string& name)
+      : path(std::filesystem::temp_directory_path() / (name + "-" + std::to_string(::getpid()))) {
+    std::filesystem::remove_all(path);
+    std::filesystem::create_directories(path);
+  }
+  ~ScratchDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path, ec);
+  }
+  std::string string() const { return path.string(); }
+  std::filesystem::path path;
+};
+
 Scan small_scan() {
   return parse_scan(
       "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 12\nheight = 12\n"
@@ -137,9 +153,7 @@ TEST(Checkpoint, MembersRoundTripBitForBit) {
 // silently used.
 TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   const Scan scan = small_scan();
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("loosepack-ckpt-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const ScratchDir dir("loosepack-ckpt");
   const std::string part = checkpoint_part(dir.string(), 1, 0);
   write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)}, {snapshot(scan, 2)});
   const auto ck = read_checkpoint(dir.string(), scan);
@@ -182,16 +196,13 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   Scan edited = small_scan();
   edited.text += " ";
   EXPECT_THROW(read_checkpoint(dir.string(), edited), CheckpointError);
-  std::filesystem::remove_all(dir);
 }
 
 // A run's finished members go to parts written once, its running members' snapshots to one part
 // rewritten each time: a member found finished in any part is not taken from a stale snapshot.
 TEST(Checkpoint, FinishedPartsWinOverSnapshots) {
   const Scan scan = small_scan();
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("loosepack-parts-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const ScratchDir dir("loosepack-parts");
   const std::string running = checkpoint_part(dir.string(), 2, 1);
   const std::string first = checkpoint_part(dir.string(), 2, 1, 1);
   EXPECT_EQ(std::filesystem::path(running).filename(), "part-2-1.bin");
@@ -208,7 +219,6 @@ TEST(Checkpoint, FinishedPartsWinOverSnapshots) {
   ASSERT_EQ(ck.running.size(), 1u);
   EXPECT_EQ(ck.running[0].result.member.id, 2u);
   EXPECT_EQ(ck.generation, 2);
-  std::filesystem::remove_all(dir);
 }
 
 // Largest expected cost first, each to the least loaded rank: one protocol-A member as costly
@@ -330,9 +340,7 @@ TEST(Checkpoint, RunningMembersGoOnBitForBit) {
   ASSERT_EQ(straight.size(), members.size());
   ASSERT_GT(rounds, 100);
 
-  const auto dir =
-      std::filesystem::temp_directory_path() / ("loosepack-running-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const ScratchDir dir("loosepack-running");
   const std::string part = checkpoint_part(dir.string(), 1, 0);
   Scan resumed_scan = scan;
   resumed_scan.batch_size = 3;
@@ -375,7 +383,6 @@ TEST(Checkpoint, RunningMembersGoOnBitForBit) {
       (s.system.status.active ? went_on_moving : went_on_resting) = true;
     if (done.size() < members.size()) ++stops;
   }
-  std::filesystem::remove_all(dir);
   EXPECT_GE(stops, 4);
   // Some members went on inside a relaxation or collapse, some between two disks.
   EXPECT_TRUE(went_on_moving);
