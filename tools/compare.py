@@ -237,7 +237,7 @@ def compare_point(pa, pb, sigma):
 def describe(point):
     a = point.attrs
     keys = ("protocol", "bond_number", "width", "height", "capture_radius", "members")
-    return ", ".join(f"{k} {text(a[k]) if isinstance(a[k], (bytes, str)) else a[k]:}"
+    return ", ".join(f"{k} {text(a[k]) if isinstance(a[k], (bytes, str)) else f'{a[k]:g}'}"
                      for k in keys if k in a)
 
 
