@@ -270,17 +270,28 @@ def collapse_increase(f, points, out, written):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     H = [attr(g, "height") for g in c]
     ni = [attr(g, "nu_initial_mean") for g in c]
-    inc = [attr(g, "relative_increase_mean") for g in c]
-    err = [attr(g, "relative_increase_sem") for g in c]
-    axes[0].errorbar(H, inc, yerr=err, fmt="o", capsize=3)
+    for rc in sorted({attr(g, "capture_radius") for g in c}):
+        g_rc = [g for g in c if attr(g, "capture_radius") == rc]
+        inc = [attr(g, "relative_increase_mean") for g in g_rc]
+        err = [attr(g, "relative_increase_sem") for g in g_rc]
+        lab = f"r_capt = {rc:g}"
+        axes[0].errorbar([attr(g, "height") for g in g_rc], inc, yerr=err, fmt="o", capsize=3,
+                         label=lab)
+        axes[1].errorbar([attr(g, "nu_initial_mean") for g in g_rc], inc, yerr=err, fmt="o",
+                         capsize=3, label=lab)
     axes[0].set_xscale("log")
     axes[0].set_xlabel("H [R]")
-    axes[1].errorbar(ni, inc, yerr=err, fmt="o", capsize=3)
     axes[1].set_xscale("log")
     axes[1].set_yscale("log")
     axes[1].set_xlabel("nu_i")
+    # Plain numbers at 1..9 of each decade on the log axes, which span less than a decade here.
+    for axis in (axes[0].xaxis, axes[1].xaxis, axes[1].yaxis):
+        axis.set_major_locator(matplotlib.ticker.LogLocator(subs=range(1, 10)))
+        axis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        axis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     for ax in axes:
         ax.set_ylabel("dnu / nu_i")
+        ax.legend(fontsize=8)
     an = f["analysis"] if "analysis" in f else None
     if an is not None:
         fh = fit_of(an, "increase_vs_log_height")
