@@ -162,7 +162,8 @@ void encode(Writer& w, const MemberSnapshot& snap) {
   encode(w, snap.result);
   w.put<std::int32_t>(static_cast<std::int32_t>(snap.phase));
   const MemberStage& st = snap.stage;
-  for (long v : {st.steps, st.cap, st.unconverged, st.deposited}) w.put<std::int64_t>(v);
+  for (long v : {st.steps, st.cap, st.moved_until, st.unconverged, st.deposited})
+    w.put<std::int64_t>(v);
   w.put<double>(st.filled);
   for (bool b : {st.gave_up, st.checking, st.event_capped, st.event_open, st.final_check})
     w.put<std::uint8_t>(b ? 1 : 0);
@@ -203,7 +204,8 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
   snap.phase = static_cast<MemberPhase>(in.get<std::int32_t>());
   if (!goes_on_from(snap.phase)) in.fail("a running member in no phase it can go on from");
   MemberStage& st = snap.stage;
-  for (long* v : {&st.steps, &st.cap, &st.unconverged, &st.deposited}) *v = in.get<std::int64_t>();
+  for (long* v : {&st.steps, &st.cap, &st.moved_until, &st.unconverged, &st.deposited})
+    *v = in.get<std::int64_t>();
   st.filled = in.get<double>();
   for (bool* b : {&st.gave_up, &st.checking, &st.event_capped, &st.event_open, &st.final_check})
     *b = in.get<std::uint8_t>() != 0;

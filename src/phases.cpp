@@ -203,7 +203,9 @@ void MemberRun::close_events(const Mask& closing) {
     AvalancheEvent ev;
     ev.moved = moved[k].moved;
     ev.downward = moved[k].downward;
-    ev.steps = sl.steps;
+    // A region's event ends as the whole system's does: rest.steps after its last step not at
+    // rest (a check that finds nothing adds no steps).
+    ev.steps = sl.event_capped ? sl.steps : std::min(sl.steps, sl.moved_until + scan_.rest.steps);
     ev.capped = sl.event_capped;
     sl.result.capped += ev.capped ? 1 : 0;
     sl.result.events.push_back(ev);
@@ -241,6 +243,7 @@ void MemberRun::start_relaxation(std::size_t k, const Deposit& placed) {
   Slot& sl = slots_[k];
   count_disk(k, placed);
   sl.steps = 0;
+  sl.moved_until = 0;
   sl.cap = steps_for(k, scan_.protocol.max_relax_time);
   sl.checking = false;
   sl.rounds = 0;
@@ -299,11 +302,13 @@ bool MemberRun::whole_step_counted(std::size_t k) {
   return false;
 }
 
-// A slot's counters after one step of its system (whole or region): steps, consecutive
-// unconverged steps (with rest.converged false a capped solve blocks nothing, so it is not a
-// failure either) and consecutive steps with no disk above the wake speed.
+// A slot's counters after one step of its system (whole or region): steps, the last step not
+// at rest, consecutive unconverged steps (with rest.converged false a capped solve blocks
+// nothing, so it is not a failure either) and consecutive steps with no disk above the wake
+// speed.
 void MemberRun::count_step(Slot& sl, const SystemStatus& st, const SystemParams& p) {
   ++sl.steps;
+  if (st.rest_steps == 0) sl.moved_until = sl.steps;
   sl.unconverged = st.converged || !scan_.rest.converged ? 0 : sl.unconverged + 1;
   sl.gave_up =
       static_cast<double>(sl.unconverged) * p.time_step > scan_.protocol.max_unconverged_time;

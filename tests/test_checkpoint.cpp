@@ -87,6 +87,7 @@ MemberSnapshot snapshot(const Scan& scan, std::size_t id) {
   snap.result = filled(scan, id);
   snap.phase = MemberPhase::Deposit;
   snap.stage.steps = 17;
+  snap.stage.moved_until = 6;
   snap.stage.deposited = 2;
   snap.stage.filled = 0.25;
   snap.stage.event_open = true;
@@ -163,6 +164,7 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   EXPECT_EQ(back.result.member.id, 2u);
   EXPECT_EQ(back.phase, MemberPhase::Deposit);
   EXPECT_EQ(back.stage.steps, 17);
+  EXPECT_EQ(back.stage.moved_until, 6);
   EXPECT_TRUE(back.stage.event_open);
   ASSERT_EQ(back.system.disks.size(), 2u);
   EXPECT_TRUE(std::signbit(back.system.disks[1].x));

@@ -329,6 +329,16 @@ trajectory_every = 3
         EXPECT_LT(r.y_e[a], 16.0 + r.radius[a]);
       }
       expect_trajectories_end_at_final_positions(r, 3);
+      // An event lasts to its last step not at rest and the rest window (10 steps), in the
+      // region and the check alike: a check that finds nothing adds no steps, so the disks that
+      // stick where they land (most at Bo = 10) end their events within 2 rest windows.
+      std::vector<long> steps;
+      for (const auto& ev : r.events) {
+        EXPECT_GE(ev.steps, 10);
+        steps.push_back(ev.steps);
+      }
+      std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
+      EXPECT_LT(steps[steps.size() / 2], 20);
     }
   }
 }

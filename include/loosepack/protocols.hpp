@@ -26,7 +26,7 @@ std::vector<Member> members_of(const Scan& scan);
 struct AvalancheEvent {
   int moved = 0;          // disks that moved more than the threshold in y
   double downward = 0.0;  // their summed downward displacement [R]
-  long steps = 0;         // steps to rest
+  long steps = 0;         // steps to rest: to the last step not at rest, and rest.steps more
   bool capped = false;    // hit max_relax_time before rest
 };
 
@@ -69,6 +69,10 @@ inline bool goes_on_from(MemberPhase p) {
 struct MemberStage {
   long steps = 0;        // steps of the current relaxation or collapse
   long cap = 0;          // their cap
+  // A: the steps of the current relaxation up to its last step that was not at rest by the rest
+  // criterion (a disk above rest.speed, or an unconverged solve); its event lasts these and the
+  // rest window, in a relaxation region as in the whole system.
+  long moved_until = 0;
   long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
   bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
   long deposited = 0;
