@@ -20,6 +20,9 @@ namespace loosepack {
 // Relaxation regions that end at rest and then find motion in the whole system start a new
 // region around it at most this many times per disk; then the whole system relaxes.
 constexpr int kMaxRegionRounds = 4;
+// The check of the whole system after a region finds motion where a disk is faster than this
+// many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).
+constexpr double kWakeFactor = 3.0;
 
 // The cost model's share of a running member (expected_cost, counting how far it got).
 double running_cost(const Member& m, MemberPhase phase, double filled);
@@ -86,10 +89,6 @@ class MemberRun {
   bool whole_step_counted(std::size_t k);
   void count_step(Slot& sl, const SystemStatus& st, const SystemParams& p);
   void count_disk(std::size_t k, const Deposit& d);
-  // Whether the last step left a disk faster than the rest speed (rest.speed, rest.spin).
-  bool moving(const SystemStatus& st) const {
-    return !(st.rest_speed(scan_.rest.spin) < scan_.rest.speed);
-  }
   void sample(std::size_t k, double when, std::size_t count = static_cast<std::size_t>(-1));
   long steps_for(std::size_t k, double time) const;
 
@@ -110,6 +109,7 @@ class MemberRun {
   bool snapshots_wanted_ = false;
   std::vector<MemberSnapshot> taken_;
   Clock::time_point stopped_at_{};
+  double wake_ = 0.0;  // kWakeFactor rest speeds
 };
 
 }  // namespace loosepack

@@ -136,7 +136,7 @@ void MemberRun::advance_region(std::size_t k, Mask& closing) {
     return;
   }
   // A region the check started (not the disk's first) is part of the check and ends as it
-  // does: rest.steps steps without a disk above the rest speed, converged or not.
+  // does: rest.steps steps without a disk above the wake speed, converged or not.
   auto state = regions_->poll(*batch_, s);
   if (state == Regions::State::Running && sl.rounds > 1 && sl.quiet >= scan_.rest.steps) {
     regions_->stop(*batch_, s);
@@ -167,11 +167,11 @@ void MemberRun::advance_relax(std::size_t k, Mask& closing) {
   // tall deposit's solve misses the tolerance on some steps; docs/MODEL.md).
   const bool quiet = sl.checking && sl.quiet >= scan_.rest.steps;
   const bool done = st.at_rest || quiet || sl.steps >= sl.cap;
-  if (!done && sl.checking && moving(st) && sl.rounds < kMaxRegionRounds) {
+  if (!done && sl.checking && st.max_speed > wake_ && sl.rounds < kMaxRegionRounds) {
     // The whole system moves after the region came to rest: relax around what moves.
     std::vector<Regions::Point> seeds;
     for (const auto& d : batch_->disks(s))
-      if (speed(d, scan_.rest.spin) > scan_.rest.speed) seeds.push_back({d.x, d.y});
+      if (speed(d) > wake_) seeds.push_back({d.x, d.y});
     if (start_region(k, seeds)) return;
   }
   if (!done) return;
@@ -304,7 +304,7 @@ bool MemberRun::whole_step_counted(std::size_t k) {
 
 // A slot's counters after one step of its system (whole or region): steps, the last step not
 // at rest, consecutive unconverged steps (with rest.converged false a capped solve blocks
-// nothing, so it is not a failure either) and consecutive steps with no disk above the rest
+// nothing, so it is not a failure either) and consecutive steps with no disk above the wake
 // speed.
 void MemberRun::count_step(Slot& sl, const SystemStatus& st, const SystemParams& p) {
   ++sl.steps;
@@ -312,7 +312,7 @@ void MemberRun::count_step(Slot& sl, const SystemStatus& st, const SystemParams&
   sl.unconverged = st.converged || !scan_.rest.converged ? 0 : sl.unconverged + 1;
   sl.gave_up =
       static_cast<double>(sl.unconverged) * p.time_step > scan_.protocol.max_unconverged_time;
-  sl.quiet = moving(st) ? 0 : sl.quiet + 1;
+  sl.quiet = st.max_speed < wake_ ? sl.quiet + 1 : 0;
   sl.runaway = st.max_speed > runaway_speed(p);
 }
 

@@ -62,6 +62,7 @@ MemberRun::MemberRun(const Scan& scan, const std::vector<Member>& members, const
   for (const auto& snap : resume) snapshot_of_[snap.result.member.id] = &snap;
   progress_.members_total = static_cast<int>(members.size());
   for (const auto& m : members) total_cost_ += expected_cost(m);
+  wake_ = kWakeFactor * scan_.rest.speed;
 }
 
 SystemSetup MemberRun::setup_of(const Member& m) const {
