@@ -204,8 +204,9 @@ void MemberRun::close_events(const Mask& closing) {
     ev.moved = moved[k].moved;
     ev.downward = moved[k].downward;
     // A region's event ends as the whole system's does: rest.steps after its last step not at
-    // rest (a check that finds nothing adds no steps).
-    ev.steps = sl.event_capped ? sl.steps : std::min(sl.steps, sl.moved_until + scan_.rest.steps);
+    // rest (a check that finds nothing adds no steps). A capped event was not at rest on one of
+    // its last rest.steps steps, so it keeps all its steps.
+    ev.steps = std::min(sl.steps, sl.moved_until + scan_.rest.steps);
     ev.capped = sl.event_capped;
     sl.result.capped += ev.capped ? 1 : 0;
     sl.result.events.push_back(ev);

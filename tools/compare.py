@@ -31,8 +31,8 @@ errors, sqrt(e_A^2 + e_B^2):
 
 A scalar differs when its distance exceeds --sigma (2) combined standard errors; a profile or
 histogram when its chi2 exceeds the bound; the shapes when no shape fits both and a verdict is
-one. With n scalars compared at 2 sigma, about n/20 differ by chance. Exits with 1 when anything differs, 2 on
-unusable input. --json appends one JSON line per point. Uses Debian's python3-h5py.
+one. With n scalars compared at 2 sigma, about n/20 differ by chance. Exits with 1 when
+anything differs, 2 on unusable input. --json appends one JSON line per point. Uses Debian's python3-h5py.
 """
 import argparse
 import json
