@@ -376,22 +376,29 @@ def check_point(point, path):
         yield (f"{where}: Delta y(y_e) is constant in the bulk, no parabola",
                constant and not holds, detail)
     if protocol == "A" and bo in (0.0, 1e3):  # the two Bond numbers the paper says it of
-        expected = "exponential" if bo == 0 else "gaussian"
-        which, preferred, g = histogram_verdict(point, path)
-        chi2 = lambda m: (f"{g[m].attrs['chi2']:.3g}/{g[m].attrs['dof']:g} (99 % bound "
-                          f"{chi2_quantile99(g[m].attrs['dof']):.3g})")
-        errors = ("the members' scatter" if g.attrs.get("member_errors", 0) else
-                  "Poisson's (no per-member counts)")
-        detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
-                  f"gaussian {chi2('gaussian')}, errors from {errors}")
-        yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
-        if bo == 0:
-            yield from bo0_histogram_claims(point, path, where)
+        yield from histogram_claims(point, path, where)
     if protocol == "A" and bo in PAPER_FLUCTUATION and float(a["height"]) >= 220.0:
         yield from deposition_fluctuation_claims(point, path, where)
     if protocol == "C":
         yield from collapse_claims(point, path, where)
         yield from collapse_density_claims(point, path, where)
+
+
+def histogram_claims(point, path, where):
+    """The |Delta y| histogram's shape at Bo = 0 (exponential, fig. 9) and Bo = 1e3 (Gaussian,
+    fig. 8): the program's verdict, and at Bo = 0 the paper's description of fig. 9 besides."""
+    bo = float(point.attrs["bond_number"])
+    expected = "exponential" if bo == 0 else "gaussian"
+    which, preferred, g = histogram_verdict(point, path)
+    chi2 = lambda m: (f"{g[m].attrs['chi2']:.3g}/{g[m].attrs['dof']:g} (99 % bound "
+                      f"{chi2_quantile99(g[m].attrs['dof']):.3g})")
+    errors = ("the members' scatter" if g.attrs.get("member_errors", 0) else
+              "Poisson's (no per-member counts)")
+    detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
+              f"gaussian {chi2('gaussian')}, errors from {errors}")
+    yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
+    if bo == 0:
+        yield from bo0_histogram_claims(point, path, where)
 
 
 def collapse_claims(point, path, where):

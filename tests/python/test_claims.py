@@ -1,7 +1,8 @@
-"""tools/claims.py's profile checks on synthetic ensembles that must pass and ones that must
-fail: the parabola against a constant profile and against a line, the constant at Bo = 0, the
-straight line of protocol C against a parabola, and the collapse identity on lines that obey it
-and on lines that do not."""
+"""tools/claims.py's checks on synthetic ensembles that must pass and ones that must fail: the
+parabola against a constant profile and against a line, the constant at Bo = 0, the straight
+line of protocol C against a parabola, the collapse identity on lines that obey it and on lines
+that do not, the histogram shapes, the collapse densities, the deposition density's fluctuation,
+and the laws across scan points (1/H, a fixed slice model, dnu/nu_i against ln H and nu_i)."""
 
 import importlib.util
 import math
@@ -183,24 +184,80 @@ def test_typical_avalanche_size_falls_with_the_bond_number(tmp_path):
     assert not verdict({10: (3.0, 0.2), 100: (1.0, 0.1), 1000: (2.0, 0.1)})   # rises in between
 
 
-def across_heights(tmp_path, name, p, e, chi2, dof=2):
+def across_points(tmp_path, name, key, p, e, chi2, dof=2):
+    """The verdict of claims.py on a file whose only across-point fit is `key`, with slope or
+    exponent p +- e and the given chi2."""
     path = tmp_path / f"{name}.h5"
     with h5py.File(path, "w") as f:
         f.create_group("points")
-        g = f.create_group("analysis/quadratic_vs_height")
+        g = f.create_group(f"analysis/{key}")
         g["coef"], g["error"] = np.array([-5.0, p]), np.array([0.5, e])
         g.attrs.update({"valid": 1.0, "chi2": chi2, "dof": float(dof),
                         "reduced_chi2": chi2 / dof, "points": dof + 2.0})
     with h5py.File(path, "r") as f:
-        (claim, ok, _), = [c for c in claims.check_scan(f, str(path)) if "1/H" in c[0]]
+        (claim, ok, _), = claims.check_scan(f, str(path))
         return ok
 
 
 def test_one_over_h_needs_a_resolved_exponent_near_minus_one_and_an_acceptable_fit(tmp_path):
-    assert across_heights(tmp_path, "a", -1.05, 0.1, 1.0)
-    assert not across_heights(tmp_path, "b", -0.31, 0.14, 0.6)  # resolved, but not -1
-    assert not across_heights(tmp_path, "c", -1.0, 0.1, 40.0)   # the points follow no power law
-    assert not across_heights(tmp_path, "d", 0.5, 2.0, 1.0)     # -1 within errors, but not falling
+    def across_heights(name, p, e, chi2):
+        return across_points(tmp_path, name, "quadratic_vs_height", p, e, chi2)
+    assert across_heights("a", -1.05, 0.1, 1.0)
+    assert not across_heights("b", -0.31, 0.14, 0.6)  # resolved, but not -1
+    assert not across_heights("c", -1.0, 0.1, 40.0)   # the points follow no power law
+    assert not across_heights("d", 0.5, 2.0, 1.0)     # -1 within errors, but not falling
+
+
+def test_slice_model_fixed_across_heights(tmp_path):
+    def fixed(name, p, e, chi2=1.0):
+        return across_points(tmp_path, name, "slice_vs_height", p, e, chi2)
+    assert fixed("a", 0.05, 0.1)
+    assert not fixed("b", 0.58, 0.13)        # a still grows with H (the 40 R tall runs)
+    assert not fixed("c", 0.0, 0.1, 40.0)    # no power law through the points
+
+
+def test_collapse_increase_rises_with_log_height_and_falls_with_initial_density(tmp_path):
+    def rises(name, p, e, chi2=1.0):
+        return across_points(tmp_path, name, "increase_vs_log_height", p, e, chi2)
+    assert rises("a", 0.307, 0.031)          # fig. 16 at the paper's size
+    assert not rises("b", 0.105, 0.107)      # within errors of flat (the reduced heights)
+    assert not rises("c", -0.3, 0.03)        # falls
+    assert not rises("d", 0.3, 0.03, 40.0)   # no line in ln H through the points
+
+    def falls(name, p, e, chi2=1.0):
+        return across_points(tmp_path, name, "increase_vs_nu_initial", p, e, chi2)
+    assert falls("a", -1.64, 0.2)
+    assert not falls("b", 1.64, 0.2)         # rises with nu_i
+    assert not falls("c", -0.2, 0.3)         # not resolved
+    assert not falls("d", -1.76, 0.18, 18.0)  # the points on no power law (chi2/dof 9.0)
+
+
+def histogram_claim(tmp_path, name, bo, cut, whole="neither"):
+    """The histogram claim of claims.py at a protocol-A point whose program verdicts are `cut`
+    (the cut histogram's) and `whole`."""
+    path = tmp_path / f"{name}.h5"
+    with h5py.File(path, "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update({"protocol": "A", "bond_number": bo, "height": H})
+        for which, preferred in (("shape_cut", cut), ("shape", whole)):
+            s = g.create_group(f"abs_dy_histogram/{which}")
+            s.attrs.update({"preferred": preferred, "member_errors": 1})
+            for shape in ("exponential", "gaussian"):
+                s.create_group(shape).attrs.update({"chi2": 20.0, "dof": 18.0})
+    with h5py.File(path, "r") as f:
+        for claim, ok, _ in claims.histogram_claims(f["points/0000"], str(path), "p"):
+            if "histogram is" in claim:
+                return ok
+    raise AssertionError("no histogram claim")
+
+
+def test_histogram_shape_claims_follow_the_programs_verdict_on_the_cut_histogram(tmp_path):
+    assert histogram_claim(tmp_path, "g", 1e3, "gaussian")
+    assert not histogram_claim(tmp_path, "n", 1e3, "neither", whole="gaussian")  # the cut decides
+    assert not histogram_claim(tmp_path, "e", 1e3, "exponential")
+    assert histogram_claim(tmp_path, "f", 1e3, "none", whole="gaussian")  # too few cut bins
+    assert histogram_claim(tmp_path, "x", 0.0, "exponential")
+    assert not histogram_claim(tmp_path, "y", 0.0, "gaussian")
 
 
 def bo0_histogram(tmp_path, name, density, seed=3):
