@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Command-line behaviour: help, a bad scan refused before any work with file:line and key, an
-# existing result file left untouched, a small good run with its summary and plots, and the
-# re-analysis of a result file.
+# existing result file left untouched, a small good run with its summary and plots, the
+# re-analysis of a result file, and every shipped scan file accepted.
 source "$(dirname "$0")/common.sh"
 
 "$exe" --help | grep -qE "^ +run +Run a scan file" || fail "--help does not list run"
@@ -21,6 +21,10 @@ msg=$("$exe" run 2>&1); rc=$?
 msg=$("$exe" run "$repo/examples/default.toml" --checkpoint-every nan --dry-run 2>&1); rc=$?
 [ "$rc" -eq 2 ] || fail "--checkpoint-every nan exited $rc, expected 2: $msg"
 set -e
+# Every scan file the repository ships is valid input.
+for scan in "$repo"/examples/*.toml "$repo"/examples/paper/*.toml; do
+  msg=$("$exe" run "$scan" -o "$dir/example.h5" --dry-run 2>&1) || fail "$scan: $msg"
+done
 
 printf '[system]\nwidth = 20\nfriction = -0.5\n' > "$dir/bad.toml"
 echo "previous results" > "$dir/out.h5"

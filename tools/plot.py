@@ -263,13 +263,27 @@ def scaled_avalanche_profiles(f, points, out, written):
     save(fig, out, "scaled_avalanche_profiles.png", written)
 
 
+def fitted_group(points, varying):
+    """The points an across-point fit of the program went through (src/analysis.cpp): those that
+    differ only in `varying`, the group with the most values of it (the first such)."""
+    others = [k for k in ("bond_number", "width", "height", "capture_radius") if k != varying]
+    key = lambda g: tuple(attr(g, k) for k in others)
+    values = lambda group: len({attr(g, varying) for g in group})
+    best = []
+    for ref in points:
+        group = [g for g in points if key(g) == key(ref)]
+        if values(group) > values(best):
+            best = group
+    return best
+
+
 def collapse_increase(f, points, out, written):
     c = [g for g in points if text(attr(g, "protocol")) == "C"]
     if len(c) < 2:
         return
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    H = [attr(g, "height") for g in c]
-    ni = [attr(g, "nu_initial_mean") for g in c]
+    H = [attr(g, "height") for g in fitted_group(c, "height")]
+    ni = [attr(g, "nu_initial_mean") for g in fitted_group(c, "capture_radius")]
     for rc in sorted({attr(g, "capture_radius") for g in c}):
         g_rc = [g for g in c if attr(g, "capture_radius") == rc]
         inc = [attr(g, "relative_increase_mean") for g in g_rc]
