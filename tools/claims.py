@@ -17,6 +17,14 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     not of larger Bond numbers): the program's verdict (`preferred`), which
                     needs the lower information criterion and an acceptable fit, its errors
                     from the members' scatter (docs/OUTPUT.md, "Analysis")
+  A, 0 < Bo < inf   (with `observables.trajectory_every`, 4 or more members) the avalanches
+                    move disks collectively and mainly downwards (fig. 5): over the sampled
+                    disks' paths after their own deposition, the mean downward displacement
+                    exceeds the mean sideways one by two standard errors; and neighbours (centres
+                    within 3 R when the later one lands) move together: the cosine between two
+                    disks' paths (their displacements at every later deposition as one vector)
+                    is larger for neighbours than for disks at the same height (within 3 R) at
+                    least 12 R apart sideways, by two standard errors (jackknife over members)
   C                 Delta y is a straight line in y_e and in y_i (each line acceptable), and
                     the coefficient identity b' = b/(1+b), a' = a/(1+b) holds: each difference
                     within two standard errors of zero, its error a jackknife of the difference
@@ -368,6 +376,9 @@ def check_point(point, path):
     if protocol == "A" and 0 < bo < 1e4:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is a parabola with positive curvature", holds, detail)
+    if protocol == "A" and 0 < bo < math.inf and "members" in point and any(
+            k.startswith("trajectory_") for k in point["members"]):
+        yield from trajectory_claims(point, where)
     if protocol == "A" and 1e4 <= bo < math.inf:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: at Bo >= 1e4 no parabola can be identified", not holds, detail)
@@ -399,6 +410,94 @@ def histogram_claims(point, path, where):
     yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
     if bo == 0:
         yield from bo0_histogram_claims(point, path, where)
+
+
+NEIGHBOURS = 3.0  # R: centres within 1.5 diameters when the later disk lands
+FAR_APART = 12.0  # R: sideways distance of the control pairs at the same height
+
+
+class Trajectories:
+    """One member's trajectory samples (`members/trajectory_K`: every k-th disk after every
+    deposition) as paths: the increments dx (periodic), dy of each sampled disk between
+    consecutive samples, from its first sample (after its own deposition came to rest)."""
+
+    def __init__(self, group, width):
+        time, disk, x, y = (group[k][()] for k in ("time", "disk", "x", "y"))
+        times, disks = np.unique(time), np.unique(disk)
+        t, d = np.searchsorted(times, time), np.searchsorted(disks, disk)
+        self.x = np.full((times.size, disks.size), np.nan)
+        self.y = np.full_like(self.x, np.nan)
+        self.x[t, d], self.y[t, d] = x, y
+        self.first = np.argmax(~np.isnan(self.x), axis=0)
+        dx = np.diff(self.x, axis=0)
+        self.dx = np.nan_to_num(dx - width * np.round(dx / width))
+        self.dy = np.nan_to_num(np.diff(self.y, axis=0))
+        self.width = width
+
+    def displacement(self):
+        """Each sampled disk's mean downward and mean sideways displacement, from its first
+        sample to the last."""
+        return -self.dy.sum(axis=0).mean(), np.abs(self.dx.sum(axis=0)).mean()
+
+    def cosines(self):
+        """The mean cosine between two disks' paths from the later one's first sample on, of
+        neighbours and of pairs at the same height far apart sideways (pairs where both moved
+        at least 1 R in all)."""
+        i, j = np.triu_indices(self.x.shape[1], 1)
+        t0 = np.maximum(self.first[i], self.first[j])
+        sep_x = self.x[t0, i] - self.x[t0, j]
+        sep_x -= self.width * np.round(sep_x / self.width)
+        sep_y = self.y[t0, i] - self.y[t0, j]
+        near = np.hypot(sep_x, sep_y) <= NEIGHBOURS
+        far = (np.abs(sep_y) <= NEIGHBOURS) & (np.abs(sep_x) >= FAR_APART)
+        out = []
+        for use in (near, far):
+            c = []
+            for a, b, t in zip(i[use], j[use], t0[use]):
+                pa = np.concatenate([self.dx[t:, a], self.dy[t:, a]])
+                pb = np.concatenate([self.dx[t:, b], self.dy[t:, b]])
+                if np.abs(pa).sum() >= 1.0 and np.abs(pb).sum() >= 1.0:
+                    c.append(pa @ pb / np.sqrt((pa @ pa) * (pb @ pb)))
+            out.append(np.mean(c) if c else math.nan)
+        return out
+
+
+def trajectory_claims(point, where):
+    """Fig. 5: "The avalanches are a collective motion of parts of the system. This mainly
+    downwards motion is accompanied by a sidewards motion or rotation. [...] Neighboring
+    particles can have very similar trajectories", per member and judged with jackknife errors
+    over the members."""
+    width = float(point.attrs["width"])
+    members = point["members"]
+    rows = []
+    for name in sorted(k for k in members if k.startswith("trajectory_")):
+        if members[name]["time"].size == 0:  # a member that failed before its first sample
+            continue
+        t = Trajectories(members[name], width)
+        rows.append([*t.displacement(), *t.cosines()])
+    rows = np.array(rows)
+    claims = (f"{where}: the disks move mainly downwards, with sideways motion",
+              f"{where}: neighbouring disks move together (similar trajectories)")
+    if len(rows) < 4:
+        for claim in claims:
+            yield (claim, False, f"{len(rows)} members with trajectories (4 needed)")
+        return
+    replicas = [np.delete(rows, k, axis=0).mean(axis=0) for k in range(len(rows))]
+    mean, err = rows.mean(axis=0), jackknife(replicas)
+    down, side, near, far = mean
+    down_err = float(jackknife([r[0] - r[1] for r in replicas]))
+    yield (claims[0], down - side > 2 * down_err,
+           f"mean displacement after deposition: {down:.3g} +- {err[0]:.2g} R down, "
+           f"{side:.3g} +- {err[1]:.2g} R sideways (difference {down - side:.3g} +- "
+           f"{down_err:.2g}), {len(rows)} members")
+    if not np.isfinite(rows[:, 2:]).all():
+        yield (claims[1], False, "a member without neighbours or far pairs that both moved 1 R")
+        return
+    near_err = float(jackknife([r[2] - r[3] for r in replicas]))
+    yield (claims[1], near - far > 2 * near_err,
+           f"mean cosine of the paths: neighbours (within {NEIGHBOURS:g} R) {near:.3g} +- "
+           f"{err[2]:.2g}, disks at the same height at least {FAR_APART:g} R apart "
+           f"{far:.3g} +- {err[3]:.2g} (difference {near - far:.3g} +- {near_err:.2g})")
 
 
 def collapse_claims(point, path, where):

@@ -353,3 +353,53 @@ def test_deposition_fluctuation_magnitude_only_at_the_papers_width(tmp_path):
         deposition_file(tmp_path, "narrow", {100.0: 0.15, 1000.0: 0.20}, width=40.0))
     # Only the order is judged in a box narrower than the paper's.
     assert len(verdicts) == 1 and "more at Bo = 1e3" in verdicts[0][0] and verdicts[0][1]
+
+
+def trajectory_point(tmp_path, name, move, seed=7):
+    """A protocol-A point at Bo = 1e3 with 4 members' trajectories of every 5th disk: 400 disks
+    deposited row by row on a lattice (20 disks of 2 R per row, 40 R wide), and after every
+    deposition `move(rng, x, y)` returns the displacement of every disk deposited so far."""
+    width, every = 40.0, 5
+    path = tmp_path / f"{name}.h5"
+    rng = np.random.default_rng(seed)
+    with h5py.File(path, "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update({"protocol": "A", "bond_number": 1e3, "height": 40.0, "width": width})
+        for member in range(4):
+            x = (np.arange(400) * 2.0) % width + 1.0
+            y = 2.0 * (np.arange(400) // 20) + 1.0
+            rows = []
+            for n in range(1, 401):
+                dx, dy = move(rng, x[:n], y[:n])
+                x[:n], y[:n] = (x[:n] + dx) % width, y[:n] + dy
+                rows += [(n, d, x[d], y[d]) for d in range(0, n, every)]
+            t = g.create_group(f"members/trajectory_{member}")
+            for k, column in zip(("time", "disk", "x", "y"), np.array(rows).T):
+                t[k] = column
+    with h5py.File(path, "r") as f:
+        return {claim.split(": ", 1)[1]: ok
+                for claim, ok, _ in claims.trajectory_claims(f["points/0000"], "p")}
+
+
+def test_trajectories_move_collectively_and_mainly_downwards(tmp_path):
+    down = "the disks move mainly downwards, with sideways motion"
+    together = "neighbouring disks move together (similar trajectories)"
+
+    def avalanche(rng, x, y, sideways=0.1, downwards=0.5):
+        """Now and then a column of the box 10 R wide slides down (and a little sideways)."""
+        dx, dy = np.zeros_like(x), np.zeros_like(y)
+        if rng.random() < 0.3:
+            hit = np.floor(x / 10.0) == rng.integers(4)
+            dx[hit], dy[hit] = sideways * rng.choice([-1, 1]), -downwards
+        return dx, dy
+
+    def independent(rng, x, y):
+        """Every disk on its own: the same moves, at times of its own."""
+        hit = rng.random(x.size) < 0.3 / 4
+        return np.where(hit, 0.1 * rng.choice([-1, 1], x.size), 0.0), np.where(hit, -0.5, 0.0)
+
+    assert trajectory_point(tmp_path, "avalanches", avalanche) == {down: True, together: True}
+    assert trajectory_point(tmp_path, "independent", independent) == {down: True,
+                                                                      together: False}
+    sideways = lambda rng, x, y: avalanche(rng, x, y, sideways=0.5, downwards=0.0)
+    assert trajectory_point(tmp_path, "sideways", sideways) == {down: False, together: True}
