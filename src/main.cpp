@@ -102,7 +102,7 @@ enum ExitCode {
 struct RunOptions {
   std::string scan_path, out_path = "out.h5";
   bool quiet = false, snapshots = false, timing = false, resume = false, force = false,
-       dry_run = false;
+       dry_run = false, finished_only = false;
   int batch_size = 0;
   double checkpoint_every = 300.0;  // seconds between checkpoints; 0: after every member
   long member = -1;                 // run only this member (re-running a failed one)
@@ -133,6 +133,8 @@ class RunCommand {
   void print_timing() const;
   int wait_for_ranks();
   int collect_and_write();
+  int write_finished();
+  int write(bool keep_checkpoint);
   void say(const std::string& s) const {
     if (talk) std::cerr << "loosepack: " << s << "\n";
   }
@@ -173,6 +175,7 @@ int RunCommand::run() {
   if (const int rc = load()) return rc;
   if (o.dry_run) return dry_run();
   if (const int rc = read_checkpoint()) return rc;
+  if (o.finished_only) return write_finished();
   share_out();
   announce();
   if (const int rc = compute()) return rc;
@@ -456,6 +459,25 @@ int RunCommand::collect_and_write() {
     say(e.what());
     return kError;
   }
+  return write(false);
+}
+
+// `--finished-only`: the file of the members the checkpoint holds finished, computing nothing;
+// the checkpoint stays, so that `--resume --force` goes on with the others.
+int RunCommand::write_finished() {
+  if (!talk) return kOk;
+  if (results.empty()) {
+    say("--finished-only: no member of " + ck_dir + " has finished yet; nothing written");
+    return kInvalid;
+  }
+  info.start_time = utc_now();
+  info.members_unfinished = static_cast<long>(members.size() - results.size());
+  return write(true);
+}
+
+// Rank 0 writes the file of `results`: reports the failed members, aggregates, analyses, and
+// removes the checkpoint unless it is to be kept.
+int RunCommand::write(bool keep_checkpoint) {
   std::sort(results.begin(), results.end(),
             [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   info.end_time = utc_now();
@@ -473,7 +495,7 @@ int RunCommand::collect_and_write() {
               << ".h5\n";
   }
   auto points = aggregate(scan, results);
-  if (o.member >= 0)  // only the point of the member re-run
+  if (o.member >= 0 || keep_checkpoint)  // only the points of the members at hand
     points.erase(std::remove_if(points.begin(), points.end(),
                                 [](const PointResult& p) { return p.members == 0; }),
                  points.end());
@@ -486,10 +508,18 @@ int RunCommand::collect_and_write() {
         o.out_path + " --resume");
     return kError;
   }
-  remove_checkpoint(ck_dir);
-  if (!o.quiet)
-    std::cerr << "loosepack: wrote " << o.out_path << " (" << info.wall_seconds << " s, " << failed
-              << " failed members)\n";
+  if (keep_checkpoint) {
+    if (!o.quiet)
+      std::cerr << "loosepack: wrote " << o.out_path << " with the " << results.size() << " of "
+                << members.size() << " members finished so far (" << failed
+                << " failed); the checkpoint " << ck_dir << " stays: continue with loosepack run "
+                << o.scan_path << " -o " << o.out_path << " --resume --force\n";
+  } else {
+    remove_checkpoint(ck_dir);
+    if (!o.quiet)
+      std::cerr << "loosepack: wrote " << o.out_path << " (" << info.wall_seconds << " s, "
+                << failed << " failed members)\n";
+  }
   return failed > 0 ? kMembersFailed : kOk;
 }
 
@@ -577,6 +607,11 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
   run_cmd->add_flag("--timing", o.timing, "print the wall time per stage of the step at the end");
   run_cmd->add_flag("--resume", o.resume,
                     "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/)");
+  run_cmd
+      ->add_flag("--finished-only", o.finished_only,
+                 "with --resume: write the file of the members the checkpoint holds finished, "
+                 "compute nothing, and keep the checkpoint (a later --resume --force goes on)")
+      ->needs("--resume");
   run_cmd
       ->add_option(
           "--checkpoint-every", o.checkpoint_every,

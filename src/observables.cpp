@@ -257,16 +257,27 @@ std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberRes
         const int j = static_cast<int>(std::floor((std::log10(v) + 3.0) * per_decade));
         return static_cast<std::size_t>(std::clamp(j, 0, per_decade * decades - 1));
       };
-      for (const auto* r : ok)
-        for (const auto& ev : r->events) {
-          if (ev.steps > 0) pr.event_steps_counts[bin_of(static_cast<double>(ev.steps))] += 1.0;
+      for (const auto* r : all) {
+        std::vector<double> downward(nb, 0.0), moved(nb, 0.0), steps(nb, 0.0);
+        for (std::size_t k = 0; r->ok() && k < r->events.size(); ++k) {
+          const AvalancheEvent& ev = r->events[k];
+          if (ev.steps > 0) steps[bin_of(static_cast<double>(ev.steps))] += 1.0;
           if (ev.moved == 0) {
             pr.events_without_motion += 1.0;
             continue;
           }
-          pr.event_moved_counts[bin_of(ev.moved)] += 1.0;
-          if (ev.downward > 0.0) pr.event_downward_counts[bin_of(ev.downward)] += 1.0;
+          moved[bin_of(ev.moved)] += 1.0;
+          if (ev.downward > 0.0) downward[bin_of(ev.downward)] += 1.0;
         }
+        for (std::size_t j = 0; j < nb; ++j) {
+          pr.event_downward_counts[j] += downward[j];
+          pr.event_moved_counts[j] += moved[j];
+          pr.event_steps_counts[j] += steps[j];
+        }
+        pr.event_member_downward_counts.push_back(std::move(downward));
+        pr.event_member_moved_counts.push_back(std::move(moved));
+        pr.event_member_steps_counts.push_back(std::move(steps));
+      }
     }
     out.push_back(std::move(pr));
   }

@@ -35,7 +35,8 @@ struct DatasetMeta {
 bool is_count(const std::string& name) {
   static const std::string kCounts =
       " count members counts counts_cut member_counts member_counts_cut downward_counts"
-      " moved_counts steps_counts member_count seed_index disks steps sweeps failure capped"
+      " moved_counts steps_counts member_downward_counts member_moved_counts member_steps_counts"
+      " member_count seed_index disks steps sweeps failure capped"
       " contact_i contact_j disk time ";
   return !name.empty() && kCounts.find(" " + name + " ") != std::string::npos;
 }
@@ -371,6 +372,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
     attribute(file, "end_time", info.end_time);
     attribute(file, "wall_seconds", info.wall_seconds);
     count(file, "mpi_ranks", info.ranks);
+    count(file, "members_unfinished", info.members_unfinished);
     attribute(file, "scan_file", scan.file);
     string_dataset(file, "scan_text", scan.text);
     attribute(file, "scan_name", scan.name);
@@ -440,6 +442,9 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
         dataset(e, "downward_counts", pr.event_downward_counts);
         dataset(e, "moved_counts", pr.event_moved_counts);
         dataset(e, "steps_counts", pr.event_steps_counts);
+        dataset(e, "member_downward_counts", pr.event_member_downward_counts);
+        dataset(e, "member_moved_counts", pr.event_member_moved_counts);
+        dataset(e, "member_steps_counts", pr.event_member_steps_counts);
         count(e, "without_motion", std::llround(pr.events_without_motion));
       }
       H5 m = group(g, "members");
@@ -819,7 +824,12 @@ void print_summary(const std::string& path, std::ostream& out) {
     }
   }
   out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', "
-      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds") << " s\n";
+      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds") << " s";
+  if (H5Aexists(file, "members_unfinished") > 0) {
+    const double unfinished = double_attribute(file, "/", "members_unfinished");
+    if (unfinished > 0) out << "; an unfinished run: " << unfinished << " members not in this file";
+  }
+  out << "\n";
   out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
       << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)
       << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]"

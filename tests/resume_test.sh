@@ -2,8 +2,9 @@
 # Checkpoint and resume: a run killed with SIGKILL and resumed, and ones stopped with SIGTERM
 # and SIGINT and resumed, all give output identical to an uninterrupted run (tests/h5_equal.py),
 # members finished before the interruption are not computed again, a member interrupted while
-# it runs goes on from where it was, and a checkpoint that does not belong to the scan, or is
-# corrupt, is refused.
+# it runs goes on from where it was, the members finished so far can be written without
+# computing (--finished-only) and the run then continued, and a checkpoint that does not belong
+# to the scan, or is corrupt, is refused.
 source "$(dirname "$0")/common.sh"
 cd "$dir"
 
@@ -62,6 +63,24 @@ grep -q "interrupted by SIGINT" i.log || fail "message: $(cat i.log)"
 [ ! -e i.h5 ] || fail "an interrupted run wrote an output file"
 "$exe" run s.toml -o i.h5 --batch-size 1 --resume -q
 same full.h5 i.h5
+# The members finished so far, written without computing anything; the checkpoint stays, and
+# the run then goes on from it (over the partial file, with --force) to the same file.
+msg=$("$exe" run s.toml -o t.h5 --finished-only 2>&1) && fail "--finished-only without --resume ran"
+echo "$msg" | grep -q "requires --resume" || fail "message: $msg"
+"$exe" run s.toml -o t.h5 --resume --finished-only 2>fin.log || fail "--finished-only: $(cat fin.log)"
+grep -q "members finished so far" fin.log || fail "message: $(cat fin.log)"
+[ -d t.h5.checkpoint ] || fail "--finished-only removed the checkpoint"
+/usr/bin/python3 - t.h5 <<'PY' || fail "the partial file's members: see above"
+import sys, h5py
+with h5py.File(sys.argv[1], "r") as f:
+    written = sum(int(g.attrs["members"]) for g in f["points"].values())
+    unfinished = int(f.attrs["members_unfinished"])
+    print(f"{written} members written, {unfinished} unfinished")
+    assert written >= 1 and unfinished >= 1 and written + unfinished == 8
+PY
+"$exe" summary t.h5 | grep -q "an unfinished run" || fail "summary does not say the run is unfinished"
+msg=$("$exe" run s.toml -o t.h5 --resume 2>&1) && fail "the partial file was replaced without --force"
+echo "$msg" | grep -q "add --force" || fail "message: $msg"
 # A checkpoint of another scan file is refused, and so is a corrupt one.
 cp s.toml edited.toml
 sed -i 's/seeds = 4/seeds = 4 # edited/' edited.toml
@@ -73,7 +92,7 @@ part=$(ls c.h5.checkpoint/*.bin | head -1)
 truncate -s -9 "$part"
 msg=$("$exe" run s.toml -o c.h5 --resume 2>&1) && fail "a truncated checkpoint was used"
 echo "$msg" | grep -q "corrupt or truncated" || fail "message: $msg"
-"$exe" run s.toml -o t.h5 --batch-size 2 --resume -q
+"$exe" run s.toml -o t.h5 --batch-size 2 --resume --force -q
 same full.h5 t.h5
 
 # A member stopped while it runs goes on from where it was: one protocol-A member of a few

@@ -24,10 +24,15 @@ errors, sqrt(e_A^2 + e_B^2):
                                   members, chi2 over the bins with 10 disks or more in both
                                   (against its 99 % quantile)
   avalanche events                the mean of log10(disks moved) of the events that moved disks,
-                                  with its standard error; and a two-sample chi2 test of the
-                                  event-size counts and of the steps-per-event counts (bins
-                                  merged from the top until each holds 5 expected events). Only
-                                  pooled counts are stored, so events count as independent.
+                                  with its error a jackknife over the members; and the members'
+                                  fractions of their events per bin of size and of steps, as
+                                  the histogram's, bins merged from the top until each holds 10
+                                  events in either file (an avalanche-prone member has many
+                                  large events: events are not independent draws). Files without the
+                                  per-member counts (`events/member_*`) are compared as if the
+                                  events were independent: the standard error of the pooled
+                                  mean, and a two-sample chi2 test of the pooled counts (bins
+                                  merged from the top until each holds 5 expected events).
 
 A scalar differs when its distance exceeds --sigma (2) combined standard errors; a profile or
 histogram when its chi2 exceeds the bound; the shapes when no shape fits both and a verdict is
@@ -120,13 +125,36 @@ def density_profile(pa, pb):
                    chi2, dof, bound, f", largest abs(z) {np.abs(z).max():.2f}")
 
 
-def member_fractions(group, bins):
-    """Each member's share of its disks per bin, over `bins` bins (a histogram's bins reach its
-    largest abs(Delta y), so two files may have different numbers; the missing ones are 0)."""
-    rows = group["member_counts_cut"][()].astype(float)
+def member_fractions(rows, bins):
+    """Each member's share of its counts per bin, over `bins` bins (a histogram's bins reach its
+    largest abs(Delta y), so two files may have different numbers; the missing ones are 0), and
+    the counts per bin; members without counts (failed) are left out."""
+    rows = rows.astype(float)
     rows = rows[rows.sum(axis=1) > 0]
     rows = np.pad(rows, ((0, 0), (0, bins - rows.shape[1])))
     return rows / rows.sum(axis=1, keepdims=True), rows.sum(axis=0)
+
+
+def fractions(name, rows_a, rows_b, bins, unit):
+    """Rows (none or one) comparing the members' fractions per bin of two files: mean and
+    standard error over each file's members, chi2 over the bins with 10 counts or more in both
+    (all but one where that is every bin) against its 99 % quantile."""
+    (fa, ta), (fb, tb) = member_fractions(rows_a, bins), member_fractions(rows_b, bins)
+    if len(fa) < 2 or len(fb) < 2:
+        return
+    use = (ta >= 10) & (tb >= 10)
+    err = np.hypot(fa.std(axis=0, ddof=1) / math.sqrt(len(fa)),
+                   fb.std(axis=0, ddof=1) / math.sqrt(len(fb)))
+    use &= err > 0
+    if use.all():  # each member's fractions add up to one: the last bin follows from the others
+        use[-1] = False
+    if use.sum() < 1:
+        return
+    z = (fb.mean(axis=0)[use] - fa.mean(axis=0)[use]) / err[use]
+    dof = int(use.sum())
+    yield chi2_row(name, f"{int(ta.sum())} {unit}", f"{int(tb.sum())} {unit}",
+                   float((z ** 2).sum()), dof, chi2_quantile99(dof),
+                   f", largest abs(z) {np.abs(z).max():.2f}")
 
 
 def acceptable(group, shape):
@@ -157,31 +185,43 @@ def histogram(pa, pb):
     common = min(len(ea), len(eb))
     if not np.array_equal(ea[:common], eb[:common]):
         return  # bins of different widths: not comparable bin by bin
-    (fa, ta), (fb, tb) = member_fractions(ha, bins), member_fractions(hb, bins)
-    if len(fa) < 2 or len(fb) < 2:
-        return
-    use = (ta >= 10) & (tb >= 10)
-    err = np.hypot(fa.std(axis=0, ddof=1) / math.sqrt(len(fa)),
-                   fb.std(axis=0, ddof=1) / math.sqrt(len(fb)))
-    use &= err > 0
-    if use.sum() < 2:
-        return
-    z = (fb.mean(axis=0)[use] - fa.mean(axis=0)[use]) / err[use]
-    dof = int(use.sum())
-    yield chi2_row("abs(Delta y) histogram (cut): fractions", f"{int(ta.sum())} disks",
-                   f"{int(tb.sum())} disks", float((z ** 2).sum()), dof, chi2_quantile99(dof),
-                   f", largest abs(z) {np.abs(z).max():.2f}")
+    yield from fractions("abs(Delta y) histogram (cut): fractions", ha["member_counts_cut"][()],
+                         hb["member_counts_cut"][()], bins, "disks")
 
 
-def mean_log(edges, counts):
-    """Mean and standard error of log10 of the binned values (bins' geometric centres)."""
+def mean_log(edges, counts, member_rows=None):
+    """Mean of log10 of the binned values (bins' geometric centres), and its standard error: a
+    jackknife over the members where their rows are given, else that of independent values."""
     centre = 0.5 * (np.log10(edges[1:]) + np.log10(edges[:-1]))
     n = counts.sum()
     if n < 2:
         return math.nan, math.nan
     m = (counts * centre).sum() / n
+    if member_rows is not None:
+        rows = member_rows[member_rows.sum(axis=1) > 0]
+        if len(rows) >= 2:
+            rest = rows.sum(axis=0) - rows  # each member left out in turn
+            loo = (rest * centre).sum(axis=1) / rest.sum(axis=1)
+            k = len(rows)
+            return m, math.sqrt((k - 1) / k * ((loo - loo.mean()) ** 2).sum())
     var = (counts * (centre - m) ** 2).sum() / (n - 1)
     return m, math.sqrt(var / n)
+
+
+def merged_from_the_top(rows_a, rows_b, least=10):
+    """Two files' per-member counts with their bins merged from the top until each merged bin
+    holds `least` counts in either file (what is left at the bottom joins the last one)."""
+    ta, tb = rows_a.sum(axis=0), rows_b.sum(axis=0)
+    groups, current = [], []
+    for j in range(len(ta) - 1, -1, -1):
+        current.append(j)
+        if ta[current].sum() >= least and tb[current].sum() >= least:
+            groups.append(current)
+            current = []
+    if current and groups:
+        groups[-1] += current
+    merge = lambda rows: np.stack([rows[:, g].sum(axis=1) for g in groups], axis=1)
+    return (merge(rows_a), merge(rows_b)) if groups else (rows_a, rows_b)
 
 
 def homogeneity(ca, cb):
@@ -207,16 +247,23 @@ def homogeneity(ca, cb):
 
 
 def events(pa, pb, sigma):
+    """The avalanche events: the mean log size, and the distributions of sizes and of steps, by
+    the members' scatter where both files keep per-member counts, else as independent events."""
     ea, eb = pa.get("events"), pb.get("events")
     if ea is None or eb is None or "moved_counts" not in ea or "moved_counts" not in eb:
         return
+    per_member = "member_moved_counts" in ea and "member_moved_counts" in eb
+    rows = lambda e, key: e["member_" + key][()].astype(float) if per_member else None
     edges = ea["edges"][()]
-    ma, se_a = mean_log(edges, ea["moved_counts"][()])
-    mb, se_b = mean_log(edges, eb["moved_counts"][()])
+    ma, se_a = mean_log(edges, ea["moved_counts"][()], rows(ea, "moved_counts"))
+    mb, se_b = mean_log(edges, eb["moved_counts"][()], rows(eb, "moved_counts"))
     if math.isfinite(ma) and math.isfinite(mb):
         yield scalar("events: mean log10(disks moved)", ma, se_a, mb, se_b, sigma)
     for key, name in (("moved_counts", "disks moved"), ("steps_counts", "steps")):
-        if key in ea and key in eb:
+        if per_member:
+            a, b = merged_from_the_top(rows(ea, key), rows(eb, key))
+            yield from fractions(f"events: distribution of {name}", a, b, a.shape[1], "events")
+        elif key in ea and key in eb:
             ca, cb = ea[key][()].astype(float), eb[key][()].astype(float)
             chi2, dof = homogeneity(ca, cb)
             if dof > 0:

@@ -66,6 +66,10 @@ struct PointResult {
   // Protocol A: avalanche-event size distributions on logarithmic bins.
   std::vector<double> event_edges, event_downward_counts, event_moved_counts;
   std::vector<double> event_steps_counts;  // all events by the steps they took to rest
+  // The same per member, one row per member in member order (a failed member's row 0): errors
+  // of event statistics from the members' scatter (an avalanche's events are not independent).
+  std::vector<std::vector<double>> event_member_downward_counts, event_member_moved_counts,
+      event_member_steps_counts;
   double events_without_motion = 0.0;
   // Per member scalars (member order).
   std::vector<double> m_disks, m_top, m_nu_lower_half, m_steps, m_sweeps, m_wall_time, m_failure,

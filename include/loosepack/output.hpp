@@ -13,6 +13,8 @@ struct RunInfo {
   std::string start_time, end_time;  // ISO 8601, UTC
   double wall_seconds = 0.0;
   int ranks = 1;
+  // Members of the scan a file of an unfinished run leaves out (`run --finished-only`).
+  long members_unfinished = 0;
 };
 
 // Writes `path` via a temporary file in the same directory and a rename, so an existing file

@@ -1,7 +1,8 @@
 """tools/compare.py: a file against itself agrees in every quantity; a run at another Bond
 number differs where the physics says it must (the volume fraction, the avalanche size); its
-two-sample event test on counts drawn from one distribution and from two; and the histogram
-shapes, which agree when one shape fits both files."""
+two-sample event test on counts drawn from one distribution and from two; events compared by
+the members' scatter, where members differ; and the histogram shapes, which agree when one
+shape fits both files."""
 
 import importlib.util
 import json
@@ -90,6 +91,42 @@ def test_mean_log_of_binned_values():
     m, e = compare.mean_log(edges, np.array([10.0, 10.0]))
     assert m == pytest.approx(1.0)  # bin centres 0.5 and 1.5 in log10
     assert e == pytest.approx(math.sqrt(20 * 0.25 / 19 / 20))
+
+
+def event_point(f, name, rng, large, members=16, events=400):
+    """A point whose members each have `events` avalanche events of 1 or 100 disks (bins 12 and
+    20 of the program's logarithmic bins), a member's share of large ones drawn from `large`:
+    members differ, as avalanche-prone members do, so the events are not independent draws."""
+    edges = 10.0 ** (-3.0 + np.arange(33) / 4.0)
+    rows = np.zeros((members, 32))
+    for row in rows:
+        n_large = rng.binomial(events, rng.choice(large))
+        row[20], row[12] = n_large, events - n_large
+    e = f.create_group(f"{name}/events")
+    e["edges"], e["moved_counts"], e["member_moved_counts"] = edges, rows.sum(axis=0), rows
+    e["steps_counts"], e["member_steps_counts"] = rows.sum(axis=0), rows
+    return f[name]
+
+
+def test_events_compared_by_the_members_scatter(tmp_path):
+    import h5py
+    rng = np.random.default_rng(11)
+    member_alarms = pooled_alarms = 0
+    with h5py.File(tmp_path / "events.h5", "w") as f:
+        for k in range(20):  # pairs of ensembles of one process
+            a = event_point(f, f"a{k}", rng, (0.1, 0.6))
+            b = event_point(f, f"b{k}", rng, (0.1, 0.6))
+            # At 3 sigma (and the chi2's 99 % bounds) a pair differs by chance about one time
+            # in a hundred.
+            member_alarms += not all(r.within for r in compare.events(a, b, 3.0))
+            chi2, dof = compare.homogeneity(a["events/moved_counts"][()],
+                                            b["events/moved_counts"][()])
+            pooled_alarms += chi2 > compare.chi2_quantile99(dof)
+        # Counted as independent, most pairs of one process would differ.
+        assert member_alarms <= 3 and pooled_alarms >= 10, (member_alarms, pooled_alarms)
+        c = event_point(f, "c", rng, (0.5, 0.95))  # more large events: every row differs
+        rows = list(compare.events(a, c, 3.0))
+        assert len(rows) == 3 and not any(r.within for r in rows), [r.record() for r in rows]
 
 
 def shape_point(f, name, preferred, gaussian_chi2, exponential_chi2, dof=20):
