@@ -419,43 +419,68 @@ FAR_APART = 12.0  # R: sideways distance of the control pairs at the same height
 class Trajectories:
     """One member's trajectory samples (`members/trajectory_K`: every k-th disk after every
     deposition) as paths: the increments dx (periodic), dy of each sampled disk between
-    consecutive samples, from its first sample (after its own deposition came to rest)."""
+    consecutive samples, from its first sample (after its own deposition came to rest). Kept
+    per disk, not as a samples-by-disks table, which a paper-size member would make gigabytes."""
 
     def __init__(self, group, width):
         time, disk, x, y = (group[k][()] for k in ("time", "disk", "x", "y"))
-        times, disks = np.unique(time), np.unique(disk)
-        t, d = np.searchsorted(times, time), np.searchsorted(disks, disk)
-        self.x = np.full((times.size, disks.size), np.nan)
-        self.y = np.full_like(self.x, np.nan)
-        self.x[t, d], self.y[t, d] = x, y
-        self.first = np.argmax(~np.isnan(self.x), axis=0)
-        dx = np.diff(self.x, axis=0)
-        self.dx = np.nan_to_num(dx - width * np.round(dx / width))
-        self.dy = np.nan_to_num(np.diff(self.y, axis=0))
         self.width = width
+        self.times = np.unique(time)
+        by_time = np.lexsort((disk, time))  # the samples of each time together
+        self.t, self.d = time[by_time], disk[by_time]
+        self.x, self.y = x[by_time], y[by_time]
+        self.at = np.searchsorted(self.t, self.times)  # where each time's samples begin
+        by_disk = np.lexsort((time, disk))
+        ids, begin = np.unique(disk[by_disk], return_index=True)
+        self.ids = ids
+        self.first, self.dx, self.dy = [], [], []
+        for a, b in zip(begin, list(begin[1:]) + [len(by_disk)]):
+            k = by_disk[a:b]
+            dx = np.diff(x[k])
+            self.first.append(int(np.searchsorted(self.times, time[k[0]])))
+            self.dx.append(dx - width * np.round(dx / width))
+            self.dy.append(np.diff(y[k]))
 
     def displacement(self):
-        """Each sampled disk's mean downward and mean sideways displacement, from its first
-        sample to the last."""
-        return -self.dy.sum(axis=0).mean(), np.abs(self.dx.sum(axis=0)).mean()
+        """The sampled disks' mean downward and mean sideways displacement, from each one's
+        first sample to the last."""
+        return (-np.mean([dy.sum() for dy in self.dy]),
+                np.mean([abs(dx.sum()) for dx in self.dx]))
+
+    def pairs(self):
+        """(i, j, t0) of the neighbours and of the pairs at the same height far apart sideways,
+        at t0, the later one's first sample (disk indices into self.ids)."""
+        near, far = [], []
+        for j, t0 in enumerate(self.first):
+            lo, hi = self.at[t0], self.at[t0 + 1] if t0 + 1 < len(self.at) else len(self.t)
+            here = np.searchsorted(self.ids, self.d[lo:hi])
+            first = np.asarray(self.first)[here]
+            earlier = (first < t0) | ((first == t0) & (here < j))
+            if not earlier.any():
+                continue
+            k = lo + np.flatnonzero(earlier)
+            me = lo + np.flatnonzero(here == j)[0]
+            sep_x = self.x[k] - self.x[me]
+            sep_x -= self.width * np.round(sep_x / self.width)
+            sep_y = self.y[k] - self.y[me]
+            others = here[earlier]
+            near += [(i, j, t0) for i in others[np.hypot(sep_x, sep_y) <= NEIGHBOURS]]
+            same_height = (np.abs(sep_y) <= NEIGHBOURS) & (np.abs(sep_x) >= FAR_APART)
+            far += [(i, j, t0) for i in others[same_height]]
+        return near, far
 
     def cosines(self):
         """The mean cosine between two disks' paths from the later one's first sample on, of
         neighbours and of pairs at the same height far apart sideways (pairs where both moved
         at least 1 R in all)."""
-        i, j = np.triu_indices(self.x.shape[1], 1)
-        t0 = np.maximum(self.first[i], self.first[j])
-        sep_x = self.x[t0, i] - self.x[t0, j]
-        sep_x -= self.width * np.round(sep_x / self.width)
-        sep_y = self.y[t0, i] - self.y[t0, j]
-        near = np.hypot(sep_x, sep_y) <= NEIGHBOURS
-        far = (np.abs(sep_y) <= NEIGHBOURS) & (np.abs(sep_x) >= FAR_APART)
         out = []
-        for use in (near, far):
+        for pairs in self.pairs():
             c = []
-            for a, b, t in zip(i[use], j[use], t0[use]):
-                pa = np.concatenate([self.dx[t:, a], self.dy[t:, a]])
-                pb = np.concatenate([self.dx[t:, b], self.dy[t:, b]])
+            for i, j, t0 in pairs:
+                pa = [v[t0 - self.first[i]:] for v in (self.dx[i], self.dy[i])]
+                pb = [v[t0 - self.first[j]:] for v in (self.dx[j], self.dy[j])]
+                n = min(len(pa[0]), len(pb[0]))
+                pa, pb = np.concatenate([v[:n] for v in pa]), np.concatenate([v[:n] for v in pb])
                 if np.abs(pa).sum() >= 1.0 and np.abs(pb).sum() >= 1.0:
                     c.append(pa @ pb / np.sqrt((pa @ pa) * (pb @ pb)))
             out.append(np.mean(c) if c else math.nan)
