@@ -67,7 +67,8 @@ same full.h5 i.h5
 # the run then goes on from it (over the partial file, with --force) to the same file.
 msg=$("$exe" run s.toml -o t.h5 --finished-only 2>&1) && fail "--finished-only without --resume ran"
 echo "$msg" | grep -q "requires --resume" || fail "message: $msg"
-"$exe" run s.toml -o t.h5 --resume --finished-only 2>fin.log || fail "--finished-only: $(cat fin.log)"
+"$exe" run s.toml -o t.h5 --resume --finished-only 2>fin.log ||
+  fail "--finished-only: $(cat fin.log)"
 grep -q "members finished so far" fin.log || fail "message: $(cat fin.log)"
 [ -d t.h5.checkpoint ] || fail "--finished-only removed the checkpoint"
 /usr/bin/python3 - t.h5 <<'PY' || fail "the partial file's members: see above"
@@ -78,8 +79,10 @@ with h5py.File(sys.argv[1], "r") as f:
     print(f"{written} members written, {unfinished} unfinished")
     assert written >= 1 and unfinished >= 1 and written + unfinished == 8
 PY
-"$exe" summary t.h5 | grep -q "an unfinished run" || fail "summary does not say the run is unfinished"
-msg=$("$exe" run s.toml -o t.h5 --resume 2>&1) && fail "the partial file was replaced without --force"
+"$exe" summary t.h5 | grep -q "an unfinished run" ||
+  fail "summary does not say the run is unfinished"
+msg=$("$exe" run s.toml -o t.h5 --resume 2>&1) &&
+  fail "the partial file was replaced without --force"
 echo "$msg" | grep -q "add --force" || fail "message: $msg"
 # A checkpoint of another scan file is refused, and so is a corrupt one.
 cp s.toml edited.toml
