@@ -21,6 +21,7 @@ struct ColourPriority {
   }
 };
 
+// Reads: con.partner. Writes: con.colour.
 struct ColourReset {
   ContactViews con;
   KOKKOS_INLINE_FUNCTION void operator()(int c) const {
@@ -29,6 +30,8 @@ struct ColourReset {
 };
 
 // One Jones-Plassmann round; counts the contacts still uncoloured after it.
+// Reads: sys.offset; part.{system, n_incident, incident}; con.partner. Reads and writes:
+// con.colour.
 struct ColourRound {
   SystemViews sys;
   ParticleViews part;

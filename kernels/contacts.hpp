@@ -8,6 +8,11 @@
 
 namespace loosepack {
 
+// Reads: sys.{time_step, cohesion_range, margin, radius, cohesive_force, floor_cohesion,
+// grid_nx, grid_ny, cell_offset, width}; part.{cell, system, x, y, radius}; grid;
+// con.{prev_partner, prev_pn, prev_pt, prev_pm}.
+// Writes: con.{partner, nx, ny, gap, rc, lower, pn, pt, pm}; part.{incident, n_incident} (its
+// own slots); sys.failure (kContactOverflow).
 struct ContactBuild {
   SystemViews sys;
   ParticleViews part;
@@ -122,6 +127,8 @@ struct ContactBuild {
 // contact slot to the list of its partner (a disk of higher index, in the same system), and
 // IncidentSort then puts every list in increasing slot order, so that the sums over it are
 // the same on every backend whatever order the atomics took.
+// Reads: part.{cell, system}; con.partner. Writes: part.{n_incident, incident} (of partners);
+// sys.failure (kContactOverflow).
 struct IncidentScatter {
   SystemViews sys;
   ParticleViews part;
@@ -143,6 +150,7 @@ struct IncidentScatter {
   }
 };
 
+// Reads and writes: part.{n_incident, incident}; reads part.cell.
 struct IncidentSort {
   ParticleViews part;
 
@@ -156,6 +164,8 @@ struct IncidentSort {
 
 // Local Delassus entries of every contact. With mass splitting (Jacobi) each body's inverse
 // mass and inertia are multiplied by its number of contacts, which makes Jacobi convergent.
+// Reads: con.partner; part.{n_incident, inv_mass, inv_inertia, radius}.
+// Writes: con.{wn, wa, wb, wc}.
 struct ContactMobilityBuild {
   ParticleViews part;
   ContactViews con;

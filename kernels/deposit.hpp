@@ -9,6 +9,10 @@
 
 namespace loosepack {
 
+// Reads: request, given_x; sys.{failure, draws, seed, member, width, radius, polydispersity,
+// capture_radius, offset, count, height, capacity, disk_density}; part.{x, y, radius}.
+// Writes: result; sys.{draws, count, failure (kParticleOverflow)}; the new disk's
+// part.{x, y, theta, vx, vy, w, radius, inv_mass, inv_inertia, y_deposit, y_mark}.
 struct DepositKernel {
   using team_member = Kokkos::TeamPolicy<ExecSpace>::member_type;
   SystemViews sys;

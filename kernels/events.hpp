@@ -5,6 +5,7 @@
 
 namespace loosepack {
 
+// Reads: request; sys.{offset, count}; part.{y, y_mark}. Writes: result; part.y_mark.
 struct EventMeasure {
   using team_member = Kokkos::TeamPolicy<ExecSpace>::member_type;
   SystemViews sys;

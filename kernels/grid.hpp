@@ -25,6 +25,8 @@ KOKKOS_INLINE_FUNCTION ColumnRange grid_columns(int cx, int nx) {
   return nx < 3 ? ColumnRange{0, nx, nx} : ColumnRange{cx - 1, 3, nx};
 }
 
+// Reads: sys.{active, offset, count, width, cell_size, grid_nx, grid_ny, cell_offset};
+// part.{system, x, y}. Writes: part.cell; grid.{cell_start, cell_fill, cell_particles}.
 inline void build_grid(const SystemViews& sys, const ParticleViews& part, const GridViews& grid,
                        int n_particles, int n_cells) {
   auto cell = part.cell;

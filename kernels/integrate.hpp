@@ -12,6 +12,8 @@ KOKKOS_INLINE_FUNCTION double wrap_periodic(double x, double width) {
   return x >= width ? 0.0 : x;  // -tiny + width rounds to width
 }
 
+// Reads: sys.{time_step, gravity_x, gravity_y}; part.{cell, system, inv_mass, vx, vy, w}.
+// Writes: part.{vfx, vfy, wf}.
 struct FreeVelocity {
   SystemViews sys;
   ParticleViews part;
@@ -27,6 +29,8 @@ struct FreeVelocity {
 };
 
 // x += h v (wrapped into [0, L_x)), theta += h w; flags non-finite state; records max speed.
+// Reads: sys.{failure, time_step, width}; part.{cell, system, vx, vy, w, radius}.
+// Writes: part.{x, y, theta}; sys.{failure (kNonFinite), max_speed, max_centre_speed}.
 struct Integrate {
   SystemViews sys;
   ParticleViews part;
@@ -59,6 +63,8 @@ struct Integrate {
 // system's contacts. Positions only: velocities are left as they are, so no kinetic energy is
 // injected (docs/MODEL.md, "Contact law": overlaps resolved without adding kinetic energy), and an
 // overlap that a capped solve leaves decays by (1 - beta) per step instead of being held.
+// Reads: sys.{active, failure, width, offset, count}; con.partner; part.{inv_mass, radius}.
+// Reads and writes: part.{x, y}.
 struct OverlapCorrection {
   SystemViews sys;
   ParticleViews part;

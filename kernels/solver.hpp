@@ -120,6 +120,8 @@ KOKKOS_INLINE_FUNCTION LocalProblem local_problem(const SystemViews& sys, const 
 
 // One exact local solve of contact c with everything else fixed; returns the impulse change
 // (dn, dt, dm) and the size of the change in force units for the convergence test.
+// Reads: con.{partner, gap, nx, ny, rc, wn, wa, wb, wc, lower, pn, pt, pm}; part.{system, vx, vy,
+// w, radius}; sys.{time_step, weight, friction, rolling_friction}.
 template <class Fx>
 KOKKOS_INLINE_FUNCTION double local_solve(const SystemViews& sys, const ParticleViews& part,
                                           const ContactViews& con, int c, int i, int j,
@@ -172,6 +174,8 @@ KOKKOS_INLINE_FUNCTION void add_contact_impulse(bool owner, double pn, double pt
 }
 
 // v = v_free + M^-1 sum H^T P over the contacts incident to each particle.
+// Reads: sys.unconverged; part.{system, cell, vfx, vfy, wf, inv_mass, inv_inertia, radius,
+// n_incident, incident}; con.{pn, pt, pm, nx, ny}. Writes: part.{vx, vy, w}.
 struct BodyVelocity {
   SystemViews sys;
   ParticleViews part;
@@ -217,6 +221,8 @@ KOKKOS_INLINE_FUNCTION void gauss_seidel_update(const SystemViews& sys, const Pa
 
 // Jacobi: every contact reads the velocities of the previous iterate. Writing the impulses in
 // place is safe: a contact's update reads only its own impulses and the (unchanged) velocities.
+// Reads: sys.unconverged and what the local solve reads (local_solve). Writes: con.{pn, pt,
+// pm}; sys.sweep_change.
 template <class Fx>
 struct JacobiContacts {
   SystemViews sys;
@@ -241,6 +247,8 @@ struct JacobiContacts {
 
 // Gauss-Seidel on one colour: contacts of one colour share no body, so each applies its
 // impulse change to its two bodies at once without races.
+// Reads: list; sys.unconverged; part.{inv_mass, inv_inertia} and what the local solve reads
+// (local_solve). Writes: con.{pn, pt, pm}; part.{vx, vy, w}; sys.sweep_change.
 template <class Fx>
 struct GaussSeidelContacts {
   SystemViews sys;
@@ -295,6 +303,9 @@ KOKKOS_INLINE_FUNCTION void for_contacts_reverse(const ContactViews& con, int fi
 // across the batch; within a system it needs no colouring. Each thread iterates its system to
 // convergence (or its sweep cap) in one launch: the system's contacts stay in cache, and nothing
 // is read back to the host between sweeps.
+// Reads: sys.{active, unconverged, offset, count, max_sweeps, step_tolerance}; part.{inv_mass,
+// inv_inertia} and what the local solve reads (local_solve). Writes: con.{pn, pt, pm};
+// part.{vx, vy, w}; sys.unconverged; sweeps.
 template <class Fx>
 struct SequentialGaussSeidel {
   SystemViews sys;
@@ -384,6 +395,10 @@ KOKKOS_INLINE_FUNCTION bool nncg_step(const ContactViews& con, int c, double bet
 // With Newton steps (SolverSettings::newton_every), a launch iterates each system only up to its
 // `sweep_limit` (sweeps of this step, [S]); the host then takes a Newton step (src/newton.hpp)
 // and launches again, which restarts the iteration from the new impulses.
+// Reads: sweep_limit; sys.{active, unconverged, offset, count, max_sweeps, step_tolerance};
+// part.{inv_mass, inv_inertia} and what the local solve reads (local_solve). Writes: con.{pn,
+// pt, pm, start_pn, start_pt, start_pm, dir_pn, dir_pt, dir_pm}; part.{vx, vy, w};
+// sys.{unconverged, gradient2}; sweeps.
 template <class Fx>
 struct AcceleratedGaussSeidel {
   SystemViews sys;
@@ -447,6 +462,9 @@ struct AcceleratedGaussSeidel {
 // `list` holds each system's contact slots grouped by colour within the system's own slot
 // range; `starts` [S * (n_colours + 1)] the colour boundaries (both written by the kernel).
 // On a host backend (team size 1) it is the same method with the contacts in colour order.
+// Reads: con.colour; sys.{active, unconverged, offset, count, max_sweeps, step_tolerance}; what
+// the local solve reads (local_solve) and what BodyVelocity reads. Writes: list, starts;
+// con.{pn, pt, pm, start_*, dir_*}; part.{vx, vy, w}; sys.unconverged; sweeps.
 template <class Fx>
 struct ColouredAcceleratedGaussSeidel {
   using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;

@@ -2,6 +2,7 @@
 // Shapes are written beside each field: [S] per system, [P] per particle slot (all systems
 // concatenated, system s owns [offset(s), offset(s) + capacity(s))), [P*kSlots] per contact slot
 // (particle p owns slots p*kSlots ... p*kSlots + kSlots - 1), [C] per grid cell of all systems.
+// The kernels take these bundles whole; each says above it which fields it reads and writes.
 #pragma once
 #include <cstdint>
 
