@@ -27,12 +27,13 @@ errors, sqrt(e_A^2 + e_B^2):
                                   with its error a jackknife over the members; and the members'
                                   fractions of their events per bin of size and of steps, as
                                   the histogram's, bins merged from the top until each holds 10
-                                  events in either file (an avalanche-prone member has many
-                                  large events: events are not independent draws). Files without the
-                                  per-member counts (`events/member_*`) are compared as if the
-                                  events were independent: the standard error of the pooled
-                                  mean, and a two-sample chi2 test of the pooled counts (bins
-                                  merged from the top until each holds 5 expected events).
+                                  events in both files (an avalanche-prone member has many
+                                  large events: events are not independent draws). Files
+                                  without the per-member counts (`events/member_*`) are
+                                  compared as if the events were independent: the standard
+                                  error of the pooled mean, and a two-sample chi2 test of the
+                                  pooled counts (bins merged from the top until each holds 5
+                                  expected events).
 
 A scalar differs when its distance exceeds --sigma (2) combined standard errors; a profile or
 histogram when its chi2 exceeds the bound; the shapes when no shape fits both and a verdict is
@@ -210,7 +211,7 @@ def mean_log(edges, counts, member_rows=None):
 
 def merged_from_the_top(rows_a, rows_b, least=10):
     """Two files' per-member counts with their bins merged from the top until each merged bin
-    holds `least` counts in either file (what is left at the bottom joins the last one)."""
+    holds `least` counts in both files (what is left at the bottom joins the last one)."""
     ta, tb = rows_a.sum(axis=0), rows_b.sum(axis=0)
     groups, current = [], []
     for j in range(len(ta) - 1, -1, -1):
