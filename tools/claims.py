@@ -17,7 +17,7 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     not of larger Bond numbers): the program's verdict (`preferred`), which
                     needs the lower information criterion and an acceptable fit, its errors
                     from the members' scatter (docs/OUTPUT.md, "Analysis")
-  A, 0 < Bo < inf   (with `observables.trajectory_every`, 4 or more members) the avalanches
+  A, 0 < Bo < 1e4   (with `observables.trajectory_every`, 4 or more members) the avalanches
                     move disks collectively and mainly downwards (fig. 5): over the sampled
                     disks' paths after their own deposition, the mean downward displacement
                     exceeds the mean sideways one by two standard errors; and neighbours (centres
@@ -376,7 +376,7 @@ def check_point(point, path):
     if protocol == "A" and 0 < bo < 1e4:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is a parabola with positive curvature", holds, detail)
-    if protocol == "A" and 0 < bo < math.inf and "members" in point and any(
+    if protocol == "A" and 0 < bo < 1e4 and "members" in point and any(
             k.startswith("trajectory_") for k in point["members"]):
         yield from trajectory_claims(point, where)
     if protocol == "A" and 1e4 <= bo < math.inf:
