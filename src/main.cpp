@@ -134,7 +134,7 @@ class RunCommand {
   int wait_for_ranks();
   int collect_and_write();
   int write_finished();
-  int write(bool keep_checkpoint);
+  int write();
   void say(const std::string& s) const {
     if (talk) std::cerr << "loosepack: " << s << "\n";
   }
@@ -459,7 +459,7 @@ int RunCommand::collect_and_write() {
     say(e.what());
     return kError;
   }
-  return write(false);
+  return write();
 }
 
 // `--finished-only`: the file of the members the checkpoint holds finished, computing nothing;
@@ -471,16 +471,16 @@ int RunCommand::write_finished() {
     return kInvalid;
   }
   info.start_time = utc_now();
-  info.members_unfinished = static_cast<long>(members.size() - results.size());
-  return write(true);
+  return write();
 }
 
 // Rank 0 writes the file of `results`: reports the failed members, aggregates, analyses, and
-// removes the checkpoint unless it is to be kept.
-int RunCommand::write(bool keep_checkpoint) {
+// removes the checkpoint (kept with --finished-only, whose results lack the unfinished members).
+int RunCommand::write() {
   std::sort(results.begin(), results.end(),
             [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   info.end_time = utc_now();
+  info.members_unfinished = static_cast<long>(members.size() - results.size());
   info.wall_seconds = seconds_since(t0);
   int failed = 0;
   for (const auto& r : results) {
@@ -495,7 +495,7 @@ int RunCommand::write(bool keep_checkpoint) {
               << ".h5\n";
   }
   auto points = aggregate(scan, results);
-  if (o.member >= 0 || keep_checkpoint)  // only the points of the members at hand
+  if (o.member >= 0 || o.finished_only)  // only the points of the members at hand
     points.erase(std::remove_if(points.begin(), points.end(),
                                 [](const PointResult& p) { return p.members == 0; }),
                  points.end());
@@ -508,7 +508,7 @@ int RunCommand::write(bool keep_checkpoint) {
         o.out_path + " --resume");
     return kError;
   }
-  if (keep_checkpoint) {
+  if (o.finished_only) {
     if (!o.quiet)
       std::cerr << "loosepack: wrote " << o.out_path << " with the " << results.size() << " of "
                 << members.size() << " members finished so far (" << failed

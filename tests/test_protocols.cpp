@@ -104,25 +104,13 @@ lower_half_from = 3.0
   for (double d : points[1].m_disks) disks += d;
   EXPECT_EQ(events, disks);
   EXPECT_EQ(timed, disks);
-  // Per member: each row counts that member's depositions, and the rows add up to the counts.
+  // Per member, in member order: each row counts that member's depositions, one event each.
   const PointResult& p = points[1];
   ASSERT_EQ(p.event_member_steps_counts.size(), p.m_disks.size());
-  ASSERT_EQ(p.event_member_moved_counts.size(), p.m_disks.size());
   for (std::size_t k = 0; k < p.m_disks.size(); ++k) {
     double own = 0.0;
     for (double c : p.event_member_steps_counts[k]) own += c;
     EXPECT_EQ(own, p.m_disks[k]);
-  }
-  for (std::size_t j = 0; j < p.event_moved_counts.size(); ++j) {
-    double moved = 0.0, steps = 0.0, downward = 0.0;
-    for (std::size_t k = 0; k < p.m_disks.size(); ++k) {
-      moved += p.event_member_moved_counts[k][j];
-      steps += p.event_member_steps_counts[k][j];
-      downward += p.event_member_downward_counts[k][j];
-    }
-    EXPECT_EQ(moved, p.event_moved_counts[j]);
-    EXPECT_EQ(steps, p.event_steps_counts[j]);
-    EXPECT_EQ(downward, p.event_downward_counts[j]);
   }
 }
 
