@@ -7,6 +7,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <optional>
 #include <utility>
 
 namespace loosepack {
@@ -300,6 +301,34 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
   return out;
 }
 
+// One datum of a fit across points: x, y and y's standard error.
+struct Datum {
+  double x, y, sigma;
+};
+std::optional<Datum> keep_if(bool usable, const Datum& d) {
+  return usable ? std::optional<Datum>(d) : std::nullopt;
+}
+
+// The fit `fit(x, y, sigma)` over the points of `protocol` that differ only in `varying`
+// (group_varying) and have a datum (`datum(k)` for point k); the fit keeps their indices.
+template <class FitFn, class DatumFn>
+Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Varying varying,
+                  FitFn fit, DatumFn datum) {
+  std::vector<double> x, y, sigma;
+  std::vector<int> used;
+  for (std::size_t k : group_varying(points, protocol, varying)) {
+    const std::optional<Datum> d = datum(k);
+    if (!d) continue;
+    x.push_back(d->x);
+    y.push_back(d->y);
+    sigma.push_back(d->sigma);
+    used.push_back(static_cast<int>(k));
+  }
+  Fit f = fit(x, y, sigma);
+  if (f.valid()) f.scan_points = std::move(used);
+  return f;
+}
+
 }  // namespace
 
 double Fit::reduced_chi2() const { return dof > 0 ? chi2 / dof : kNaN; }
@@ -535,48 +564,36 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
   }
 
   // Across scan points.
-  {
-    std::vector<double> x, y, s;
-    for (std::size_t k : group_varying(points, Protocol::C, Varying::Height)) {
-      if (!std::isfinite(points[k].relative_increase.mean)) continue;
-      x.push_back(std::log(points[k].point.params.height));
-      y.push_back(points[k].relative_increase.mean);
-      s.push_back(points[k].relative_increase.sem);
-    }
-    out.scan.increase_vs_log_height = polynomial_fit(x, y, s, 1);
-  }
-  {  // The initial density varies with the capture radius; fit against the measured nu_i.
-    std::vector<double> x, y, s;
-    for (std::size_t k : group_varying(points, Protocol::C, Varying::CaptureRadius)) {
-      if (!std::isfinite(points[k].relative_increase.mean)) continue;
-      x.push_back(points[k].nu_initial.mean);
-      y.push_back(points[k].relative_increase.mean);
-      s.push_back(points[k].relative_increase.sem);
-    }
-    out.scan.increase_vs_nu_initial = power_law_fit(x, y, s);
-  }
-  {
-    std::vector<double> x, y, s;
-    for (std::size_t k : group_varying(points, Protocol::A, Varying::Height)) {
-      const Fit& f = out.points[k].dy_by_ye;
-      if (!f.valid() || f.coef.size() < 3 || f.coef[2] == 0.0) continue;
-      x.push_back(points[k].point.params.height);
-      y.push_back(std::fabs(f.coef[2]));
-      s.push_back(f.error[2]);
-    }
-    out.scan.quadratic_vs_height = power_law_fit(x, y, s);
-  }
-  {  // The paper's 1/H follows from a profile H f(y/H): a slice model whose a does not change.
-    std::vector<double> x, y, s;
-    for (std::size_t k : group_varying(points, Protocol::A, Varying::Height)) {
-      const Fit& f = out.points[k].slice_parabola;
-      if (!f.valid() || f.coef.empty() || !(f.coef[0] > 0.0)) continue;
-      x.push_back(points[k].point.params.height);
-      y.push_back(f.coef[0]);
-      s.push_back(f.error[0]);
-    }
-    if (x.size() >= 3) out.scan.slice_vs_height = power_law_fit(x, y, s);
-  }
+  using Data = const std::vector<double>&;
+  const auto line = [](Data x, Data y, Data s) { return polynomial_fit(x, y, s, 1); };
+  out.scan.increase_vs_log_height =
+      across_points(points, Protocol::C, Varying::Height, line, [&](std::size_t k) {
+        const auto& inc = points[k].relative_increase;
+        return keep_if(std::isfinite(inc.mean),
+                       {std::log(points[k].point.params.height), inc.mean, inc.sem});
+      });
+  // The initial density varies with the capture radius; fit against the measured nu_i.
+  out.scan.increase_vs_nu_initial =
+      across_points(points, Protocol::C, Varying::CaptureRadius, power_law_fit, [&](std::size_t k) {
+        const auto& inc = points[k].relative_increase;
+        return keep_if(std::isfinite(inc.mean), {points[k].nu_initial.mean, inc.mean, inc.sem});
+      });
+  out.scan.quadratic_vs_height =
+      across_points(points, Protocol::A, Varying::Height, power_law_fit, [&](std::size_t k) {
+        const Fit& f = out.points[k].dy_by_ye;
+        const bool curved = f.valid() && f.coef.size() >= 3 && f.coef[2] != 0.0;
+        return keep_if(curved, {points[k].point.params.height, std::fabs(coef(f, 2)), err(f, 2)});
+      });
+  // The paper's 1/H follows from a profile H f(y/H): a slice model whose a does not change.
+  const auto three_or_more = [](Data x, Data y, Data s) {
+    return x.size() >= 3 ? power_law_fit(x, y, s) : Fit{};
+  };
+  out.scan.slice_vs_height =
+      across_points(points, Protocol::A, Varying::Height, three_or_more, [&](std::size_t k) {
+        const Fit& f = out.points[k].slice_parabola;
+        const bool positive = f.valid() && !f.coef.empty() && f.coef[0] > 0.0;
+        return keep_if(positive, {points[k].point.params.height, coef(f, 0), err(f, 0)});
+      });
   return out;
 }
 

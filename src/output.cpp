@@ -36,7 +36,7 @@ bool is_count(const std::string& name) {
   static const std::string kCounts =
       " count members counts counts_cut member_counts member_counts_cut downward_counts"
       " moved_counts steps_counts member_downward_counts member_moved_counts member_steps_counts"
-      " member_count seed_index disks steps sweeps failure capped"
+      " member_count seed_index disks steps sweeps failure capped scan_points"
       " contact_i contact_j disk time ";
   return !name.empty() && kCounts.find(" " + name + " ") != std::string::npos;
 }
@@ -54,6 +54,8 @@ DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
     if (name == "contact_i" || name == "contact_j" || name == "disk")
       return {"", "disk index in deposition order (-1: the floor)", true};
     if (name == "failure") return {"", "0 finished; else the failure (docs/OUTPUT.md)", true};
+    if (name == "scan_points")
+      return {"", "the scan points the fit went through (K of points/K)", true};
     return {"", group + " " + name, true};
   }
   if (density && (name == "mean" || name == "sem" || name == "member_mean"))
@@ -316,10 +318,15 @@ void remove_point_analysis(hid_t g) {
 // The fits across scan points.
 void scan_analysis(hid_t file, const ScanAnalysis& s) {
   H5 g = group(file, "analysis");
-  fit(g, "increase_vs_log_height", s.increase_vs_log_height);
-  fit(g, "increase_vs_nu_initial", s.increase_vs_nu_initial);
-  fit(g, "quadratic_vs_height", s.quadratic_vs_height);
-  fit(g, "slice_vs_height", s.slice_vs_height);
+  const auto across = [&](const std::string& name, const Fit& f) {
+    fit(g, name, f);
+    H5 fg = open_group(g, name);
+    dataset(fg, "scan_points", std::vector<double>(f.scan_points.begin(), f.scan_points.end()));
+  };
+  across("increase_vs_log_height", s.increase_vs_log_height);
+  across("increase_vs_nu_initial", s.increase_vs_nu_initial);
+  across("quadratic_vs_height", s.quadratic_vs_height);
+  across("slice_vs_height", s.slice_vs_height);
 }
 
 std::string point_name(int k) {

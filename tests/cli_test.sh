@@ -132,6 +132,10 @@ printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = [16, 2
 # Three heights of protocol C: the summary ends with the fit of dnu/nu_i against ln H.
 "$exe" summary "$dir/an.h5" | grep -A1 "^# fits across points" | grep -q "dnu/nu_i = (.*) ln H" ||
   fail "summary prints no fit across points"
+# The fit names the points it went through (all three heights).
+/usr/bin/python3 -c 'import sys, h5py; f = h5py.File(sys.argv[1], "r")
+sys.exit(list(f["analysis/increase_vs_log_height/scan_points"][()]) != [0, 1, 2])' "$dir/an.h5" ||
+  fail "analysis/increase_vs_log_height/scan_points is not the three heights"
 # Per point: the identity b' = b/(1+b) and a' = a/(1+b), and the deposition density's power law.
 "$exe" summary "$dir/an.h5" > "$dir/an_summary.txt"
 grep -q "b' = .*from b/(1+b): .*; a' = .*from a/(1+b): " "$dir/an_summary.txt" ||

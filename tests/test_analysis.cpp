@@ -395,6 +395,7 @@ lower_half_from = 8.0
   // Across the heights: |c| = A H^p with p = -1 and A = alpha.
   const Fit& f = an.scan.quadratic_vs_height;
   ASSERT_TRUE(f.valid());
+  EXPECT_EQ(f.scan_points, (std::vector<int>{0, 1, 2}));
   EXPECT_NEAR(f.coef[1], -1.0, 0.02);
   EXPECT_NEAR(std::exp(f.coef[0]), alpha, 0.05 * alpha);
   // And the slice model's a is alpha at every height: exponent 0.
@@ -451,6 +452,7 @@ capture_radius = 2.0
   const Analysis an = analyse(scan, points);
   const Fit& f = an.scan.increase_vs_nu_initial;
   ASSERT_TRUE(f.valid());
+  EXPECT_EQ(f.scan_points, (std::vector<int>{1, 2, 3}));  // not point 0, of another height
   EXPECT_NEAR(f.coef[1], s, 3.0 * f.error[1]);
   EXPECT_LT(f.error[1], 0.3);
   EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);

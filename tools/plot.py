@@ -246,10 +246,11 @@ def scaled_avalanche_profiles(f, points, out, written):
             axes[1].errorbar(*zip(*[(h, v) for h, v, _ in pts]), yerr=[e for _, _, e in pts],
                              fmt=fmt, capsize=3, label=name)
     an = f["analysis"] if "analysis" in f else None
-    hs = np.linspace(min(attr(g, "height") for g in a_pts), max(attr(g, "height") for g in a_pts))
     for key, name in (("quadratic_vs_height", "c2"), ("slice_vs_height", "a")):
         fit = fit_of(an, key) if an is not None else None
         if fit is not None:
+            fitted = [attr(g, "height") for g in fitted_points(an, key, points)]
+            hs = np.linspace(min(fitted), max(fitted))
             axes[1].plot(hs, np.exp(fit[0][0]) * hs ** fit[0][1], "-", lw=1,
                          label=f"{name} ~ H^({fit[0][1]:.2f} +- {fit[1][1]:.2f})")
     axes[1].set_xscale("log")
@@ -263,18 +264,13 @@ def scaled_avalanche_profiles(f, points, out, written):
     save(fig, out, "scaled_avalanche_profiles.png", written)
 
 
-def fitted_group(points, varying):
-    """The points an across-point fit of the program went through (src/analysis.cpp): those that
-    differ only in `varying`, the group with the most values of it (the first such)."""
-    others = [k for k in ("bond_number", "width", "height", "capture_radius") if k != varying]
-    key = lambda g: tuple(attr(g, k) for k in others)
-    values = lambda group: len({attr(g, varying) for g in group})
-    best = []
-    for ref in points:
-        group = [g for g in points if key(g) == key(ref)]
-        if values(group) > values(best):
-            best = group
-    return best
+def fitted_points(an, name, points):
+    """The points a fit across points went through (`analysis/NAME/scan_points`)."""
+    fit = need(an, name)
+    if "scan_points" not in fit:
+        sys.exit(f"plot.py: {PATH}: '{fit.name}/scan_points' is missing: a file of an older "
+                 f"loosepack; `loosepack analyse {PATH}` adds it")
+    return [points[k] for k in fit["scan_points"][()]]
 
 
 def collapse_increase(f, points, out, written):
@@ -282,8 +278,6 @@ def collapse_increase(f, points, out, written):
     if len(c) < 2:
         return
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
-    H = [attr(g, "height") for g in fitted_group(c, "height")]
-    ni = [attr(g, "nu_initial_mean") for g in fitted_group(c, "capture_radius")]
     for rc in sorted({attr(g, "capture_radius") for g in c}):
         g_rc = [g for g in c if attr(g, "capture_radius") == rc]
         inc = [attr(g, "relative_increase_mean") for g in g_rc]
@@ -310,12 +304,15 @@ def collapse_increase(f, points, out, written):
     if an is not None:
         fh = fit_of(an, "increase_vs_log_height")
         if fh is not None:
+            H = [attr(g, "height") for g in fitted_points(an, "increase_vs_log_height", points)]
             x = np.linspace(min(H), max(H), 100)
             axes[0].plot(x, fh[0][0] + fh[0][1] * np.log(x), "-",
                          label=f"{fh[0][0]:.3f} + {fh[0][1]:.3f} ln H")
             axes[0].legend(fontsize=8)
         fn = fit_of(an, "increase_vs_nu_initial")
         if fn is not None:
+            ni = [attr(g, "nu_initial_mean")
+                  for g in fitted_points(an, "increase_vs_nu_initial", points)]
             x = np.linspace(min(ni), max(ni), 100)
             axes[1].plot(x, np.exp(fn[0][0]) * x ** fn[0][1], "-",
                          label=f"{math.exp(fn[0][0]):.3f} nu_i^{fn[0][1]:.2f}")

@@ -26,6 +26,9 @@ struct Fit {
   double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
   int points = 0;     // data points used
   int dof = 0;        // points - parameters
+  // Fits across scan points: the indices of the scan points the fit went through, in scan
+  // order (empty for the fits of one point).
+  std::vector<int> scan_points;
   bool valid() const { return dof >= 0 && points > 0 && !coef.empty(); }
   double reduced_chi2() const;
 };
