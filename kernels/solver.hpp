@@ -3,6 +3,7 @@
 // Kernels are specialised at compile time on the effects the batch needs (Effects below), so a
 // batch without friction or rolling resistance compiles those parts out.
 #pragma once
+#include "kernels/colouring.hpp"
 #include "kernels/contact_law.hpp"
 #include "kernels/state.hpp"
 
@@ -458,13 +459,18 @@ struct AcceleratedGaussSeidel {
 // colours forward then backward, and reduce the convergence test and |d|^2 among themselves;
 // the NNCG step then updates every contact's impulses at once and every disk's velocity is
 // recomputed from its impulses (BodyVelocity), which needs no atomics. Each team iterates its
-// system to convergence in one launch, as AcceleratedGaussSeidel does with one thread.
+// system to convergence in one launch, as AcceleratedGaussSeidel does with one thread. The team
+// first colours its own system (the Jones-Plassmann rounds of kernels/colouring.hpp, so each
+// contact gets the colour a batch-wide colouring gives it), which needs no launch or host
+// round trip per round, and sweeps only its own colours.
 // `list` holds each system's contact slots grouped by colour within the system's own slot
-// range; `starts` [S * (n_colours + 1)] the colour boundaries (both written by the kernel).
+// range; `starts` [P * kSlots + S] the colour boundaries, system s's from offset(s) kSlots + s
+// (a system has at most one colour per contact, and at least one).
 // On a host backend (team size 1) it is the same method with the contacts in colour order.
-// Reads: con.colour; sys.{active, unconverged, offset, count, max_sweeps, step_tolerance}; what
-// the local solve reads (local_solve) and what BodyVelocity reads. Writes: list, starts;
-// con.{pn, pt, pm, start_*, dir_*}; part.{vx, vy, w}; sys.unconverged; sweeps.
+// Reads: sys.{active, unconverged, offset, count, max_sweeps, step_tolerance}; what the
+// colouring reads (ColourRound), what the local solve reads (local_solve) and what BodyVelocity
+// reads. Writes: con.colour; list, starts; con.{pn, pt, pm, start_*, dir_*}; part.{vx, vy, w};
+// sys.unconverged; sweeps.
 template <class Fx>
 struct ColouredAcceleratedGaussSeidel {
   using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;
@@ -473,15 +479,15 @@ struct ColouredAcceleratedGaussSeidel {
   ContactViews con;
   DView<int> sweeps;  // [S] sweeps of this step
   DView<int> list, starts;
-  int n_colours;
   double omega;
 
   KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
     const int s = team.league_rank();
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
-    const int base = s * (n_colours + 1);
-    group_by_colour(team, range, base);
+    const int base = range.first + s;
+    const int n_colours = colour_system(team, range);
+    group_by_colour(team, range, base, n_colours);
     Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
                          [&](int c) { nncg_keep_start(con, c); });
     team.team_barrier();
@@ -529,10 +535,29 @@ struct ColouredAcceleratedGaussSeidel {
     return kmath::max(worst, 0.0);
   }
 
+  // Colours the system's contacts in Jones-Plassmann rounds until none is left; returns the
+  // colour count.
+  KOKKOS_INLINE_FUNCTION int colour_system(const Member& team, SlotRange range) const {
+    const ColourReset reset{con};
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
+                         [&](int c) { reset(c); });
+    team.team_barrier();
+    for (int round = 0;; ++round) {
+      const ColourRound colour_round{sys, part, con, round};
+      int uncoloured = 0;
+      Kokkos::parallel_reduce(
+          Kokkos::TeamThreadRange(team, range.first, range.end),
+          [&](int c, int& n) { colour_round(c, n); }, uncoloured);
+      team.team_barrier();
+      if (uncoloured == 0) return round + 1;
+    }
+  }
+
   // Writes the system's contact slots into list[range], grouped by colour (in slot order within
   // a colour), and the colour boundaries into starts[base ...]: one team scan per colour, whose
   // extra last element writes where the next colour begins.
-  KOKKOS_INLINE_FUNCTION void group_by_colour(const Member& team, SlotRange range, int base) const {
+  KOKKOS_INLINE_FUNCTION void group_by_colour(const Member& team, SlotRange range, int base,
+                                              int n_colours) const {
     Kokkos::single(Kokkos::PerTeam(team), [&]() { starts(base) = range.first; });
     team.team_barrier();
     for (int k = 0; k < n_colours; ++k) {

@@ -74,20 +74,16 @@ void Batch::Impl::solve() {
     return;
   }
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
-    const int n_colours = colour(false);
-    const auto need = static_cast<std::size_t>(n_systems) * (n_colours + 1);
-    if (system_colour_start.extent(0) < need)
-      system_colour_start = alloc<int>("system_colour_start", need);
     Kokkos::parallel_for("coloured_accelerated_gauss_seidel",
                          Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO),
                          ColouredAcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, colour_list,
-                                                            system_colour_start, n_colours, omega});
+                                                            system_colour_start, omega});
     return;
   }
   int n_colours = 0;
   std::vector<int> colour_begin;
   if (!jacobi) {
-    n_colours = colour(true);
+    n_colours = colour();
     auto hs = Kokkos::create_mirror_view(colour_start);
     Kokkos::deep_copy(hs, colour_start);
     colour_begin.assign(hs.data(), hs.data() + n_colours + 1);
@@ -167,7 +163,7 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
     }
     lap(timer(StepStage::Solve));
     newton_round<Fx>(due);
-    lap(newton_time);
+    lap(newton_cost);
     for (int s : due) limit(s) = done(s) + newton_pace[static_cast<std::size_t>(s)].wait;
   }
 }
@@ -279,9 +275,9 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
   Kokkos::deep_copy(con.pm, pm);
 }
 
-// Colours the contacts of every system (ColourRound); with batch_list, also lists the batch's
-// contact slots by colour in colour_list, delimited by colour_start. Returns the colour count.
-int Batch::Impl::colour(bool batch_list) {
+// Colours the contacts of every system (ColourRound) and lists the batch's contact slots by
+// colour in colour_list, delimited by colour_start. Returns the colour count.
+int Batch::Impl::colour() {
   const int n_contacts = n_particles * kSlots;
   Kokkos::parallel_for("colour_reset", Kokkos::RangePolicy<ExecSpace>(0, n_contacts),
                        ColourReset{con});
@@ -293,7 +289,6 @@ int Batch::Impl::colour(bool batch_list) {
     if (uncoloured == 0) break;
   }
   const int n_colours = rounds + 1;
-  if (!batch_list) return n_colours;
   if (static_cast<int>(colour_fill.extent(0)) < n_colours) {
     colour_fill = alloc<int>("colour_fill", static_cast<std::size_t>(n_colours));
     colour_start = alloc<int>("colour_start", static_cast<std::size_t>(n_colours) + 1);
@@ -372,6 +367,8 @@ void Batch::Impl::step() {
   if (timing) {
     ExecSpace().fence();
     stage_timer.reset();
+    lap_counts = launch_counts();
+    ++timed_steps;
   }
   for (int k = 0; k < kStepStages; ++k) {
     const auto stage = static_cast<StepStage>(k);
@@ -495,18 +492,23 @@ void Batch::Impl::integrate_stage() {
 // Per-system status on the host: the non-finite and overflow guards stop a system; rest
 // detection.
 void Batch::Impl::status_stage() {
-  auto& h_fail = host.failure;
-  auto& h_speed = host.max_speed;
-  auto& h_unconv = host.unconverged;
-  auto& h_sweeps = host.sweeps;
-  auto& h_count = host.count;
-  Kokkos::deep_copy(h_fail, sys.failure);
-  Kokkos::deep_copy(h_speed, sys.max_speed);
-  Kokkos::deep_copy(host.max_centre_speed, sys.max_centre_speed);
-  Kokkos::deep_copy(host.step_tolerance, sys.step_tolerance);
-  Kokkos::deep_copy(h_unconv, sys.unconverged);
-  Kokkos::deep_copy(h_sweeps, sweeps_this_step);
-  Kokkos::deep_copy(h_count, sys.count);
+  const SystemViews sys_ = sys;
+  const auto sweeps = sweeps_this_step;
+  const auto out = report;
+  Kokkos::parallel_for(
+      "status_report", Kokkos::RangePolicy<ExecSpace>(0, n_systems), KOKKOS_LAMBDA(int s) {
+        double* r = &out(s * kStatusFields);
+        r[kFailure] = sys_.failure(s);
+        r[kMaxSpeed] = sys_.max_speed(s);
+        r[kMaxCentreSpeed] = sys_.max_centre_speed(s);
+        r[kStepTolerance] = sys_.step_tolerance(s);
+        r[kUnconverged] = sys_.unconverged(s);
+        r[kSweeps] = sweeps(s);
+        r[kCount] = sys_.count(s);
+      });
+  Kokkos::deep_copy(host_report, report);
+  const auto field = [&](int s, StatusField f) { return host_report(s * kStatusFields + f); };
+  const auto whole = [&](int s, StatusField f) { return static_cast<int>(field(s, f)); };
   bool deactivate = false;
   ++batch_steps;
   for (int s = 0; s < n_systems; ++s) {
@@ -514,15 +516,15 @@ void Batch::Impl::status_stage() {
     if (!st.active) continue;
     last_stepped[static_cast<std::size_t>(s)] = batch_steps;
     st.steps += 1;
-    st.last_sweeps = h_sweeps(s);
+    st.last_sweeps = whole(s, kSweeps);
     st.newton_steps = newton_steps[static_cast<std::size_t>(s)];
-    st.sweeps += h_sweeps(s);
-    st.converged = h_unconv(s) == 0;
-    st.tolerance = host.step_tolerance(s);
-    st.max_speed = h_speed(s);
-    st.max_centre_speed = host.max_centre_speed(s);
-    st.count = h_count(s);
-    st.failure = static_cast<Failure>(h_fail(s));
+    st.sweeps += whole(s, kSweeps);
+    st.converged = whole(s, kUnconverged) == 0;
+    st.tolerance = field(s, kStepTolerance);
+    st.max_speed = field(s, kMaxSpeed);
+    st.max_centre_speed = field(s, kMaxCentreSpeed);
+    st.count = whole(s, kCount);
+    st.failure = static_cast<Failure>(whole(s, kFailure));
     if (st.failure != Failure::None) {
       st.active = false;
       deactivate = true;
@@ -554,18 +556,25 @@ const SolverSettings& Batch::solver() const { return impl_->solver; }
 
 void Batch::step() { impl_->step(); }
 
-void Batch::set_timing(bool on) { impl_->timing = on; }
+void Batch::set_timing(bool on) {
+  if (on) count_launches();
+  impl_->timing = on;
+}
 Batch::KernelEffects Batch::kernel_effects() const { return impl_->needed_effects(); }
-const std::vector<std::pair<std::string, double>>& Batch::stage_seconds() const {
+const std::vector<StageCost>& Batch::stage_costs() const {
   auto& I = *impl_;
-  I.stage_seconds.clear();
+  I.stage_costs.clear();
+  const auto named = [&](const char* name, StageCost cost) {
+    cost.name = name;
+    cost.steps = I.timed_steps;
+    I.stage_costs.push_back(std::move(cost));
+  };
   for (int k = 0; k < kStepStages; ++k) {
     const auto stage = static_cast<StepStage>(k);
-    I.stage_seconds.emplace_back(stage_name(stage), I.timer(stage));
-    if (stage == StepStage::Solve && I.newton_time > 0.0)
-      I.stage_seconds.emplace_back("newton", I.newton_time);
+    named(stage_name(stage), I.timer(stage));
+    if (stage == StepStage::Solve && I.newton_cost.seconds > 0.0) named("newton", I.newton_cost);
   }
-  return I.stage_seconds;
+  return I.stage_costs;
 }
 
 long Batch::run_to_rest(long max_steps) {

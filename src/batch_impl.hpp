@@ -19,6 +19,7 @@
 #include "kernels/solver.hpp"
 #include "loosepack/batch.hpp"
 #include "loosepack/geometry.hpp"
+#include "src/launch_count.hpp"
 #include "src/newton.hpp"
 
 namespace loosepack {
@@ -54,17 +55,22 @@ struct Batch::Impl {
   ContactViews con;
   GridViews grid;
   DView<int> colour_list, colour_start, colour_fill;
-  DView<int> system_colour_start;  // [S * (colours + 1)] ColouredAcceleratedGaussSeidel's
+  DView<int> system_colour_start;  // [P * kSlots + S] ColouredAcceleratedGaussSeidel's
   DView<int> sweeps_this_step;     // [S]
   DView<int> sweep_limit;          // [S] accelerated solver with Newton steps: this launch's limit
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
   std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
   std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
   std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
-  // Host mirrors of the per-system status read after every step (allocated once).
+  // The per-system status read after every step: packed on the device into `report` [S x
+  // StatusField] and read back in one copy (one wait for the device per step); host mirrors of
+  // what the Newton rounds read between launches.
+  enum StatusField { kFailure, kMaxSpeed, kMaxCentreSpeed, kStepTolerance, kUnconverged, kSweeps,
+                     kCount, kStatusFields };
+  DView<double> report;
+  DView<double>::HostMirror host_report;
   struct HostStatus {
-    DView<int>::HostMirror failure, unconverged, sweeps, count;
-    DView<double>::HostMirror max_speed, max_centre_speed, step_tolerance;
+    DView<int>::HostMirror unconverged, sweeps;
   } host;
   DView<int> request;       // [S] per-system requests of deposit and close_events
   DView<double> request_x;  // [S] given abscissae of deposit_at
@@ -79,20 +85,26 @@ struct Batch::Impl {
   // warm start while it waits and its results never depend on what the rest of the batch did.
   long batch_steps = 0;
   std::vector<long> last_stepped;
-  // Wall time of each stage of the step (StepStage) and of the Newton rounds inside the solve,
-  // summed while timing is on (fenced); Batch::stage_seconds lists them by name.
+  // What each stage of the step (StepStage) and the Newton rounds inside the solve cost, summed
+  // while timing is on (fenced); Batch::stage_costs lists them by name.
   bool timing = false;
-  std::array<double, kStepStages> stage_time{};
-  double newton_time = 0.0;
-  std::vector<std::pair<std::string, double>> stage_seconds;
+  long timed_steps = 0;
+  std::array<StageCost, kStepStages> stage_cost{};
+  StageCost newton_cost;
+  std::vector<StageCost> stage_costs;
   Kokkos::Timer stage_timer;
-  void lap(double& into) {
+  LaunchCounts lap_counts;
+  void lap(StageCost& into) {
     if (!timing) return;
     ExecSpace().fence();
-    into += stage_timer.seconds();
+    into.seconds += stage_timer.seconds();
+    const LaunchCounts now = launch_counts();
+    into.launches += now.launches - lap_counts.launches;
+    into.copies += now.copies - lap_counts.copies;
+    lap_counts = now;
     stage_timer.reset();
   }
-  double& timer(StepStage stage) { return stage_time[static_cast<std::size_t>(stage)]; }
+  StageCost& timer(StepStage stage) { return stage_cost[static_cast<std::size_t>(stage)]; }
   void restore_warm_start(int s);
   // The effects the active systems call for: the solve runs the kernel specialised on them.
   using EffectFlags = Batch::KernelEffects;
@@ -119,7 +131,7 @@ struct Batch::Impl {
     return std::max(shortest_newton_wait(),
                     sweep_cap[static_cast<std::size_t>(s)] - shortest_newton_wait());
   }
-  int colour(bool batch_list);
+  int colour();
   void step();
   void run_stage(StepStage stage);
   void margin_stage();

@@ -120,13 +120,10 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   sweep_cap.assign(static_cast<std::size_t>(S), solver.max_sweeps);
   newton_factor.resize(static_cast<std::size_t>(S));
   for (auto& f : newton_factor) f = std::make_unique<KluFactor>();
-  host.failure = Kokkos::create_mirror_view(sys.failure);
+  report = alloc<double>("status_report", static_cast<std::size_t>(S) * kStatusFields);
+  host_report = Kokkos::create_mirror_view(report);
   host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
   host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
-  host.count = Kokkos::create_mirror_view(sys.count);
-  host.max_speed = Kokkos::create_mirror_view(sys.max_speed);
-  host.max_centre_speed = Kokkos::create_mirror_view(sys.max_centre_speed);
-  host.step_tolerance = Kokkos::create_mirror_view(sys.step_tolerance);
   request = alloc<int>("request", S);
   request_x = alloc<double>("request_x", S);
   reply = alloc<double>("reply", 4 * S);
@@ -201,6 +198,8 @@ void Batch::Impl::allocate_contacts() {
     con.dir_pm = alloc<double>("dir_pm", NC);
   }
   colour_list = alloc<int>("colour_list", NC);
+  if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel)
+    system_colour_start = alloc<int>("system_colour_start", NC + static_cast<std::size_t>(n_systems));
   colour_start = alloc<int>("colour_start", 2);
   colour_fill = alloc<int>("colour_fill", 1);
 }

@@ -167,7 +167,7 @@ class RunCommand {
   std::vector<Progress> latest;  // every rank's, on rank 0
   std::vector<char> final;       // which ranks have finished
   Progress own;                  // this rank's latest
-  std::vector<std::pair<std::string, double>> stages;
+  std::vector<StageCost> stages;
   OutputLock lock;  // rank 0: the output and its checkpoint are this run's
 };
 
@@ -357,7 +357,7 @@ void RunCommand::show(bool force) {
 RunHooks RunCommand::hooks() {
   RunHooks h;
   h.stop = &g_signal;
-  if (o.timing) h.stage_seconds = &stages;
+  if (o.timing) h.stage_costs = &stages;
   h.progress = [this](const Progress& p) {
     own = p;
     if (talk) {
@@ -414,11 +414,16 @@ int RunCommand::compute() {
 void RunCommand::print_timing() const {
   if (!o.timing || !talk) return;
   double total = 0.0;
-  for (const auto& st : stages) total += st.second;
-  std::fprintf(stderr, "loosepack: time per stage of the step (fenced, rank 0)\n");
-  for (const auto& [name, sec] : stages)
-    std::fprintf(stderr, "  %-10s %10.3f s  %5.1f %%\n", name.c_str(), sec,
-                 total > 0 ? 100.0 * sec / total : 0.0);
+  for (const auto& st : stages) total += st.seconds;
+  std::fprintf(stderr,
+               "loosepack: cost per stage of the step (fenced, rank 0): wall time, and kernel "
+               "launches and deep copies per step\n");
+  for (const auto& st : stages) {
+    const double per_step = st.steps > 0 ? 1.0 / static_cast<double>(st.steps) : 0.0;
+    std::fprintf(stderr, "  %-22s %10.3f s  %5.1f %%  %8.2f launches  %8.2f copies\n",
+                 st.name.c_str(), st.seconds, total > 0 ? 100.0 * st.seconds / total : 0.0,
+                 st.launches * per_step, st.copies * per_step);
+  }
 }
 
 // Rank 0 shows progress until every rank has finished; at a signal, what was saved and how to

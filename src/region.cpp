@@ -300,8 +300,8 @@ long Regions::sweeps(int s) const {
   const auto& sl = impl_->slots.at(static_cast<std::size_t>(s));
   return sl.done_sweeps + (sl.running ? impl_->batch->status(s).sweeps : 0);
 }
-const std::vector<std::pair<std::string, double>>& Regions::stage_seconds() const {
-  return impl_->batch->stage_seconds();
+const std::vector<StageCost>& Regions::stage_costs() const {
+  return impl_->batch->stage_costs();
 }
 void Regions::set_timing(bool on) { impl_->batch->set_timing(on); }
 

@@ -56,7 +56,7 @@ MemberRun::MemberRun(const Scan& scan, const std::vector<Member>& members, const
   std::vector<SystemSetup> setups;
   for (std::size_t k = 0; k < n_slots_; ++k) setups.push_back(setup_of(members[k]));
   batch_ = std::make_unique<Batch>(setups, scan_.solver, scan_.rest);
-  batch_->set_timing(hooks.stage_seconds != nullptr);
+  batch_->set_timing(hooks.stage_costs != nullptr);
   make_regions();
   slots_.resize(n_slots_);
   for (const auto& snap : resume) snapshot_of_[snap.result.member.id] = &snap;
@@ -113,7 +113,7 @@ void MemberRun::make_regions() {
   rs.max_height = region_slot_height(rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1), tallest);
   regions_ =
       std::make_unique<Regions>(static_cast<int>(n_slots_), slow, rs, scan_.solver, scan_.rest);
-  regions_->set_timing(hooks_.stage_seconds != nullptr);
+  regions_->set_timing(hooks_.stage_costs != nullptr);
 }
 
 std::vector<MemberResult> MemberRun::run() {
@@ -127,11 +127,13 @@ std::vector<MemberResult> MemberRun::run() {
     if (!any_busy()) break;
     if (any_dynamic()) advance_dynamics();
   }
-  if (hooks_.stage_seconds) {
-    *hooks_.stage_seconds = batch_->stage_seconds();
+  if (hooks_.stage_costs) {
+    *hooks_.stage_costs = batch_->stage_costs();
     if (regions_)
-      for (const auto& [name, sec] : regions_->stage_seconds())
-        hooks_.stage_seconds->emplace_back("region " + name, sec);
+      for (StageCost cost : regions_->stage_costs()) {
+        cost.name = "region " + cost.name;
+        hooks_.stage_costs->push_back(std::move(cost));
+      }
   }
   std::vector<MemberResult> finished;
   for (std::size_t k = 0; k < results_.size(); ++k)

@@ -37,11 +37,30 @@ TEST(Batch, StepStagesAreTimedInOrder) {
   batch.set_timing(true);
   for (int k = 0; k < 5; ++k) batch.step();
   std::vector<std::string> timed;
-  for (const auto& [name, seconds] : batch.stage_seconds()) {
-    EXPECT_GE(seconds, 0.0) << name;
-    if (name != "newton") timed.push_back(name);
+  for (const auto& cost : batch.stage_costs()) {
+    EXPECT_GE(cost.seconds, 0.0) << cost.name;
+    EXPECT_EQ(cost.steps, 5) << cost.name;
+    if (cost.name != "newton") timed.push_back(cost.name);
   }
   EXPECT_EQ(timed, stage_names());
+}
+
+// The team solver colours and solves each system inside its team: its solve stage launches
+// the same two kernels every step (the fill of the sweep counters and the team kernel), however
+// many colours the contacts need, with one copy (that fill) and no round trip per colour.
+TEST(Batch, TeamSolverSolvesInTwoLaunchesPerStep) {
+  SolverSettings solver;
+  solver.kind = SolverKind::ColouredAcceleratedGaussSeidel;
+  Batch batch({setup(cohesive_params(), column(6, 10.0))}, solver);
+  batch.set_timing(true);
+  for (int k = 0; k < 5; ++k) batch.step();
+  for (const auto& cost : batch.stage_costs())
+    if (cost.name == "solve") {
+      EXPECT_EQ(cost.launches, 2 * cost.steps);
+      EXPECT_EQ(cost.copies, cost.steps);
+      return;
+    }
+  FAIL() << "no solve stage";
 }
 
 // docs/MODEL.md, "Time step", lists the stages by name in the order they run: its numbered

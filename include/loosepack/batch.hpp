@@ -114,8 +114,17 @@ enum class StepStage {
   Status,        // per-system status on the host: guards, rest detection
 };
 constexpr int kStepStages = 7;
-// The stage's name in docs/MODEL.md and in Batch::stage_seconds.
+// The stage's name in docs/MODEL.md and in Batch::stage_costs.
 const char* stage_name(StepStage stage);
+
+// What one stage of the step cost while timing was on (Batch::stage_costs): wall seconds
+// (fenced), kernel launches and deep copies (src/launch_count.hpp), over `steps` steps.
+struct StageCost {
+  std::string name;
+  double seconds = 0.0;
+  long launches = 0, copies = 0;
+  long steps = 0;
+};
 
 class Batch {
  public:
@@ -133,11 +142,11 @@ class Batch {
 
   // One time step of every active system.
   void step();
-  // Wall time per stage of the step (StepStage, by stage_name, in order; "newton": the Newton
-  // rounds inside the solve, apart from its sweeps), summed over all steps since timing was
-  // switched on. Timing fences after every stage.
+  // Wall time, launches and copies per stage of the step (StepStage, by stage_name, in order;
+  // "newton": the Newton rounds inside the solve, apart from its sweeps), summed over all steps
+  // since timing was switched on. Timing fences after every stage.
   void set_timing(bool on);
-  const std::vector<std::pair<std::string, double>>& stage_seconds() const;
+  const std::vector<StageCost>& stage_costs() const;
   // The effects the next step's solve is specialised on: those of the systems active now.
   struct KernelEffects {
     bool cohesion = false, friction = false, rolling = false;

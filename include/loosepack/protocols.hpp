@@ -122,8 +122,9 @@ struct RunHooks {
   // current step with the members finished so far (with `snapshots`, once it has handed over
   // those of the running members: below); the others are dropped.
   const volatile std::sig_atomic_t* stop = nullptr;
-  // Receives the wall time per named stage of the batch step.
-  std::vector<std::pair<std::string, double>>* stage_seconds = nullptr;
+  // Receives what each named stage of the batch step cost (Batch::stage_costs); those of the
+  // relaxation regions' batch follow, their names prefixed with "region ".
+  std::vector<StageCost>* stage_costs = nullptr;
   // Checkpoints of running members. When `snapshot_wanted` returns true the run takes a
   // snapshot of every running member at its next point where it can (not while a relaxation
   // region runs) and hands them to `snapshots` together. At a stop it takes the latest it can

@@ -61,7 +61,7 @@ class Regions {
   const SystemStatus& status(int s) const;  // of the current small system of slot s
   long steps(int s) const;  // all steps of slot s, all its regions, since construction
   long sweeps(int s) const;
-  const std::vector<std::pair<std::string, double>>& stage_seconds() const;
+  const std::vector<StageCost>& stage_costs() const;
   void set_timing(bool on);
 
  private:

@@ -1,0 +1,129 @@
+// The team solver colours each system inside its team (ColouredAcceleratedGaussSeidel::
+// colour_system): on two hand-made systems, a chain of five disks on the floor and a triangle,
+// contacts that share a disk get different colours, the colours are those of the batch-wide
+// Jones-Plassmann rounds (the colouring the team solver's results were first built on), and each
+// system's contact list is grouped by colour in slot order with its own colour count.
+#include <gtest/gtest.h>
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "kernels/colouring.hpp"
+#include "kernels/solver.hpp"
+#include "loosepack/params.hpp"
+
+namespace loosepack {
+namespace {
+
+using Solver = ColouredAcceleratedGaussSeidel<Effects<true, true, true>>;
+
+// Disks 0-4 are system 0, 5-7 system 1. Contacts are owned by their lower disk.
+const std::vector<std::pair<int, int>> kContacts = {{0, kFloor}, {0, 1}, {1, 2}, {2, 3},
+                                                    {3, 4},      {5, 6}, {5, 7}, {6, 7}};
+constexpr int kDisks = 8, kSystems = 2;
+
+struct Graph {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  std::vector<int> slot;  // of each of kContacts
+};
+
+template <class T>
+DView<T> from_host(const char* name, const std::vector<T>& v) {
+  DView<T> d(std::string(name), v.size());
+  auto h = Kokkos::create_mirror_view(d);
+  for (std::size_t k = 0; k < v.size(); ++k) h(k) = v[k];
+  Kokkos::deep_copy(d, h);
+  return d;
+}
+
+template <class T>
+std::vector<T> to_host(const DView<T>& d) {
+  auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d);
+  return std::vector<T>(h.data(), h.data() + h.extent(0));
+}
+
+Graph graph() {
+  std::vector<int> partner(kDisks * kSlots, kNoContact), n_incident(kDisks, 0),
+      incident(kDisks * kIncident, -1), owned(kDisks, 0), slots;
+  for (const auto& [i, j] : kContacts) {
+    const int c = i * kSlots + owned[i]++;
+    slots.push_back(c);
+    partner[c] = j;
+    incident[i * kIncident + n_incident[i]++] = c;
+    if (j >= 0) incident[j * kIncident + n_incident[j]++] = c;
+  }
+  Graph g;
+  g.sys.offset = from_host<int>("offset", {0, 5});
+  g.sys.count = from_host<int>("count", {5, 3});
+  g.part.system = from_host<int>("system", {0, 0, 0, 0, 0, 1, 1, 1});
+  g.part.n_incident = from_host("n_incident", n_incident);
+  g.part.incident = from_host("incident", incident);
+  g.con.partner = from_host("partner", partner);
+  g.con.colour = DView<int>("colour", kDisks * kSlots);
+  g.slot = slots;
+  return g;
+}
+
+// The batch-wide colouring: rounds over every contact of the batch until none is left.
+std::vector<int> batch_colours(const Graph& g) {
+  Kokkos::parallel_for(kDisks * kSlots, ColourReset{g.con});
+  for (int round = 0;; ++round) {
+    int uncoloured = 0;
+    Kokkos::parallel_reduce(kDisks * kSlots, ColourRound{g.sys, g.part, g.con, round},
+                            uncoloured);
+    if (uncoloured == 0) break;
+  }
+  return to_host(g.con.colour);
+}
+
+TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
+  const Graph g = graph();
+  const std::vector<int> expected = batch_colours(g);
+  Solver solver{g.sys, g.part, g.con, DView<int>(), DView<int>("list", kDisks * kSlots),
+                DView<int>("starts", kDisks * kSlots + kSystems), 1.0};
+  DView<int> n_colours("n_colours", kSystems);
+  Kokkos::deep_copy(g.con.colour, -3);  // the team must reset the colours itself
+  Kokkos::parallel_for(
+      Kokkos::TeamPolicy<ExecSpace>(kSystems, Kokkos::AUTO), KOKKOS_LAMBDA(const Solver::Member& team) {
+        const int s = team.league_rank();
+        const SlotRange range = system_slots(g.sys, s);
+        const int n = solver.colour_system(team, range);
+        solver.group_by_colour(team, range, range.first + s, n);
+        Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
+      });
+  const auto colour = to_host(g.con.colour), list = to_host(solver.list),
+             starts = to_host(solver.starts), n = to_host(n_colours);
+  EXPECT_EQ(colour, expected);
+  // A chain needs two colours at least, a triangle three.
+  EXPECT_GE(n[0], 2);
+  EXPECT_GE(n[1], 3);
+  for (std::size_t a = 0; a < kContacts.size(); ++a)
+    for (std::size_t b = a + 1; b < kContacts.size(); ++b) {
+      const auto [i, j] = kContacts[a];
+      const auto [k, l] = kContacts[b];
+      const bool share = i == k || (j >= 0 && (j == k || j == l)) || (l >= 0 && i == l);
+      if (share) EXPECT_NE(colour[g.slot[a]], colour[g.slot[b]]) << "contacts " << a << ", " << b;
+    }
+  // Each system's list: its colour-k slots, in slot order, between starts[base + k] and
+  // starts[base + k + 1].
+  const int offsets[kSystems] = {0, 5}, counts[kSystems] = {5, 3};
+  for (int s = 0; s < kSystems; ++s) {
+    const int first = offsets[s] * kSlots, end = (offsets[s] + counts[s]) * kSlots,
+              base = first + s;
+    EXPECT_EQ(starts[base], first);
+    for (int k = 0; k < n[s]; ++k) {
+      std::vector<int> want, got;
+      for (int c = first; c < end; ++c)
+        if (colour[c] == k) want.push_back(c);
+      for (int a = starts[base + k]; a < starts[base + k + 1]; ++a) got.push_back(list[a]);
+      EXPECT_EQ(got, want) << "system " << s << ", colour " << k;
+      EXPECT_FALSE(want.empty()) << "system " << s << ", colour " << k;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace loosepack
