@@ -37,7 +37,9 @@ inline void build_grid(const SystemViews& sys, const ParticleViews& part, const 
   auto nxv = sys.grid_nx, nyv = sys.grid_ny, cell_offset = sys.cell_offset;
   auto start = grid.cell_start, fill = grid.cell_fill, plist = grid.cell_particles;
 
-  Kokkos::deep_copy(fill, 0);
+  // Fills on the execution space run in order with the kernels: the host does not wait for the
+  // device (Kokkos 3.4's deep_copy without one fences).
+  Kokkos::deep_copy(ExecSpace(), fill, 0);
   Kokkos::parallel_for(
       "grid_bin", Kokkos::RangePolicy<ExecSpace>(0, n_particles), KOKKOS_LAMBDA(int p) {
         const int s = psys(p);
@@ -58,7 +60,7 @@ inline void build_grid(const SystemViews& sys, const ParticleViews& part, const 
         if (final) start(c) = partial;
         partial += n;
       });
-  Kokkos::deep_copy(fill, 0);
+  Kokkos::deep_copy(ExecSpace(), fill, 0);
   Kokkos::parallel_for(
       "grid_fill", Kokkos::RangePolicy<ExecSpace>(0, n_particles), KOKKOS_LAMBDA(int p) {
         const int c = cell(p);

@@ -55,7 +55,7 @@ void Batch::Impl::solve() {
   const double omega = solver.relaxation;
   const bool jacobi = solver.kind == SolverKind::Jacobi;
   const int n_contacts = n_particles * kSlots;
-  Kokkos::deep_copy(sweeps, 0);
+  Kokkos::deep_copy(ExecSpace(), sweeps, 0);  // in order with the kernels (kernels/grid.hpp)
   // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
     const AcceleratedGaussSeidel<Fx> sweeper{sys, part, con, sweeps, omega, DView<int>()};
@@ -297,7 +297,7 @@ int Batch::Impl::colour() {
   auto start = colour_start;
   auto list = colour_list;
   auto col = con.colour;
-  Kokkos::deep_copy(fill, 0);
+  Kokkos::deep_copy(ExecSpace(), fill, 0);
   Kokkos::parallel_for(
       "colour_count", Kokkos::RangePolicy<ExecSpace>(0, n_contacts), KOKKOS_LAMBDA(int c) {
         if (col(c) >= 0) Kokkos::atomic_increment(&fill(col(c)));
@@ -309,7 +309,7 @@ int Batch::Impl::colour() {
         if (final) start(k) = partial;
         partial += n;
       });
-  Kokkos::deep_copy(fill, 0);
+  Kokkos::deep_copy(ExecSpace(), fill, 0);
   Kokkos::parallel_for(
       "colour_fill", Kokkos::RangePolicy<ExecSpace>(0, n_contacts), KOKKOS_LAMBDA(int c) {
         const int k = col(c);

@@ -1,7 +1,8 @@
 // What the program asks of Kokkos, counted for `loosepack run --timing`: kernel launches
 // (parallel_for, parallel_reduce and parallel_scan, the fills of new views included) and deep
-// copies. On a device backend each copy between device and host memory, and each reduction into
-// a host value, makes the host wait for the device. The counts come from Kokkos Tools callbacks;
+// copies (fills included). On a device backend a copy between device and host memory, a fill
+// without an execution space and a reduction into a host value each make the host wait for the
+// device. The counts come from Kokkos Tools callbacks;
 // a tool library the user loaded (KOKKOS_PROFILE_LIBRARY) still receives its own.
 #pragma once
 
