@@ -5,6 +5,7 @@
 // system's contact list is grouped by colour in slot order with its own colour count.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <utility>
 #include <vector>
@@ -86,14 +87,17 @@ TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
                 DView<int>("starts", kDisks * kSlots + kSystems), 1.0};
   DView<int> n_colours("n_colours", kSystems);
   Kokkos::deep_copy(g.con.colour, -3);  // the team must reset the colours itself
-  Kokkos::parallel_for(
-      Kokkos::TeamPolicy<ExecSpace>(kSystems, Kokkos::AUTO), KOKKOS_LAMBDA(const Solver::Member& team) {
-        const int s = team.league_rank();
-        const SlotRange range = system_slots(g.sys, s);
-        const int n = solver.colour_system(team, range);
-        solver.group_by_colour(team, range, range.first + s, n);
-        Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
-      });
+  const auto colour_and_group = KOKKOS_LAMBDA(const Solver::Member& team) {
+    const int s = team.league_rank();
+    const SlotRange range = system_slots(g.sys, s);
+    const int n = solver.colour_system(team, range);
+    solver.group_by_colour(team, range, range.first + s, n);
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
+  };
+  // Teams of up to 4 threads (1 on Serial), so that an OpenMP build checks the rounds' barriers.
+  const int team_size = std::min(4, Kokkos::TeamPolicy<ExecSpace>(kSystems, 1).team_size_max(
+                                        colour_and_group, Kokkos::ParallelForTag()));
+  Kokkos::parallel_for(Kokkos::TeamPolicy<ExecSpace>(kSystems, team_size), colour_and_group);
   const auto colour = to_host(g.con.colour), list = to_host(solver.list),
              starts = to_host(solver.starts), n = to_host(n_colours);
   EXPECT_EQ(colour, expected);
