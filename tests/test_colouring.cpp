@@ -87,9 +87,10 @@ TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
                 DView<int>("starts", kDisks * kSlots + kSystems), 1.0};
   DView<int> n_colours("n_colours", kSystems);
   Kokkos::deep_copy(g.con.colour, -3);  // the team must reset the colours itself
+  const SystemViews sys = g.sys;           // (the lambda copies views only)
   const auto colour_and_group = KOKKOS_LAMBDA(const Solver::Member& team) {
     const int s = team.league_rank();
-    const SlotRange range = system_slots(g.sys, s);
+    const SlotRange range = system_slots(sys, s);
     const int n = solver.colour_system(team, range);
     solver.group_by_colour(team, range, range.first + s, n);
     Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
