@@ -141,8 +141,8 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
     limit(s) = pace.skips_step(longest_newton_wait(s)) ? sweep_cap[static_cast<std::size_t>(s)]
                                                        : pace.wait;
   }
-  auto& unconverged = host.unconverged;
-  auto& done = host.sweeps;
+  auto& unconverged = newton_host.unconverged;
+  auto& done = newton_host.sweeps;
   for (;;) {
     Kokkos::deep_copy(sweep_limit, limit);
     Kokkos::parallel_for("accelerated_gauss_seidel",

@@ -63,15 +63,16 @@ struct Batch::Impl {
   std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
   std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
   // The per-system status read after every step: packed on the device into `report` [S x
-  // StatusField] and read back in one copy (one wait for the device per step); host mirrors of
-  // what the Newton rounds read between launches.
+  // StatusField] and read back in one copy (one wait for the device per step).
   enum StatusField { kFailure, kMaxSpeed, kMaxCentreSpeed, kStepTolerance, kUnconverged, kSweeps,
                      kCount, kStatusFields };
   DView<double> report;
   DView<double>::HostMirror host_report;
-  struct HostStatus {
+  // Host mirrors of what the host reads between the accelerated solver's launches when it takes
+  // Newton steps (solve_with_newton).
+  struct NewtonMirrors {
     DView<int>::HostMirror unconverged, sweeps;
-  } host;
+  } newton_host;
   DView<int> request;       // [S] per-system requests of deposit and close_events
   DView<double> request_x;  // [S] given abscissae of deposit_at
   DView<double> reply;      // [4 S] their results

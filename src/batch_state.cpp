@@ -122,8 +122,8 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   for (auto& f : newton_factor) f = std::make_unique<KluFactor>();
   report = alloc<double>("status_report", static_cast<std::size_t>(S) * kStatusFields);
   host_report = Kokkos::create_mirror_view(report);
-  host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
-  host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
+  newton_host.unconverged = Kokkos::create_mirror_view(sys.unconverged);
+  newton_host.sweeps = Kokkos::create_mirror_view(sweeps_this_step);
   request = alloc<int>("request", S);
   request_x = alloc<double>("request_x", S);
   reply = alloc<double>("reply", 4 * S);
@@ -199,7 +199,8 @@ void Batch::Impl::allocate_contacts() {
   }
   colour_list = alloc<int>("colour_list", NC);
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel)
-    system_colour_start = alloc<int>("system_colour_start", NC + static_cast<std::size_t>(n_systems));
+    system_colour_start =
+        alloc<int>("system_colour_start", NC + static_cast<std::size_t>(n_systems));
   colour_start = alloc<int>("colour_start", 2);
   colour_fill = alloc<int>("colour_fill", 1);
 }
