@@ -12,7 +12,12 @@
 #                coloured_accelerated_gauss_seidel)
 #   STAGES=1 bench/gpu_runs.sh ...  runs with `--timing` (fenced after every stage, so the wall
 #     time is not the plain run's) and adds "stages": per stage of the step its seconds, and its
-#     kernel launches and deep copies per step.
+#     kernel launches and deep copies per step, and "steps": the batch's steps timed.
+#   LIMIT=seconds bench/gpu_runs.sh ...  stops each run after that many seconds (SIGINT: the run
+#     checkpoints and prints its timing), for the cost per step of a prefix of a long run; such a
+#     run has no summary, so its line has no observable.
+#   KEEP=dir bench/gpu_runs.sh ...  keeps each run's standard error (its timing) as
+#     dir/SCENE-SOLVER.txt.
 #
 # Scenes: "C" the accuracy study's collapse (protocol C, 24 R x 40 R, Bo = 1e3, r_capt = 2,
 # h = 0.0028); "A" the default job's cohesive point (protocol A, 24 R x 24 R, Bo = 1e2).
@@ -49,17 +54,30 @@ for name in C A; do
     timing=()
     [ "${STAGES:-0}" = 1 ] && timing=(--timing)
     rm -f "$work/$name.h5"  # the other solver's file of this scene
-    "$loosepack" run "$work/$name.toml" -o "$work/$name.h5" -q "${timing[@]}" 2>"$work/timing.txt"
+    rm -rf "$work/$name.h5.checkpoint"
+    limit=()
+    [ -n "${LIMIT:-}" ] && limit=(timeout -s INT "$LIMIT")
+    rc=0
+    "${limit[@]}" "$loosepack" run "$work/$name.toml" -o "$work/$name.h5" -q "${timing[@]}" \
+      2>"$work/timing.txt" || rc=$?
     wall=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
-    # The summary's table row: nu_lower_half, then (C) dnu/nu_i.
-    row=$("$loosepack" summary "$work/$name.h5" | awk '$1 == "0000" { print $8, $10, $14, $16; exit }')
-    read -r nu nu_err third third_err <<<"$row"
-    observable="\"nu_lower_half\": [$nu, $nu_err]"
-    [ "$name" = C ] && observable="$observable, \"dnu_over_nu_i\": [$third, $third_err]"
+    [ -n "${KEEP:-}" ] && cp "$work/timing.txt" "$KEEP/$name-$solver.txt"
+    if [ -z "${LIMIT:-}" ] || [ $rc -eq 0 ]; then
+      [ $rc -eq 0 ] || { cat "$work/timing.txt" >&2; exit $rc; }
+      # The summary's table row: nu_lower_half, then (C) dnu/nu_i.
+      row=$("$loosepack" summary "$work/$name.h5" |
+        awk '$1 == "0000" { print $8, $10, $14, $16; exit }')
+      read -r nu nu_err third third_err <<<"$row"
+      observable="\"nu_lower_half\": [$nu, $nu_err]"
+      [ "$name" = C ] && observable="$observable, \"dnu_over_nu_i\": [$third, $third_err]"
+    else
+      observable="\"stopped_after_s\": $LIMIT"
+    fi
     if [ "${STAGES:-0}" = 1 ]; then  # "  NAME  S s  P %  L launches  C copies" lines
       stages=$(awk '$NF == "copies" { name = $1; for (k = 2; $(k + 1) != "s"; ++k) name = name " " $k
         printf "%s\"%s\": [%s, %s, %s]", sep, name, $k, $(k + 4), $(k + 6); sep = ", " }' "$work/timing.txt")
-      observable="$observable, \"stages\": {$stages}"
+      steps=$(awk '$1 == "over" { print $2; exit }' "$work/timing.txt")
+      observable="$observable, \"steps\": ${steps:-null}, \"stages\": {$stages}"
     fi
     printf '{"scene": "%s", "solver": "%s", "members": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
       "$name" "$solver" "$members" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"

@@ -6,6 +6,8 @@
 # 3 000 bytes of each unfinished test's output); prints the counts.
 #
 #   bench/gpu_tests.sh build-cuda/tests/loosepack_tests
+#   FILTER='TeamColouring.*:Batch.*' bench/gpu_tests.sh ...   only the tests a GoogleTest
+#     filter names
 #
 # A binary built elsewhere runs with its shared libraries beside it: copy what `ldd` lists,
 # but glibc's own (libc, libm, libdl, libpthread, librt, libresolv and the loader), into a lib/
@@ -13,7 +15,7 @@
 # machine's (docs/PERFORMANCE.md, "Building for more cores or a GPU").
 set -uo pipefail
 if [ $# -ne 1 ]; then
-  echo "usage: bench/gpu_tests.sh TEST_BINARY   (LIMIT=seconds PARALLEL=n OUT=dir)" >&2
+  echo "usage: bench/gpu_tests.sh TEST_BINARY   (LIMIT=seconds PARALLEL=n OUT=dir FILTER=...)" >&2
   exit 2
 fi
 binary=$(cd "$(dirname "$1")" && pwd)/$(basename "$1")
@@ -21,7 +23,7 @@ limit=${LIMIT:-60}
 OUT=${OUT:-gpu-tests}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
-"$binary" --gtest_list_tests 2>"$OUT/list.err" |
+"$binary" --gtest_list_tests --gtest_filter="${FILTER:-*}" 2>"$OUT/list.err" |
   awk '/^[^ ]/ {s=$1} /^  / {print s $1}' >"$OUT/list.txt"
 [ -s "$OUT/list.txt" ] || { echo "gpu_tests.sh: $binary lists no tests (see $OUT/list.err)" >&2; exit 1; }
 one() {

@@ -242,7 +242,8 @@ std::string extxyz_member(hid_t file, const MemberData& m) {
   if (m.kind == "trajectory") {
     const std::vector<double> time = doubles(file, g + "/time"), x = doubles(file, g + "/x"),
                               y = doubles(file, g + "/y"), disk = doubles(file, g + "/disk");
-    for (const auto& [first, end] : samples(time)) {
+    for (const auto& sample : samples(time)) {
+      const std::size_t first = sample.first, end = sample.second;  // nvcc: no captured bindings
       auto part = [&](const std::vector<double>& v) {
         return std::vector<double>(v.begin() + static_cast<std::ptrdiff_t>(first),
                                    v.begin() + static_cast<std::ptrdiff_t>(end));

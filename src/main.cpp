@@ -424,6 +424,14 @@ void RunCommand::print_timing() const {
                  st.name.c_str(), st.seconds, total > 0 ? 100.0 * st.seconds / total : 0.0,
                  st.launches * per_step, st.copies * per_step);
   }
+  // The batch's steps, then the regions' (their stages are named "region ..."), so that a
+  // stage's seconds per step can be told.
+  std::string over;
+  for (std::size_t k = 0; k < stages.size(); ++k)
+    if (k == 0 || stages[k].steps != stages[k - 1].steps)
+      over += (over.empty() ? "" : ", ") + std::to_string(stages[k].steps) +
+              (stages[k].name.rfind("region ", 0) == 0 ? " steps of the regions" : " steps");
+  if (!over.empty()) std::fprintf(stderr, "  over %s\n", over.c_str());
 }
 
 // Rank 0 shows progress until every rank has finished; at a signal, what was saved and how to

@@ -80,14 +80,12 @@ std::vector<int> batch_colours(const Graph& g) {
   return to_host(g.con.colour);
 }
 
-TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
-  const Graph g = graph();
-  const std::vector<int> expected = batch_colours(g);
-  Solver solver{g.sys, g.part, g.con, DView<int>(), DView<int>("list", kDisks * kSlots),
-                DView<int>("starts", kDisks * kSlots + kSystems), 1.0};
+// The team solver's colouring, each system by a team of up to 4 threads (1 on Serial), so that
+// an OpenMP build checks the rounds' barriers. Its colour count per system. (A free function:
+// CUDA's extended lambdas may not live in a test's body.)
+std::vector<int> team_colours(const Graph& g, const Solver& solver) {
   DView<int> n_colours("n_colours", kSystems);
-  Kokkos::deep_copy(g.con.colour, -3);  // the team must reset the colours itself
-  const SystemViews sys = g.sys;           // (the lambda copies views only)
+  const SystemViews sys = g.sys;  // (the lambda copies views only)
   const auto colour_and_group = KOKKOS_LAMBDA(const Solver::Member& team) {
     const int s = team.league_rank();
     const SlotRange range = system_slots(sys, s);
@@ -95,12 +93,21 @@ TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
     solver.group_by_colour(team, range, range.first + s, n);
     Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
   };
-  // Teams of up to 4 threads (1 on Serial), so that an OpenMP build checks the rounds' barriers.
   const int team_size = std::min(4, Kokkos::TeamPolicy<ExecSpace>(kSystems, 1).team_size_max(
                                         colour_and_group, Kokkos::ParallelForTag()));
   Kokkos::parallel_for(Kokkos::TeamPolicy<ExecSpace>(kSystems, team_size), colour_and_group);
+  return to_host(n_colours);
+}
+
+TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
+  const Graph g = graph();
+  const std::vector<int> expected = batch_colours(g);
+  Solver solver{g.sys, g.part, g.con, DView<int>(), DView<int>("list", kDisks * kSlots),
+                DView<int>("starts", kDisks * kSlots + kSystems), 1.0};
+  Kokkos::deep_copy(g.con.colour, -3);  // the team must reset the colours itself
+  const auto n = team_colours(g, solver);
   const auto colour = to_host(g.con.colour), list = to_host(solver.list),
-             starts = to_host(solver.starts), n = to_host(n_colours);
+             starts = to_host(solver.starts);
   EXPECT_EQ(colour, expected);
   // A chain needs two colours at least, a triangle three.
   EXPECT_GE(n[0], 2);
@@ -110,7 +117,9 @@ TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
       const auto [i, j] = kContacts[a];
       const auto [k, l] = kContacts[b];
       const bool share = i == k || (j >= 0 && (j == k || j == l)) || (l >= 0 && i == l);
-      if (share) EXPECT_NE(colour[g.slot[a]], colour[g.slot[b]]) << "contacts " << a << ", " << b;
+      if (share) {
+        EXPECT_NE(colour[g.slot[a]], colour[g.slot[b]]) << "contacts " << a << ", " << b;
+      }
     }
   // Each system's list: its colour-k slots, in slot order, between starts[base + k] and
   // starts[base + k + 1].

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# The GPU measurements of docs/PERFORMANCE.md ("Building for more cores or a GPU") in one
+# command on a GPU machine, so that the device and the host's cores are measured side by side:
+#
+#   1. the same scenes on one host core (bench/gpu_runs.sh, the host's default solver), in the
+#      background on the last core while the device runs;
+#   2. if a BEFORE binary is given: a step's cost per stage before and after, over the same
+#      prefix of the runs (the first PREFIX_S seconds, bench/gpu_runs.sh LIMIT=...);
+#   3. whole runs on the device, all members in one batch, with the cost per stage;
+#   4. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
+#      of BUDGET_S.
+#
+#   bench/gpu_study.sh OUT DEVICE_LOOSEPACK HOST_LOOSEPACK [BEFORE_LOOSEPACK]
+#     env: MEMBERS (4096) members of a device run, HOST_MEMBERS (64) of a host run, PREFIX_S (30),
+#          SOLVER (coloured_accelerated_gauss_seidel) the device runs' solver, TESTS, TEST_FILTER
+#          (*), BUDGET_S (540) the seconds the whole study may take.
+#
+# Writes OUT/study.log (the machine, the progress), OUT/runs.jsonl (bench/gpu_runs.sh's lines,
+# each with "where" and "variant"), OUT/timing.txt (each run's --timing) and OUT/tests/ (what
+# bench/gpu_tests.sh writes). Binaries built on another machine run with their shared libraries
+# beside them (LD_LIBRARY_PATH; bench/gpu_tests.sh says how).
+set -uo pipefail
+if [ $# -lt 3 ]; then
+  echo "usage: bench/gpu_study.sh OUT DEVICE_LOOSEPACK HOST_LOOSEPACK [BEFORE_LOOSEPACK]" >&2
+  exit 2
+fi
+out=$1 device=$2 host=$3 before=${4:-}
+here=$(cd "$(dirname "$0")" && pwd)
+mkdir -p "$out"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+t0=$(date +%s)
+log() { echo "[$(($(date +%s) - t0)) s] $*" | tee -a "$out/study.log"; }
+members=${MEMBERS:-4096}
+solver=${SOLVER:-coloured_accelerated_gauss_seidel}
+last_core=$(($(nproc) - 1))
+
+{
+  nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader 2>&1
+  lscpu | grep -m1 'Model name'
+  echo "cores: $(nproc)"
+  for b in "$device" "$host" $before; do echo "$b: $("$b" --version 2>&1 | head -1)"; done
+} >>"$out/study.log"
+
+# runs WHERE VARIANT CORE gpu_runs.sh-arguments...: its lines tagged, its timings kept
+runs() {
+  local where=$1 variant=$2 core=$3
+  shift 3
+  mkdir -p "$work/$where-$variant"
+  KEEP="$work/$where-$variant" taskset -c "$core" "$here/gpu_runs.sh" "$@" 2>>"$out/study.log" |
+    sed "s/^{/{\"where\": \"$where\", \"variant\": \"$variant\", /" >>"$out/runs.jsonl"
+  for f in "$work/$where-$variant"/*.txt; do
+    [ -e "$f" ] && { echo "== $where $variant $(basename "$f" .txt)"; cat "$f"; }
+  done >>"$out/timing.txt"
+}
+
+log "host reference: ${HOST_MEMBERS:-64} members a scene on core $last_core"
+runs host after "$last_core" "$host" "${HOST_MEMBERS:-64}" accelerated_gauss_seidel &
+host_job=$!
+
+if [ -n "$before" ]; then
+  for variant in before after; do
+    binary=$device
+    [ "$variant" = before ] && binary=$before
+    log "prefix of ${PREFIX_S:-30} s, $variant, $members members"
+    LIMIT=${PREFIX_S:-30} STAGES=1 runs device "$variant-prefix" 0 "$binary" "$members" "$solver"
+  done
+fi
+
+log "whole runs on the device, $members members"
+STAGES=1 runs device after 0 "$device" "$members" "$solver"
+wait "$host_job"
+log "host reference done"
+
+if [ -n "${TESTS:-}" ]; then
+  left=$((${BUDGET_S:-540} - ($(date +%s) - t0) - 15))
+  if [ "$left" -ge 30 ]; then
+    # The tests that have not ended when the time is up are missing from tests.txt.
+    log "tests ${TEST_FILTER:-*}, ${PARALLEL:-40} at a time, for at most $left s"
+    FILTER=${TEST_FILTER:-*} LIMIT=$left PARALLEL=${PARALLEL:-40} OUT="$out/tests" \
+      timeout "$left" "$here/gpu_tests.sh" "$TESTS" >>"$out/study.log" 2>&1
+    awk '{n++; if ($2 == 0) p++; else if ($2 == 124) t++; else f++}
+      END {print n + 0, "tests ended:", p + 0, "passed,", t + 0, "timed out,", f + 0, "failed"}' \
+      "$out/tests/tests.txt" | tee -a "$out/study.log"
+  else
+    log "no time left for the tests"
+  fi
+fi
+log "done"
+cut -c1-240 "$out/runs.jsonl"
