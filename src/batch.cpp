@@ -511,12 +511,16 @@ void Batch::Impl::status_stage() {
   const auto whole = [&](int s, StatusField f) { return static_cast<int>(field(s, f)); };
   bool deactivate = false;
   ++batch_steps;
+  long active = 0, sweeps_sum = 0, slowest = 0;
   for (int s = 0; s < n_systems; ++s) {
     auto& st = status[static_cast<std::size_t>(s)];
     if (!st.active) continue;
     last_stepped[static_cast<std::size_t>(s)] = batch_steps;
     st.steps += 1;
     st.last_sweeps = whole(s, kSweeps);
+    ++active;
+    sweeps_sum += st.last_sweeps;
+    slowest = std::max<long>(slowest, st.last_sweeps);
     st.newton_steps = newton_steps[static_cast<std::size_t>(s)];
     st.sweeps += whole(s, kSweeps);
     st.converged = whole(s, kUnconverged) == 0;
@@ -533,6 +537,12 @@ void Batch::Impl::status_stage() {
     const bool quiet = (st.converged || !rest.converged) && st.rest_speed(rest.spin) < rest.speed;
     st.rest_steps = quiet ? st.rest_steps + 1 : 0;
     st.at_rest = st.rest_steps >= rest.steps;
+  }
+  if (timing) {
+    auto& balance = timer(StepStage::Solve);
+    balance.system_steps += active;
+    balance.sweeps += sweeps_sum;
+    balance.slowest_sweeps += active * slowest;
   }
   if (deactivate) upload_status_active();
 }

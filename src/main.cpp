@@ -432,6 +432,13 @@ void RunCommand::print_timing() const {
       over += (over.empty() ? "" : ", ") + std::to_string(stages[k].steps) +
               (stages[k].name.rfind("region ", 0) == 0 ? " steps of the regions" : " steps");
   if (!over.empty()) std::fprintf(stderr, "  over %s\n", over.c_str());
+  for (const auto& st : stages)
+    if (st.slowest_sweeps > 0)
+      std::fprintf(stderr,
+                   "  %s: %.1f active systems a step, their sweeps %.1f %% of the step's "
+                   "slowest system's\n",
+                   st.name.c_str(), static_cast<double>(st.system_steps) / st.steps,
+                   100.0 * st.sweeps / st.slowest_sweeps);
 }
 
 // Rank 0 shows progress until every rank has finished; at a signal, what was saved and how to

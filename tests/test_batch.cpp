@@ -2,6 +2,7 @@
 // specialised kernels chosen from the systems active now.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -43,6 +44,41 @@ TEST(Batch, StepStagesAreTimedInOrder) {
     if (cost.name != "newton") timed.push_back(cost.name);
   }
   EXPECT_EQ(timed, stage_names());
+}
+
+// The solve's balance: the active systems, their sweeps, and the sweeps had each swept as long
+// as its step's slowest, summed over the steps from the systems' own status after each step.
+TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
+  auto falling = column(4, 10.0);  // disks apart: they land on one another at different steps
+  for (std::size_t k = 0; k < falling.size(); ++k) falling[k].y += 0.05 * static_cast<double>(k);
+  Batch batch({setup(cohesive_params(), column(6, 10.0)), setup(cohesive_params(), falling)});
+  batch.set_timing(true);
+  long system_steps = 0, sweeps = 0, slowest_sweeps = 0;
+  bool unequal = false;
+  for (int k = 0; k < 40; ++k) {
+    batch.step();
+    long active = 0, sum = 0, slowest = 0;
+    for (int s = 0; s < batch.size(); ++s) {
+      if (!batch.status(s).active) continue;
+      ++active;
+      sum += batch.status(s).last_sweeps;
+      slowest = std::max<long>(slowest, batch.status(s).last_sweeps);
+    }
+    unequal = unequal || active * slowest > sum;
+    system_steps += active;
+    sweeps += sum;
+    slowest_sweeps += active * slowest;
+  }
+  ASSERT_TRUE(unequal) << "the two columns swept alike at every step: the scene tests nothing";
+  for (const auto& cost : batch.stage_costs())
+    if (cost.name == "solve") {
+      EXPECT_EQ(cost.system_steps, system_steps);
+      EXPECT_EQ(cost.sweeps, sweeps);
+      EXPECT_EQ(cost.slowest_sweeps, slowest_sweeps);
+      EXPECT_LT(cost.sweeps, cost.slowest_sweeps);
+      return;
+    }
+  FAIL() << "no solve stage";
 }
 
 // The team solver colours and solves each system inside its team: its solve stage launches

@@ -95,7 +95,9 @@ lower_half_from = 2.0
   for (const auto& p : seen) {
     most = std::max(most, p.collapsing);
     if (p.collapsing > 0) longest = std::max(longest, p.collapse_steps);
-    if (p.collapsing == 0) EXPECT_EQ(p.collapse_steps, 0);
+    if (p.collapsing == 0) {
+      EXPECT_EQ(p.collapse_steps, 0);
+    }
   }
   EXPECT_GE(most, 1);
   EXPECT_LE(most, 2);
@@ -146,8 +148,16 @@ TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
   resolve_backend_defaults(open);
   EXPECT_EQ(open.solver.kind, default_solver_kind());
   EXPECT_EQ(open.batch_size, default_batch_size());
-  EXPECT_EQ(default_solver_kind(), SolverKind::AcceleratedGaussSeidel);
-  EXPECT_EQ(default_batch_size(), Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4);
+  // docs/PERFORMANCE.md's defaults: a device (memory the host cannot read) gets the team solver
+  // and batches of 4 096; host threads batches of 64, one thread 4.
+  const bool device =
+      !Kokkos::SpaceAccessibility<Kokkos::HostSpace,
+                                  Kokkos::DefaultExecutionSpace::memory_space>::accessible;
+  EXPECT_EQ(default_solver_kind(), device ? SolverKind::ColouredAcceleratedGaussSeidel
+                                          : SolverKind::AcceleratedGaussSeidel);
+  EXPECT_EQ(default_batch_size(), device                                              ? 4096
+                                  : Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64
+                                                                                      : 4);
   Scan set = scan_of("[scan]\nbatch_size = 3\n[solver]\nkind = \"gauss_seidel\"\n");
   resolve_backend_defaults(set);
   EXPECT_EQ(set.solver.kind, SolverKind::GaussSeidel);

@@ -124,6 +124,11 @@ struct StageCost {
   double seconds = 0.0;
   long launches = 0, copies = 0;
   long steps = 0;
+  // The solve stage's balance: the active systems summed over the steps, their solver sweeps,
+  // and the sweeps they would have made had each swept as long as its step's slowest system.
+  // A device's solve launch lasts as long as its slowest system (docs/PERFORMANCE.md,
+  // "Building for more cores or a GPU").
+  long system_steps = 0, sweeps = 0, slowest_sweeps = 0;
 };
 
 class Batch {
