@@ -625,7 +625,8 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
   run_cmd->add_flag("--snapshots", o.snapshots,
                     "store every member's final disks (x, y_i, y_e, r) and contact forces");
   run_cmd->add_flag("--timing", o.timing,
-                    "print each stage's wall time, launches and copies per step at the end");
+                    "print each stage's wall time, launches and copies per step, and the "
+                    "solve's balance across the batch's systems, at the end");
   run_cmd->add_flag("--resume", o.resume,
                     "continue an interrupted run from its checkpoint (OUTPUT.checkpoint/)");
   run_cmd
