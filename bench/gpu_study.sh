@@ -13,7 +13,8 @@
 #   bench/gpu_study.sh OUT DEVICE_LOOSEPACK HOST_LOOSEPACK [BEFORE_LOOSEPACK]
 #     env: MEMBERS (4096) members of a device run, HOST_MEMBERS (64) of a host run, PREFIX_S (30),
 #          SOLVER (coloured_accelerated_gauss_seidel) the device runs' solver, TESTS, TEST_FILTER
-#          (*), BUDGET_S (540) the seconds the whole study may take.
+#          (*), PARALLEL (2) tests at a time, BUDGET_S (540) the seconds the whole study may
+#          take.
 #
 # Writes OUT/study.log (the machine, the progress), OUT/runs.jsonl (bench/gpu_runs.sh's lines,
 # each with "where" and "variant"), OUT/timing.txt (each run's --timing) and OUT/tests/ (what
@@ -76,8 +77,8 @@ if [ -n "${TESTS:-}" ]; then
   left=$((${BUDGET_S:-540} - ($(date +%s) - t0) - 15))
   if [ "$left" -ge 30 ]; then
     # The tests that have not ended when the time is up are missing from tests.txt.
-    log "tests ${TEST_FILTER:-*}, ${PARALLEL:-40} at a time, for at most $left s"
-    FILTER=${TEST_FILTER:-*} LIMIT=$left PARALLEL=${PARALLEL:-40} OUT="$out/tests" \
+    log "tests ${TEST_FILTER:-*}, ${PARALLEL:-2} at a time, for at most $left s"
+    FILTER=${TEST_FILTER:-*} LIMIT=$left PARALLEL=${PARALLEL:-2} OUT="$out/tests" \
       timeout "$left" "$here/gpu_tests.sh" "$TESTS" >>"$out/study.log" 2>&1
     awk '{n++; if ($2 == 0) p++; else if ($2 == 124) t++; else f++}
       END {print n + 0, "tests ended:", p + 0, "passed,", t + 0, "timed out,", f + 0, "failed"}' \
