@@ -7,7 +7,8 @@
 #
 #   bench/gpu_runs.sh LOOSEPACK MEMBERS [SOLVER ...]
 #     LOOSEPACK  the binary (build-cuda/loosepack, build/loosepack)
-#     MEMBERS    members per scene, all in one batch (the seeds of one scan point)
+#     MEMBERS    members per scene, all in one batch (the seeds of one scan point) unless
+#                BATCH=n sets the batch: then finished members' slots take the next members
 #     SOLVER     solver.kind values (default: accelerated_gauss_seidel
 #                coloured_accelerated_gauss_seidel)
 #   STAGES=1 bench/gpu_runs.sh ...  runs with `--timing` (fenced after every stage, so the wall
@@ -39,7 +40,7 @@ scene() {  # scene NAME SOLVER: the scan file's text
 name = \"gpu_$1\"
 seed = 2026
 seeds = $members
-batch_size = $members"
+batch_size = ${BATCH:-$members}"
   case "$1" in
     C) printf '%s\nprotocol = "C"\n[system]\nwidth = 24.0\nheight = 40.0\nbond_number = 1000.0\ncapture_radius = 2.0\ntime_step = 0.0028\n' "$head" ;;
     A) printf '%s\nprotocol = "A"\n[system]\nwidth = 24.0\nheight = 24.0\nbond_number = 100.0\n' "$head" ;;
@@ -79,7 +80,7 @@ for name in C A; do
       steps=$(awk '$1 == "over" { print $2; exit }' "$work/timing.txt")
       observable="$observable, \"steps\": ${steps:-null}, \"stages\": {$stages}"
     fi
-    printf '{"scene": "%s", "solver": "%s", "members": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
-      "$name" "$solver" "$members" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
+    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
+      "$name" "$solver" "$members" "${BATCH:-$members}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
   done
 done

@@ -11,7 +11,8 @@
 #      of BUDGET_S.
 #
 #   bench/gpu_study.sh OUT DEVICE_LOOSEPACK HOST_LOOSEPACK [BEFORE_LOOSEPACK]
-#     env: MEMBERS (4096) members of a device run, HOST_MEMBERS (64) of a host run, PREFIX_S (30),
+#     env: MEMBERS (4096) members of a device run, in one batch unless BATCH sets it (finished
+#          members' slots then take the next), HOST_MEMBERS (64) of a host run, PREFIX_S (30),
 #          SOLVER (coloured_accelerated_gauss_seidel) the device runs' solver, TESTS, TEST_FILTER
 #          (*), PARALLEL (2) tests at a time, BUDGET_S (540) the seconds the whole study may
 #          take.
@@ -56,7 +57,7 @@ runs() {
 }
 
 log "host reference: ${HOST_MEMBERS:-64} members a scene on core $last_core"
-runs host after "$last_core" "$host" "${HOST_MEMBERS:-64}" accelerated_gauss_seidel &
+BATCH= runs host after "$last_core" "$host" "${HOST_MEMBERS:-64}" accelerated_gauss_seidel &
 host_job=$!
 
 if [ -n "$before" ]; then
