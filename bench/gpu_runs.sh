@@ -19,6 +19,8 @@
 #     run has no summary, so its line has no observable.
 #   KEEP=dir bench/gpu_runs.sh ...  keeps each run's standard error (its timing) as
 #     dir/SCENE-SOLVER.txt.
+#   TEAM_SIZE=n bench/gpu_runs.sh ...  sets solver.team_size (the team solver's threads per
+#     system).
 #
 # Scenes: "C" the accuracy study's collapse (protocol C, 24 R x 40 R, Bo = 1e3, r_capt = 2,
 # h = 0.0028); "A" the default job's cohesive point (protocol A, 24 R x 24 R, Bo = 1e2).
@@ -45,7 +47,9 @@ batch_size = ${BATCH:-$members}"
     C) printf '%s\nprotocol = "C"\n[system]\nwidth = 24.0\nheight = 40.0\nbond_number = 1000.0\ncapture_radius = 2.0\ntime_step = 0.0028\n' "$head" ;;
     A) printf '%s\nprotocol = "A"\n[system]\nwidth = 24.0\nheight = 24.0\nbond_number = 100.0\n' "$head" ;;
   esac
-  printf '[solver]\nkind = "%s"\n[observables]\nlower_half_from = 4.0\n' "$2"
+  printf '[solver]\nkind = "%s"\n' "$2"
+  [ -n "${TEAM_SIZE:-}" ] && printf 'team_size = %d\n' "$TEAM_SIZE"  # (older builds lack the key)
+  printf '[observables]\nlower_half_from = 4.0\n'
 }
 
 for name in C A; do
@@ -80,7 +84,7 @@ for name in C A; do
       steps=$(awk '$1 == "over" { print $2; exit }' "$work/timing.txt")
       observable="$observable, \"steps\": ${steps:-null}, \"stages\": {$stages}"
     fi
-    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
-      "$name" "$solver" "$members" "${BATCH:-$members}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
+    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
+      "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
   done
 done

@@ -6,8 +6,10 @@
 #      background on the last core while the device runs;
 #   2. if a BEFORE binary is given: a step's cost per stage before and after, over the same
 #      prefix of the runs (the first PREFIX_S seconds, bench/gpu_runs.sh LIMIT=...);
-#   3. whole runs on the device, all members in one batch, with the cost per stage;
-#   4. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
+#   3. if TEAM_SIZES lists team sizes: the first PREFIX_S seconds of a run with each (the team
+#      solver's threads per system, solver.team_size; 0 the backend's choice);
+#   4. whole runs on the device, all members in one batch, with the cost per stage;
+#   5. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
 #      of BUDGET_S.
 #
 #   bench/gpu_study.sh OUT DEVICE_LOOSEPACK HOST_LOOSEPACK [BEFORE_LOOSEPACK]
@@ -68,6 +70,12 @@ if [ -n "$before" ]; then
     LIMIT=${PREFIX_S:-30} STAGES=1 runs device "$variant-prefix" 0 "$binary" "$members" "$solver"
   done
 fi
+
+for size in ${TEAM_SIZES:-}; do
+  log "prefix of ${PREFIX_S:-30} s, teams of $size threads, $members members"
+  TEAM_SIZE=$size LIMIT=${PREFIX_S:-30} STAGES=1 runs device "team-$size-prefix" 0 "$device" \
+    "$members" "$solver"
+done
 
 log "whole runs on the device, $members members"
 STAGES=1 runs device after 0 "$device" "$members" "$solver"

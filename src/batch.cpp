@@ -74,10 +74,13 @@ void Batch::Impl::solve() {
     return;
   }
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
+    const ColouredAcceleratedGaussSeidel<Fx> team_solver{
+        sys, part, con, sweeps, colour_list, system_colour_start, omega};
+    const int threads = team_size_of(team_solver);
     Kokkos::parallel_for("coloured_accelerated_gauss_seidel",
-                         Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO),
-                         ColouredAcceleratedGaussSeidel<Fx>{sys, part, con, sweeps, colour_list,
-                                                            system_colour_start, omega});
+                         threads > 0 ? Kokkos::TeamPolicy<ExecSpace>(n_systems, threads)
+                                     : Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO),
+                         team_solver);
     return;
   }
   int n_colours = 0;
@@ -582,7 +585,10 @@ const std::vector<StageCost>& Batch::stage_costs() const {
   for (int k = 0; k < kStepStages; ++k) {
     const auto stage = static_cast<StepStage>(k);
     named(stage_name(stage), I.timer(stage));
-    if (stage == StepStage::Solve && I.newton_cost.seconds > 0.0) named("newton", I.newton_cost);
+    if (stage == StepStage::Solve) {
+      I.stage_costs.back().team_size = I.team_threads;
+      if (I.newton_cost.seconds > 0.0) named("newton", I.newton_cost);
+    }
   }
   return I.stage_costs;
 }

@@ -132,6 +132,21 @@ struct Batch::Impl {
     return std::max(shortest_newton_wait(),
                     sweep_cap[static_cast<std::size_t>(s)] - shortest_newton_wait());
   }
+  // The team solver's threads per team: solver.team_size lowered to the backend's largest team,
+  // or 0 (Kokkos::AUTO) where the scan sets none. Found once; team_threads keeps the size the
+  // teams get (for AUTO the backend's recommended size) for --timing.
+  template <class Functor>
+  int team_size_of(const Functor& f) {
+    if (team_threads == 0) {
+      const Kokkos::TeamPolicy<ExecSpace> policy(n_systems, 1);
+      team_threads =
+          solver.team_size > 0
+              ? std::min(solver.team_size, policy.team_size_max(f, Kokkos::ParallelForTag()))
+              : policy.team_size_recommended(f, Kokkos::ParallelForTag());
+    }
+    return solver.team_size > 0 ? team_threads : 0;
+  }
+  int team_threads = 0;
   int colour();
   void step();
   void run_stage(StepStage stage);

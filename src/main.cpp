@@ -439,6 +439,9 @@ void RunCommand::print_timing() const {
                    "slowest system's\n",
                    st.name.c_str(), static_cast<double>(st.system_steps) / st.steps,
                    100.0 * st.sweeps / st.slowest_sweeps);
+  for (const auto& st : stages)
+    if (st.team_size > 0)
+      std::fprintf(stderr, "  %s: %d threads a team\n", st.name.c_str(), st.team_size);
 }
 
 // Rank 0 shows progress until every rank has finished; at a signal, what was saved and how to

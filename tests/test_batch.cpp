@@ -2,6 +2,7 @@
 // specialised kernels chosen from the systems active now.
 #include <gtest/gtest.h>
 
+#include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <fstream>
 #include <regex>
@@ -76,6 +77,30 @@ TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
       EXPECT_EQ(cost.sweeps, sweeps);
       EXPECT_EQ(cost.slowest_sweeps, slowest_sweeps);
       EXPECT_LT(cost.sweeps, cost.slowest_sweeps);
+      return;
+    }
+  FAIL() << "no solve stage";
+}
+
+// solver.team_size asks for threads per system's team; more than the backend's largest team
+// (1 on Serial, the threads on OpenMP) are lowered to it instead of failing the launch.
+TEST(Batch, TeamSizeIsLoweredToTheBackendsLargestTeam) {
+  SolverSettings solver;
+  solver.kind = SolverKind::ColouredAcceleratedGaussSeidel;
+  solver.team_size = 1024;
+  Batch batch({setup(cohesive_params(), column(6, 10.0))}, solver);
+  batch.set_timing(true);
+  for (int k = 0; k < 3; ++k) batch.step();
+  const bool host =
+      Kokkos::SpaceAccessibility<Kokkos::HostSpace,
+                                 Kokkos::DefaultExecutionSpace::memory_space>::accessible;
+  for (const auto& cost : batch.stage_costs())
+    if (cost.name == "solve") {
+      if (host)
+        EXPECT_EQ(cost.team_size, std::min(1024, Kokkos::DefaultExecutionSpace().concurrency()));
+      EXPECT_GE(cost.team_size, 1);
+      EXPECT_LE(cost.team_size, 1024);
+      EXPECT_EQ(batch.status(0).failure, Failure::None);
       return;
     }
   FAIL() << "no solve stage";

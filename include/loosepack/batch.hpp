@@ -129,6 +129,7 @@ struct StageCost {
   // A device's solve launch lasts as long as its slowest system (docs/PERFORMANCE.md,
   // "Building for more cores or a GPU").
   long system_steps = 0, sweeps = 0, slowest_sweeps = 0;
+  int team_size = 0;  // the team solver's solve stage: threads per system's team
 };
 
 class Batch {

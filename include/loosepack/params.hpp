@@ -103,6 +103,10 @@ struct SolverSettings {
   // Fraction beta of an overlap removed per step by moving positions apart, velocities untouched
   // (kernels/integrate.hpp, OverlapCorrection); 0: none, an overlap is held as it is.
   double overlap_correction = 0.0;
+  // coloured_accelerated_gauss_seidel: threads in each system's team, at most the backend's
+  // largest team (1 on Serial, the threads on OpenMP); 0: the backend's recommended size
+  // (Kokkos::AUTO).
+  int team_size = 0;
 };
 
 // When a system counts as at rest.
