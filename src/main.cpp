@@ -330,16 +330,18 @@ void RunCommand::show(bool force) {
   if (!force && seconds_since(last_shown) < 2.0) return;
   last_shown = Clock::now();
   Progress p;
-  double done_cost = 0.0, total_cost = 0.0;
+  double done_cost = 0.0, start_cost = 0.0, total_cost = 0.0;
   for (std::size_t r = 0; r < latest.size(); ++r) {
     p.members_done += latest[r].members_done;
     p.disks_deposited += latest[r].disks_deposited;
     p.collapsing += latest[r].collapsing;
     p.collapse_steps = std::max(p.collapse_steps, latest[r].collapse_steps);
     done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
+    start_cost += latest[r].start_fraction * shard_cost[r];
     total_cost += shard_cost[r];
   }
   p.fraction = total_cost > 0.0 ? done_cost / total_cost : 1.0;
+  p.start_fraction = total_cost > 0.0 ? start_cost / total_cost : 0.0;
   const double el = seconds_since(t0);
   const bool finished = p.members_done == static_cast<int>(todo.size());
   std::fprintf(stderr, "  %d/%zu members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
@@ -348,9 +350,8 @@ void RunCommand::show(bool force) {
   if (p.collapsing > 0)
     std::fprintf(stderr, ", %d collapsing (the longest for %ld steps)", p.collapsing,
                  p.collapse_steps);
-  if (p.fraction > 0.01 && !finished)
-    std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction,
-                 el * (1.0 - p.fraction) / p.fraction);
+  if (const double eta = progress_eta(p, el); eta >= 0.0 && !finished)
+    std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction, eta);
   std::fprintf(stderr, "\n");
 }
 

@@ -105,6 +105,7 @@ class MemberRun {
   std::vector<char> done_;
   std::size_t next_ = 0;  // the next member to begin
   Progress progress_;
+  bool reported_ = false;  // progress_.start_fraction is set
   double total_cost_ = 0.0, done_cost_ = 0.0;
   bool snapshots_wanted_ = false;
   std::vector<MemberSnapshot> taken_;

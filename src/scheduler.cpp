@@ -23,6 +23,12 @@ constexpr bool kOnDevice =
                                 Kokkos::DefaultExecutionSpace::memory_space>::accessible;
 }  // namespace
 
+double progress_eta(const Progress& p, double elapsed) {
+  const double since = p.fraction - p.start_fraction;
+  if (since < 0.01 || p.fraction >= 1.0) return -1.0;
+  return elapsed * (1.0 - p.fraction) / since;
+}
+
 int default_batch_size() {
   if (kOnDevice) return 4096;
   return Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4;
@@ -320,6 +326,8 @@ void MemberRun::report() {
     progress_.collapse_steps = std::max(progress_.collapse_steps, sl.steps);
   }
   progress_.fraction = (done_cost_ + running) / total_cost_;
+  if (!reported_) progress_.start_fraction = progress_.fraction;
+  reported_ = true;
   hooks_.progress(progress_);
 }
 

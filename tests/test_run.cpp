@@ -5,6 +5,7 @@
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <fstream>
 
 #include "loosepack/observables.hpp"
@@ -57,6 +58,68 @@ lower_half_from = 2.0
 // expected cost that a member as tall as its deposit so far would cost, and a finished one counts
 // whole), it moves while members run, not only when they finish, and it ends at 1; collapses
 // running are counted.
+// The ETA is the time left at the rate since the run started: a run that went on from snapshots
+// at 70 % and reached 80 % in 100 s has 200 s left (not 25 s, as the rate over the whole
+// fraction would say); none before 1 % of progress.
+TEST(Progress, EtaCountsTheRateSinceTheStart) {
+  Progress p;
+  p.start_fraction = 0.7;
+  p.fraction = 0.8;
+  EXPECT_NEAR(progress_eta(p, 100.0), 200.0, 1e-9);
+  p.start_fraction = 0.0;
+  p.fraction = 0.5;
+  EXPECT_NEAR(progress_eta(p, 10.0), 10.0, 1e-9);
+  p.start_fraction = 0.495;
+  EXPECT_LT(progress_eta(p, 10.0), 0.0);
+  p.fraction = 1.0;
+  p.start_fraction = 0.0;
+  EXPECT_LT(progress_eta(p, 10.0), 0.0);
+}
+
+// A member that goes on from its snapshot has its share done from the first report on: the
+// resumed run's start_fraction is that first report's fraction, at least what the stopped run
+// had reported when the snapshot was taken.
+TEST(Progress, ResumedMembersCountAsStartedDone) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 1
+[system]
+width = 12.0
+height = 16.0
+bond_number = 50
+[observables]
+lower_half_from = 2.0
+)");
+  const auto members = members_of(scan);
+  volatile std::sig_atomic_t stop = 0;
+  long reports = 0;
+  double reached = 0.0;  // the stopped run's fraction at its snapshot
+  std::vector<MemberSnapshot> snaps;
+  RunHooks first;
+  first.stop = &stop;
+  first.progress = [&](const Progress& p) {
+    ++reports;
+    if (snaps.empty()) reached = p.fraction;
+  };
+  first.snapshot_wanted = [&] { return reports >= 200; };
+  first.snapshots = [&](std::vector<MemberSnapshot> s) {
+    snaps = std::move(s);
+    stop = 1;
+  };
+  run_members(scan, members, first);
+  ASSERT_EQ(snaps.size(), 1u);
+  std::vector<Progress> seen;
+  RunHooks second;
+  second.progress = [&](const Progress& p) { seen.push_back(p); };
+  run_members(scan, members, second, snaps);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_GT(reached, 0.0);
+  EXPECT_GE(seen.front().start_fraction, reached);
+  for (const auto& p : seen) EXPECT_EQ(p.start_fraction, seen.front().fraction);
+  EXPECT_NEAR(seen.back().fraction, 1.0, 1e-12);
+}
+
 TEST(Progress, FractionNeverFallsAndEndsAtOne) {
   const auto scan = scan_of(R"(
 [scan]

@@ -110,7 +110,14 @@ struct Progress {
   // Fraction of the run's expected cost (expected_cost) done, counting running members by how
   // far they got: for the ETA only.
   double fraction = 0.0;
+  // The fraction of the run's first report: members that went on from snapshots had done it
+  // before this run started. The ETA counts the rate since (progress_eta).
+  double start_fraction = 0.0;
 };
+
+// Seconds left at the rate since the start: elapsed (1 - fraction) / (fraction - start_fraction);
+// negative (no estimate) until the run has done 1 % of its cost.
+double progress_eta(const Progress& p, double elapsed);
 using ProgressFn = std::function<void(const Progress&)>;
 
 // What a caller may attach to a run.
