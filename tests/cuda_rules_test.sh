@@ -1,0 +1,61 @@
+#!/usr/bin/env bash
+# Two things nvcc refuses that g++ accepts, checked without nvcc (docs/PERFORMANCE.md,
+# "Building for more cores or a GPU"), so that a CUDA build does not break unseen:
+#   1. a KOKKOS_LAMBDA in a GoogleTest test's body (the body is a member function, where nvcc
+#      allows no extended lambda): a kernel in a test goes in a free function;
+#   2. a lambda that captures a structured binding (ill-formed in C++17; clang++ says so, g++
+#      does not): every project source of the build's compile_commands.json through
+#      clang++ -fsyntax-only with the build's own flags.
+#
+#   tests/cuda_rules_test.sh SOURCE_DIR BUILD_DIR
+set -euo pipefail
+src=$1
+build=$2
+
+bad=$(awk 'FNR == 1 { inside = 0 } /^TEST(_F)?\(/ { inside = 1 } /^}/ { inside = 0 }
+  inside && /KOKKOS_LAMBDA/ { print FILENAME ":" FNR ": " $0 }' "$src"/tests/*.cpp)
+if [ -n "$bad" ]; then
+  echo "cuda_rules_test: a KOKKOS_LAMBDA in a test's body, which nvcc refuses (move the kernel" \
+    "into a free function):" >&2
+  echo "$bad" >&2
+  exit 1
+fi
+
+/usr/bin/python3 - "$src" "$build/compile_commands.json" <<'PY'
+import json, os, shlex, subprocess, sys
+from concurrent.futures import ThreadPoolExecutor
+
+src, commands = os.path.realpath(sys.argv[1]), sys.argv[2]
+ours = [os.path.join(src, d) + os.sep for d in ("src", "tests", "bench", "scenes", "kernels")]
+
+def clang_command(entry):
+    args = shlex.split(entry["command"]) if "command" in entry else list(entry["arguments"])
+    out, skip = ["clang++", "-fsyntax-only", "-Wno-unknown-warning-option"], False
+    for a in args[1:]:
+        if skip:
+            skip = False
+        elif a == "-o":
+            skip = True
+        elif a != "-c" and a != entry["file"]:
+            out.append(a)
+    return out + [entry["file"]]
+
+entries = [e for e in json.load(open(commands))
+           if any(os.path.realpath(e["file"]).startswith(d) for d in ours)]
+if not entries:
+    sys.exit(f"cuda_rules_test: no project source in {commands}")
+
+def check(entry):
+    r = subprocess.run(clang_command(entry), cwd=entry["directory"], capture_output=True,
+                       text=True)
+    return entry["file"], r.returncode, r.stderr
+
+failed = 0
+with ThreadPoolExecutor(os.cpu_count() or 1) as pool:
+    for name, rc, err in pool.map(check, entries):
+        if rc != 0:
+            failed += 1
+            print(f"cuda_rules_test: clang++ refuses {name}:\n{err}", file=sys.stderr)
+print(f"cuda_rules_test: {len(entries)} sources through clang++ -fsyntax-only, {failed} refused")
+sys.exit(1 if failed else 0)
+PY
