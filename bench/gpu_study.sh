@@ -20,8 +20,8 @@
 #          take.
 #
 # Writes OUT/study.log (the machine, the progress), OUT/runs.jsonl (bench/gpu_runs.sh's lines,
-# each with "where" and "variant"), OUT/timing.txt (each run's --timing) and OUT/tests/ (what
-# bench/gpu_tests.sh writes). Binaries built on another machine run with their shared libraries
+# each with "where" and "variant"), OUT/timing.txt (each run's --timing), OUT/tests_tests.txt and
+# OUT/tests_failed_tails.txt (bench/gpu_tests.sh's results: five files in all). Binaries built on another machine run with their shared libraries
 # beside them (LD_LIBRARY_PATH; bench/gpu_tests.sh says how).
 set -uo pipefail
 if [ $# -lt 3 ]; then
@@ -87,11 +87,15 @@ if [ -n "${TESTS:-}" ]; then
   if [ "$left" -ge 30 ]; then
     # The tests that have not ended when the time is up are missing from tests.txt.
     log "tests ${TEST_FILTER:-*}, ${PARALLEL:-2} at a time, for at most $left s"
-    FILTER=${TEST_FILTER:-*} LIMIT=$left PARALLEL=${PARALLEL:-2} OUT="$out/tests" \
+    # The tests' logs stay in $work: a device tool may bring back only a few files.
+    FILTER=${TEST_FILTER:-*} LIMIT=$left PARALLEL=${PARALLEL:-2} OUT="$work/tests" \
       timeout "$left" "$here/gpu_tests.sh" "$TESTS" >>"$out/study.log" 2>&1
+    for f in tests.txt failed_tails.txt; do
+      [ -e "$work/tests/$f" ] && cp "$work/tests/$f" "$out/tests_$f"
+    done
     awk '{n++; if ($2 == 0) p++; else if ($2 == 124) t++; else f++}
       END {print n + 0, "tests ended:", p + 0, "passed,", t + 0, "timed out,", f + 0, "failed"}' \
-      "$out/tests/tests.txt" | tee -a "$out/study.log"
+      "$out/tests_tests.txt" | tee -a "$out/study.log"
   else
     log "no time left for the tests"
   fi
