@@ -21,8 +21,9 @@
 #
 # Writes OUT/study.log (the machine, the progress), OUT/runs.jsonl (bench/gpu_runs.sh's lines,
 # each with "where" and "variant"), OUT/timing.txt (each run's --timing), OUT/tests_tests.txt and
-# OUT/tests_failed_tails.txt (bench/gpu_tests.sh's results: five files in all). Binaries built on another machine run with their shared libraries
-# beside them (LD_LIBRARY_PATH; bench/gpu_tests.sh says how).
+# OUT/tests_failed_tails.txt (bench/gpu_tests.sh's results: five files in all). Binaries built
+# on another machine run with their shared libraries beside them (bench/gpu_bundle.sh gathers
+# both).
 set -uo pipefail
 if [ $# -lt 3 ]; then
   echo "usage: bench/gpu_study.sh OUT DEVICE_LOOSEPACK HOST_LOOSEPACK [BEFORE_LOOSEPACK]" >&2

@@ -12,10 +12,9 @@
 #   FILTER='TeamColouring.*:Batch.*' bench/gpu_tests.sh ...   only the tests a GoogleTest
 #     filter names
 #
-# A binary built elsewhere runs with its shared libraries beside it: copy what `ldd` lists,
-# but glibc's own (libc, libm, libdl, libpthread, librt, libresolv and the loader), into a lib/
-# folder and set LD_LIBRARY_PATH to it; the other machine's glibc must be as new as the build
-# machine's (docs/PERFORMANCE.md, "Building for more cores or a GPU").
+# A binary built elsewhere runs with its shared libraries beside it: bench/gpu_bundle.sh gathers
+# them into a folder for LD_LIBRARY_PATH (docs/PERFORMANCE.md, "Building for more cores or a
+# GPU").
 set -uo pipefail
 if [ $# -ne 1 ]; then
   echo "usage: bench/gpu_tests.sh TEST_BINARY   (LIMIT=seconds PARALLEL=n OUT=dir FILTER=...)" >&2
