@@ -54,10 +54,6 @@ lower_half_from = 2.0
     }
 }
 
-// The progress fraction behind the ETA: it never falls (a running member counts the share of its
-// expected cost that a member as tall as its deposit so far would cost, and a finished one counts
-// whole), it moves while members run, not only when they finish, and it ends at 1; collapses
-// running are counted.
 // The ETA is the time left at the rate since the run started: a run that went on from snapshots
 // at 70 % and reached 80 % in 100 s has 200 s left (not 25 s, as the rate over the whole
 // fraction would say); none before 1 % of progress.
@@ -120,6 +116,10 @@ lower_half_from = 2.0
   EXPECT_NEAR(seen.back().fraction, 1.0, 1e-12);
 }
 
+// The progress fraction behind the ETA: it never falls (a running member counts the share of its
+// expected cost that a member as tall as its deposit so far would cost, and a finished one counts
+// whole), it moves while members run, not only when they finish, and it ends at 1; collapses
+// running are counted.
 TEST(Progress, FractionNeverFallsAndEndsAtOne) {
   const auto scan = scan_of(R"(
 [scan]
@@ -218,9 +218,8 @@ TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
                                   Kokkos::DefaultExecutionSpace::memory_space>::accessible;
   EXPECT_EQ(default_solver_kind(), device ? SolverKind::ColouredAcceleratedGaussSeidel
                                           : SolverKind::AcceleratedGaussSeidel);
-  EXPECT_EQ(default_batch_size(), device                                              ? 4096
-                                  : Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64
-                                                                                      : 4);
+  const int threads_batch = Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4;
+  EXPECT_EQ(default_batch_size(), device ? 4096 : threads_batch);
   Scan set = scan_of("[scan]\nbatch_size = 3\n[solver]\nkind = \"gauss_seidel\"\n");
   resolve_backend_defaults(set);
   EXPECT_EQ(set.solver.kind, SolverKind::GaussSeidel);
