@@ -166,6 +166,17 @@ printf '[scan]\nprotocol = "A"\nseeds = 2\n[system]\nwidth = 12\nheight = [12, 1
 "$exe" run "$dir/ah.toml" -o "$dir/ah.h5" -q
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/ah.h5" -o "$dir/fig_ah" >/dev/null
 [ -s "$dir/fig_ah/scaled_avalanche_profiles.png" ] || fail "plot.py did not draw scaled_avalanche_profiles.png"
+# The same two heights from two files (as tall runs come, a height per file): plot.py draws
+# them as one set of points, so the scaled profiles appear, which neither file alone has.
+for h in 12 16; do
+  printf '[scan]\nprotocol = "A"\nseeds = 2\n[system]\nwidth = 12\nheight = %s\nbond_number = 50\n[observables]\nlower_half_from = 2\n' "$h" > "$dir/ah$h.toml"
+  "$exe" run "$dir/ah$h.toml" -o "$dir/ah$h.h5" -q
+  /usr/bin/python3 "$repo/tools/plot.py" "$dir/ah$h.h5" -o "$dir/fig_ah$h" >/dev/null
+  [ ! -e "$dir/fig_ah$h/scaled_avalanche_profiles.png" ] || fail "plot.py scaled one height"
+done
+/usr/bin/python3 "$repo/tools/plot.py" "$dir/ah12.h5" "$dir/ah16.h5" -o "$dir/fig_ah2" >/dev/null
+[ -s "$dir/fig_ah2/scaled_avalanche_profiles.png" ] ||
+  fail "plot.py did not draw the scaled profiles of two files"
 # The collapse's relative increase against H and nu_i, with the stored fits.
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/an.h5" -o "$dir/fig_an" >/dev/null
 [ -s "$dir/fig_an/collapse_increase.png" ] || fail "plot.py did not draw collapse_increase.png"

@@ -2,6 +2,12 @@
 """Figures from a loosepack result file (PNG), with the fits the program stored.
 
     python3 tools/plot.py out/default.h5 [-o figures/]
+    python3 tools/plot.py out/h400.h5 out/h800.h5 -o figures/   # the points of several files
+
+Several files are drawn as one set of points (each file's own fits on its points), e.g. the
+tall runs, one height per file: then the fits across points (c2 and a against H, dnu/nu_i
+against H and nu_i) are not drawn, since the program makes them within one file, nor the
+pictures of single members (snapshots, trajectories): draw those from each file alone.
 
 Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
 histograms with the Gaussian and exponential fits, deposition density with the final density
@@ -32,13 +38,10 @@ try:
 except ImportError as e:  # pragma: no cover
     sys.exit(f"plot.py: {e}; install python3-h5py and python3-matplotlib (scripts/install-deps.sh)")
 
-PATH = ""
-
-
 def need(group, name):
     """A dataset (or group) that must be there; a clear message and exit otherwise."""
     if name not in group:
-        sys.exit(f"plot.py: {PATH}: '{group.name}/{name}' is missing "
+        sys.exit(f"plot.py: {group.file.filename}: '{group.name}/{name}' is missing "
                  "(was the file written by an older loosepack?)")
     obj = group[name]
     return obj[()] if isinstance(obj, h5py.Dataset) else obj
@@ -47,7 +50,7 @@ def need(group, name):
 def attr(obj, name):
     """An attribute that must be there; a clear message and exit otherwise."""
     if name not in obj.attrs:
-        sys.exit(f"plot.py: {PATH}: attribute '{name}' of '{obj.name}' is missing "
+        sys.exit(f"plot.py: {obj.file.filename}: attribute '{name}' of '{obj.name}' is missing "
                  "(was the file written by an older loosepack?)")
     return obj.attrs[name]
 
@@ -245,7 +248,7 @@ def scaled_avalanche_profiles(f, points, out, written):
         if pts:
             axes[1].errorbar(*zip(*[(h, v) for h, v, _ in pts]), yerr=[e for _, _, e in pts],
                              fmt=fmt, capsize=3, label=name)
-    an = f["analysis"] if "analysis" in f else None
+    an = f["analysis"] if f is not None and "analysis" in f else None
     for key, name in (("quadratic_vs_height", "c2"), ("slice_vs_height", "a")):
         fit = fit_of(an, key) if an is not None else None
         if fit is not None:
@@ -268,8 +271,9 @@ def fitted_points(an, name, points):
     """The points a fit across points went through (`analysis/NAME/scan_points`)."""
     fit = need(an, name)
     if "scan_points" not in fit:
-        sys.exit(f"plot.py: {PATH}: '{fit.name}/scan_points' is missing: a file of an older "
-                 f"loosepack; `loosepack analyse {PATH}` adds it")
+        path = fit.file.filename
+        sys.exit(f"plot.py: {path}: '{fit.name}/scan_points' is missing: a file of an older "
+                 f"loosepack; `loosepack analyse {path}` adds it")
     return [points[k] for k in fit["scan_points"][()]]
 
 
@@ -300,7 +304,7 @@ def collapse_increase(f, points, out, written):
     for ax in axes:
         ax.set_ylabel("dnu / nu_i")
         ax.legend(fontsize=8)
-    an = f["analysis"] if "analysis" in f else None
+    an = f["analysis"] if f is not None and "analysis" in f else None
     if an is not None:
         fh = fit_of(an, "increase_vs_log_height")
         if fh is not None:
@@ -429,37 +433,45 @@ def trajectories(points, out, written):
         save(fig, out, f"trajectories_{g.name.split('/')[-1]}_{name}.png", written)
 
 
-def main():
-    global PATH
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("file")
-    ap.add_argument("-o", "--outdir", default=None,
-                    help="folder for the PNGs (default: beside the file)")
-    args = ap.parse_args()
-    PATH = args.file
-    if not os.path.exists(args.file):
-        sys.exit(f"plot.py: {args.file}: no such file")
-    out = args.outdir or os.path.splitext(args.file)[0] + "_figures"
-    os.makedirs(out, exist_ok=True)
+def open_result(path):
+    """A result file, open for reading; a clear message and exit if it is not one."""
+    if not os.path.exists(path):
+        sys.exit(f"plot.py: {path}: no such file")
     try:
-        f = h5py.File(args.file, "r")
+        f = h5py.File(path, "r")
     except OSError as e:
-        sys.exit(f"plot.py: {args.file}: cannot read as HDF5 ({e})")
-    with f:
-        if "points" not in f:
-            sys.exit(f"plot.py: {args.file}: no 'points' group: not a loosepack result file")
-        points = [f["points"][k] for k in sorted(f["points"])]
-        written = []
-        density_profiles(points, out, written)
-        nu_lower_half(points, out, written)
-        avalanche_profiles(points, out, written)
-        abs_dy_histograms(points, out, written)
-        deposition_density(points, out, written)
-        scaled_avalanche_profiles(f, points, out, written)
-        collapse_increase(f, points, out, written)
-        event_sizes(points, out, written)
+        sys.exit(f"plot.py: {path}: cannot read as HDF5 ({e})")
+    if "points" not in f:
+        sys.exit(f"plot.py: {path}: no 'points' group: not a loosepack result file")
+    return f
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("file", nargs="+")
+    ap.add_argument("-o", "--outdir", default=None,
+                    help="folder for the PNGs (default: beside the first file)")
+    args = ap.parse_args()
+    out = args.outdir or os.path.splitext(args.file[0])[0] + "_figures"
+    files = [open_result(path) for path in args.file]
+    # One file: its fits across points too. Several: those fits belong to each file alone.
+    whole = files[0] if len(files) == 1 else None
+    points = [f["points"][k] for f in files for k in sorted(f["points"])]
+    os.makedirs(out, exist_ok=True)
+    written = []
+    density_profiles(points, out, written)
+    nu_lower_half(points, out, written)
+    avalanche_profiles(points, out, written)
+    abs_dy_histograms(points, out, written)
+    deposition_density(points, out, written)
+    scaled_avalanche_profiles(whole, points, out, written)
+    collapse_increase(whole, points, out, written)
+    event_sizes(points, out, written)
+    if whole is not None:  # their file names hold the point's index within its file
         snapshots(points, out, written)
         trajectories(points, out, written)
+    for f in files:
+        f.close()
     for w in written:
         print(w)
 
