@@ -21,6 +21,11 @@
 #     dir/SCENE-SOLVER.txt.
 #   TEAM_SIZE=n bench/gpu_runs.sh ...  sets solver.team_size (the team solver's threads per
 #     system).
+#   SWEEPS_PER_LAUNCH=n bench/gpu_runs.sh ...  sets solver.sweeps_per_launch (the team solver's
+#     sweeps a launch; a longer solve goes on in the next launch). With STAGES=1 the line adds the
+#     solve's balance from --timing: "balance": [systems a launch, their sweeps as % of the
+#     launch's slowest system's, the slowest system's sweeps a launch, system steps ended a
+#     launch].
 #
 # Scenes: "C" the accuracy study's collapse (protocol C, 24 R x 40 R, Bo = 1e3, r_capt = 2,
 # h = 0.0028); "A" the default job's cohesive point (protocol A, 24 R x 24 R, Bo = 1e2).
@@ -49,6 +54,7 @@ batch_size = ${BATCH:-$members}"
   esac
   printf '[solver]\nkind = "%s"\n' "$2"
   [ -n "${TEAM_SIZE:-}" ] && printf 'team_size = %d\n' "$TEAM_SIZE"  # (older builds lack the key)
+  [ -n "${SWEEPS_PER_LAUNCH:-}" ] && printf 'sweeps_per_launch = %d\n' "$SWEEPS_PER_LAUNCH"
   printf '[observables]\nlower_half_from = 4.0\n'
 }
 
@@ -82,9 +88,17 @@ for name in C A; do
       stages=$(awk '$NF == "copies" { name = $1; for (k = 2; $(k + 1) != "s"; ++k) name = name " " $k
         printf "%s\"%s\": [%s, %s, %s]", sep, name, $k, $(k + 4), $(k + 6); sep = ", " }' "$work/timing.txt")
       steps=$(awk '$1 == "over" { print $2; exit }' "$work/timing.txt")
+      # "  solve: N systems a launch, their sweeps P % ...", "  solve: S sweeps a launch by its
+      # slowest system", "  solve: E system steps ended a launch" (absent: one launch a step)
+      balance=$(awk '$1 == "solve:" && $3 == "systems" { n = $2; p = $8 }
+        $1 == "solve:" && $3 == "sweeps" { w = $2 }
+        $1 == "solve:" && $4 == "steps" { e = $2 }
+        END { if (n != "") printf "[%s, %s, %s, %s]", n, p, (w == "" ? "null" : w), (e == "" ? n : e) }' \
+        "$work/timing.txt")
       observable="$observable, \"steps\": ${steps:-null}, \"stages\": {$stages}"
+      [ -n "$balance" ] && observable="$observable, \"balance\": $balance"
     fi
-    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
-      "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
+    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "sweeps_per_launch": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
+      "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "${SWEEPS_PER_LAUNCH:-0}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
   done
 done

@@ -192,4 +192,23 @@ struct ContactMobilityBuild {
   }
 };
 
+// The contact buffers swap every step (the last step's contacts warm-start the new ones); a
+// system inside a step whose solve goes on (sys.solving) takes its contacts and impulses back
+// from the buffer they were swapped into, and builds none.
+// Reads: sys.solving; part.system; con.{prev_partner, prev_pn, prev_pt, prev_pm}.
+// Writes: con.{partner, pn, pt, pm} of those systems.
+struct KeepSolvingContacts {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int c) const {
+    if (!sys.solving(part.system(c / kSlots))) return;
+    con.partner(c) = con.prev_partner(c);
+    con.pn(c) = con.prev_pn(c);
+    con.pt(c) = con.prev_pt(c);
+    con.pm(c) = con.prev_pm(c);
+  }
+};
+
 }  // namespace loosepack

@@ -25,14 +25,15 @@ KOKKOS_INLINE_FUNCTION ColumnRange grid_columns(int cx, int nx) {
   return nx < 3 ? ColumnRange{0, nx, nx} : ColumnRange{cx - 1, 3, nx};
 }
 
-// Reads: sys.{active, offset, count, width, cell_size, grid_nx, grid_ny, cell_offset};
-// part.{system, x, y}. Writes: part.cell; grid.{cell_start, cell_fill, cell_particles}.
+// Reads: sys.{active, solving, offset, count, width, cell_size, grid_nx, grid_ny,
+// cell_offset}; part.{system, x, y}. A system inside a step's solve (sys.solving) gets no cells,
+// as an inactive one. Writes: part.cell; grid.{cell_start, cell_fill, cell_particles}.
 inline void build_grid(const SystemViews& sys, const ParticleViews& part, const GridViews& grid,
                        int n_particles, int n_cells) {
   auto cell = part.cell;
   auto psys = part.system;
   auto x = part.x, y = part.y;
-  auto offset = sys.offset, count = sys.count, active = sys.active;
+  auto offset = sys.offset, count = sys.count, active = sys.active, solving = sys.solving;
   auto width = sys.width, cell_size = sys.cell_size;
   auto nxv = sys.grid_nx, nyv = sys.grid_ny, cell_offset = sys.cell_offset;
   auto start = grid.cell_start, fill = grid.cell_fill, plist = grid.cell_particles;
@@ -43,7 +44,7 @@ inline void build_grid(const SystemViews& sys, const ParticleViews& part, const 
   Kokkos::parallel_for(
       "grid_bin", Kokkos::RangePolicy<ExecSpace>(0, n_particles), KOKKOS_LAMBDA(int p) {
         const int s = psys(p);
-        if (!active(s) || p >= offset(s) + count(s)) {
+        if (!active(s) || solving(s) || p >= offset(s) + count(s)) {
           cell(p) = -1;
           return;
         }

@@ -29,14 +29,17 @@ struct FreeVelocity {
 };
 
 // x += h v (wrapped into [0, L_x)), theta += h w; flags non-finite state; records max speed.
-// Reads: sys.{failure, time_step, width}; part.{cell, system, vx, vy, w, radius}.
+// Reads: sys.{active, solving, offset, count, failure, time_step, width}; part.{system, vx, vy,
+// w, radius}.
 // Writes: part.{x, y, theta}; sys.{failure (kNonFinite), max_speed, max_centre_speed}.
 struct Integrate {
   SystemViews sys;
   ParticleViews part;
   KOKKOS_INLINE_FUNCTION void operator()(int p) const {
-    if (part.cell(p) < 0) return;
+    // The disks of the systems whose step ends now: not of one whose solve goes on, and also of
+    // one whose step began in an earlier launch (the grid gave it no cells then).
     const int s = part.system(p);
+    if (!sys.active(s) || sys.solving(s) || p >= sys.offset(s) + sys.count(s)) return;
     if (sys.failure(s) == kContactOverflow || sys.failure(s) == kParticleOverflow) return;
     const double h = sys.time_step(s);
     const double x = wrap_periodic(part.x(p) + h * part.vx(p), sys.width(s));
@@ -63,7 +66,8 @@ struct Integrate {
 // system's contacts. Positions only: velocities are left as they are, so no kinetic energy is
 // injected (docs/MODEL.md, "Contact law": overlaps resolved without adding kinetic energy), and an
 // overlap that a capped solve leaves decays by (1 - beta) per step instead of being held.
-// Reads: sys.{active, failure, width, offset, count}; con.partner; part.{inv_mass, radius}.
+// Reads: sys.{active, solving, failure, width, offset, count}; con.partner; part.{inv_mass,
+// radius}.
 // Reads and writes: part.{x, y}.
 struct OverlapCorrection {
   SystemViews sys;
@@ -71,7 +75,7 @@ struct OverlapCorrection {
   ContactViews con;
   double beta;
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
-    if (!sys.active(s) || sys.failure(s) != kOk) return;
+    if (!sys.active(s) || sys.solving(s) || sys.failure(s) != kOk) return;
     const double width = sys.width(s);
     const SlotRange range = system_slots(sys, s);
     for (int c = range.first; c < range.end; ++c) {

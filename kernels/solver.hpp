@@ -187,6 +187,11 @@ struct BodyVelocity {
     const int s = part.system(p);
     if (part.cell(p) < 0) return;
     if (only_unconverged && sys.unconverged(s) != kIterating) return;
+    set(p);
+  }
+
+  // Disk p's velocity, whatever its system's state (a solver's own use).
+  KOKKOS_INLINE_FUNCTION void set(int p) const {
     double vx = part.vfx(p), vy = part.vfy(p), w = part.wf(p);
     const double im = part.inv_mass(p), iI = part.inv_inertia(p), r = part.radius(p);
     const int n = part.n_incident(p);
@@ -467,10 +472,14 @@ struct AcceleratedGaussSeidel {
 // range; `starts` [P * kSlots + S] the colour boundaries, system s's from offset(s) kSlots + s
 // (a system has at most one colour per contact, and at least one).
 // On a host backend (team size 1) it is the same method with the contacts in colour order.
-// Reads: sys.{active, unconverged, offset, count, max_sweeps, step_tolerance}; what the
-// colouring reads (ColourRound), what the local solve reads (local_solve) and what BodyVelocity
-// reads. Writes: con.colour; list, starts; con.{pn, pt, pm, start_*, dir_*}; part.{vx, vy, w};
-// sys.unconverged; sweeps.
+// With sweeps_per_launch, a launch lasts at most that many sweeps of any system instead of its
+// slowest system's whole solve: a system that has not converged keeps its colours, its sweeps
+// and NNCG's last |d|^2 (sys.{colours, gradient2}) and goes on in the next launch, while the
+// others take their next steps (Batch::step). The iterates are the same as in one launch.
+// Reads: sys.{active, unconverged, solving, offset, count, max_sweeps, step_tolerance}; what
+// the colouring reads (ColourRound), what the local solve reads (local_solve) and what
+// BodyVelocity reads. Writes: con.colour; list, starts; con.{pn, pt, pm, start_*, dir_*};
+// part.{vx, vy, w}; sys.{unconverged, solving, colours, gradient2}; sweeps.
 template <class Fx>
 struct ColouredAcceleratedGaussSeidel {
   using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;
@@ -480,20 +489,25 @@ struct ColouredAcceleratedGaussSeidel {
   DView<int> sweeps;  // [S] sweeps of this step
   DView<int> list, starts;
   double omega;
+  // At most this many sweeps a launch (rounded up to whole iterations of two); a system still
+  // iterating then goes on from where it stopped in the next launch (sys.solving). 0: to
+  // convergence or the cap in one launch.
+  int sweeps_per_launch = 0;
 
   KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
     const int s = team.league_rank();
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
     const int base = range.first + s;
-    const int n_colours = colour_system(team, range);
-    group_by_colour(team, range, base, n_colours);
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
-                         [&](int c) { nncg_keep_start(con, c); });
-    team.team_barrier();
-    double previous = 0.0;  // the first iteration of a step restarts
+    const int done = sweeps(s);  // > 0 where the step's solve goes on from the last launch
+    const int n_colours = sys.solving(s) ? sys.colours(s) : start_step(team, s, range, base);
+    // NNCG's last |d|^2; a step's first iteration restarts.
+    double previous = sys.solving(s) ? sys.gradient2(s) : 0.0;
+    team.team_barrier();  // every thread has read the system's state before it changes
     const int cap = sys.max_sweeps(s);
-    for (int sweep = 0; sweep < cap; sweep += 2) {
+    const int stop = sweeps_per_launch > 0 ? kmath::imin(cap, done + sweeps_per_launch) : cap;
+    int sweep = done;
+    for (; sweep < stop; sweep += 2) {
       double worst = 0.0;
       for (int k = 0; k < n_colours; ++k) worst = kmath::max(worst, colour_sweep(team, base, k));
       for (int k = n_colours - 1; k >= 0; --k)
@@ -501,7 +515,10 @@ struct ColouredAcceleratedGaussSeidel {
       Kokkos::single(Kokkos::PerTeam(team), [&]() { sweeps(s) += 2; });
       if (!(worst >
             sys.step_tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
-        Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.unconverged(s) = 0; });
+        Kokkos::single(Kokkos::PerTeam(team), [&]() {
+          sys.unconverged(s) = 0;
+          sys.solving(s) = 0;
+        });
         return;
       }
       double g2 = 0.0;
@@ -519,10 +536,27 @@ struct ColouredAcceleratedGaussSeidel {
         const BodyVelocity velocity{sys, part, con, false};
         Kokkos::parallel_for(
             Kokkos::TeamThreadRange(team, sys.offset(s), sys.offset(s) + sys.count(s)),
-            [&](int p) { velocity(p); });
+            [&](int p) { velocity.set(p); });
         team.team_barrier();
       }
     }
+    // Capped (the step ends unconverged), or paused until the next launch.
+    Kokkos::single(Kokkos::PerTeam(team), [&]() {
+      sys.solving(s) = sweep < cap ? 1 : 0;
+      sys.gradient2(s) = previous;
+    });
+  }
+
+  // The start of a step's solve: the system's contacts coloured and listed by colour, and the
+  // impulses the iteration starts from kept. Returns the colour count.
+  KOKKOS_INLINE_FUNCTION int start_step(const Member& team, int s, SlotRange range,
+                                        int base) const {
+    const int n_colours = colour_system(team, range);
+    group_by_colour(team, range, base, n_colours);
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
+                         [&](int c) { nncg_keep_start(con, c); });
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.colours(s) = n_colours; });
+    return n_colours;
   }
 
   // One colour's contacts updated in parallel; returns the largest change (on every thread).

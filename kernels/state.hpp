@@ -82,6 +82,10 @@ struct SystemViews {
   DView<double> margin;            // contact detection margin of the current step
   DView<double> max_margin;        // its bound, which the grid cell leaves room for
   DView<double> gradient2;  // accelerated Gauss-Seidel: squared norm of the last iteration's change
+  // 1 while the system is inside a step whose solve goes on in the next launch (the team
+  // solver's SolverSettings::sweeps_per_launch): every stage but the solve leaves it alone.
+  DView<int> solving;
+  DView<int> colours;  // the team solver: the colour count of the system's current step
 };
 
 // The contact slots of system s: [first, end).

@@ -55,7 +55,6 @@ void Batch::Impl::solve() {
   const double omega = solver.relaxation;
   const bool jacobi = solver.kind == SolverKind::Jacobi;
   const int n_contacts = n_particles * kSlots;
-  Kokkos::deep_copy(ExecSpace(), sweeps, 0);  // in order with the kernels (kernels/grid.hpp)
   // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
     const AcceleratedGaussSeidel<Fx> sweeper{sys, part, con, sweeps, omega, DView<int>()};
@@ -75,7 +74,8 @@ void Batch::Impl::solve() {
   }
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
     const ColouredAcceleratedGaussSeidel<Fx> team_solver{
-        sys, part, con, sweeps, colour_list, system_colour_start, omega};
+        sys,   part, con, sweeps, colour_list, system_colour_start,
+        omega, solver.sweeps_per_launch};
     const int threads = team_size_of(team_solver);
     Kokkos::parallel_for("coloured_accelerated_gauss_seidel",
                          threads > 0 ? Kokkos::TeamPolicy<ExecSpace>(n_systems, threads)
@@ -403,12 +403,15 @@ void Batch::Impl::run_stage(StepStage stage) {
 }
 
 // The detection margin and the solver tolerance from the last step's speeds; the step's
-// counters reset.
+// counters reset. A system inside a step (sys.solving) keeps its step's.
 void Batch::Impl::margin_stage() {
   const SystemViews sys_ = sys;
+  const auto sweeps = sweeps_this_step;
   const double kappa = solver.relative_tolerance;
   Kokkos::parallel_for(
       "margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems), KOKKOS_LAMBDA(int s) {
+        if (sys_.solving(s)) return;
+        sweeps(s) = 0;
         const double h = sys_.time_step(s);
         const double g = kmath::sqrt(sys_.gravity_x(s) * sys_.gravity_x(s) +
                                      sys_.gravity_y(s) * sys_.gravity_y(s));
@@ -433,6 +436,9 @@ void Batch::Impl::contact_stage() {
   std::swap(con.pn, con.prev_pn);
   std::swap(con.pt, con.prev_pt);
   std::swap(con.pm, con.prev_pm);
+  if (any_solving)  // their step's contacts and impulses back where the solve goes on from them
+    Kokkos::parallel_for("keep_solving", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
+                         KeepSolvingContacts{sys, part, con});
   // Chunk by chunk of active systems (they share nothing; see chunk_active).
   chunk_active();
   const bool split_mass = solver.kind == SolverKind::Jacobi && solver.mass_splitting;
@@ -508,24 +514,34 @@ void Batch::Impl::status_stage() {
         r[kUnconverged] = sys_.unconverged(s);
         r[kSweeps] = sweeps(s);
         r[kCount] = sys_.count(s);
+        r[kSolving] = sys_.solving(s);
       });
   Kokkos::deep_copy(host_report, report);
   const auto field = [&](int s, StatusField f) { return host_report(s * kStatusFields + f); };
   const auto whole = [&](int s, StatusField f) { return static_cast<int>(field(s, f)); };
   bool deactivate = false;
   ++batch_steps;
-  long active = 0, sweeps_sum = 0, slowest = 0;
+  any_solving = false;
+  Balance balance;
   for (int s = 0; s < n_systems; ++s) {
     auto& st = status[static_cast<std::size_t>(s)];
     if (!st.active) continue;
     last_stepped[static_cast<std::size_t>(s)] = batch_steps;
+    // This launch's sweeps: the step's so far, less those of earlier launches.
+    int& earlier = sweeps_before[static_cast<std::size_t>(s)];
+    const int step_sweeps = whole(s, kSweeps);
+    balance.add(step_sweeps - (st.mid_step ? earlier : 0));
+    st.mid_step = whole(s, kSolving) != 0;
+    if (st.mid_step) {  // nothing else of the step is done yet
+      earlier = step_sweeps;
+      any_solving = true;
+      continue;
+    }
+    ++balance.finished;
     st.steps += 1;
-    st.last_sweeps = whole(s, kSweeps);
-    ++active;
-    sweeps_sum += st.last_sweeps;
-    slowest = std::max<long>(slowest, st.last_sweeps);
+    st.last_sweeps = step_sweeps;
     st.newton_steps = newton_steps[static_cast<std::size_t>(s)];
-    st.sweeps += whole(s, kSweeps);
+    st.sweeps += step_sweeps;
     st.converged = whole(s, kUnconverged) == 0;
     st.tolerance = field(s, kStepTolerance);
     st.max_speed = field(s, kMaxSpeed);
@@ -542,10 +558,12 @@ void Batch::Impl::status_stage() {
     st.at_rest = st.rest_steps >= rest.steps;
   }
   if (timing) {
-    auto& balance = timer(StepStage::Solve);
-    balance.system_steps += active;
-    balance.sweeps += sweeps_sum;
-    balance.slowest_sweeps += active * slowest;
+    auto& cost = timer(StepStage::Solve);
+    cost.system_steps += balance.systems;
+    cost.finished_steps += balance.finished;
+    cost.sweeps += balance.sweeps;
+    cost.slowest_sweeps += balance.systems * balance.slowest;
+    cost.launch_sweeps += balance.slowest;
   }
   if (deactivate) upload_status_active();
 }
@@ -599,7 +617,7 @@ long Batch::run_to_rest(long max_steps) {
     bool any = false;
     for (int s = 0; s < size(); ++s) {
       const auto& st = impl_->status[static_cast<std::size_t>(s)];
-      if (st.active && st.at_rest) set_active(s, false);
+      if (st.active && st.at_rest && !st.mid_step) set_active(s, false);
       any = any || impl_->status[static_cast<std::size_t>(s)].active;
     }
     if (!any) break;
@@ -612,6 +630,9 @@ void Batch::set_active(int s, bool active) {
   auto& st = impl_->status.at(static_cast<std::size_t>(s));
   if (active && st.failure != Failure::None) return;
   if (st.active == active) return;
+  if (st.mid_step)
+    throw std::logic_error("Batch::set_active: system " + std::to_string(s) +
+                           " is inside a step (its solve goes on); step until it ends");
   st.active = active;
   if (active) {
     impl_->restore_warm_start(s);

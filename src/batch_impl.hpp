@@ -65,7 +65,7 @@ struct Batch::Impl {
   // The per-system status read after every step: packed on the device into `report` [S x
   // StatusField] and read back in one copy (one wait for the device per step).
   enum StatusField { kFailure, kMaxSpeed, kMaxCentreSpeed, kStepTolerance, kUnconverged, kSweeps,
-                     kCount, kStatusFields };
+                     kCount, kSolving, kStatusFields };
   DView<double> report;
   DView<double>::HostMirror host_report;
   // Host mirrors of what the host reads between the accelerated solver's launches when it takes
@@ -86,6 +86,20 @@ struct Batch::Impl {
   // warm start while it waits and its results never depend on what the rest of the batch did.
   long batch_steps = 0;
   std::vector<long> last_stepped;
+  // The team solver with sweeps_per_launch: whether a system's step goes on in the next launch
+  // (SystemStatus::mid_step), and each such system's sweeps of its step so far.
+  bool any_solving = false;
+  std::vector<int> sweeps_before;
+  // One launch of the solve: the systems in it, their sweeps in it and the most any made; the
+  // steps that ended in it.
+  struct Balance {
+    long systems = 0, sweeps = 0, slowest = 0, finished = 0;
+    void add(int launch_sweeps) {
+      ++systems;
+      sweeps += launch_sweeps;
+      slowest = std::max<long>(slowest, launch_sweeps);
+    }
+  };
   // What each stage of the step (StepStage) and the Newton rounds inside the solve cost, summed
   // while timing is on (fenced); Batch::stage_costs lists them by name.
   bool timing = false;

@@ -36,6 +36,7 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   params.resize(S);
   status.assign(S, SystemStatus{});
   last_stepped.assign(S, 0);
+  sweeps_before.assign(S, 0);
   for (std::size_t s = 0; s < S; ++s) load(static_cast<int>(s), setups[s]);
 }
 
@@ -113,6 +114,8 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   sys.margin = alloc<double>("margin", S);
   sys.max_margin = alloc<double>("max_margin", S);
   sys.gradient2 = alloc<double>("gradient2", S);
+  sys.solving = alloc<int>("solving", S);
+  sys.colours = alloc<int>("colours", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
@@ -251,6 +254,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   set(sys.grid_ny, g.ny);
   set(sys.active, 1);
   set(sys.unconverged, 0);
+  set(sys.solving, 0);
   set(sys.failure, int(kOk));
 
   const int first = offsets[k], cap = slot_capacity[k];

@@ -433,13 +433,19 @@ void RunCommand::print_timing() const {
       over += (over.empty() ? "" : ", ") + std::to_string(stages[k].steps) +
               (stages[k].name.rfind("region ", 0) == 0 ? " steps of the regions" : " steps");
   if (!over.empty()) std::fprintf(stderr, "  over %s\n", over.c_str());
-  for (const auto& st : stages)
-    if (st.slowest_sweeps > 0)
-      std::fprintf(stderr,
-                   "  %s: %.1f active systems a step, their sweeps %.1f %% of the step's "
-                   "slowest system's\n",
-                   st.name.c_str(), static_cast<double>(st.system_steps) / st.steps,
-                   100.0 * st.sweeps / st.slowest_sweeps);
+  for (const auto& st : stages) {
+    if (st.slowest_sweeps == 0) continue;
+    std::fprintf(stderr,
+                 "  %s: %.1f systems a launch, their sweeps %.1f %% of the launch's slowest "
+                 "system's\n",
+                 st.name.c_str(), static_cast<double>(st.system_steps) / st.steps,
+                 100.0 * st.sweeps / st.slowest_sweeps);
+    std::fprintf(stderr, "  %s: %.1f sweeps a launch by its slowest system\n", st.name.c_str(),
+                 static_cast<double>(st.launch_sweeps) / st.steps);
+    if (st.finished_steps < st.system_steps)  // solver.sweeps_per_launch
+      std::fprintf(stderr, "  %s: %.1f system steps ended a launch\n", st.name.c_str(),
+                   static_cast<double>(st.finished_steps) / st.steps);
+  }
   for (const auto& st : stages)
     if (st.team_size > 0)
       std::fprintf(stderr, "  %s: %d threads a team\n", st.name.c_str(), st.team_size);

@@ -102,12 +102,13 @@ void MemberRun::redraw_where_room(const Mask& depositing, DropRule rule,
 }
 
 // One step of every system in a dynamic phase (the batch's and the regions'), then what each
-// slot's step means for its phase.
+// slot's step means for its phase; a step whose solve goes on (inside_step) means nothing yet.
 void MemberRun::advance_dynamics() {
   batch_->step();
   if (regions_) regions_->step();
   Mask closing(n_slots_, 0);
   for (std::size_t k = 0; k < n_slots_; ++k) {
+    if (inside_step(k)) continue;  // its step goes on
     switch (slots_[k].phase) {
       case Phase::Region:
         advance_region(k, closing);
@@ -290,6 +291,14 @@ bool MemberRun::start_region(std::size_t k, const std::vector<Regions::Point>& s
 void MemberRun::await_disk(std::size_t k) { set_phase(k, Phase::Deposit); }
 
 // --- Bookkeeping -----------------------------------------------------------------------------
+
+// Whether slot k's system (its region's in a region) is inside a step whose solve goes on in
+// the next launch (SolverSettings::sweeps_per_launch): nothing of it is to be read or changed.
+bool MemberRun::inside_step(std::size_t k) const {
+  const int s = static_cast<int>(k);
+  return slots_[k].phase == Phase::Region ? regions_->status(s).mid_step
+                                          : batch_->status(s).mid_step;
+}
 
 // Counts a step of slot k's whole system; where the step failed the member (a guard, or a solve
 // capped for too long), finishes it and returns false.

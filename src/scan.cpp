@@ -422,6 +422,7 @@ class ScanParser {
   void check_counts(const std::vector<ScanPoint>& points);
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
   void warn_diverging_jacobi();
+  void check_sweeps_per_launch();
   int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
     auto i = v.as_integer();
     if (!i || i->get() < lo || i->get() > hi)
@@ -492,6 +493,7 @@ Scan ScanParser::parse() {
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   warn_unresolved_barrier(points);
   warn_diverging_jacobi();
+  check_sweeps_per_launch();
   scan.points = std::move(points);
   return scan;
 }
@@ -760,6 +762,16 @@ void ScanParser::check_counts(const std::vector<ScanPoint>& points) {
     fail(file, *seeds_node, "scan.seeds",
          std::to_string(points.size()) + " scan points x " + std::to_string(scan.seeds) +
              " seeds make more than " + std::to_string(kMaxMembers) + " members");
+}
+
+// Only the team solver splits a step's solve over launches.
+void ScanParser::check_sweeps_per_launch() {
+  if (scan.solver.sweeps_per_launch == 0 ||
+      (scan.solver_kind_given && scan.solver.kind == SolverKind::ColouredAcceleratedGaussSeidel))
+    return;
+  fail(file, *setting_nodes.at("solver.sweeps_per_launch"), "solver.sweeps_per_launch",
+       "only the solver kind coloured_accelerated_gauss_seidel splits a step's solve over "
+       "launches; set solver.kind to it, or leave sweeps_per_launch at 0");
 }
 
 // Without mass splitting each of a disk's k contacts applies its whole impulse change at once,

@@ -125,7 +125,8 @@ void MemberRun::make_regions() {
 std::vector<MemberResult> MemberRun::run() {
   for (std::size_t k = 0; k < n_slots_; ++k) begin(k);
   for (;;) {
-    // Every member goes on from here after a snapshot: none is inside a step.
+    // Every member goes on from here after a snapshot: one inside a step (its solve going on
+    // over launches) gives its snapshot once the step ends.
     if (stopped()) break;
     advance_ballistic();
     advance_deposit();
@@ -283,7 +284,7 @@ bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
     const auto have = std::find_if(taken_.begin(), taken_.end(), [&](const MemberSnapshot& t) {
       return t.result.member.id == id;
     });
-    if (!goes_on_from(sl.phase)) {
+    if (!goes_on_from(sl.phase) || inside_step(k)) {
       all = all && have != taken_.end();
       continue;
     }

@@ -47,14 +47,15 @@ TEST(Batch, StepStagesAreTimedInOrder) {
   EXPECT_EQ(timed, stage_names());
 }
 
-// The solve's balance: the active systems, their sweeps, and the sweeps had each swept as long
-// as its step's slowest, summed over the steps from the systems' own status after each step.
+// The solve's balance: the active systems, their sweeps, the sweeps had each swept as long as
+// its step's slowest, and the slowest's, summed over the steps from the systems' own status
+// after each step.
 TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
   auto falling = column(4, 10.0);  // disks apart: they land on one another at different steps
   for (std::size_t k = 0; k < falling.size(); ++k) falling[k].y += 0.05 * static_cast<double>(k);
   Batch batch({setup(cohesive_params(), column(6, 10.0)), setup(cohesive_params(), falling)});
   batch.set_timing(true);
-  long system_steps = 0, sweeps = 0, slowest_sweeps = 0;
+  long system_steps = 0, sweeps = 0, slowest_sweeps = 0, launch_sweeps = 0;
   bool unequal = false;
   for (int k = 0; k < 40; ++k) {
     batch.step();
@@ -69,6 +70,7 @@ TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
     system_steps += active;
     sweeps += sum;
     slowest_sweeps += active * slowest;
+    launch_sweeps += slowest;
   }
   ASSERT_TRUE(unequal) << "the two columns swept alike at every step: the scene tests nothing";
   for (const auto& cost : batch.stage_costs())
@@ -76,10 +78,97 @@ TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
       EXPECT_EQ(cost.system_steps, system_steps);
       EXPECT_EQ(cost.sweeps, sweeps);
       EXPECT_EQ(cost.slowest_sweeps, slowest_sweeps);
+      EXPECT_EQ(cost.launch_sweeps, launch_sweeps);
+      EXPECT_EQ(cost.finished_steps, cost.system_steps);  // one launch a step
       EXPECT_LT(cost.sweeps, cost.slowest_sweeps);
       return;
     }
   FAIL() << "no solve stage";
+}
+
+namespace {
+// Three systems that need unequal sweeps a step: a cohesive column, and random drops with
+// cohesion and without.
+std::vector<SystemSetup> unequal_systems() {
+  SystemParams dry = column_params(10);
+  dry.width = 12.0;
+  SystemParams wet = dry;
+  wet.bond_number = 10.0;
+  wet.cohesion_range = 0.01;
+  return {setup(cohesive_params(), column(6, 10.0)), setup(wet, random_drop(24, 12.0, 1)),
+          setup(dry, random_drop(20, 12.0, 2))};
+}
+
+void expect_same_disks(const std::vector<Disk>& a, const std::vector<Disk>& b, int s) {
+  ASSERT_EQ(a.size(), b.size()) << "system " << s;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].x, b[k].x) << "system " << s << " disk " << k;
+    EXPECT_EQ(a[k].y, b[k].y) << "system " << s << " disk " << k;
+    EXPECT_EQ(a[k].theta, b[k].theta) << "system " << s << " disk " << k;
+    EXPECT_EQ(a[k].vx, b[k].vx) << "system " << s << " disk " << k;
+    EXPECT_EQ(a[k].vy, b[k].vy) << "system " << s << " disk " << k;
+    EXPECT_EQ(a[k].w, b[k].w) << "system " << s << " disk " << k;
+  }
+}
+}  // namespace
+
+// solver.sweeps_per_launch splits a step's solve over launches: a system that needs more
+// sweeps goes on in the next step() while the others take their next steps. Its iterates are
+// those of one launch, so after the same number of finished steps every system's disks and
+// sweeps are the same bit for bit as with whole solves.
+TEST(Batch, SweepsPerLaunchGiveTheSameStepsBitForBit) {
+  SolverSettings whole;
+  whole.kind = SolverKind::ColouredAcceleratedGaussSeidel;
+  SolverSettings split = whole;
+  split.sweeps_per_launch = 4;
+  constexpr long kSteps = 60;
+  Batch lockstep(unequal_systems(), whole), ticking(unequal_systems(), split);
+  ticking.set_timing(true);
+  for (long k = 0; k < kSteps; ++k) lockstep.step();
+  long launches = 0, paused = 0;
+  for (bool any = true; any && launches < 100 * kSteps; ++launches) {
+    any = false;
+    for (int s = 0; s < ticking.size(); ++s) {
+      const auto& st = ticking.status(s);
+      if (st.active && !st.mid_step && st.steps == kSteps) ticking.set_active(s, false);
+      any = any || ticking.status(s).active;
+    }
+    if (any) ticking.step();
+    for (int s = 0; s < ticking.size(); ++s) paused += ticking.status(s).mid_step ? 1 : 0;
+  }
+  ASSERT_GT(paused, 0) << "no solve needed more than 4 sweeps: the scene tests nothing";
+  for (int s = 0; s < ticking.size(); ++s) {
+    EXPECT_EQ(ticking.status(s).steps, kSteps) << "system " << s;
+    EXPECT_EQ(ticking.status(s).sweeps, lockstep.status(s).sweeps) << "system " << s;
+    EXPECT_EQ(ticking.status(s).failure, Failure::None) << "system " << s;
+    expect_same_disks(ticking.disks(s), lockstep.disks(s), s);
+  }
+  // The balance counts launches: every system in a launch sweeps at most 4 times in it.
+  for (const auto& cost : ticking.stage_costs())
+    if (cost.name == "solve") {
+      EXPECT_EQ(cost.finished_steps, kSteps * ticking.size());
+      EXPECT_GT(cost.system_steps, cost.finished_steps);
+      EXPECT_LE(cost.slowest_sweeps, 4 * cost.system_steps);
+      EXPECT_LE(cost.launch_sweeps, 4 * cost.steps);
+    }
+}
+
+// A system inside a step cannot be taken out of the batch: the step ends first.
+TEST(Batch, SystemInsideAStepStaysActive) {
+  SolverSettings split;
+  split.kind = SolverKind::ColouredAcceleratedGaussSeidel;
+  split.sweeps_per_launch = 2;
+  Batch batch(unequal_systems(), split);
+  for (int k = 0; k < 200; ++k) {
+    batch.step();
+    for (int s = 0; s < batch.size(); ++s)
+      if (batch.status(s).mid_step) {
+        EXPECT_THROW(batch.set_active(s, false), std::logic_error);
+        EXPECT_TRUE(batch.status(s).active);
+        return;
+      }
+  }
+  FAIL() << "no solve went on over launches";
 }
 
 // solver.team_size asks for threads per system's team; more than the backend's largest team
@@ -106,10 +195,10 @@ TEST(Batch, TeamSizeIsLoweredToTheBackendsLargestTeam) {
   FAIL() << "no solve stage";
 }
 
-// The team solver colours and solves each system inside its team: its solve stage launches
-// the same two kernels every step (the fill of the sweep counters and the team kernel), however
-// many colours the contacts need, with one copy (that fill) and no round trip per colour.
-TEST(Batch, TeamSolverSolvesInTwoLaunchesPerStep) {
+// The team solver colours and solves each system inside its team: its solve stage is one
+// launch of the team kernel every step, however many colours the contacts need, with no copy
+// and no round trip per colour (the margin stage resets the sweep counters).
+TEST(Batch, TeamSolverSolvesInOneLaunchPerStep) {
   SolverSettings solver;
   solver.kind = SolverKind::ColouredAcceleratedGaussSeidel;
   Batch batch({setup(cohesive_params(), column(6, 10.0))}, solver);
@@ -117,8 +206,8 @@ TEST(Batch, TeamSolverSolvesInTwoLaunchesPerStep) {
   for (int k = 0; k < 5; ++k) batch.step();
   for (const auto& cost : batch.stage_costs())
     if (cost.name == "solve") {
-      EXPECT_EQ(cost.launches, 2 * cost.steps);
-      EXPECT_EQ(cost.copies, cost.steps);
+      EXPECT_EQ(cost.launches, cost.steps);
+      EXPECT_EQ(cost.copies, 0);
       return;
     }
   FAIL() << "no solve stage";

@@ -315,7 +315,6 @@ void expect_same_member(const MemberResult& a, const MemberResult& b) {
         << "contact " << k;
   }
 }
-}  // namespace
 
 // A member stopped while it runs goes on from its snapshot as if it had never stopped. A scan of
 // cohesive deposits relaxed in regions with a whole-system check every third disk (A), slow
@@ -323,8 +322,8 @@ void expect_same_member(const MemberResult& a, const MemberResult& b) {
 // snapshot of every running member is asked for every 16 rounds; the run is stopped after
 // every eighth of the rounds the whole run takes, each time saved to a checkpoint part and read
 // back, and resumed on batches of 3. Every member's result equals the uninterrupted run's bit
-// for bit.
-TEST(Checkpoint, RunningMembersGoOnBitForBit) {
+// for bit. `solver` is the scan file's [solver] section.
+void expect_running_members_go_on(const std::string& solver) {
   const Scan scan = parse_scan(
       "[scan]\nseeds = 2\nbatch_size = 2\n"
       "[[point]]\nprotocol = \"A\"\nwidth = 16\nheight = 20\nbond_number = 1000\n"
@@ -332,7 +331,9 @@ TEST(Checkpoint, RunningMembersGoOnBitForBit) {
       "[[point]]\nprotocol = \"A\"\nwidth = 8\nheight = 8\nbond_number = 0\n"
       "[[point]]\nprotocol = \"C\"\nwidth = 12\nheight = 16\nbond_number = 30\n"
       "[protocol]\nregion_radius = 5\nregion_check_every = 3\n"
-      "[observables]\nlower_half_from = 2\ntrajectory_every = 3\n",
+      "[observables]\nlower_half_from = 2\ntrajectory_every = 3\n"
+      "[solver]\n" +
+          solver,
       "test.toml");
   const auto members = members_of(scan);
   long rounds = 0;  // of the run's loop: one progress report each
@@ -392,4 +393,14 @@ TEST(Checkpoint, RunningMembersGoOnBitForBit) {
   std::sort(done.begin(), done.end(),
             [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   for (std::size_t k = 0; k < members.size(); ++k) expect_same_member(straight[k], done[k]);
+}
+}  // namespace
+
+TEST(Checkpoint, RunningMembersGoOnBitForBit) { expect_running_members_go_on(""); }
+
+// The same where a step's solve goes on over launches (solver.sweeps_per_launch): a member
+// inside a step gives its snapshot once the step has ended.
+TEST(Checkpoint, RunningMembersOfSplitSolvesGoOnBitForBit) {
+  expect_running_members_go_on(
+      "kind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 4\n");
 }

@@ -161,6 +161,11 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[solver]\nrelative_tolerance = -1e-3\n",
        "bad.toml:2:22: key 'solver.relative_tolerance': value -0.001 outside the allowed range "
        "[0, 1]"},
+      {"[solver]\nsweeps_per_launch = 8\n",
+       "bad.toml:2:21: key 'solver.sweeps_per_launch': only the solver kind "
+       "coloured_accelerated_gauss_seidel splits a step's solve over launches"},
+      {"[solver]\nkind = \"accelerated_gauss_seidel\"\nsweeps_per_launch = 8\n",
+       "bad.toml:3:21: key 'solver.sweeps_per_launch': only the solver kind"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",

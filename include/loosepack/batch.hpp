@@ -85,6 +85,10 @@ struct SystemStatus {
   double rest_speed(bool spin) const { return spin ? max_speed : max_centre_speed; }
   int rest_steps = 0;  // consecutive steps below the rest speed with the solver converged
   bool at_rest = false;
+  // The system is inside a step: its solve goes on in the next step() (the team solver's
+  // SolverSettings::sweeps_per_launch), and the rest of this status is still the last finished
+  // step's. Nothing is to change the system (deactivate, deposit, read back) until it ends.
+  bool mid_step = false;
 };
 
 // Where the next disk goes on a vertical drop line.
@@ -124,11 +128,14 @@ struct StageCost {
   double seconds = 0.0;
   long launches = 0, copies = 0;
   long steps = 0;
-  // The solve stage's balance: the active systems summed over the steps, their solver sweeps,
-  // and the sweeps they would have made had each swept as long as its step's slowest system.
-  // A device's solve launch lasts as long as its slowest system (docs/PERFORMANCE.md,
-  // "Building for more cores or a GPU").
-  long system_steps = 0, sweeps = 0, slowest_sweeps = 0;
+  // The solve stage's balance: the systems in each launch summed over the launches, their
+  // solver sweeps, and the sweeps they would have made had each swept as long as its launch's
+  // slowest system. A device's solve launch lasts as long as its slowest system
+  // (docs/PERFORMANCE.md, "Building for more cores or a GPU"). One launch is one step, except
+  // with SolverSettings::sweeps_per_launch, where the steps that ended are finished_steps.
+  // launch_sweeps: the slowest system's sweeps summed over the launches, which a device's solve
+  // time follows.
+  long system_steps = 0, finished_steps = 0, sweeps = 0, slowest_sweeps = 0, launch_sweeps = 0;
   int team_size = 0;  // the team solver's solve stage: threads per system's team
 };
 

@@ -107,6 +107,12 @@ struct SolverSettings {
   // largest team (1 on Serial, the threads on OpenMP); 0: the backend's recommended size
   // (Kokkos::AUTO).
   int team_size = 0;
+  // coloured_accelerated_gauss_seidel: at most this many sweeps of a system per launch of the
+  // solve; a system still iterating goes on in the next launch while the others take their next
+  // steps, so a launch does not last as long as the batch's slowest solve (docs/PERFORMANCE.md,
+  // "Building for more cores or a GPU"). The results are the same. 0: every system's whole solve
+  // in one launch.
+  int sweeps_per_launch = 0;
 };
 
 // When a system counts as at rest.
