@@ -64,8 +64,17 @@ struct Batch::Impl {
   std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
   // The per-system status read after every step: packed on the device into `report` [S x
   // StatusField] and read back in one copy (one wait for the device per step).
-  enum StatusField { kFailure, kMaxSpeed, kMaxCentreSpeed, kStepTolerance, kUnconverged, kSweeps,
-                     kCount, kSolving, kStatusFields };
+  enum StatusField {
+    kFailure,
+    kMaxSpeed,
+    kMaxCentreSpeed,
+    kStepTolerance,
+    kUnconverged,
+    kSweeps,
+    kCount,
+    kSolving,
+    kStatusFields
+  };
   DView<double> report;
   DView<double>::HostMirror host_report;
   // Host mirrors of what the host reads between the accelerated solver's launches when it takes
