@@ -116,9 +116,13 @@ void expect_same_disks(const std::vector<Disk>& a, const std::vector<Disk>& b, i
 // sweeps goes on in the next step() while the others take their next steps. Its iterates are
 // those of one launch, so after the same number of finished steps every system's disks and
 // sweeps are the same bit for bit as with whole solves.
-TEST(Batch, SweepsPerLaunchGiveTheSameStepsBitForBit) {
+// Teams of the backend's size and of two threads (one on Serial).
+class SweepsPerLaunch : public testing::TestWithParam<int> {};
+
+TEST_P(SweepsPerLaunch, GiveTheSameStepsBitForBit) {
   SolverSettings whole;
   whole.kind = SolverKind::ColouredAcceleratedGaussSeidel;
+  whole.team_size = GetParam();
   SolverSettings split = whole;
   split.sweeps_per_launch = 4;
   constexpr long kSteps = 60;
@@ -152,6 +156,8 @@ TEST(Batch, SweepsPerLaunchGiveTheSameStepsBitForBit) {
       EXPECT_LE(cost.launch_sweeps, 4 * cost.steps);
     }
 }
+
+INSTANTIATE_TEST_SUITE_P(Batch, SweepsPerLaunch, testing::Values(0, 2));
 
 // A system inside a step cannot be taken out of the batch: the step ends first.
 TEST(Batch, SystemInsideAStepStaysActive) {
