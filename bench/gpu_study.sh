@@ -8,9 +8,10 @@
 #      prefix of the runs (the first PREFIX_S seconds, bench/gpu_runs.sh LIMIT=...);
 #   3. if TEAM_SIZES lists team sizes: the first PREFIX_S seconds of a run with each (the team
 #      solver's threads per system, solver.team_size; 0 the backend's choice);
-#   4. whole runs on the device, all members in one batch, with the cost per stage; and if
-#      SWEEPS_PER_LAUNCHES lists values of solver.sweeps_per_launch, a whole run with each (a
-#      step's solve split over launches, so that a launch does not wait for the slowest system);
+#   4. whole runs on the device, all members in one batch, with the cost per stage: one for
+#      each value of solver.sweeps_per_launch in SWEEPS_PER_LAUNCHES (default "0": each step's
+#      whole solve in one launch; K > 0 splits a step's solve over launches of at most K sweeps,
+#      so that a launch does not wait for the slowest system);
 #   5. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
 #      of BUDGET_S.
 #
@@ -80,11 +81,11 @@ for size in ${TEAM_SIZES:-}; do
     "$members" "$solver"
 done
 
-log "whole runs on the device, $members members"
-STAGES=1 runs device after 0 "$device" "$members" "$solver"
-for sweeps in ${SWEEPS_PER_LAUNCHES:-}; do
-  log "whole runs on the device, at most $sweeps sweeps a launch, $members members"
-  SWEEPS_PER_LAUNCH=$sweeps STAGES=1 runs device "sweeps-$sweeps" 0 "$device" "$members" "$solver"
+for sweeps in ${SWEEPS_PER_LAUNCHES:-0}; do
+  variant=after  # (the name of the whole runs before sweeps_per_launch existed)
+  [ "$sweeps" = 0 ] || variant=sweeps-$sweeps
+  log "whole runs on the device, sweeps_per_launch $sweeps, $members members"
+  SWEEPS_PER_LAUNCH=$sweeps STAGES=1 runs device "$variant" 0 "$device" "$members" "$solver"
 done
 wait "$host_job"
 log "host reference done"
