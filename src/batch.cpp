@@ -362,7 +362,8 @@ const char* stage_name(StepStage stage) {
   return "?";
 }
 
-// One time step of the active systems: the stages of StepStage in their order.
+// One time step of the active systems: the stages of StepStage in their order (a system inside
+// a step whose solve goes on takes part in the solve alone).
 void Batch::Impl::step() {
   if (std::none_of(status.begin(), status.end(), [](const SystemStatus& st) { return st.active; }))
     return;
@@ -498,7 +499,8 @@ void Batch::Impl::integrate_stage() {
 }
 
 // Per-system status on the host: the non-finite and overflow guards stop a system; rest
-// detection.
+// detection. A system whose solve goes on (sys.solving) has finished no step yet: only the
+// solve's balance counts it.
 void Batch::Impl::status_stage() {
   const SystemViews sys_ = sys;
   const auto sweeps = sweeps_this_step;

@@ -153,7 +153,9 @@ class Batch {
   int max_sweeps(int s) const;
   const SolverSettings& solver() const;
 
-  // One time step of every active system.
+  // One time step of every active system. With SolverSettings::sweeps_per_launch a system whose
+  // solve needs more sweeps is left inside its step (SystemStatus::mid_step), which goes on in
+  // the next call while the others take their next steps.
   void step();
   // Wall time, launches and copies per stage of the step (StepStage, by stage_name, in order;
   // "newton": the Newton rounds inside the solve, apart from its sweeps), summed over all steps
