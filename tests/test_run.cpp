@@ -57,13 +57,14 @@ lower_half_from = 2.0
 // A step's solve split over launches (solver.sweeps_per_launch) gives every member the same
 // steps as whole solves: the slowest system no longer holds the others in a launch, and the
 // scheduler acts on a member only once its step has ended. Protocol A with relaxation regions
-// (a second batch) and with the whole system, and C's collapse, all in one batch.
+// (a second batch) and with the whole system, and C's collapse, on 3 slots for 4 members (a
+// finished member's slot takes the next while the others are inside their steps).
 TEST(Reproducibility, SweepsPerLaunchDoNotChangeResults) {
   const std::string text = R"(
 [scan]
 protocol = ["A", "C"]
 seeds = 2
-batch_size = 6
+batch_size = 3
 [system]
 width = 12.0
 height = 12.0
