@@ -289,6 +289,8 @@ void RunCommand::announce() const {
   if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
   std::cerr << ", batches of " << scan.batch_size << " on " << Kokkos::DefaultExecutionSpace::name()
             << ", solver " << solver_kind_name(scan.solver.kind);
+  if (scan.solver.sweeps_per_launch > 0)
+    std::cerr << " (at most " << scan.solver.sweeps_per_launch << " sweeps a launch)";
   if (ranks.size() > 1) std::cerr << ", " << ranks.size() << " MPI ranks";
   std::cerr << "\n";
   if (o.resume)
@@ -419,6 +421,14 @@ void RunCommand::print_timing() const {
   std::fprintf(stderr,
                "loosepack: cost per stage of the step (fenced, rank 0): wall time, and kernel "
                "launches and deep copies per step\n");
+  // With the solve split over launches a batch step is one launch of it, and a system's step
+  // may take several.
+  const bool split = scan.solver.sweeps_per_launch > 0;
+  if (split)
+    std::fprintf(stderr,
+                 "  (a step here is the batch's: one launch of the solve, at most %d "
+                 "sweeps of each system)\n",
+                 scan.solver.sweeps_per_launch);
   for (const auto& st : stages) {
     const double per_step = st.steps > 0 ? 1.0 / static_cast<double>(st.steps) : 0.0;
     std::fprintf(stderr, "  %-22s %10.3f s  %5.1f %%  %8.2f launches  %8.2f copies\n",
