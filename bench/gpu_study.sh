@@ -24,7 +24,8 @@
 #
 # Writes OUT/study.log (the machine, the progress), OUT/runs.jsonl (bench/gpu_runs.sh's lines,
 # each with "where" and "variant"), OUT/timing.txt (each run's --timing), OUT/tests_tests.txt and
-# OUT/tests_failed_tails.txt (bench/gpu_tests.sh's results: five files in all). Binaries built
+# OUT/tests_failed_tails.txt (bench/gpu_tests.sh's results) and OUT/summary.md (the tables,
+# bench/gpu_summary.py): six files in all. Binaries built
 # on another machine run with their shared libraries beside them (bench/gpu_bundle.sh gathers
 # both).
 set -uo pipefail
@@ -110,3 +111,6 @@ if [ -n "${TESTS:-}" ]; then
 fi
 log "done"
 cut -c1-240 "$out/runs.jsonl"
+if command -v python3 >/dev/null; then  # the tables of docs/PERFORMANCE.md
+  python3 "$here/gpu_summary.py" "$out/runs.jsonl" | tee "$out/summary.md"
+fi
