@@ -52,6 +52,23 @@ grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimat
 [ ! -e "$dir/good.h5" ] || fail "--dry-run wrote a file"
 # Kokkos's own options pass through.
 "$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --kokkos-num-threads=1
+# --timing: every stage of the step, then the solve's balance. With the team solver's solve split
+# over launches of at most 4 sweeps, the first line says so, the slowest system sweeps at most 4
+# times a launch, and fewer system steps end in a launch than systems take part in it.
+printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[solver]\nkind = "%s"\n%s\n%s\n' \
+  coloured_accelerated_gauss_seidel "sweeps_per_launch = 4" "[observables]
+lower_half_from = 1" > "$dir/split.toml"
+msg=$("$exe" run "$dir/split.toml" -o "$dir/split.h5" --timing 2>&1) || fail "split solve: $msg"
+echo "$msg" | grep -q "coloured_accelerated_gauss_seidel (at most 4 sweeps a launch)" ||
+  fail "the first line does not name the split: $msg"
+for stage in margin grid free_velocity contacts solve integrate status; do
+  echo "$msg" | grep -qE "^  $stage +[0-9.]+ s" || fail "--timing lists no stage $stage: $msg"
+done
+read -r systems slowest ended < <(echo "$msg" | awk '$1 == "solve:" && $3 == "systems" { n = $2 }
+  $1 == "solve:" && $3 == "sweeps" { w = $2 } $1 == "solve:" && $4 == "steps" { e = $2 }
+  END { print n + 0, w + 0, e + 0 }')
+awk -v n="$systems" -v w="$slowest" -v e="$ended" 'BEGIN { exit !(w > 0 && w <= 4 && e > 0 && e < n) }' ||
+  fail "split solve's balance: $systems systems, $slowest sweeps, $ended ended a launch: $msg"
 # An existing result file is refused before any work, and replaced with --force.
 cp "$dir/good.h5" "$dir/kept.h5"
 set +e
