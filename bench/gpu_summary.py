@@ -20,16 +20,12 @@ def load(path):
 
 
 def observable(run):
-    """The summary's main observable: (name, value, error), or None for a stopped run."""
-    for name in ("nu_lower_half",):
-        if name in run:
-            value, error = run[name]
-            return name, value, error
-    return None
+    """The summary's main observable, nu_lower_half: (value, error), or None for a stopped run."""
+    return tuple(run["nu_lower_half"]) if "nu_lower_half" in run else None
 
 
 def sigma(a, b):
-    (_, va, ea), (_, vb, eb) = a, b
+    (va, ea), (vb, eb) = a, b
     combined = math.hypot(ea, eb)
     return abs(va - vb) / combined if combined > 0 else float("nan")
 
@@ -60,8 +56,8 @@ def ratio_table(runs):
                 r["per_member_s"],
                 "{:.4f}".format(h["per_member_s"]) if h else "-",
                 "{:.1f}".format(worth) if worth else "-",
-                "{:.4f} +- {:.4f}".format(obs_d[1], obs_d[2]) if obs_d else "-",
-                "{:.4f} +- {:.4f}".format(obs_h[1], obs_h[2]) if obs_h else "-",
+                "{:.4f} +- {:.4f}".format(*obs_d) if obs_d else "-",
+                "{:.4f} +- {:.4f}".format(*obs_h) if obs_h else "-",
                 "{:.1f} sigma".format(sigma(obs_d, obs_h)) if obs_d and obs_h else "-",
             )
         )

@@ -436,7 +436,8 @@ void Batch::Impl::contact_stage() {
   std::swap(con.pn, con.prev_pn);
   std::swap(con.pt, con.prev_pt);
   std::swap(con.pm, con.prev_pm);
-  if (any_solving)  // their step's contacts and impulses back where the solve goes on from them
+  // The systems inside a step take their contacts and impulses back, where their solve goes on.
+  if (std::any_of(status.begin(), status.end(), [](const SystemStatus& st) { return st.mid_step; }))
     Kokkos::parallel_for("keep_solving", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
                          KeepSolvingContacts{sys, part, con});
   // Chunk by chunk of active systems (they share nothing; see chunk_active).
@@ -522,7 +523,6 @@ void Batch::Impl::status_stage() {
   const auto whole = [&](int s, StatusField f) { return static_cast<int>(field(s, f)); };
   bool deactivate = false;
   ++batch_steps;
-  any_solving = false;
   Balance balance;
   for (int s = 0; s < n_systems; ++s) {
     auto& st = status[static_cast<std::size_t>(s)];
@@ -535,7 +535,6 @@ void Batch::Impl::status_stage() {
     st.mid_step = whole(s, kSolving) != 0;
     if (st.mid_step) {  // nothing else of the step is done yet
       earlier = step_sweeps;
-      any_solving = true;
       continue;
     }
     ++balance.finished;

@@ -95,9 +95,8 @@ struct Batch::Impl {
   // warm start while it waits and its results never depend on what the rest of the batch did.
   long batch_steps = 0;
   std::vector<long> last_stepped;
-  // The team solver with sweeps_per_launch: whether a system's step goes on in the next launch
-  // (SystemStatus::mid_step), and each such system's sweeps of its step so far.
-  bool any_solving = false;
+  // The team solver with sweeps_per_launch: the sweeps so far of each system whose step goes on
+  // in the next launch (SystemStatus::mid_step).
   std::vector<int> sweeps_before;
   // One launch of the solve: the systems in it, their sweeps in it and the most any made; the
   // steps that ended in it.
