@@ -8,11 +8,15 @@
 
 namespace loosepack {
 
+// A particle of a system stepped now (one with a cell) first keeps its last contacts and
+// impulses in the prev_ views, then builds its new ones; every other particle's contacts stay
+// where they are: a system that sits out steps keeps its warm start, and a system inside a step
+// (no cells; sys.solving) keeps the contacts and impulses its solve goes on with.
 // Reads: sys.{time_step, cohesion_range, margin, radius, cohesive_force, floor_cohesion,
 // grid_nx, grid_ny, cell_offset, width}; part.{cell, system, x, y, radius}; grid;
-// con.{prev_partner, prev_pn, prev_pt, prev_pm}.
-// Writes: con.{partner, nx, ny, gap, rc, lower, pn, pt, pm}; part.{incident, n_incident} (its
-// own slots); sys.failure (kContactOverflow).
+// con.{partner, pn, pt, pm} (its own slots, into prev_).
+// Writes: con.{prev_partner, prev_pn, prev_pt, prev_pm, partner, nx, ny, gap, rc, lower, pn, pt,
+// pm}; part.{incident, n_incident} (its own slots); sys.failure (kContactOverflow).
 struct ContactBuild {
   SystemViews sys;
   ParticleViews part;
@@ -69,8 +73,21 @@ struct ContactBuild {
     if (gap < far_gap) write(p, far, partner, nx, ny, gap, rc, lower);
   }
 
+  // The last step's contacts of p, up to its first empty slot (where `write` stops looking).
+  KOKKOS_INLINE_FUNCTION void keep_last(int p) const {
+    for (int q = 0; q < kSlots; ++q) {
+      const int c = p * kSlots + q;
+      con.prev_partner(c) = con.partner(c);
+      if (con.partner(c) == kNoContact) return;
+      con.prev_pn(c) = con.pn(c);
+      con.prev_pt(c) = con.pt(c);
+      con.prev_pm(c) = con.pm(c);
+    }
+  }
+
   KOKKOS_INLINE_FUNCTION void operator()(int p) const {
-    if (part.cell(p) < 0) return;  // inactive system or empty slot: keep what it had
+    if (part.cell(p) < 0) return;  // not stepped now, or an empty slot: keep what it had
+    keep_last(p);
     const int s = part.system(p);
     int k = 0;
     {
@@ -189,25 +206,6 @@ struct ContactMobilityBuild {
     con.wa(c) = w.a;
     con.wb(c) = w.b;
     con.wc(c) = w.c;
-  }
-};
-
-// The contact buffers swap every step (the last step's contacts warm-start the new ones); a
-// system inside a step whose solve goes on (sys.solving) takes its contacts and impulses back
-// from the buffer they were swapped into, and builds none.
-// Reads: sys.solving; part.system; con.{prev_partner, prev_pn, prev_pt, prev_pm}.
-// Writes: con.{partner, pn, pt, pm} of those systems.
-struct KeepSolvingContacts {
-  SystemViews sys;
-  ParticleViews part;
-  ContactViews con;
-
-  KOKKOS_INLINE_FUNCTION void operator()(int c) const {
-    if (!sys.solving(part.system(c / kSlots))) return;
-    con.partner(c) = con.prev_partner(c);
-    con.pn(c) = con.prev_pn(c);
-    con.pt(c) = con.prev_pt(c);
-    con.pm(c) = con.prev_pm(c);
   }
 };
 

@@ -429,17 +429,8 @@ void Batch::Impl::margin_stage() {
 }
 
 // Contacts, warm-started from the previous step's impulses, then the velocities those impulses
-// give. Systems not stepped now keep theirs untouched in one of the two buffers (see
-// restore_warm_start).
+// give. Systems not stepped now, and systems inside a step, keep theirs untouched (ContactBuild).
 void Batch::Impl::contact_stage() {
-  std::swap(con.partner, con.prev_partner);
-  std::swap(con.pn, con.prev_pn);
-  std::swap(con.pt, con.prev_pt);
-  std::swap(con.pm, con.prev_pm);
-  // The systems inside a step take their contacts and impulses back, where their solve goes on.
-  if (std::any_of(status.begin(), status.end(), [](const SystemStatus& st) { return st.mid_step; }))
-    Kokkos::parallel_for("keep_solving", Kokkos::RangePolicy<ExecSpace>(0, n_particles * kSlots),
-                         KeepSolvingContacts{sys, part, con});
   // Chunk by chunk of active systems (they share nothing; see chunk_active).
   chunk_active();
   const bool split_mass = solver.kind == SolverKind::Jacobi && solver.mass_splitting;
@@ -522,12 +513,10 @@ void Batch::Impl::status_stage() {
   const auto field = [&](int s, StatusField f) { return host_report(s * kStatusFields + f); };
   const auto whole = [&](int s, StatusField f) { return static_cast<int>(field(s, f)); };
   bool deactivate = false;
-  ++batch_steps;
   Balance balance;
   for (int s = 0; s < n_systems; ++s) {
     auto& st = status[static_cast<std::size_t>(s)];
     if (!st.active) continue;
-    last_stepped[static_cast<std::size_t>(s)] = batch_steps;
     // This launch's sweeps: the step's so far, less those of earlier launches.
     int& earlier = sweeps_before[static_cast<std::size_t>(s)];
     const int step_sweeps = whole(s, kSweeps);
@@ -634,10 +623,6 @@ void Batch::set_active(int s, bool active) {
     throw std::logic_error("Batch::set_active: system " + std::to_string(s) +
                            " is inside a step (its solve goes on); step until it ends");
   st.active = active;
-  if (active) {
-    impl_->restore_warm_start(s);
-    impl_->last_stepped[static_cast<std::size_t>(s)] = impl_->batch_steps;
-  }
   impl_->upload_status_active();
 }
 

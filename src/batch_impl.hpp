@@ -89,12 +89,6 @@ struct Batch::Impl {
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks
   void chunk_active();
-  // Batch steps taken, and the last one each system took part in. The contact arrays are
-  // swapped every step; a system that sat out an odd number of steps has its own last contacts
-  // in the other buffer, and resumes from them (restore_warm_start), so a system keeps its
-  // warm start while it waits and its results never depend on what the rest of the batch did.
-  long batch_steps = 0;
-  std::vector<long> last_stepped;
   // The team solver with sweeps_per_launch: the sweeps so far of each system whose step goes on
   // in the next launch (SystemStatus::mid_step).
   std::vector<int> sweeps_before;
@@ -128,7 +122,6 @@ struct Batch::Impl {
     stage_timer.reset();
   }
   StageCost& timer(StepStage stage) { return stage_cost[static_cast<std::size_t>(stage)]; }
-  void restore_warm_start(int s);
   // The effects the active systems call for: the solve runs the kernel specialised on them.
   using EffectFlags = Batch::KernelEffects;
   EffectFlags needed_effects() const;

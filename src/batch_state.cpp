@@ -35,7 +35,6 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   const auto S = static_cast<std::size_t>(n_systems);
   params.resize(S);
   status.assign(S, SystemStatus{});
-  last_stepped.assign(S, 0);
   sweeps_before.assign(S, 0);
   for (std::size_t s = 0; s < S; ++s) load(static_cast<int>(s), setups[s]);
 }
@@ -167,8 +166,8 @@ void Batch::Impl::allocate_particles() {
   Kokkos::deep_copy(part.cell, -1);
 }
 
-// The per-contact views: kSlots contact slots per disk slot, in two buffers for the warm start
-// (restore_warm_start), and what the solver kind needs.
+// The per-contact views: kSlots contact slots per disk slot, the last step's partners and
+// impulses beside them for the warm start (ContactBuild), and what the solver kind needs.
 void Batch::Impl::allocate_contacts() {
   const auto NC = static_cast<std::size_t>(n_particles) * kSlots;
   con.partner = alloc<int>("partner", NC);
@@ -297,21 +296,6 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   newton_steps[k] = 0;
   newton_pace[k] = NewtonPace{shortest_newton_wait()};
   newton_factor[k] = std::make_unique<KluFactor>();
-  last_stepped[k] = batch_steps;
-}
-
-void Batch::Impl::restore_warm_start(int s) {
-  const auto k = static_cast<std::size_t>(s);
-  if ((batch_steps - last_stepped[k]) % 2 == 0) return;
-  const int first = offsets[k];
-  const auto slots = std::make_pair(first * kSlots, (first + slot_capacity[k]) * kSlots);
-  auto copy = [&](const auto& to, const auto& from) {
-    Kokkos::deep_copy(Kokkos::subview(to, slots), Kokkos::subview(from, slots));
-  };
-  copy(con.partner, con.prev_partner);
-  copy(con.pn, con.prev_pn);
-  copy(con.pt, con.prev_pt);
-  copy(con.pm, con.prev_pm);
 }
 
 void Batch::Impl::upload_status_active() {
@@ -378,7 +362,6 @@ void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
   Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
   Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
   Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
-  I.last_stepped[k] = I.batch_steps;  // these buffers now hold the system's warm start
 }
 
 std::vector<Disk> Batch::disks(int s) const {
@@ -423,14 +406,9 @@ std::vector<ContactForce> Batch::contacts(int s) const {
   auto getd = [&](const DView<double>& v) {
     return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
   };
-  // Partner and impulse arrays are swapped every batch step: a system that sat out an odd
-  // number of steps since its last one has its contacts in the other buffer. (The geometry
-  // arrays are not swapped; a system that sat out steps keeps its own.)
-  const bool other = (I.batch_steps - I.last_stepped[static_cast<std::size_t>(s)]) % 2 == 1;
-  auto partner = geti(other ? I.con.prev_partner : I.con.partner);
+  auto partner = geti(I.con.partner);
   auto nx = getd(I.con.nx), ny = getd(I.con.ny), gap = getd(I.con.gap);
-  auto pn = getd(other ? I.con.prev_pn : I.con.pn), pt = getd(other ? I.con.prev_pt : I.con.pt),
-       pm = getd(other ? I.con.prev_pm : I.con.pm);
+  auto pn = getd(I.con.pn), pt = getd(I.con.pt), pm = getd(I.con.pm);
   const double h = I.params[static_cast<std::size_t>(s)].time_step;
   std::vector<ContactForce> out;
   for (int c = 0; c < st.count * kSlots; ++c) {
@@ -466,13 +444,9 @@ Batch::SystemState Batch::state(int s) const {
     const auto h = host(from, disk_range);
     to->assign(h.data(), h.data() + count);
   }
-  // The buffers that hold the system's last impulses (see contacts()).
-  const bool other = (I.batch_steps - I.last_stepped[k]) % 2 == 1;
   const auto range = std::make_pair(first * kSlots, (first + count) * kSlots);
-  const auto partner = host(other ? I.con.prev_partner : I.con.partner, range);
-  const auto pn = host(other ? I.con.prev_pn : I.con.pn, range);
-  const auto pt = host(other ? I.con.prev_pt : I.con.pt, range);
-  const auto pm = host(other ? I.con.prev_pm : I.con.pm, range);
+  const auto partner = host(I.con.partner, range);
+  const auto pn = host(I.con.pn, range), pt = host(I.con.pt, range), pm = host(I.con.pm, range);
   const auto nx = host(I.con.nx, range), ny = host(I.con.ny, range), gap = host(I.con.gap, range);
   for (int c = 0; c < count * kSlots; ++c) {
     if (partner(c) == kNoContact) continue;
@@ -560,7 +534,6 @@ void Batch::restore(int s, const SystemState& state) {
   Kokkos::deep_copy(Kokkos::subview(I.con.nx, range), nx);
   Kokkos::deep_copy(Kokkos::subview(I.con.ny, range), ny);
   Kokkos::deep_copy(Kokkos::subview(I.con.gap, range), gap);
-  I.last_stepped[k] = I.batch_steps;
   auto set = [s](const auto& view, auto value) {
     Kokkos::deep_copy(Kokkos::subview(view, s), value);
   };
