@@ -692,9 +692,8 @@ TEST(Guard, PausedSystemKeepsItsContactsAndResumesLikeAlone) {
   const auto a = both.contacts(0), b = alone.contacts(0);
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a[k].normal, b[k].normal);
-  // Resuming continues from its own last impulses (kept in the other buffer after an odd
-  // number of steps): exactly the steps the system alone takes, as a paused system does not
-  // move.
+  // Resuming continues from its own last impulses, untouched while it sat out: exactly the
+  // steps the system alone takes, as a paused system does not move.
   both.set_active(0, true);
   for (int k = 0; k < 4; ++k) {
     both.step();
