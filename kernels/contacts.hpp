@@ -8,15 +8,22 @@
 
 namespace loosepack {
 
-// A particle of a system stepped now (one with a cell) first keeps its last contacts and
-// impulses in the prev_ views, then builds its new ones; every other particle's contacts stay
-// where they are: a system that sits out steps keeps its warm start, and a system inside a step
-// (no cells; sys.solving) keeps the contacts and impulses its solve goes on with.
+// The contacts a disk owned in the last step and their impulses: the warm start of its new ones.
+struct LastContacts {
+  int n = 0;
+  int partner[kSlots];
+  double pn[kSlots], pt[kSlots], pm[kSlots];
+};
+
+// A particle of a system stepped now (one with a cell) reads its last contacts and impulses,
+// then builds its new ones in their place; every other particle's contacts stay where they are:
+// a system that sits out steps keeps its warm start, and a system inside a step (no cells;
+// sys.solving) keeps the contacts and impulses its solve goes on with.
 // Reads: sys.{time_step, cohesion_range, margin, radius, cohesive_force, floor_cohesion,
 // grid_nx, grid_ny, cell_offset, width}; part.{cell, system, x, y, radius}; grid;
-// con.{partner, pn, pt, pm} (its own slots, into prev_).
-// Writes: con.{prev_partner, prev_pn, prev_pt, prev_pm, partner, nx, ny, gap, rc, lower, pn, pt,
-// pm}; part.{incident, n_incident} (its own slots); sys.failure (kContactOverflow).
+// con.{partner, pn, pt, pm} (its own slots).
+// Writes: con.{partner, nx, ny, gap, rc, lower, pn, pt, pm}; part.{incident, n_incident} (its
+// own slots); sys.failure (kContactOverflow).
 struct ContactBuild {
   SystemViews sys;
   ParticleViews part;
@@ -25,8 +32,8 @@ struct ContactBuild {
 
   // Slot k of particle p becomes the pair (p, partner), warm-started with the impulses the same
   // pair carried in the previous step.
-  KOKKOS_INLINE_FUNCTION void write(int p, int k, int partner, double nx, double ny, double gap,
-                                    double rc, double lower) const {
+  KOKKOS_INLINE_FUNCTION void write(const LastContacts& last, int p, int k, int partner, double nx,
+                                    double ny, double gap, double rc, double lower) const {
     const int c = p * kSlots + k;
     con.partner(c) = partner;
     con.nx(c) = nx;
@@ -35,15 +42,13 @@ struct ContactBuild {
     con.rc(c) = rc;
     con.lower(c) = lower;
     double pn = 0.0, pt = 0.0, pm = 0.0;
-    for (int q = 0; q < kSlots; ++q) {
-      const int old = p * kSlots + q;
-      if (con.prev_partner(old) == partner) {
-        pn = con.prev_pn(old);
-        pt = con.prev_pt(old);
-        pm = con.prev_pm(old);
+    for (int q = 0; q < last.n; ++q) {
+      if (last.partner[q] == partner) {
+        pn = last.pn[q];
+        pt = last.pt[q];
+        pm = last.pm[q];
         break;
       }
-      if (con.prev_partner(old) == kNoContact) break;
     }
     con.pn(c) = pn;
     con.pt(c) = pt;
@@ -55,10 +60,11 @@ struct ContactBuild {
   // cohesion range plus the least margin) is only there for the motion margin, which assumes
   // the largest speed in the system, so the furthest is dropped. The system fails only when a
   // pair within `keep` (touching, held by cohesion, or about to be) would be dropped.
-  KOKKOS_INLINE_FUNCTION void add(int p, int& k, int partner, double nx, double ny, double gap,
-                                  double rc, double lower, double keep) const {
+  KOKKOS_INLINE_FUNCTION void add(const LastContacts& last, int p, int& k, int partner, double nx,
+                                  double ny, double gap, double rc, double lower,
+                                  double keep) const {
     if (k < kSlots) {
-      write(p, k, partner, nx, ny, gap, rc, lower);
+      write(last, p, k, partner, nx, ny, gap, rc, lower);
       ++k;
       return;
     }
@@ -70,24 +76,26 @@ struct ContactBuild {
       Kokkos::atomic_exchange(&sys.failure(part.system(p)), int(kContactOverflow));
       return;
     }
-    if (gap < far_gap) write(p, far, partner, nx, ny, gap, rc, lower);
+    if (gap < far_gap) write(last, p, far, partner, nx, ny, gap, rc, lower);
   }
 
-  // The last step's contacts of p, up to its first empty slot (where `write` stops looking).
-  KOKKOS_INLINE_FUNCTION void keep_last(int p) const {
-    for (int q = 0; q < kSlots; ++q) {
-      const int c = p * kSlots + q;
-      con.prev_partner(c) = con.partner(c);
-      if (con.partner(c) == kNoContact) return;
-      con.prev_pn(c) = con.pn(c);
-      con.prev_pt(c) = con.pt(c);
-      con.prev_pm(c) = con.pm(c);
+  // The last step's contacts of p, up to its first empty slot.
+  KOKKOS_INLINE_FUNCTION LastContacts last_contacts(int p) const {
+    LastContacts last;
+    for (; last.n < kSlots; ++last.n) {
+      const int c = p * kSlots + last.n;
+      if (con.partner(c) == kNoContact) break;
+      last.partner[last.n] = con.partner(c);
+      last.pn[last.n] = con.pn(c);
+      last.pt[last.n] = con.pt(c);
+      last.pm[last.n] = con.pm(c);
     }
+    return last;
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(int p) const {
     if (part.cell(p) < 0) return;  // not stepped now, or an empty slot: keep what it had
-    keep_last(p);
+    const LastContacts last = last_contacts(p);
     const int s = part.system(p);
     int k = 0;
     {
@@ -102,7 +110,7 @@ struct ContactBuild {
       if (floor_gap < reach) {
         const double lower =
             (sys.floor_cohesion(s) && floor_gap < dc && fc_impulse > 0.0) ? -fc_impulse : 0.0;
-        add(p, k, kFloor, 0.0, -1.0, floor_gap, rp, lower, keep);
+        add(last, p, k, kFloor, 0.0, -1.0, floor_gap, rp, lower, keep);
       }
       const int nx = sys.grid_nx(s), ny = sys.grid_ny(s);
       const int c0 = part.cell(p) - sys.cell_offset(s);
@@ -128,7 +136,7 @@ struct ContactBuild {
             // Exactly coincident centres have no line of centres: push along +y by convention.
             const double nxv = d > 0.0 ? dx * inv_d : 0.0;
             const double nyv = d > 0.0 ? dy * inv_d : 1.0;
-            add(p, k, q, nxv, nyv, gap, kmath::min(rp, rq), lower, keep);
+            add(last, p, k, q, nxv, nyv, gap, kmath::min(rp, rq), lower, keep);
           }
         }
       }

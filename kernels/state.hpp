@@ -117,9 +117,6 @@ struct ContactViews {
   DView<double> lower;           // -h F_c for a cohesive contact, else 0
   DView<double> pn, pt, pm;      // impulses: normal, tangential, rolling moment
   DView<int> colour;             // Gauss-Seidel colour, -1 when uncoloured
-  // [P*kSlots] previous step, for warm starting
-  DView<int> prev_partner;
-  DView<double> prev_pn, prev_pt, prev_pm;
   // [P*kSlots] accelerated Gauss-Seidel (NNCG): the impulses at the start of the iteration and
   // the conjugate direction
   DView<double> start_pn, start_pt, start_pm;

@@ -166,14 +166,11 @@ void Batch::Impl::allocate_particles() {
   Kokkos::deep_copy(part.cell, -1);
 }
 
-// The per-contact views: kSlots contact slots per disk slot, the last step's partners and
-// impulses beside them for the warm start (ContactBuild), and what the solver kind needs.
+// The per-contact views: kSlots contact slots per disk slot, and what the solver kind needs.
 void Batch::Impl::allocate_contacts() {
   const auto NC = static_cast<std::size_t>(n_particles) * kSlots;
   con.partner = alloc<int>("partner", NC);
-  con.prev_partner = alloc<int>("prev_partner", NC);
   Kokkos::deep_copy(con.partner, kNoContact);
-  Kokkos::deep_copy(con.prev_partner, kNoContact);
   con.nx = alloc<double>("cnx", NC);
   con.ny = alloc<double>("cny", NC);
   con.gap = alloc<double>("gap", NC);
@@ -186,9 +183,6 @@ void Batch::Impl::allocate_contacts() {
   con.pn = alloc<double>("pn", NC);
   con.pt = alloc<double>("pt", NC);
   con.pm = alloc<double>("pm", NC);
-  con.prev_pn = alloc<double>("prev_pn", NC);
-  con.prev_pt = alloc<double>("prev_pt", NC);
-  con.prev_pm = alloc<double>("prev_pm", NC);
   con.colour = alloc<int>("colour", NC);
   if (solver.kind == SolverKind::AcceleratedGaussSeidel ||
       solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {
@@ -287,7 +281,6 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   set(sys.max_speed, speed);
   const auto slots = std::make_pair(first * kSlots, (first + cap) * kSlots);
   Kokkos::deep_copy(Kokkos::subview(con.partner, slots), kNoContact);
-  Kokkos::deep_copy(Kokkos::subview(con.prev_partner, slots), kNoContact);
   Kokkos::deep_copy(Kokkos::subview(part.cell, range), -1);
 
   status[k] = SystemStatus{};
