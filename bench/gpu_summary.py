@@ -95,18 +95,24 @@ def stage_table(runs):
     with_stages = [r for r in runs if r.get("where") == "device" and r.get("stages") and r.get("steps")]
     if not with_stages:
         return []
+    # "scheduler" (what the run's loop does between the steps) is no stage of the step: it
+    # follows "the step".
     names = []
     for r in with_stages:
         for name in r["stages"]:
-            if name not in names:
+            if name not in names and name != "scheduler":
                 names.append(name)
+    tail = ["the step"]
+    if any("scheduler" in r["stages"] for r in with_stages):
+        tail.append("scheduler")
     head = ["{} {}".format(r["scene"], r.get("variant", "")) for r in with_stages]
     lines = ["| stage, ms per step | " + " | ".join(head) + " |", "|---|" + "---|" * len(head)]
-    for name in names + ["the step"]:
+    for name in names + tail:
         cells = []
         for r in with_stages:
             if name == "the step":
-                seconds = sum(v[0] if isinstance(v, list) else v for v in r["stages"].values())
+                seconds = sum(v[0] if isinstance(v, list) else v
+                              for k, v in r["stages"].items() if k != "scheduler")
             elif name in r["stages"]:
                 v = r["stages"][name]
                 seconds = v[0] if isinstance(v, list) else v

@@ -29,13 +29,14 @@ OUT=$(cd "$OUT" && pwd)
   awk '/^[^ ]/ {s=$1} /^  / {print s $1}' >"$OUT/list.txt"
 [ -s "$OUT/list.txt" ] || { echo "gpu_tests.sh: $binary lists no tests (see $OUT/list.err)" >&2; exit 1; }
 one() {
-  local t0 rc
+  local t0 rc log
+  log="$OUT/log_${1//\//_}"  # a parametrised test's name holds '/'
   t0=$(date +%s.%N)
-  timeout "$limit" "$binary" --gtest_filter="$1" >"$OUT/log_$1.txt" 2>&1
+  timeout "$limit" "$binary" --gtest_filter="$1" >"$log.txt" 2>&1
   rc=$?
   echo "$1 $rc $(awk -v a="$t0" -v b="$(date +%s.%N)" 'BEGIN { printf "%.2f", b - a }')"
-  [ $rc -eq 0 ] || tail -c 3000 "$OUT/log_$1.txt" >"$OUT/log_$1.tail"
-  rm -f "$OUT/log_$1.txt"
+  [ $rc -eq 0 ] || tail -c 3000 "$log.txt" >"$log.tail"
+  rm -f "$log.txt"
 }
 export -f one
 export binary limit OUT

@@ -367,6 +367,7 @@ const char* stage_name(StepStage stage) {
 void Batch::Impl::step() {
   if (std::none_of(status.begin(), status.end(), [](const SystemStatus& st) { return st.active; }))
     return;
+  if (active_stale) upload_status_active();
   if (timing) {
     ExecSpace().fence();
     stage_timer.reset();
@@ -554,7 +555,7 @@ void Batch::Impl::status_stage() {
     cost.slowest_sweeps += balance.systems * balance.slowest;
     cost.launch_sweeps += balance.slowest;
   }
-  if (deactivate) upload_status_active();
+  active_stale = active_stale || deactivate;
 }
 
 Batch::Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver,
@@ -623,7 +624,7 @@ void Batch::set_active(int s, bool active) {
     throw std::logic_error("Batch::set_active: system " + std::to_string(s) +
                            " is inside a step (its solve goes on); step until it ends");
   st.active = active;
-  impl_->upload_status_active();
+  impl_->active_stale = true;
 }
 
 void Batch::set_gravity(int s, bool on) {
@@ -702,7 +703,7 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
       st.at_rest = false;
     }
   }
-  if (deactivate) I.upload_status_active();
+  I.active_stale = I.active_stale || deactivate;
   return out;
 }
 

@@ -294,6 +294,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
 void Batch::Impl::upload_status_active() {
   fill_from(sys.active, static_cast<std::size_t>(n_systems),
             [&](std::size_t s) { return status[s].active ? 1 : 0; });
+  active_stale = false;
 }
 
 void Batch::reset(int s, const SystemSetup& setup) {
@@ -537,7 +538,7 @@ void Batch::restore(int s, const SystemState& state) {
   I.status[k] = state.status;
   I.newton_steps[k] = state.status.newton_steps;
   set_solver_pace(s, state.pace);
-  I.upload_status_active();
+  I.active_stale = true;
 }
 
 double Batch::max_overlap(int s) const {

@@ -64,6 +64,7 @@ class MemberRun {
   bool take_snapshots(bool stopping, bool last_chance);
   MemberSnapshot snapshot(std::size_t k) const;
   void report();
+  void collect_stage_costs(double loop_seconds, long launches, long copies) const;
   Mask mask_of(Phase phase, bool* any) const;
   bool any_dynamic() const;
   bool any_busy() const;

@@ -10,6 +10,7 @@
 #include "fault_injection.hpp"
 #include "loosepack/geometry.hpp"
 #include "member_run.hpp"
+#include "src/launch_count.hpp"
 
 namespace loosepack {
 
@@ -39,9 +40,14 @@ SolverKind default_solver_kind() {
                    : SolverKind::AcceleratedGaussSeidel;
 }
 
+int default_sweeps_per_launch() { return kOnDevice ? 8 : 0; }
+
 void resolve_backend_defaults(Scan& scan) {
   if (scan.batch_size == 0) scan.batch_size = default_batch_size();
   if (!scan.solver_kind_given) scan.solver.kind = default_solver_kind();
+  if (!scan.sweeps_per_launch_given &&
+      scan.solver.kind == SolverKind::ColouredAcceleratedGaussSeidel)
+    scan.solver.sweeps_per_launch = default_sweeps_per_launch();
 }
 
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
@@ -124,6 +130,8 @@ void MemberRun::make_regions() {
 
 std::vector<MemberResult> MemberRun::run() {
   for (std::size_t k = 0; k < n_slots_; ++k) begin(k);
+  Kokkos::Timer loop_timer;  // with timing: the scheduler's share of the loop (collect_stage_costs)
+  const LaunchCounts at_start = launch_counts();
   for (;;) {
     // Every member goes on from here after a snapshot: one inside a step (its solve going on
     // over launches) gives its snapshot once the step ends.
@@ -135,17 +143,40 @@ std::vector<MemberResult> MemberRun::run() {
     if (any_dynamic()) advance_dynamics();
   }
   if (hooks_.stage_costs) {
-    *hooks_.stage_costs = batch_->stage_costs();
-    if (regions_)
-      for (StageCost cost : regions_->stage_costs()) {
-        cost.name = "region " + cost.name;
-        hooks_.stage_costs->push_back(std::move(cost));
-      }
+    Kokkos::fence();
+    const LaunchCounts now = launch_counts();
+    collect_stage_costs(loop_timer.seconds(), now.launches - at_start.launches,
+                        now.copies - at_start.copies);
   }
   std::vector<MemberResult> finished;
   for (std::size_t k = 0; k < results_.size(); ++k)
     if (done_[k]) finished.push_back(std::move(results_[k]));
   return finished;
+}
+
+// With timing: the stages of the batch's steps, the regions' ("region ..."), then "scheduler",
+// what the loop did between the steps (deposits, events, phase changes, progress, snapshots): the
+// loop's seconds, launches and copies less the stages', over the batch's steps.
+void MemberRun::collect_stage_costs(double loop_seconds, long launches, long copies) const {
+  auto& costs = *hooks_.stage_costs;
+  costs = batch_->stage_costs();
+  if (regions_)
+    for (StageCost cost : regions_->stage_costs()) {
+      cost.name = "region " + cost.name;
+      costs.push_back(std::move(cost));
+    }
+  StageCost between;
+  between.name = "scheduler";
+  between.steps = costs.empty() ? 0 : costs.front().steps;
+  between.seconds = loop_seconds;
+  between.launches = launches;
+  between.copies = copies;
+  for (const auto& cost : costs) {
+    between.seconds -= cost.seconds;
+    between.launches -= cost.launches;
+    between.copies -= cost.copies;
+  }
+  costs.push_back(std::move(between));
 }
 
 // Puts the next member into slot k (from its snapshot where it has one), or empties the slot.

@@ -72,8 +72,15 @@ std::vector<SettingKey> make_table() {
        "coloured_accelerated_gauss_seidel: threads per system (0: the backend's choice)",
        "solver_team_size", LOOSEPACK_FIELD(solver.team_size), nullptr, nullptr},
       {"solver", "sweeps_per_launch", Type::Integer, 0, 1e8, "sweeps",
-       "coloured_accelerated_gauss_seidel: sweeps per launch of the solve (0: the whole solve)",
-       "solver_sweeps_per_launch", LOOSEPACK_FIELD(solver.sweeps_per_launch), nullptr, nullptr},
+       "coloured_accelerated_gauss_seidel: sweeps per launch of the solve (0: the whole solve; "
+       "unset: the backend's)",
+       "solver_sweeps_per_launch",
+       [](const Scan& s) { return static_cast<double>(s.solver.sweeps_per_launch); },
+       [](Scan& s, double v) {
+         s.solver.sweeps_per_launch = static_cast<int>(v);
+         s.sweeps_per_launch_given = true;
+       },
+       nullptr, nullptr, nullptr, nullptr, nullptr},
       {"solver", "overlap_correction", Type::Real, 0.0, 1.0, "",
        "beta: fraction of every overlap removed per step", "solver_overlap_correction",
        LOOSEPACK_FIELD(solver.overlap_correction), nullptr, nullptr},

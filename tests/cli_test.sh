@@ -61,7 +61,7 @@ lower_half_from = 1" > "$dir/split.toml"
 msg=$("$exe" run "$dir/split.toml" -o "$dir/split.h5" --timing 2>&1) || fail "split solve: $msg"
 echo "$msg" | grep -q "coloured_accelerated_gauss_seidel (at most 4 sweeps a launch)" ||
   fail "the first line does not name the split: $msg"
-for stage in margin grid free_velocity contacts solve integrate status; do
+for stage in margin grid free_velocity contacts solve integrate status scheduler; do
   echo "$msg" | grep -qE "^  $stage +[0-9.]+ s" || fail "--timing lists no stage $stage: $msg"
 done
 read -r systems slowest ended < <(echo "$msg" | awk '$1 == "solve:" && $3 == "systems" { n = $2 }

@@ -12,6 +12,7 @@
 
 #include "loosepack/batch.hpp"
 #include "loosepack/scenes.hpp"
+#include "src/launch_count.hpp"
 
 using namespace loosepack;
 using namespace loosepack::scenes;
@@ -191,8 +192,9 @@ TEST(Batch, TeamSizeIsLoweredToTheBackendsLargestTeam) {
                                  Kokkos::DefaultExecutionSpace::memory_space>::accessible;
   for (const auto& cost : batch.stage_costs())
     if (cost.name == "solve") {
-      if (host)
+      if (host) {
         EXPECT_EQ(cost.team_size, std::min(1024, Kokkos::DefaultExecutionSpace().concurrency()));
+      }
       EXPECT_GE(cost.team_size, 1);
       EXPECT_LE(cost.team_size, 1024);
       EXPECT_EQ(batch.status(0).failure, Failure::None);
@@ -275,4 +277,36 @@ TEST(Batch, KernelFollowsTheActiveSystems) {
   both.reset(0, setup(next, column(6, 10.0)));
   effects = both.kernel_effects();
   EXPECT_FALSE(effects.cohesion || effects.friction || effects.rolling);
+}
+
+// The scheduler moves systems in and out of the step between two steps: the device learns the
+// active flags once, before the next step, however many changed (a copy each would cost a
+// device about 30 s of a 4 096-member run: docs/PERFORMANCE.md), and the step moves exactly the
+// systems active then.
+TEST(Batch, ActiveFlagsReachTheDeviceOnceBeforeTheNextStep) {
+  auto falling = column(3, 10.0);
+  for (auto& d : falling) d.y += 1.0;  // every step moves every active system
+  std::vector<SystemSetup> setups;
+  for (int s = 0; s < 6; ++s) setups.push_back(setup(cohesive_params(), falling));
+  Batch batch(setups);
+  batch.set_timing(true);  // counts launches and copies (src/launch_count.hpp)
+  batch.step();
+  const LaunchCounts before = launch_counts();
+  for (int s = 0; s < 6; ++s) batch.set_active(s, false);
+  for (int s : {1, 4}) batch.set_active(s, true);
+  EXPECT_EQ(launch_counts().copies, before.copies);  // nothing copied yet
+  std::vector<std::vector<Disk>> was;
+  for (int s = 0; s < 6; ++s) was.push_back(batch.disks(s));
+  const LaunchCounts at_step = launch_counts();
+  long stage_copies = 0;
+  for (const auto& cost : batch.stage_costs()) stage_copies -= cost.copies;
+  batch.step();
+  for (const auto& cost : batch.stage_costs()) stage_copies += cost.copies;
+  EXPECT_EQ(launch_counts().copies - at_step.copies - stage_copies, 1);  // the flags, once
+  for (int s = 0; s < 6; ++s) {
+    const bool active = s == 1 || s == 4;
+    EXPECT_EQ(batch.status(s).active, active) << "system " << s;
+    EXPECT_EQ(batch.disks(s)[2].y != was[static_cast<std::size_t>(s)][2].y, active)
+        << "system " << s;
+  }
 }

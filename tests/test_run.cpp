@@ -71,6 +71,7 @@ height = 12.0
 bond_number = 50
 [solver]
 kind = "coloured_accelerated_gauss_seidel"
+sweeps_per_launch = 0
 [protocol]
 region_radius = 6.0
 [observables]
@@ -251,14 +252,16 @@ lower_half_from = 2.0
 
 // What a scan leaves to the backend is filled in by the backend: on a host backend (the build
 // the suite runs on) one thread per system, and 4 or 64 systems per batch; a file's own choices
-// stay. (On a device the defaults are the team solver and 4 096: docs/PERFORMANCE.md.)
+// stay. (On a device the defaults are the team solver, 4 096 and 8 sweeps a launch:
+// docs/PERFORMANCE.md.)
 TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
   Scan open = scan_of("[scan]\nname = \"open\"\n");
   resolve_backend_defaults(open);
   EXPECT_EQ(open.solver.kind, default_solver_kind());
   EXPECT_EQ(open.batch_size, default_batch_size());
-  // docs/PERFORMANCE.md's defaults: a device (memory the host cannot read) gets the team solver
-  // and batches of 4 096; host threads batches of 64, one thread 4.
+  // docs/PERFORMANCE.md's defaults: a device (memory the host cannot read) gets the team solver,
+  // batches of 4 096 and its solve split into launches of 8 sweeps; host threads batches of 64,
+  // one thread 4, and whole solves.
   const bool device =
       !Kokkos::SpaceAccessibility<Kokkos::HostSpace,
                                   Kokkos::DefaultExecutionSpace::memory_space>::accessible;
@@ -266,8 +269,23 @@ TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
                                           : SolverKind::AcceleratedGaussSeidel);
   const int threads_batch = Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4;
   EXPECT_EQ(default_batch_size(), device ? 4096 : threads_batch);
+  EXPECT_EQ(default_sweeps_per_launch(), device ? 8 : 0);
+  EXPECT_EQ(open.solver.sweeps_per_launch, device ? 8 : 0);
   Scan set = scan_of("[scan]\nbatch_size = 3\n[solver]\nkind = \"gauss_seidel\"\n");
   resolve_backend_defaults(set);
   EXPECT_EQ(set.solver.kind, SolverKind::GaussSeidel);
   EXPECT_EQ(set.batch_size, 3);
+  EXPECT_EQ(set.solver.sweeps_per_launch, 0);  // only the team solver splits its solve
+  // The team solver chosen without a split takes the backend's; a file's own split stays.
+  Scan team = scan_of("[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\n");
+  resolve_backend_defaults(team);
+  EXPECT_EQ(team.solver.sweeps_per_launch, default_sweeps_per_launch());
+  Scan whole =
+      scan_of("[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 0\n");
+  resolve_backend_defaults(whole);
+  EXPECT_EQ(whole.solver.sweeps_per_launch, 0);
+  Scan split =
+      scan_of("[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 3\n");
+  resolve_backend_defaults(split);
+  EXPECT_EQ(split.solver.sweeps_per_launch, 3);
 }

@@ -114,6 +114,9 @@ struct Scan {
   // [solver] kind set in the file; else the backend's default (resolve_backend_defaults). A
   // Scan built in code that sets solver.kind sets this too.
   bool solver_kind_given = false;
+  // [solver] sweeps_per_launch set in the file; else the backend's default for the team solver
+  // (resolve_backend_defaults). A Scan built in code that sets it sets this too.
+  bool sweeps_per_launch_given = false;
   RestSettings rest;
   ObservableSettings observables;
   ProtocolSettings protocol;
