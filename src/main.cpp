@@ -566,10 +566,10 @@ int RunCommand::write() {
 // The members, point by point, and what the cost model expects them to take; nothing runs.
 int RunCommand::dry_run() const {
   if (!talk) return kOk;
-  // expected_cost is in units of about 0.035 microseconds of one core of the machine it was
+  // expected_cost is in units of about 0.039 microseconds of one core of the machine it was
   // calibrated on (the geometric mean over the recorded protocol-A scenes, src/protocols.cpp):
   // right within a factor of a few.
-  constexpr double kSecondsPerUnit = 3.5e-8;
+  constexpr double kSecondsPerUnit = 3.9e-8;
   std::printf("# scan '%s': %zu points x %d seeds = %zu members%s\n", scan.name.c_str(),
               scan.points.size(), scan.seeds, all_members.size(),
               o.member >= 0 ? " (one member selected)" : "");

@@ -36,12 +36,12 @@ int member_capacity(const SystemParams& p) {
 
 namespace {
 
-// The parts of expected_cost, in units of about 0.035 microseconds of one core of the AMD EPYC
+// The parts of expected_cost, in units of about 0.039 microseconds of one core of the AMD EPYC
 // VM the project is developed on (docs/PERFORMANCE.md, "What a member costs").
 double ballistic_cost(const SystemParams& p) { return p.width * p.height; }
 // Cohesion shortens the relaxation after each deposit, and with it a member's CPU time at the same
 // box and time step: (1 + Bo/4)^-0.7 is the exponent that makes the CPU seconds per unit of the
-// recorded protocol-A scenes most alike (spread 4.6 against 10.7 with the -0.55 of the simulated
+// recorded protocol-A scenes most alike (spread 3.1 against 7.1 with the -0.55 of the simulated
 // time per disk alone; bench/results/cost-relative-2026-11-25.jsonl, docs/PERFORMANCE.md "What a
 // member costs").
 double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_number / 4.0, -0.7); }
@@ -49,13 +49,22 @@ double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_num
 // that grows with the deposit, and the avalanches of a cohesive deposit grow with the height
 // above them, so q grows with the Bond number: from members' progress over time, 2.2-2.6 at
 // Bo <= 10, 2.8-3.2 at Bo = 1e2 and 3.6-5.4 at Bo = 1e3 (docs/PERFORMANCE.md, "What a member
-// costs"). The boxes tau was fitted on were 60 R tall, so the cost is W H^3 tau / h there.
+// costs"). The boxes tau was fitted on were 60 R tall, so the cost is W^2/30 H^3 tau / h there.
 double height_exponent(const SystemParams& p) {
   return 2.5 + 2.0 * p.bond_number / (p.bond_number + 300.0);
 }
+// How the cost grows with the width: W^2. A box twice as wide holds twice the disks, and each of
+// its steps costs twice as much, since a step builds the grid and contacts of the whole deposit:
+// twice as wide cost 3.0x at Bo = 0 (24 R -> 48 R), five times as wide 34x at Bo = 1e3 (40 R ->
+// 200 R, 120 R tall), where W alone says 2x and 5x. 30 R: the middle of the widths tau was
+// fitted on (24 R to 48 R).
+double width_cost(const SystemParams& p) {
+  const double reference_width = 30.0;
+  return p.width * p.width / reference_width;
+}
 double slow_cost(const SystemParams& p) {
   const double reference_height = 60.0;
-  return p.width * std::pow(reference_height, 3.0) *
+  return width_cost(p) * std::pow(reference_height, 3.0) *
          std::pow(p.height / reference_height, height_exponent(p)) * relaxation_time(p) /
          p.time_step;
 }

@@ -265,8 +265,9 @@ Member deposit_member(double bo, double width, double height) {
 // The cost model's shape: at the same box and time step a protocol-A member expects less the
 // larger the Bond number (cohesion shortens each relaxation), and more in a taller or wider
 // box, growing with the height faster at Bo = 1e3 than at Bo = 0 (avalanches grow with the
-// height above them). Its numbers are checked against the recorded measurements it was fitted
-// on, not here: tests/python/test_cost_model.py.
+// height above them) and with the width faster than the number of disks. Its numbers are
+// checked against the recorded measurements it was fitted on, not here:
+// tests/python/test_cost_model.py.
 TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
   double before = std::numeric_limits<double>::infinity();
   for (double bo : {0.0, 1.0, 10.0, 100.0, 1000.0}) {
@@ -276,8 +277,9 @@ TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
   }
   EXPECT_GT(expected_cost(deposit_member(1e3, 40.0, 120.0)),
             expected_cost(deposit_member(1e3, 40.0, 60.0)));
+  // Twice as wide: twice the disks, each step over twice the deposit.
   EXPECT_GT(expected_cost(deposit_member(1e3, 80.0, 60.0)),
-            expected_cost(deposit_member(1e3, 40.0, 60.0)));
+            2.0 * expected_cost(deposit_member(1e3, 40.0, 60.0)));
   const auto taller = [](double bo) {
     return expected_cost(deposit_member(bo, 40.0, 120.0)) /
            expected_cost(deposit_member(bo, 40.0, 60.0));
