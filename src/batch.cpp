@@ -670,17 +670,18 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
   if (mask.size() != S) throw std::invalid_argument("Batch::deposit: mask size");
   if (!x.empty() && x.size() != S) throw std::invalid_argument("Batch::deposit_at: x size");
   // Persistent buffers: no allocation per deposition.
+  auto& host = I.scheduler_host;
   const DView<double> given = x.empty() ? DView<double>() : I.request_x;
-  if (!x.empty()) fill_from(given, S, [&](std::size_t s) { return x[s]; });
-  fill_from(I.request, S, [&](std::size_t s) {
+  if (!x.empty()) fill_from(given, host.request_x, S, [&](std::size_t s) { return x[s]; });
+  fill_from(I.request, host.request, S, [&](std::size_t s) {
     return (mask[s] && I.status[s].failure == Failure::None) ? 1 : 0;
   });
   Kokkos::parallel_for(
       "deposit", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
       DepositKernel{I.sys, I.part, I.request, I.reply, given, rule == DropRule::Capture});
-  auto hr = Kokkos::create_mirror_view(I.reply);
+  const auto hr = host.reply;
+  const auto h_fail = host.failure;
   Kokkos::deep_copy(hr, I.reply);
-  auto h_fail = Kokkos::create_mirror_view(I.sys.failure);
   Kokkos::deep_copy(h_fail, I.sys.failure);
   std::vector<Deposit> out(S);
   bool deactivate = false;
@@ -711,10 +712,10 @@ std::vector<Batch::Avalanche> Batch::close_events(const std::vector<char>& mask,
   auto& I = *impl_;
   const auto S = static_cast<std::size_t>(I.n_systems);
   if (mask.size() != S) throw std::invalid_argument("Batch::close_events: mask size");
-  fill_from(I.request, S, [&](std::size_t s) { return mask[s] ? 1 : 0; });
+  fill_from(I.request, I.scheduler_host.request, S, [&](std::size_t s) { return mask[s] ? 1 : 0; });
   Kokkos::parallel_for("event_measure", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
                        EventMeasure{I.sys, I.part, I.request, I.reply, threshold});
-  auto hr = Kokkos::create_mirror_view(I.reply);
+  const auto hr = I.scheduler_host.reply;
   Kokkos::deep_copy(hr, I.reply);
   std::vector<Avalanche> out(S);
   for (std::size_t s = 0; s < S; ++s) {

@@ -34,11 +34,15 @@ DView<T> alloc(const char* name, std::size_t n) {
   return DView<T>(Kokkos::view_alloc(std::string(name)), n);
 }
 
+// v(k) = f(k) for k < n, filled through the host mirror h (v itself on a host backend).
 template <class T, class F>
-void fill_from(const DView<T>& v, std::size_t n, F f) {
-  auto h = Kokkos::create_mirror_view(v);
+void fill_from(const DView<T>& v, const typename DView<T>::HostMirror& h, std::size_t n, F f) {
   for (std::size_t k = 0; k < n; ++k) h(k) = f(k);
   Kokkos::deep_copy(v, h);
+}
+template <class T, class F>
+void fill_from(const DView<T>& v, std::size_t n, F f) {
+  fill_from(v, Kokkos::create_mirror_view(v), n, f);
 }
 }  // namespace batch_detail
 using batch_detail::alloc;
@@ -85,6 +89,12 @@ struct Batch::Impl {
   DView<int> request;       // [S] per-system requests of deposit and close_events
   DView<double> request_x;  // [S] given abscissae of deposit_at
   DView<double> reply;      // [4 S] their results
+  // Host mirrors of what the scheduler sends and reads between most steps (the requests, their
+  // replies and failures, the active flags), made once rather than at each call.
+  struct SchedulerMirrors {
+    DView<int>::HostMirror request, failure, active;
+    DView<double>::HostMirror request_x, reply;
+  } scheduler_host;
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks

@@ -129,6 +129,9 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   request = alloc<int>("request", S);
   request_x = alloc<double>("request_x", S);
   reply = alloc<double>("reply", 4 * S);
+  scheduler_host = {Kokkos::create_mirror_view(request), Kokkos::create_mirror_view(sys.failure),
+                    Kokkos::create_mirror_view(sys.active), Kokkos::create_mirror_view(request_x),
+                    Kokkos::create_mirror_view(reply)};
   fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
   fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
   fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
@@ -292,7 +295,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
 }
 
 void Batch::Impl::upload_status_active() {
-  fill_from(sys.active, static_cast<std::size_t>(n_systems),
+  fill_from(sys.active, scheduler_host.active, static_cast<std::size_t>(n_systems),
             [&](std::size_t s) { return status[s].active ? 1 : 0; });
   active_stale = false;
 }
