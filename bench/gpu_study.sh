@@ -11,7 +11,8 @@
 #   4. whole runs on the device, all members in one batch, with the cost per stage: one for
 #      each value of solver.sweeps_per_launch in SWEEPS_PER_LAUNCHES (default "0": each step's
 #      whole solve in one launch; K > 0 splits a step's solve over launches of at most K sweeps,
-#      so that a launch does not wait for the slowest system);
+#      so that a launch does not wait for the slowest system); FENCED=0 runs them as a user
+#      does, without --timing's fence after every stage (and without its table);
 #   5. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
 #      of BUDGET_S.
 #
@@ -85,8 +86,10 @@ done
 for sweeps in ${SWEEPS_PER_LAUNCHES:-0}; do
   variant=after  # (the name of the whole runs before sweeps_per_launch existed)
   [ "$sweeps" = 0 ] || variant=sweeps-$sweeps
+  [ "${FENCED:-1}" = 1 ] || variant=$variant-unfenced
   log "whole runs on the device, sweeps_per_launch $sweeps, $members members"
-  SWEEPS_PER_LAUNCH=$sweeps STAGES=1 runs device "$variant" 0 "$device" "$members" "$solver"
+  SWEEPS_PER_LAUNCH=$sweeps STAGES=${FENCED:-1} runs device "$variant" 0 "$device" "$members" \
+    "$solver"
 done
 wait "$host_job"
 log "host reference done"

@@ -45,7 +45,7 @@ int default_sweeps_per_launch() { return kOnDevice ? 8 : 0; }
 void resolve_backend_defaults(Scan& scan) {
   if (scan.batch_size == 0) scan.batch_size = default_batch_size();
   if (!scan.solver_kind_given) scan.solver.kind = default_solver_kind();
-  if (!scan.sweeps_per_launch_given &&
+  if (!scan.sweeps_per_launch_given && scan.solver.sweeps_per_launch == 0 &&
       scan.solver.kind == SolverKind::ColouredAcceleratedGaussSeidel)
     scan.solver.sweeps_per_launch = default_sweeps_per_launch();
 }

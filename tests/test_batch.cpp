@@ -280,9 +280,9 @@ TEST(Batch, KernelFollowsTheActiveSystems) {
 }
 
 // The scheduler moves systems in and out of the step between two steps: the device learns the
-// active flags once, before the next step, however many changed (a copy each would cost a
-// device about 30 s of a 4 096-member run: docs/PERFORMANCE.md), and the step moves exactly the
-// systems active then.
+// active flags once, before the next step, however many changed (a copy at each change was
+// about 25 copies a step for 4 096 members of protocol A: docs/PERFORMANCE.md), and the step
+// moves exactly the systems active then.
 TEST(Batch, ActiveFlagsReachTheDeviceOnceBeforeTheNextStep) {
   auto falling = column(3, 10.0);
   for (auto& d : falling) d.y += 1.0;  // every step moves every active system
