@@ -49,6 +49,10 @@ class MemberRun {
     bool runaway = false;
     Clock::time_point start;
     MemberResult result;
+    // running_cost at the phase and height it was last computed for (running_share).
+    double share = 0.0;
+    Phase share_phase = Phase::Empty;
+    double share_filled = -1.0;
   };
 
   // Construction (src/scheduler.cpp).
@@ -64,6 +68,7 @@ class MemberRun {
   bool take_snapshots(bool stopping, bool last_chance);
   MemberSnapshot snapshot(std::size_t k) const;
   void report();
+  double running_share(Slot& sl) const;
   void collect_stage_costs(double loop_seconds, long launches, long copies) const;
   Mask mask_of(Phase phase, bool* any) const;
   bool any_dynamic() const;

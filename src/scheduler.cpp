@@ -351,8 +351,8 @@ void MemberRun::report() {
   double running = 0.0;
   progress_.collapsing = 0;
   progress_.collapse_steps = 0;
-  for (const auto& sl : slots_) {
-    if (sl.phase != Phase::Empty) running += running_cost(members_[sl.member], sl.phase, sl.filled);
+  for (auto& sl : slots_) {
+    running += running_share(sl);
     if (sl.phase != Phase::Collapse) continue;
     ++progress_.collapsing;
     progress_.collapse_steps = std::max(progress_.collapse_steps, sl.steps);
@@ -361,6 +361,18 @@ void MemberRun::report() {
   if (!reported_) progress_.start_fraction = progress_.fraction;
   reported_ = true;
   hooks_.progress(progress_);
+}
+
+// Slot sl's running_cost, computed again only where its phase or its height changed: report()
+// runs between every two steps over every slot (on a device, thousands), most of them unchanged.
+double MemberRun::running_share(Slot& sl) const {
+  if (sl.phase == Phase::Empty) return 0.0;
+  if (sl.phase != sl.share_phase || sl.filled != sl.share_filled) {
+    sl.share = running_cost(members_[sl.member], sl.phase, sl.filled);
+    sl.share_phase = sl.phase;
+    sl.share_filled = sl.filled;
+  }
+  return sl.share;
 }
 
 MemberRun::Mask MemberRun::mask_of(Phase phase, bool* any) const {
