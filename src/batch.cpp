@@ -367,7 +367,7 @@ const char* stage_name(StepStage stage) {
 void Batch::Impl::step() {
   if (std::none_of(status.begin(), status.end(), [](const SystemStatus& st) { return st.active; }))
     return;
-  if (active_stale) upload_status_active();
+  upload_changed_active();
   if (timing) {
     ExecSpace().fence();
     stage_timer.reset();
@@ -513,7 +513,6 @@ void Batch::Impl::status_stage() {
   Kokkos::deep_copy(host_report, report);
   const auto field = [&](int s, StatusField f) { return host_report(s * kStatusFields + f); };
   const auto whole = [&](int s, StatusField f) { return static_cast<int>(field(s, f)); };
-  bool deactivate = false;
   Balance balance;
   for (int s = 0; s < n_systems; ++s) {
     auto& st = status[static_cast<std::size_t>(s)];
@@ -540,7 +539,6 @@ void Batch::Impl::status_stage() {
     st.failure = static_cast<Failure>(whole(s, kFailure));
     if (st.failure != Failure::None) {
       st.active = false;
-      deactivate = true;
       continue;
     }
     const bool quiet = (st.converged || !rest.converged) && st.rest_speed(rest.spin) < rest.speed;
@@ -555,7 +553,6 @@ void Batch::Impl::status_stage() {
     cost.slowest_sweeps += balance.systems * balance.slowest;
     cost.launch_sweeps += balance.slowest;
   }
-  active_stale = active_stale || deactivate;
 }
 
 Batch::Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver,
@@ -623,8 +620,7 @@ void Batch::set_active(int s, bool active) {
   if (st.mid_step)
     throw std::logic_error("Batch::set_active: system " + std::to_string(s) +
                            " is inside a step (its solve goes on); step until it ends");
-  st.active = active;
-  impl_->active_stale = true;
+  st.active = active;  // the device learns it before the next step
 }
 
 void Batch::set_gravity(int s, bool on) {
@@ -684,13 +680,11 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
   Kokkos::deep_copy(hr, I.reply);
   Kokkos::deep_copy(h_fail, I.sys.failure);
   std::vector<Deposit> out(S);
-  bool deactivate = false;
   for (std::size_t s = 0; s < S; ++s) {
     if (!mask[s]) continue;
     auto& st = I.status[s];
     st.failure = static_cast<Failure>(h_fail(static_cast<int>(s)));
     if (st.failure != Failure::None) {
-      deactivate = deactivate || st.active;
       st.active = false;
       continue;
     }
@@ -704,7 +698,6 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
       st.at_rest = false;
     }
   }
-  I.active_stale = I.active_stale || deactivate;
   return out;
 }
 

@@ -142,10 +142,11 @@ struct Batch::Impl {
   void allocate_particles();
   void allocate_contacts();
   void load(int s, const SystemSetup& setup);
-  // The host's status[s].active, copied to sys.active before the next step reads it (the only
-  // kernels that do): a scheduler that moves many systems in or out between two steps copies once.
-  bool active_stale = false;
+  // The host's status[s].active, copied to sys.active at the start of the next step, whose
+  // kernels are the only ones that read it: a scheduler that moves many systems in or out
+  // between two steps copies once.
   void upload_status_active();
+  void upload_changed_active();
   template <class Fx>
   void solve();
   template <class Fx>

@@ -248,7 +248,6 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   set(sys.max_margin, g.max_margin);
   set(sys.grid_nx, g.nx);
   set(sys.grid_ny, g.ny);
-  set(sys.active, 1);
   set(sys.unconverged, 0);
   set(sys.solving, 0);
   set(sys.failure, int(kOk));
@@ -297,7 +296,14 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
 void Batch::Impl::upload_status_active() {
   fill_from(sys.active, scheduler_host.active, static_cast<std::size_t>(n_systems),
             [&](std::size_t s) { return status[s].active ? 1 : 0; });
-  active_stale = false;
+}
+
+// The flags last copied are in their host mirror: a copy only where one of the host's differs
+// (on a host backend the mirror is sys.active itself, and the copy a no-op).
+void Batch::Impl::upload_changed_active() {
+  for (int s = 0; s < n_systems; ++s)
+    if ((scheduler_host.active(s) != 0) != status[static_cast<std::size_t>(s)].active)
+      return upload_status_active();
 }
 
 void Batch::reset(int s, const SystemSetup& setup) {
@@ -541,7 +547,6 @@ void Batch::restore(int s, const SystemState& state) {
   I.status[k] = state.status;
   I.newton_steps[k] = state.status.newton_steps;
   set_solver_pace(s, state.pace);
-  I.active_stale = true;
 }
 
 double Batch::max_overlap(int s) const {

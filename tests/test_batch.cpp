@@ -309,4 +309,10 @@ TEST(Batch, ActiveFlagsReachTheDeviceOnceBeforeTheNextStep) {
     EXPECT_EQ(batch.disks(s)[2].y != was[static_cast<std::size_t>(s)][2].y, active)
         << "system " << s;
   }
+  // A new member in a slot that sat out, left out of the step before its first: it stays put.
+  batch.reset(0, setup(cohesive_params(), falling));
+  batch.set_active(0, false);
+  batch.step();
+  EXPECT_EQ(batch.disks(0)[2].y, falling[2].y);
+  EXPECT_NE(batch.disks(1)[2].y, was[1][2].y);
 }

@@ -115,7 +115,7 @@ struct Scan {
   // Scan built in code that sets solver.kind sets this too.
   bool solver_kind_given = false;
   // [solver] sweeps_per_launch set in the file; else the backend's default for the team solver
-  // (resolve_backend_defaults). A Scan built in code that sets it sets this too.
+  // (resolve_backend_defaults). A Scan built in code that sets it to 0 sets this too.
   bool sweeps_per_launch_given = false;
   RestSettings rest;
   ObservableSettings observables;
