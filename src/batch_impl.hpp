@@ -16,6 +16,7 @@
 #include "kernels/deposit.hpp"
 #include "kernels/events.hpp"
 #include "kernels/integrate.hpp"
+#include "kernels/load.hpp"
 #include "kernels/solver.hpp"
 #include "loosepack/batch.hpp"
 #include "loosepack/geometry.hpp"
@@ -95,6 +96,14 @@ struct Batch::Impl {
     DView<int>::HostMirror request, failure, active;
     DView<double>::HostMirror request_x, reply;
   } scheduler_host;
+  // load()'s staging: one system's values and disks, gathered on the host (load_host) and
+  // copied in two pieces; sized for the largest slot.
+  DView<SlotLoad> load_system;  // [1]
+  DView<double> load_disks;     // [kSlotDiskFields * largest slot capacity]
+  struct LoadMirrors {
+    DView<SlotLoad>::HostMirror system;
+    DView<double>::HostMirror disks;
+  } load_host;
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks

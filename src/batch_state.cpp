@@ -132,6 +132,10 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   scheduler_host = {Kokkos::create_mirror_view(request), Kokkos::create_mirror_view(sys.failure),
                     Kokkos::create_mirror_view(sys.active), Kokkos::create_mirror_view(request_x),
                     Kokkos::create_mirror_view(reply)};
+  load_system = alloc<SlotLoad>("load_system", 1);
+  const int largest = *std::max_element(slot_capacity.begin(), slot_capacity.end());
+  load_disks = alloc<double>("load_disks", static_cast<std::size_t>(kSlotDiskFields * largest));
+  load_host = {Kokkos::create_mirror_view(load_system), Kokkos::create_mirror_view(load_disks)};
   fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
   fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
   fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
@@ -218,72 +222,63 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
     throw std::invalid_argument("Batch: system needs " + std::to_string(g.nx * g.ny) +
                                 " grid cells, the batch slot has " + std::to_string(slot_cells[k]));
   params[k] = pr;
-  auto set = [s](const auto& view, auto value) {
-    Kokkos::deep_copy(Kokkos::subview(view, s), value);
-  };
-  set(sys.count, count);
-  set(sys.width, pr.width);
-  set(sys.height, pr.height);
-  set(sys.radius, pr.radius);
-  set(sys.polydispersity, pr.polydispersity);
-  set(sys.disk_density, pr.disk_density);
-  set(sys.capture_radius, pr.capture_radius);
-  set(sys.gravity_x, pr.gravity_on ? pr.gravity * pr.gravity_dir_x : 0.0);
-  set(sys.gravity_y, pr.gravity_on ? pr.gravity * pr.gravity_dir_y : 0.0);
-  set(sys.cohesive_force, pr.cohesive_force());
-  set(sys.cohesion_range, pr.cohesion_range);
-  set(sys.friction, pr.friction);
-  set(sys.rolling_friction, pr.rolling_friction);
-  set(sys.time_step, pr.time_step);
+  for (const auto& d : su.disks)
+    if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
+  SlotLoad& v = load_host.system(0);
+  v.count = count;
+  v.width = pr.width;
+  v.height = pr.height;
+  v.radius = pr.radius;
+  v.polydispersity = pr.polydispersity;
+  v.disk_density = pr.disk_density;
+  v.capture_radius = pr.capture_radius;
+  v.gravity_x = pr.gravity_on ? pr.gravity * pr.gravity_dir_x : 0.0;
+  v.gravity_y = pr.gravity_on ? pr.gravity * pr.gravity_dir_y : 0.0;
+  v.cohesive_force = pr.cohesive_force();
+  v.cohesion_range = pr.cohesion_range;
+  v.friction = pr.friction;
+  v.rolling_friction = pr.rolling_friction;
+  v.time_step = pr.time_step;
   const double weight = pr.reference_mass() * pr.gravity;
-  set(sys.weight, weight > 0.0 ? weight : 1.0);
-  set(sys.tolerance, su.tolerance > 0.0 ? su.tolerance : solver.tolerance);
+  v.weight = weight > 0.0 ? weight : 1.0;
+  v.tolerance = su.tolerance > 0.0 ? su.tolerance : solver.tolerance;
   sweep_cap[k] = su.max_sweeps > 0 ? su.max_sweeps : solver.max_sweeps;
-  set(sys.max_sweeps, sweep_cap[k]);
-  set(sys.floor_cohesion, pr.floor_cohesion ? 1 : 0);
-  set(sys.seed, su.seed);
-  set(sys.member, su.member);
-  set(sys.draws, std::uint64_t(0));
-  set(sys.cell_size, g.cell);
-  set(sys.max_margin, g.max_margin);
-  set(sys.grid_nx, g.nx);
-  set(sys.grid_ny, g.ny);
-  set(sys.unconverged, 0);
-  set(sys.solving, 0);
-  set(sys.failure, int(kOk));
+  v.max_sweeps = sweep_cap[k];
+  v.floor_cohesion = pr.floor_cohesion ? 1 : 0;
+  v.seed = su.seed;
+  v.member = su.member;
+  v.cell_size = g.cell;
+  v.max_margin = g.max_margin;
+  v.grid_nx = g.nx;
+  v.grid_ny = g.ny;
+  v.max_speed = 0.0;
+  for (const auto& d : su.disks) v.max_speed = std::max(v.max_speed, loosepack::speed(d));
 
   const int first = offsets[k], cap = slot_capacity[k];
-  const auto range = std::make_pair(first, first + cap);
-  auto upload = [&](const DView<double>& v, auto f) {
-    auto sub = Kokkos::subview(v, range);
-    auto h = Kokkos::create_mirror_view(sub);
-    for (int a = 0; a < cap; ++a) h(a) = a < count ? f(su.disks[static_cast<std::size_t>(a)]) : 0.0;
-    Kokkos::deep_copy(sub, h);
-  };
   const double width = pr.width;
   auto mass = [&](const Disk& d) { return pr.disk_density * M_PI * d.radius * d.radius; };
-  double speed = 0.0;
-  for (const auto& d : su.disks) {
-    if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
-    speed = std::max(speed, loosepack::speed(d));
-  }
-  upload(part.x, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
-  upload(part.y, [](const Disk& d) { return d.y; });
-  upload(part.theta, [](const Disk& d) { return d.theta; });
-  upload(part.vx, [](const Disk& d) { return d.vx; });
-  upload(part.vy, [](const Disk& d) { return d.vy; });
-  upload(part.w, [](const Disk& d) { return d.w; });
-  upload(part.radius, [](const Disk& d) { return d.radius; });
-  upload(part.inv_mass, [&](const Disk& d) { return d.fixed ? 0.0 : 1.0 / mass(d); });
-  upload(part.inv_inertia, [&](const Disk& d) {
+  auto put = [&](SlotDiskField field, auto f) {
+    for (int a = 0; a < cap; ++a)
+      load_host.disks(field * cap + a) = a < count ? f(su.disks[static_cast<std::size_t>(a)]) : 0.0;
+  };
+  put(kLoadX, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
+  put(kLoadY, [](const Disk& d) { return d.y; });
+  put(kLoadTheta, [](const Disk& d) { return d.theta; });
+  put(kLoadVx, [](const Disk& d) { return d.vx; });
+  put(kLoadVy, [](const Disk& d) { return d.vy; });
+  put(kLoadW, [](const Disk& d) { return d.w; });
+  put(kLoadRadius, [](const Disk& d) { return d.radius; });
+  put(kLoadInvMass, [&](const Disk& d) { return d.fixed ? 0.0 : 1.0 / mass(d); });
+  put(kLoadInvInertia, [&](const Disk& d) {
     return (d.fixed || d.lock_rotation) ? 0.0 : 2.0 / (mass(d) * d.radius * d.radius);
   });
-  upload(part.y_deposit, [](const Disk& d) { return d.y_deposit; });
-  upload(part.y_mark, [](const Disk& d) { return d.y; });
-  set(sys.max_speed, speed);
-  const auto slots = std::make_pair(first * kSlots, (first + cap) * kSlots);
-  Kokkos::deep_copy(Kokkos::subview(con.partner, slots), kNoContact);
-  Kokkos::deep_copy(Kokkos::subview(part.cell, range), -1);
+  put(kLoadYDeposit, [](const Disk& d) { return d.y_deposit; });
+  put(kLoadYMark, [](const Disk& d) { return d.y; });
+  Kokkos::deep_copy(load_system, load_host.system);
+  const auto used = std::make_pair(std::size_t{0}, static_cast<std::size_t>(kSlotDiskFields * cap));
+  Kokkos::deep_copy(Kokkos::subview(load_disks, used), Kokkos::subview(load_host.disks, used));
+  Kokkos::parallel_for("load_slot", Kokkos::RangePolicy<ExecSpace>(0, cap * kSlots),
+                       LoadSlot{sys, part, con, load_system, load_disks, s, first, cap});
 
   status[k] = SystemStatus{};
   status[k].active = true;
