@@ -64,8 +64,9 @@ Template& make_template() {
         "[scan]\nseeds = 3\nprotocol = [\"A\", \"C\"]\n[system]\nwidth = 8\nheight = 10\n"
         "bond_number = 100\n[observables]\ntrajectory_every = 2\n",
         "fuzz.toml");
-    loosepack::resolve_backend_defaults(scan);
-    const auto results = loosepack::run_members(scan, loosepack::members_of(scan));
+    const auto members = loosepack::members_of(scan);
+    loosepack::resolve_backend_defaults(scan, members.size());
+    const auto results = loosepack::run_members(scan, members);
     const auto points = loosepack::aggregate(scan, results);
     loosepack::write_results(t.path, scan, {}, points, loosepack::analyse(scan, points), results,
                              true);

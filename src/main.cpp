@@ -193,7 +193,6 @@ int RunCommand::load() {
     return kInvalid;
   }
   if (o.batch_size > 0) scan.batch_size = o.batch_size;
-  resolve_backend_defaults(scan);
   for (const auto& w : scan.warnings) say("warning: " + w);
   if (const std::string why = output_path_problem(o.out_path, o.scan_path); !why.empty()) {
     say(why);
@@ -214,6 +213,7 @@ int RunCommand::load() {
     }
     members = {all_members[static_cast<std::size_t>(o.member)]};
   }
+  resolve_backend_defaults(scan, members.size());
   return 0;
 }
 

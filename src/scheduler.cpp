@@ -40,14 +40,15 @@ SolverKind default_solver_kind() {
                    : SolverKind::AcceleratedGaussSeidel;
 }
 
-int default_sweeps_per_launch() { return kOnDevice ? 8 : 0; }
+int default_sweeps_per_launch(std::size_t systems) { return kOnDevice && systems > 1 ? 8 : 0; }
 
-void resolve_backend_defaults(Scan& scan) {
+void resolve_backend_defaults(Scan& scan, std::size_t members) {
   if (scan.batch_size == 0) scan.batch_size = default_batch_size();
   if (!scan.solver_kind_given) scan.solver.kind = default_solver_kind();
   if (!scan.sweeps_per_launch_given && scan.solver.sweeps_per_launch == 0 &&
       scan.solver.kind == SolverKind::ColouredAcceleratedGaussSeidel)
-    scan.solver.sweeps_per_launch = default_sweeps_per_launch();
+    scan.solver.sweeps_per_launch =
+        default_sweeps_per_launch(std::min(members, static_cast<std::size_t>(scan.batch_size)));
 }
 
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,
@@ -60,7 +61,7 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 MemberRun::MemberRun(const Scan& scan, const std::vector<Member>& members, const RunHooks& hooks,
                      const std::vector<MemberSnapshot>& resume)
     : scan_(scan), members_(members), hooks_(hooks) {
-  resolve_backend_defaults(scan_);
+  resolve_backend_defaults(scan_, members.size());
   results_.resize(members.size());
   done_.assign(members.size(), 0);
   size_slots();

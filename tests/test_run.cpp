@@ -252,11 +252,11 @@ lower_half_from = 2.0
 
 // What a scan leaves to the backend is filled in by the backend: on a host backend (the build
 // the suite runs on) one thread per system, and 4 or 64 systems per batch; a file's own choices
-// stay. (On a device the defaults are the team solver, 4 096 and 8 sweeps a launch:
-// docs/PERFORMANCE.md.)
+// stay. (On a device the defaults are the team solver, 4 096 and 8 sweeps a launch where the
+// batch holds more than one system: docs/PERFORMANCE.md.)
 TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
   Scan open = scan_of("[scan]\nname = \"open\"\n");
-  resolve_backend_defaults(open);
+  resolve_backend_defaults(open, 100);
   EXPECT_EQ(open.solver.kind, default_solver_kind());
   EXPECT_EQ(open.batch_size, default_batch_size());
   // docs/PERFORMANCE.md's defaults: a device (memory the host cannot read) gets the team solver,
@@ -269,23 +269,32 @@ TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
                                           : SolverKind::AcceleratedGaussSeidel);
   const int threads_batch = Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4;
   EXPECT_EQ(default_batch_size(), device ? 4096 : threads_batch);
-  EXPECT_EQ(default_sweeps_per_launch(), device ? 8 : 0);
+  EXPECT_EQ(default_sweeps_per_launch(2), device ? 8 : 0);
   EXPECT_EQ(open.solver.sweeps_per_launch, device ? 8 : 0);
+  // A batch of one system has no other system to step while its solve goes on: whole solves,
+  // for a run of one member or a batch of one slot.
+  EXPECT_EQ(default_sweeps_per_launch(1), 0);
+  Scan one = scan_of("[scan]\nname = \"one\"\n");
+  resolve_backend_defaults(one, 1);
+  EXPECT_EQ(one.solver.sweeps_per_launch, 0);
+  Scan one_slot = scan_of("[scan]\nbatch_size = 1\n");
+  resolve_backend_defaults(one_slot, 100);
+  EXPECT_EQ(one_slot.solver.sweeps_per_launch, 0);
   Scan set = scan_of("[scan]\nbatch_size = 3\n[solver]\nkind = \"gauss_seidel\"\n");
-  resolve_backend_defaults(set);
+  resolve_backend_defaults(set, 100);
   EXPECT_EQ(set.solver.kind, SolverKind::GaussSeidel);
   EXPECT_EQ(set.batch_size, 3);
   EXPECT_EQ(set.solver.sweeps_per_launch, 0);  // only the team solver splits its solve
   // The team solver chosen without a split takes the backend's; a file's own split stays.
   Scan team = scan_of("[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\n");
-  resolve_backend_defaults(team);
-  EXPECT_EQ(team.solver.sweeps_per_launch, default_sweeps_per_launch());
+  resolve_backend_defaults(team, 100);
+  EXPECT_EQ(team.solver.sweeps_per_launch, default_sweeps_per_launch(100));
   Scan whole =
       scan_of("[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 0\n");
-  resolve_backend_defaults(whole);
+  resolve_backend_defaults(whole, 100);
   EXPECT_EQ(whole.solver.sweeps_per_launch, 0);
   Scan split =
       scan_of("[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 3\n");
-  resolve_backend_defaults(split);
+  resolve_backend_defaults(split, 1);
   EXPECT_EQ(split.solver.sweeps_per_launch, 3);
 }

@@ -151,15 +151,18 @@ int default_batch_size();
 // host, coloured_accelerated_gauss_seidel (a team of threads per system) on a device, where it
 // is 2.3-2.7x faster (docs/PERFORMANCE.md, "Building for more cores or a GPU").
 SolverKind default_solver_kind();
-// The team solver's sweeps per launch where the scan sets none: 0 (each step's whole solve in one
-// launch) on the host, where a core gains nothing from the balance and each launch runs the other
-// stages again; 8 on a device, where a launch would otherwise last as long as the batch's slowest
-// solve: a member costs 4.7x (protocol C) and 2.4x (A) less on an H200 at 4 096 members, and 16
-// is no better (docs/PERFORMANCE.md, "Building for more cores or a GPU").
-int default_sweeps_per_launch();
+// The team solver's sweeps per launch where the scan sets none, for a batch of `systems`: 0 (each
+// step's whole solve in one launch) on the host, where a core gains nothing from the balance and
+// each launch runs the other stages again, and for a batch of one system, which has no other
+// system to step while its solve goes on; 8 on a device, where a launch would otherwise last as
+// long as the batch's slowest solve: a member costs 4.7x (protocol C) and 2.4x (A) less on an
+// H200 at 4 096 members, and 16 is no better (docs/PERFORMANCE.md, "Building for more cores or a
+// GPU").
+int default_sweeps_per_launch(std::size_t systems);
 // Fills in what the scan leaves to the backend: the batch size, the solver kind and, for the
-// team solver, its sweeps per launch.
-void resolve_backend_defaults(Scan& scan);
+// team solver, its sweeps per launch, for a run of `members` members (its batch holds
+// min(members, batch size) systems).
+void resolve_backend_defaults(Scan& scan, std::size_t members);
 
 // Run the members on one batch of scan.batch_size slots (default_batch_size() if 0): members of any
 // protocol advance together, and a finished member's slot takes the next member. Returns the

@@ -13,8 +13,8 @@ int main(int argc, char** argv) {
   loosepack::Scan scan = loosepack::parse_scan(
       "[scan]\nseeds = 2\nprotocol = \"A\"\n[system]\nwidth = 12\nheight = 12\nbond_number = 0\n",
       "consumer.toml");
-  loosepack::resolve_backend_defaults(scan);
   const auto members = loosepack::members_of(scan);
+  loosepack::resolve_backend_defaults(scan, members.size());
   const auto results = loosepack::run_members(scan, members);
   const auto points = loosepack::aggregate(scan, results);
   std::size_t disks = 0;
