@@ -154,7 +154,6 @@ struct Batch::Impl {
   // The host's status[s].active, copied to sys.active at the start of the next step, whose
   // kernels are the only ones that read it: a scheduler that moves many systems in or out
   // between two steps copies once.
-  void upload_status_active();
   void upload_changed_active();
   template <class Fx>
   void solve();

@@ -208,24 +208,12 @@ void Batch::Impl::allocate_contacts() {
   colour_fill = alloc<int>("colour_fill", 1);
 }
 
-// Puts one system into slot s: parameters, grid shape, disks; contacts and status cleared.
-void Batch::Impl::load(int s, const SystemSetup& su) {
-  const auto k = static_cast<std::size_t>(s);
+namespace {
+// What LoadSlot writes of a system's own values (SystemViews).
+SlotLoad slot_load_of(const SystemSetup& su, const GridShape& g, double tolerance, int max_sweeps) {
   const SystemParams& pr = su.params;
-  const int count = static_cast<int>(su.disks.size());
-  if (std::max(su.capacity, count) > slot_capacity[k])
-    throw std::invalid_argument(
-        "Batch: system needs " + std::to_string(std::max(su.capacity, count)) +
-        " disk slots, the batch slot has " + std::to_string(slot_capacity[k]));
-  const GridShape g = grid_shape(su);
-  if (g.nx * g.ny > slot_cells[k])
-    throw std::invalid_argument("Batch: system needs " + std::to_string(g.nx * g.ny) +
-                                " grid cells, the batch slot has " + std::to_string(slot_cells[k]));
-  params[k] = pr;
-  for (const auto& d : su.disks)
-    if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
-  SlotLoad& v = load_host.system(0);
-  v.count = count;
+  SlotLoad v{};
+  v.count = static_cast<int>(su.disks.size());
   v.width = pr.width;
   v.height = pr.height;
   v.radius = pr.radius;
@@ -241,9 +229,8 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   v.time_step = pr.time_step;
   const double weight = pr.reference_mass() * pr.gravity;
   v.weight = weight > 0.0 ? weight : 1.0;
-  v.tolerance = su.tolerance > 0.0 ? su.tolerance : solver.tolerance;
-  sweep_cap[k] = su.max_sweeps > 0 ? su.max_sweeps : solver.max_sweeps;
-  v.max_sweeps = sweep_cap[k];
+  v.tolerance = su.tolerance > 0.0 ? su.tolerance : tolerance;
+  v.max_sweeps = max_sweeps;
   v.floor_cohesion = pr.floor_cohesion ? 1 : 0;
   v.seed = su.seed;
   v.member = su.member;
@@ -251,15 +238,20 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   v.max_margin = g.max_margin;
   v.grid_nx = g.nx;
   v.grid_ny = g.ny;
-  v.max_speed = 0.0;
   for (const auto& d : su.disks) v.max_speed = std::max(v.max_speed, loosepack::speed(d));
+  return v;
+}
 
-  const int first = offsets[k], cap = slot_capacity[k];
+// The system's disks as LoadSlot reads them, into h: field after field, `cap` values each, zeros
+// past the system's disks.
+void stage_disks(const SystemSetup& su, int cap, const DView<double>::HostMirror& h) {
+  const SystemParams& pr = su.params;
+  const int count = static_cast<int>(su.disks.size());
   const double width = pr.width;
   auto mass = [&](const Disk& d) { return pr.disk_density * M_PI * d.radius * d.radius; };
   auto put = [&](SlotDiskField field, auto f) {
     for (int a = 0; a < cap; ++a)
-      load_host.disks(field * cap + a) = a < count ? f(su.disks[static_cast<std::size_t>(a)]) : 0.0;
+      h(field * cap + a) = a < count ? f(su.disks[static_cast<std::size_t>(a)]) : 0.0;
   };
   put(kLoadX, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
   put(kLoadY, [](const Disk& d) { return d.y; });
@@ -274,6 +266,31 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   });
   put(kLoadYDeposit, [](const Disk& d) { return d.y_deposit; });
   put(kLoadYMark, [](const Disk& d) { return d.y; });
+}
+}  // namespace
+
+// Puts one system into slot s: parameters, grid shape, disks; contacts and status cleared. The
+// host gathers them into the staging views, which reach the device in two copies, and LoadSlot
+// puts them in place.
+void Batch::Impl::load(int s, const SystemSetup& su) {
+  const auto k = static_cast<std::size_t>(s);
+  const int count = static_cast<int>(su.disks.size());
+  if (std::max(su.capacity, count) > slot_capacity[k])
+    throw std::invalid_argument(
+        "Batch: system needs " + std::to_string(std::max(su.capacity, count)) +
+        " disk slots, the batch slot has " + std::to_string(slot_capacity[k]));
+  const GridShape g = grid_shape(su);
+  if (g.nx * g.ny > slot_cells[k])
+    throw std::invalid_argument("Batch: system needs " + std::to_string(g.nx * g.ny) +
+                                " grid cells, the batch slot has " + std::to_string(slot_cells[k]));
+  for (const auto& d : su.disks)
+    if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
+  params[k] = su.params;
+  sweep_cap[k] = su.max_sweeps > 0 ? su.max_sweeps : solver.max_sweeps;
+
+  const int first = offsets[k], cap = slot_capacity[k];
+  load_host.system(0) = slot_load_of(su, g, solver.tolerance, sweep_cap[k]);
+  stage_disks(su, cap, load_host.disks);
   Kokkos::deep_copy(load_system, load_host.system);
   const auto used = std::make_pair(std::size_t{0}, static_cast<std::size_t>(kSlotDiskFields * cap));
   Kokkos::deep_copy(Kokkos::subview(load_disks, used), Kokkos::subview(load_host.disks, used));
@@ -288,17 +305,14 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   newton_factor[k] = std::make_unique<KluFactor>();
 }
 
-void Batch::Impl::upload_status_active() {
-  fill_from(sys.active, scheduler_host.active, static_cast<std::size_t>(n_systems),
-            [&](std::size_t s) { return status[s].active ? 1 : 0; });
-}
-
-// The flags last copied are in their host mirror: a copy only where one of the host's differs
-// (on a host backend the mirror is sys.active itself, and the copy a no-op).
+// The flags last copied are in their host mirror: all of them are copied once where one of the
+// host's differs (on a host backend the mirror is sys.active itself, and the copy a no-op).
 void Batch::Impl::upload_changed_active() {
-  for (int s = 0; s < n_systems; ++s)
-    if ((scheduler_host.active(s) != 0) != status[static_cast<std::size_t>(s)].active)
-      return upload_status_active();
+  const auto n = static_cast<std::size_t>(n_systems);
+  for (std::size_t s = 0; s < n; ++s)
+    if ((scheduler_host.active(s) != 0) != status[s].active)
+      return fill_from(sys.active, scheduler_host.active, n,
+                       [&](std::size_t t) { return status[t].active ? 1 : 0; });
 }
 
 void Batch::reset(int s, const SystemSetup& setup) {
