@@ -508,10 +508,13 @@ struct ColouredAcceleratedGaussSeidel {
     const int stop = sweeps_per_launch > 0 ? kmath::imin(cap, done + sweeps_per_launch) : cap;
     int sweep = done;
     for (; sweep < stop; sweep += 2) {
+      // Each thread keeps the largest change of its own updates over both sweeps; one team
+      // reduction per iteration then gives the system's (a maximum, so the same whatever the
+      // order), where a reduction per colour cost a colour two team synchronisations.
       double worst = 0.0;
-      for (int k = 0; k < n_colours; ++k) worst = kmath::max(worst, colour_sweep(team, base, k));
-      for (int k = n_colours - 1; k >= 0; --k)
-        worst = kmath::max(worst, colour_sweep(team, base, k));
+      for (int k = 0; k < n_colours; ++k) colour_sweep(team, base, k, worst);
+      for (int k = n_colours - 1; k >= 0; --k) colour_sweep(team, base, k, worst);
+      team.team_reduce(Kokkos::Max<double>(worst));
       Kokkos::single(Kokkos::PerTeam(team), [&]() { sweeps(s) += 2; });
       if (!(worst >
             sys.step_tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
@@ -559,14 +562,13 @@ struct ColouredAcceleratedGaussSeidel {
     return n_colours;
   }
 
-  // One colour's contacts updated in parallel; returns the largest change (on every thread).
-  KOKKOS_INLINE_FUNCTION double colour_sweep(const Member& team, int base, int k) const {
-    double worst = 0.0;
-    Kokkos::parallel_reduce(
-        Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)),
-        [&](int a, double& w) { gauss_seidel_update<Fx>(sys, part, con, list(a), omega, w); },
-        Kokkos::Max<double>(worst));
-    return kmath::max(worst, 0.0);
+  // One colour's contacts updated in parallel; `worst` keeps this thread's largest change. The
+  // barrier lets the next colour read the velocities this one wrote.
+  KOKKOS_INLINE_FUNCTION void colour_sweep(const Member& team, int base, int k,
+                                           double& worst) const {
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)),
+                         [&](int a) { gauss_seidel_update<Fx>(sys, part, con, list(a), omega, worst); });
+    team.team_barrier();
   }
 
   // Colours the system's contacts in Jones-Plassmann rounds until none is left; returns the
