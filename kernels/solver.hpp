@@ -566,8 +566,9 @@ struct ColouredAcceleratedGaussSeidel {
   // barrier lets the next colour read the velocities this one wrote.
   KOKKOS_INLINE_FUNCTION void colour_sweep(const Member& team, int base, int k,
                                            double& worst) const {
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)),
-                         [&](int a) { gauss_seidel_update<Fx>(sys, part, con, list(a), omega, worst); });
+    Kokkos::parallel_for(
+        Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)),
+        [&](int a) { gauss_seidel_update<Fx>(sys, part, con, list(a), omega, worst); });
     team.team_barrier();
   }
 
