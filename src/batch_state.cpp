@@ -209,7 +209,8 @@ void Batch::Impl::allocate_contacts() {
 }
 
 namespace {
-// What LoadSlot writes of a system's own values (SystemViews).
+// What LoadSlot writes of a system's own values (SystemViews); the tolerance and the sweep cap
+// as the batch resolved them.
 SlotLoad slot_load_of(const SystemSetup& su, const GridShape& g, double tolerance, int max_sweeps) {
   const SystemParams& pr = su.params;
   SlotLoad v{};
@@ -229,7 +230,7 @@ SlotLoad slot_load_of(const SystemSetup& su, const GridShape& g, double toleranc
   v.time_step = pr.time_step;
   const double weight = pr.reference_mass() * pr.gravity;
   v.weight = weight > 0.0 ? weight : 1.0;
-  v.tolerance = su.tolerance > 0.0 ? su.tolerance : tolerance;
+  v.tolerance = tolerance;
   v.max_sweeps = max_sweeps;
   v.floor_cohesion = pr.floor_cohesion ? 1 : 0;
   v.seed = su.seed;
@@ -289,7 +290,8 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   sweep_cap[k] = su.max_sweeps > 0 ? su.max_sweeps : solver.max_sweeps;
 
   const int first = offsets[k], cap = slot_capacity[k];
-  load_host.system(0) = slot_load_of(su, g, solver.tolerance, sweep_cap[k]);
+  const double tolerance = su.tolerance > 0.0 ? su.tolerance : solver.tolerance;
+  load_host.system(0) = slot_load_of(su, g, tolerance, sweep_cap[k]);
   stage_disks(su, cap, load_host.disks);
   Kokkos::deep_copy(load_system, load_host.system);
   const auto used = std::make_pair(std::size_t{0}, static_cast<std::size_t>(kSlotDiskFields * cap));
