@@ -336,6 +336,7 @@ void RunCommand::show(bool force) {
   for (std::size_t r = 0; r < latest.size(); ++r) {
     p.members_done += latest[r].members_done;
     p.disks_deposited += latest[r].disks_deposited;
+    p.disks_before += latest[r].disks_before;
     p.collapsing += latest[r].collapsing;
     p.collapse_steps = std::max(p.collapse_steps, latest[r].collapse_steps);
     done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
@@ -346,9 +347,11 @@ void RunCommand::show(bool force) {
   p.start_fraction = total_cost > 0.0 ? start_cost / total_cost : 0.0;
   const double el = seconds_since(t0);
   const bool finished = p.members_done == static_cast<int>(todo.size());
+  // The rate counts this run's disks only: those deposited before a resume took no time here.
+  const long disks_here = p.disks_deposited - p.disks_before;
   std::fprintf(stderr, "  %d/%zu members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
                p.members_done + static_cast<int>(resumed.size()), members.size(), p.disks_deposited,
-               el > 0 ? p.disks_deposited / el : 0.0, el);
+               el > 0 ? disks_here / el : 0.0, el);
   if (p.collapsing > 0)
     std::fprintf(stderr, ", %d collapsing (the longest for %ld steps)", p.collapsing,
                  p.collapse_steps);

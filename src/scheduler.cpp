@@ -223,6 +223,8 @@ void MemberRun::go_on_from(std::size_t k, const MemberSnapshot& snap) {
       std::chrono::duration<double>(snap.result.wall_time));
   sl.region_steps -= snap.result.steps;
   sl.region_sweeps -= snap.result.sweeps;
+  progress_.disks_deposited += sl.deposited;
+  progress_.disks_before += sl.deposited;
 }
 
 // Whether a disk of a finished member lies outside its box: above H + 4 R_max (no disk is placed

@@ -119,9 +119,9 @@ TEST(Progress, EtaCountsTheRateSinceTheStart) {
   EXPECT_LT(progress_eta(p, 10.0), 0.0);
 }
 
-// A member that goes on from its snapshot has its share done from the first report on: the
-// resumed run's start_fraction is that first report's fraction, at least what the stopped run
-// had reported when the snapshot was taken.
+// A member that goes on from its snapshot has its share done and its disks from the first report
+// on: the resumed run's start_fraction is that first report's fraction, at least what the stopped
+// run had reported when the snapshot was taken.
 TEST(Progress, ResumedMembersCountAsStartedDone) {
   const auto scan = scan_of(R"(
 [scan]
@@ -161,6 +161,15 @@ lower_half_from = 2.0
   EXPECT_GE(seen.front().start_fraction, reached);
   for (const auto& p : seen) EXPECT_EQ(p.start_fraction, seen.front().fraction);
   EXPECT_NEAR(seen.back().fraction, 1.0, 1e-12);
+  // Its disks count from the snapshot's on (the progress line's rate leaves those out): the
+  // resumed run ends at the count of a run that was never stopped.
+  EXPECT_GT(snaps[0].stage.deposited, 0);
+  for (const auto& p : seen) EXPECT_EQ(p.disks_before, snaps[0].stage.deposited);
+  long whole = 0;
+  RunHooks third;
+  third.progress = [&](const Progress& p) { whole = p.disks_deposited; };
+  run_members(scan, members, third);
+  EXPECT_EQ(seen.back().disks_deposited, whole);
 }
 
 // The progress fraction behind the ETA: it never falls (a running member counts the share of its

@@ -102,7 +102,10 @@ struct MemberSnapshot {
 struct Progress {
   int members_done = 0;
   int members_total = 0;
+  // Disks deposited by this run's members, those a member that went on from its snapshot had
+  // deposited before this run started included (disks_before).
   long disks_deposited = 0;
+  long disks_before = 0;
   // Protocol C: members collapsing now, and the steps of the longest such collapse so far (a
   // collapse deposits nothing, so without them a long one would look stalled).
   int collapsing = 0;
