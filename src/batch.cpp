@@ -331,14 +331,19 @@ void Batch::Impl::chunk_active() {
     chunks.emplace_back(0, n_particles);
     return;
   }
+  // A system's disks, not its slot's capacity: a deposit and a relaxation region fill a slot
+  // sized for the whole box only as the deposit grows. A run of active systems next to each
+  // other shares a chunk (its span includes the empty tails, whose particles have no cell).
+  std::size_t last = status.size();  // the last active system
   for (std::size_t s = 0; s < status.size(); ++s) {
     if (!status[s].active) continue;
-    const int begin = offsets[s], end = begin + slot_capacity[s];
-    if (!chunks.empty() && chunks.back().second == begin &&
+    const int begin = offsets[s], end = begin + status[s].count;
+    if (!chunks.empty() && last + 1 == s &&
         chunks.back().second - chunks.back().first < kChunkSlots)
       chunks.back().second = end;
     else
       chunks.emplace_back(begin, end);
+    last = s;
   }
 }
 
