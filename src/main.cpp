@@ -349,9 +349,11 @@ void RunCommand::show(bool force) {
   const bool finished = p.members_done == static_cast<int>(todo.size());
   // The rate counts this run's disks only: those deposited before a resume took no time here.
   const long disks_here = p.disks_deposited - p.disks_before;
-  std::fprintf(stderr, "  %d/%zu members, %ld disks deposited, %.0f disks/s, %.0f s elapsed",
-               p.members_done + static_cast<int>(resumed.size()), members.size(), p.disks_deposited,
-               el > 0 ? disks_here / el : 0.0, el);
+  std::fprintf(stderr, "  %d/%zu members, %ld disks deposited",
+               p.members_done + static_cast<int>(resumed.size()), members.size(),
+               p.disks_deposited);
+  if (p.disks_before > 0) std::fprintf(stderr, " (%ld before the resume)", p.disks_before);
+  std::fprintf(stderr, ", %.0f disks/s, %.0f s elapsed", el > 0 ? disks_here / el : 0.0, el);
   if (p.collapsing > 0)
     std::fprintf(stderr, ", %d collapsing (the longest for %ld steps)", p.collapsing,
                  p.collapse_steps);

@@ -121,8 +121,10 @@ grep -q "where the running ones were, are saved" r.log || fail "message: $(cat r
 "$exe" run r.toml -o r.h5 --resume >r_resume.log 2>&1
 grep -q "0 of 1 members finished, computing the other 1 (1 of them from where they were)" \
   r_resume.log || fail "no resume of the running member: $(cat r_resume.log)"
-rest=$(sed -n 's/.* 1\/1 members, \([0-9]*\) disks deposited.*/\1/p' r_resume.log)
-[ -n "$whole" ] && [ -n "$rest" ] && [ "$rest" -lt "$whole" ] ||
-  fail "the resumed member deposited ${rest:-?} disks, a whole run ${whole:-?}"
+all=$(sed -n 's/.* 1\/1 members, \([0-9]*\) disks deposited.*/\1/p' r_resume.log)
+before=$(sed -n 's/.* 1\/1 members, [0-9]* disks deposited (\([0-9]*\) before the resume).*/\1/p' \
+  r_resume.log)
+[ -n "$whole" ] && [ "${all:-}" = "$whole" ] && [ "${before:-0}" -gt 0 ] ||
+  fail "the resumed member deposited ${all:-?} disks (${before:-?} before the resume), a whole run ${whole:-?}"
 same r_full.h5 r.h5
 echo "resume: all checks passed"
