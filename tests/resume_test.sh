@@ -125,6 +125,7 @@ all=$(sed -n 's/.* 1\/1 members, \([0-9]*\) disks deposited.*/\1/p' r_resume.log
 before=$(sed -n 's/.* 1\/1 members, [0-9]* disks deposited (\([0-9]*\) before the resume).*/\1/p' \
   r_resume.log)
 [ -n "$whole" ] && [ "${all:-}" = "$whole" ] && [ "${before:-0}" -gt 0 ] ||
-  fail "the resumed member deposited ${all:-?} disks (${before:-?} before the resume), a whole run ${whole:-?}"
+  fail "the resumed member deposited ${all:-?} disks (${before:-?} before the resume)," \
+    "a whole run ${whole:-?}"
 same r_full.h5 r.h5
 echo "resume: all checks passed"

@@ -102,9 +102,10 @@ struct MemberSnapshot {
 struct Progress {
   int members_done = 0;
   int members_total = 0;
-  // Disks deposited by this run's members, those a member that went on from its snapshot had
-  // deposited before this run started included (disks_before).
+  // Disks deposited by this run's members, those deposited before a resume included.
   long disks_deposited = 0;
+  // Of those, the disks the members that went on from their snapshots had deposited before this
+  // run started (the progress line's rate leaves them out).
   long disks_before = 0;
   // Protocol C: members collapsing now, and the steps of the longest such collapse so far (a
   // collapse deposits nothing, so without them a long one would look stalled).
