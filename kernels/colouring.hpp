@@ -9,12 +9,14 @@
 
 namespace loosepack {
 
+// Holds only the two views it reads: a functor built inside a kernel copies its views, and on a
+// host backend each copy of a view counts a reference.
 struct ColourPriority {
-  SystemViews sys;
-  ParticleViews part;
+  DView<int> offset;  // sys.offset
+  DView<int> system;  // part.system
   KOKKOS_INLINE_FUNCTION unsigned long long operator()(int c) const {
     const int i = c / kSlots;
-    const int local = (i - sys.offset(part.system(i))) * kSlots + c % kSlots;
+    const int local = (i - offset(system(i))) * kSlots + c % kSlots;
     // the low bits carry the local index, so priorities within a system are distinct
     return (static_cast<unsigned long long>(splitmix64(static_cast<std::uint64_t>(local))) << 24) |
            static_cast<unsigned long long>(local & 0xFFFFFF);
@@ -33,13 +35,16 @@ struct ColourReset {
 // Reads: sys.offset; part.{system, n_incident, incident}; con.partner. Reads and writes:
 // con.colour.
 struct ColourRound {
-  SystemViews sys;
   ParticleViews part;
   ContactViews con;
+  ColourPriority priority;
   int round;
 
+  KOKKOS_INLINE_FUNCTION ColourRound(const SystemViews& sys, const ParticleViews& part,
+                                     const ContactViews& con, int round)
+      : part(part), con(con), priority{sys.offset, part.system}, round(round) {}
+
   KOKKOS_INLINE_FUNCTION bool blocked_by(int body, int c, unsigned long long prio) const {
-    const ColourPriority priority{sys, part};
     const int n = part.n_incident(body);
     for (int a = 0; a < n; ++a) {
       const int o = part.incident(body * kIncident + a);
@@ -52,7 +57,6 @@ struct ColourRound {
 
   KOKKOS_INLINE_FUNCTION void operator()(int c, int& uncoloured) const {
     if (con.colour(c) != -1) return;
-    const ColourPriority priority{sys, part};
     const unsigned long long prio = priority(c);
     const int i = c / kSlots, j = con.partner(c);
     if (blocked_by(i, c, prio) || (j >= 0 && blocked_by(j, c, prio))) {

@@ -506,6 +506,7 @@ struct ColouredAcceleratedGaussSeidel {
     team.team_barrier();  // every thread has read the system's state before it changes
     const int cap = sys.max_sweeps(s);
     const int stop = sweeps_per_launch > 0 ? kmath::imin(cap, done + sweeps_per_launch) : cap;
+    const BodyVelocity velocity{sys, part, con, false};  // built once: a host copy counts
     int sweep = done;
     for (; sweep < stop; sweep += 2) {
       // Each thread keeps the largest change of its own updates over both sweeps; one team
@@ -536,7 +537,6 @@ struct ColouredAcceleratedGaussSeidel {
       });
       team.team_barrier();
       if (!(beta > 1.0)) {  // the impulses moved: the velocities follow
-        const BodyVelocity velocity{sys, part, con, false};
         Kokkos::parallel_for(
             Kokkos::TeamThreadRange(team, sys.offset(s), sys.offset(s) + sys.count(s)),
             [&](int p) { velocity.set(p); });
