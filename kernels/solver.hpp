@@ -467,7 +467,8 @@ struct AcceleratedGaussSeidel {
 // system to convergence in one launch, as AcceleratedGaussSeidel does with one thread. The team
 // first colours its own system (the Jones-Plassmann rounds of kernels/colouring.hpp, so each
 // contact gets the colour a batch-wide colouring gives it), which needs no launch or host
-// round trip per round, and sweeps only its own colours.
+// round trip per round, and sweeps only its own colours. A system whose contact pairs are those
+// of its last colouring keeps that colouring (same_contacts).
 // `list` holds each system's contact slots grouped by colour within the system's own slot
 // range; `starts` [P * kSlots + S] the colour boundaries, system s's from offset(s) kSlots + s
 // (a system has at most one colour per contact, and at least one).
@@ -478,8 +479,9 @@ struct AcceleratedGaussSeidel {
 // others take their next steps (Batch::step). The iterates are the same as in one launch.
 // Reads: sys.{active, unconverged, solving, offset, count, max_sweeps, step_tolerance}; what
 // the colouring reads (ColourRound), what the local solve reads (local_solve) and what
-// BodyVelocity reads. Writes: con.colour; list, starts; con.{pn, pt, pm, start_*, dir_*};
-// part.{vx, vy, w}; sys.{unconverged, solving, colours, gradient2}; sweeps.
+// BodyVelocity reads. Writes: con.{colour, coloured_partner}; list, starts; con.{pn, pt, pm,
+// start_*, dir_*}; part.{vx, vy, w}; sys.{unconverged, solving, colours, coloured_count,
+// gradient2}; sweeps.
 template <class Fx>
 struct ColouredAcceleratedGaussSeidel {
   using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;
@@ -554,11 +556,36 @@ struct ColouredAcceleratedGaussSeidel {
   // impulses the iteration starts from kept. Returns the colour count.
   KOKKOS_INLINE_FUNCTION int start_step(const Member& team, int s, SlotRange range,
                                         int base) const {
-    const int n_colours = colour_system(team, range);
-    group_by_colour(team, range, base, n_colours);
+    const int n_colours =
+        same_contacts(team, s, range) ? sys.colours(s) : colour(team, s, range, base);
     Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
                          [&](int c) { nncg_keep_start(con, c); });
     Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.colours(s) = n_colours; });
+    return n_colours;
+  }
+
+  // Whether every contact slot of the system holds the partner it held when the system was last
+  // coloured (with the same disk count). A colouring is a function of the partners alone (the
+  // incidence lists are built from them, the priorities from the slots' places in the system),
+  // so such a system keeps its colours, list and colour starts, which nothing else writes: most
+  // steps change no contact pair (98 % of the system steps of the GPU scene A, 99.8 % of C's).
+  KOKKOS_INLINE_FUNCTION bool same_contacts(const Member& team, int s, SlotRange range) const {
+    if (sys.coloured_count(s) != sys.count(s) + 1) return false;
+    int changed = 0;
+    Kokkos::parallel_reduce(
+        Kokkos::TeamThreadRange(team, range.first, range.end),
+        [&](int c, int& n) { n += con.partner(c) != con.coloured_partner(c) ? 1 : 0; }, changed);
+    return changed == 0;
+  }
+
+  // Colours the system's contacts and lists them by colour; keeps the partners it coloured.
+  // Returns the colour count.
+  KOKKOS_INLINE_FUNCTION int colour(const Member& team, int s, SlotRange range, int base) const {
+    const int n_colours = colour_system(team, range);
+    group_by_colour(team, range, base, n_colours);
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
+                         [&](int c) { con.coloured_partner(c) = con.partner(c); });
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.coloured_count(s) = sys.count(s) + 1; });
     return n_colours;
   }
 

@@ -86,6 +86,8 @@ struct SystemViews {
   // solver's SolverSettings::sweeps_per_launch): every stage but the solve leaves it alone.
   DView<int> solving;
   DView<int> colours;  // the team solver: the colour count of the system's current step
+  // The team solver: the disk count when the system's colouring was made, plus one (0: none).
+  DView<int> coloured_count;
 };
 
 // The contact slots of system s: [first, end).
@@ -117,6 +119,7 @@ struct ContactViews {
   DView<double> lower;           // -h F_c for a cohesive contact, else 0
   DView<double> pn, pt, pm;      // impulses: normal, tangential, rolling moment
   DView<int> colour;             // Gauss-Seidel colour, -1 when uncoloured
+  DView<int> coloured_partner;   // the team solver: the partner when the system was coloured
   // [P*kSlots] accelerated Gauss-Seidel (NNCG): the impulses at the start of the iteration and
   // the conjugate direction
   DView<double> start_pn, start_pt, start_pm;

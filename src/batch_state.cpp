@@ -115,6 +115,7 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   sys.gradient2 = alloc<double>("gradient2", S);
   sys.solving = alloc<int>("solving", S);
   sys.colours = alloc<int>("colours", S);
+  sys.coloured_count = alloc<int>("coloured_count", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
@@ -201,9 +202,11 @@ void Batch::Impl::allocate_contacts() {
     con.dir_pm = alloc<double>("dir_pm", NC);
   }
   colour_list = alloc<int>("colour_list", NC);
-  if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel)
+  if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {
     system_colour_start =
         alloc<int>("system_colour_start", NC + static_cast<std::size_t>(n_systems));
+    con.coloured_partner = alloc<int>("coloured_partner", NC);
+  }
   colour_start = alloc<int>("colour_start", 2);
   colour_fill = alloc<int>("colour_fill", 1);
 }

@@ -46,10 +46,10 @@ std::vector<T> to_host(const DView<T>& d) {
   return std::vector<T>(h.data(), h.data() + h.extent(0));
 }
 
-Graph graph() {
+Graph graph(const std::vector<std::pair<int, int>>& contacts = kContacts) {
   std::vector<int> partner(kDisks * kSlots, kNoContact), n_incident(kDisks, 0),
       incident(kDisks * kIncident, -1), owned(kDisks, 0), slots;
-  for (const auto& [i, j] : kContacts) {
+  for (const auto& [i, j] : contacts) {
     const int c = i * kSlots + owned[i]++;
     slots.push_back(c);
     partner[c] = j;
@@ -99,6 +99,23 @@ std::vector<int> team_colours(const Graph& g, const Solver& solver) {
   return to_host(n_colours);
 }
 
+// The start of a step of the team solver (colouring, or keeping the last one) for each system;
+// its colour count per system.
+std::vector<int> start_steps(const Graph& g, const Solver& solver) {
+  DView<int> n_colours("n_colours", kSystems);
+  const SystemViews sys = g.sys;
+  const auto start = KOKKOS_LAMBDA(const Solver::Member& team) {
+    const int s = team.league_rank();
+    const SlotRange range = system_slots(sys, s);
+    const int n = solver.start_step(team, s, range, range.first + s);
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
+  };
+  const int team_size = std::min(
+      4, Kokkos::TeamPolicy<ExecSpace>(kSystems, 1).team_size_max(start, Kokkos::ParallelForTag()));
+  Kokkos::parallel_for(Kokkos::TeamPolicy<ExecSpace>(kSystems, team_size), start);
+  return to_host(n_colours);
+}
+
 TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
   const Graph g = graph();
   const std::vector<int> expected = batch_colours(g);
@@ -137,6 +154,61 @@ TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
       EXPECT_FALSE(want.empty()) << "system " << s << ", colour " << k;
     }
   }
+}
+
+// A system whose contact pairs are those of its last colouring keeps it; one whose pairs
+// changed is coloured again, as a batch-wide colouring colours its new pairs. The colours are
+// overwritten with a mark before each step's start: a kept colouring leaves the mark.
+TEST(TeamColouring, ASystemKeepsItsColouringWhileItsContactPairsStay) {
+  Graph g = graph();
+  const std::size_t n_slots = kDisks * kSlots;
+  g.sys.colours = DView<int>("colours", kSystems);
+  g.sys.coloured_count = DView<int>("coloured_count", kSystems);
+  g.con.coloured_partner = DView<int>("coloured_partner", n_slots);
+  for (auto* v :
+       {&g.con.pn, &g.con.pt, &g.con.pm, &g.con.start_pn, &g.con.start_pt, &g.con.start_pm})
+    *v = DView<double>("impulse", n_slots);
+  const Solver solver{g.sys,
+                      g.part,
+                      g.con,
+                      DView<int>(),
+                      DView<int>("list", n_slots),
+                      DView<int>("starts", n_slots + kSystems),
+                      1.0};
+  const auto colours_now = [&]() { return to_host(g.con.colour); };
+  constexpr int kMark = -3;
+
+  const std::vector<int> fresh = batch_colours(graph());
+  Kokkos::deep_copy(g.con.colour, kMark);
+  const auto first = start_steps(g, solver);
+  EXPECT_EQ(colours_now(), fresh);  // the first step colours every system
+  const auto list = to_host(solver.list), starts = to_host(solver.starts);
+
+  // The same pairs: nothing is coloured again, the lists stay.
+  Kokkos::deep_copy(g.con.colour, kMark);
+  EXPECT_EQ(start_steps(g, solver), first);
+  EXPECT_EQ(colours_now(), std::vector<int>(n_slots, kMark));
+  EXPECT_EQ(to_host(solver.list), list);
+  EXPECT_EQ(to_host(solver.starts), starts);
+
+  // The triangle 5-6-7 loses its pair (6, 7) and system 1 holds the same disks: it alone is
+  // coloured again, with two colours.
+  std::vector<std::pair<int, int>> opened = kContacts;
+  opened.erase(std::find(opened.begin(), opened.end(), std::make_pair(6, 7)));
+  const Graph changed = graph(opened);
+  Kokkos::deep_copy(g.con.partner, changed.con.partner);
+  Kokkos::deep_copy(g.part.n_incident, changed.part.n_incident);
+  Kokkos::deep_copy(g.part.incident, changed.part.incident);
+  const std::vector<int> fresh_opened = batch_colours(changed);
+  Kokkos::deep_copy(g.con.colour, kMark);
+  const auto after = start_steps(g, solver);
+  EXPECT_EQ(after[0], first[0]);
+  EXPECT_EQ(after[1], 2);
+  const auto colour = colours_now();
+  const int system1 = 5 * kSlots;
+  for (int c = 0; c < system1; ++c) EXPECT_EQ(colour[c], kMark) << "slot " << c;
+  for (int c = system1; c < static_cast<int>(n_slots); ++c)
+    EXPECT_EQ(colour[c], fresh_opened[c]) << "slot " << c;
 }
 
 }  // namespace
