@@ -508,7 +508,8 @@ struct ColouredAcceleratedGaussSeidel {
     team.team_barrier();  // every thread has read the system's state before it changes
     const int cap = sys.max_sweeps(s);
     const int stop = sweeps_per_launch > 0 ? kmath::imin(cap, done + sweeps_per_launch) : cap;
-    const BodyVelocity velocity{sys, part, con, false};  // built once: a host copy counts
+    // Built once a launch: on a host each copy of a view counts a reference.
+    const BodyVelocity velocity{sys, part, con, false};
     int sweep = done;
     for (; sweep < stop; sweep += 2) {
       // Each thread keeps the largest change of its own updates over both sweeps; one team
@@ -567,8 +568,8 @@ struct ColouredAcceleratedGaussSeidel {
   // Whether every contact slot of the system holds the partner it held when the system was last
   // coloured (with the same disk count). A colouring is a function of the partners alone (the
   // incidence lists are built from them, the priorities from the slots' places in the system),
-  // so such a system keeps its colours, list and colour starts, which nothing else writes: most
-  // steps change no contact pair (98 % of the system steps of the GPU scene A, 99.8 % of C's).
+  // so such a system keeps its colours, list and colour starts, which nothing else writes. Most
+  // steps change no contact pair (docs/PERFORMANCE.md, "Building for more cores or a GPU").
   KOKKOS_INLINE_FUNCTION bool same_contacts(const Member& team, int s, SlotRange range) const {
     if (sys.coloured_count(s) != sys.count(s) + 1) return false;
     int changed = 0;

@@ -2,7 +2,8 @@
 // colour_system): on two hand-made systems, a chain of five disks on the floor and a triangle,
 // contacts that share a disk get different colours, the colours are those of the batch-wide
 // Jones-Plassmann rounds (the colouring the team solver's results were first built on), and each
-// system's contact list is grouped by colour in slot order with its own colour count.
+// system's contact list is grouped by colour in slot order with its own colour count. A system
+// keeps its colouring from step to step while its contact pairs stay.
 #include <gtest/gtest.h>
 
 #include <algorithm>
