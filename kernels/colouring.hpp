@@ -9,8 +9,8 @@
 
 namespace loosepack {
 
-// Holds only the two views it reads: a functor built inside a kernel copies its views, and on a
-// host backend each copy of a view counts a reference.
+// Holds only the two views it reads: a functor built inside a kernel copies its views, and on
+// the Serial backend each copy of a view counts a reference.
 struct ColourPriority {
   DView<int> offset;  // sys.offset
   DView<int> system;  // part.system

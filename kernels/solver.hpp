@@ -508,7 +508,7 @@ struct ColouredAcceleratedGaussSeidel {
     team.team_barrier();  // every thread has read the system's state before it changes
     const int cap = sys.max_sweeps(s);
     const int stop = sweeps_per_launch > 0 ? kmath::imin(cap, done + sweeps_per_launch) : cap;
-    // Built once a launch: on a host each copy of a view counts a reference.
+    // Built once a launch: on the Serial backend each copy of a view counts a reference.
     const BodyVelocity velocity{sys, part, con, false};
     int sweep = done;
     for (; sweep < stop; sweep += 2) {
