@@ -24,8 +24,9 @@ constexpr int kMaxRegionRounds = 4;
 // many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).
 constexpr double kWakeFactor = 3.0;
 
-// The cost model's share of a running member (expected_cost, counting how far it got).
-double running_cost(const Member& m, MemberPhase phase, double filled);
+// The cost model's share of a running member (expected_cost, counting how far it got): `got` is
+// the deposit's height over H while it deposits, the steps over collapse_steps while it collapses.
+double running_cost(const Member& m, MemberPhase phase, double got);
 
 // Whether a member deposits ballistically (B, C, and A at Bo = inf): no dynamics while it fills.
 bool deposits_ballistically(const Member& m);
@@ -49,10 +50,10 @@ class MemberRun {
     bool runaway = false;
     Clock::time_point start;
     MemberResult result;
-    // running_cost at the phase and height it was last computed for (running_share).
+    // running_cost at the phase and progress it was last computed for (running_share).
     double share = 0.0;
     Phase share_phase = Phase::Empty;
-    double share_filled = -1.0;
+    double share_got = -1.0;
   };
 
   // Construction (src/scheduler.cpp).

@@ -88,17 +88,23 @@ double expected_cost(const Member& m) {
   return slow_cost(m.params);
 }
 
-double running_cost(const Member& m, MemberPhase phase, double filled) {
+double collapse_steps(const SystemParams& p) {
+  return std::sqrt(4.0 * p.height / 3.0) / p.time_step;
+}
+
+double running_cost(const Member& m, MemberPhase phase, double got) {
+  // A collapse that runs past its expected steps counts as at most this share done.
+  constexpr double kMostOfACollapse = 0.9;
   const SystemParams& p = m.params;
   switch (phase) {
     case MemberPhase::Empty:
       return 0.0;
     case MemberPhase::Collapse:
-      return ballistic_cost(p) + 0.5 * collapse_cost(p);
+      return ballistic_cost(p) + std::min(got, kMostOfACollapse) * collapse_cost(p);
     case MemberPhase::Ballistic:
-      return ballistic_cost(p) * filled;
+      return ballistic_cost(p) * got;
     default:
-      return std::pow(filled, height_exponent(p)) * slow_cost(p);
+      return std::pow(got, height_exponent(p)) * slow_cost(p);
   }
 }
 

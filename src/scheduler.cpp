@@ -366,14 +366,18 @@ void MemberRun::report() {
   hooks_.progress(progress_);
 }
 
-// Slot sl's running_cost, computed again only where its phase or its height changed: report()
+// Slot sl's running_cost, computed again only where its phase or its progress changed: report()
 // runs between every two steps over every slot (on a device, thousands), most of them unchanged.
 double MemberRun::running_share(Slot& sl) const {
   if (sl.phase == Phase::Empty) return 0.0;
-  if (sl.phase != sl.share_phase || sl.filled != sl.share_filled) {
-    sl.share = running_cost(members_[sl.member], sl.phase, sl.filled);
+  const Member& m = members_[sl.member];
+  const double got = sl.phase == Phase::Collapse
+                         ? static_cast<double>(sl.steps) / collapse_steps(m.params)
+                         : sl.filled;
+  if (sl.phase != sl.share_phase || got != sl.share_got) {
+    sl.share = running_cost(m, sl.phase, got);
     sl.share_phase = sl.phase;
-    sl.share_filled = sl.filled;
+    sl.share_got = got;
   }
   return sl.share;
 }

@@ -226,6 +226,45 @@ lower_half_from = 2.0
               distinct, longest);
 }
 
+// A collapse counts as done by its steps against collapse_steps, the top of the column falling
+// freely through two thirds of its height: a column 40 R x 60 R at Bo = 1e3 (the reduced fig.
+// 14-15 scene) collapses within a factor of two of that, and the fraction behind the ETA rises
+// while it collapses (a share fixed at the collapse's start left a one-member run's ETA growing
+// with the time elapsed).
+TEST(Progress, ACollapseCountsByItsStepsAgainstAFreeFall) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "C"
+seeds = 1
+[system]
+width = 40.0
+height = 60.0
+bond_number = 1000.0
+time_step = 0.0028
+[observables]
+lower_half_from = 4.0
+)");
+  const auto members = members_of(scan);
+  std::vector<Progress> seen;
+  RunHooks hooks;
+  hooks.progress = [&](const Progress& p) { seen.push_back(p); };
+  const auto results = run_members(scan, members, hooks);
+  ASSERT_EQ(results.size(), 1u);
+  const double expected = collapse_steps(members[0].params);
+  EXPECT_NEAR(expected, std::sqrt(4.0 * 60.0 / 3.0) / 0.0028, 1e-9);
+  EXPECT_GT(static_cast<double>(results[0].steps), 0.5 * expected);
+  EXPECT_LT(static_cast<double>(results[0].steps), 2.0 * expected);
+  int rises = 0, collapsing = 0;
+  for (std::size_t k = 1; k < seen.size(); ++k) {
+    if (seen[k].collapsing == 0) continue;
+    ++collapsing;
+    rises += seen[k].fraction > seen[k - 1].fraction ? 1 : 0;
+  }
+  // Every report rises until the collapse reaches nine tenths of its expected steps.
+  EXPECT_GT(collapsing, 100);
+  EXPECT_GT(rises, collapsing / 3);
+}
+
 // A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
 // member fails as unconverged once the cap has been hit on every step for longer than
 // protocol.max_unconverged_time (0.505 / h = 0.01: on step 51), keeps its state for the

@@ -187,6 +187,11 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 // costs".
 double expected_cost(const Member& m);
 
+// The steps a collapse (protocol C) is expected to take, for the progress line's ETA: the top of
+// the column falling freely through two thirds of its height, sqrt(4 H / (3 g)), over the time
+// step (docs/PERFORMANCE.md, "What a member costs").
+double collapse_steps(const SystemParams& p);
+
 // Splits members over `ranks` so that the expected costs balance (largest first, each to the
 // least loaded rank; ties to the lower rank). Deterministic: every rank computes the same.
 // Returns, per rank, indices into `members` in increasing order.
