@@ -82,38 +82,29 @@ std::vector<int> batch_colours(const Graph& g) {
 }
 
 // The team solver's colouring, each system by a team of up to 4 threads (1 on Serial), so that
-// an OpenMP build checks the rounds' barriers. Its colour count per system. (A free function:
-// CUDA's extended lambdas may not live in a test's body.)
-std::vector<int> team_colours(const Graph& g, const Solver& solver) {
+// an OpenMP build checks the rounds' barriers: with `start`, the start of a step (which keeps a
+// colouring whose contact pairs stay), else the colouring and grouping themselves. Its colour
+// count per system. (A free function: CUDA's extended lambdas may not live in a test's body.)
+std::vector<int> team_colours(const Graph& g, const Solver& solver, bool start = false) {
   DView<int> n_colours("n_colours", kSystems);
   const SystemViews sys = g.sys;  // (the lambda copies views only)
-  const auto colour_and_group = KOKKOS_LAMBDA(const Solver::Member& team) {
+  const auto colour = KOKKOS_LAMBDA(const Solver::Member& team) {
     const int s = team.league_rank();
     const SlotRange range = system_slots(sys, s);
-    const int n = solver.colour_system(team, range);
-    solver.group_by_colour(team, range, range.first + s, n);
-    Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
-  };
-  const int team_size = std::min(4, Kokkos::TeamPolicy<ExecSpace>(kSystems, 1).team_size_max(
-                                        colour_and_group, Kokkos::ParallelForTag()));
-  Kokkos::parallel_for(Kokkos::TeamPolicy<ExecSpace>(kSystems, team_size), colour_and_group);
-  return to_host(n_colours);
-}
-
-// The start of a step of the team solver (colouring, or keeping the last one) for each system;
-// its colour count per system.
-std::vector<int> start_steps(const Graph& g, const Solver& solver) {
-  DView<int> n_colours("n_colours", kSystems);
-  const SystemViews sys = g.sys;
-  const auto start = KOKKOS_LAMBDA(const Solver::Member& team) {
-    const int s = team.league_rank();
-    const SlotRange range = system_slots(sys, s);
-    const int n = solver.start_step(team, s, range, range.first + s);
+    const int base = range.first + s;
+    int n = 0;
+    if (start) {
+      n = solver.start_step(team, s, range, base);
+    } else {
+      n = solver.colour_system(team, range);
+      solver.group_by_colour(team, range, base, n);
+    }
     Kokkos::single(Kokkos::PerTeam(team), [&]() { n_colours(s) = n; });
   };
   const int team_size = std::min(
-      4, Kokkos::TeamPolicy<ExecSpace>(kSystems, 1).team_size_max(start, Kokkos::ParallelForTag()));
-  Kokkos::parallel_for(Kokkos::TeamPolicy<ExecSpace>(kSystems, team_size), start);
+      4,
+      Kokkos::TeamPolicy<ExecSpace>(kSystems, 1).team_size_max(colour, Kokkos::ParallelForTag()));
+  Kokkos::parallel_for(Kokkos::TeamPolicy<ExecSpace>(kSystems, team_size), colour);
   return to_host(n_colours);
 }
 
@@ -181,13 +172,13 @@ TEST(TeamColouring, ASystemKeepsItsColouringWhileItsContactPairsStay) {
 
   const std::vector<int> fresh = batch_colours(graph());
   Kokkos::deep_copy(g.con.colour, kMark);
-  const auto first = start_steps(g, solver);
+  const auto first = team_colours(g, solver, true);
   EXPECT_EQ(colours_now(), fresh);  // the first step colours every system
   const auto list = to_host(solver.list), starts = to_host(solver.starts);
 
   // The same pairs: nothing is coloured again, the lists stay.
   Kokkos::deep_copy(g.con.colour, kMark);
-  EXPECT_EQ(start_steps(g, solver), first);
+  EXPECT_EQ(team_colours(g, solver, true), first);
   EXPECT_EQ(colours_now(), std::vector<int>(n_slots, kMark));
   EXPECT_EQ(to_host(solver.list), list);
   EXPECT_EQ(to_host(solver.starts), starts);
@@ -202,7 +193,7 @@ TEST(TeamColouring, ASystemKeepsItsColouringWhileItsContactPairsStay) {
   Kokkos::deep_copy(g.part.incident, changed.part.incident);
   const std::vector<int> fresh_opened = batch_colours(changed);
   Kokkos::deep_copy(g.con.colour, kMark);
-  const auto after = start_steps(g, solver);
+  const auto after = team_colours(g, solver, true);
   EXPECT_EQ(after[0], first[0]);
   EXPECT_EQ(after[1], 2);
   const auto colour = colours_now();
