@@ -89,7 +89,7 @@ double expected_cost(const Member& m) {
 }
 
 double collapse_steps(const SystemParams& p) {
-  return std::sqrt(4.0 * p.height / 3.0) / p.time_step;
+  return std::sqrt(4.0 * p.height / (3.0 * std::abs(p.gravity))) / p.time_step;
 }
 
 double running_cost(const Member& m, MemberPhase phase, double got) {
