@@ -135,152 +135,172 @@ BinnedStat binned(const std::vector<const MemberResult*>& members, bool by_initi
   return b;
 }
 
+// The per-member rows of one point, and the members' samples its ensemble means are taken over.
+struct MemberSamples {
+  std::vector<const MemberResult*> all, ok;  // every member of the point; those that did not fail
+  std::vector<std::vector<double>> nu_rows, nud_rows;
+  std::vector<double> lower_half, abs_dy_means, nu_i, nu_f, rel;
+};
+
+// Adds member r of point pt to pr's per-member rows and to the samples (failed members only to
+// the rows, with NaN where a value needs a valid deposit).
+void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips,
+                const MemberResult& r, PointResult& pr, MemberSamples& m) {
+  const SystemParams& p = pt.params;
+  const double H = p.height;
+  const double lower_half_from = obs.lower_half_from_at(H);
+  ++pr.members;
+  m.all.push_back(&r);
+  const double top = deposit_top(r.y_e, r.radius);
+  pr.m_disks.push_back(static_cast<double>(r.y_e.size()));
+  pr.m_top.push_back(top);
+  pr.m_steps.push_back(static_cast<double>(r.steps));
+  pr.m_sweeps.push_back(static_cast<double>(r.sweeps));
+  pr.m_wall_time.push_back(r.wall_time);
+  pr.m_failure.push_back(static_cast<double>(r.failure));
+  pr.m_capped.push_back(r.capped);
+  pr.m_seed_index.push_back(r.member.seed_index);
+  // For C the final deposit is lower than H: its bulk band ends at half its own top.
+  const double band_top = pt.protocol == Protocol::C ? 0.5 * top : 0.5 * H;
+  const double nlh = band_volume_fraction(r.y_e, r.radius, p.width, lower_half_from, band_top);
+  pr.m_nu_lower_half.push_back(r.ok() ? nlh : kNaN);
+  if (!r.ok()) {
+    ++pr.failed;
+    pr.nu_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
+    pr.nu_deposition_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
+    return;  // failed members are excluded from every aggregate
+  }
+  m.ok.push_back(&r);
+  m.nu_rows.push_back(volume_fraction_profile(r.y_e, r.radius, p.width, obs.strip_width, n_strips));
+  pr.nu_member_rows.push_back(m.nu_rows.back());
+  // Deposition density: disk area by deposition height y_i (centre counting of y_i).
+  std::vector<double> nud(static_cast<std::size_t>(n_strips), 0.0);
+  double sum_abs = 0.0;
+  for (std::size_t k = 0; k < r.y_i.size(); ++k) {
+    const int s = static_cast<int>(std::floor(r.y_i[k] / obs.strip_width));
+    if (s >= 0 && s < n_strips)
+      nud[static_cast<std::size_t>(s)] +=
+          M_PI * r.radius[k] * r.radius[k] / (p.width * obs.strip_width);
+    sum_abs += std::fabs(r.y_e[k] - r.y_i[k]);
+  }
+  m.nud_rows.push_back(nud);
+  pr.nu_deposition_member_rows.push_back(nud);
+  m.lower_half.push_back(nlh);
+  m.abs_dy_means.push_back(r.y_i.empty() ? kNaN : sum_abs / static_cast<double>(r.y_i.size()));
+  if (pt.protocol == Protocol::C) {
+    const double ni = band_volume_fraction(r.y_i, r.radius, p.width, lower_half_from,
+                                           0.5 * deposit_top(r.y_i, r.radius));
+    m.nu_i.push_back(ni);
+    m.nu_f.push_back(nlh);
+    m.rel.push_back((nlh - ni) / ni);
+  }
+}
+
+// |Delta y| histograms of point pt: all disks, and without the bottom and top of the final
+// deposit; summed and per member.
+void add_abs_dy_histograms(const ScanPoint& pt, const ObservableSettings& obs,
+                           const MemberSamples& m, PointResult& pr) {
+  const double H = pt.params.height;
+  const double cut_bottom = obs.cut_bottom_at(H), cut_top = obs.cut_top_at(H);
+  double max_abs = 0.0;
+  for (const auto* r : m.ok)
+    for (std::size_t k = 0; k < r->y_i.size(); ++k)
+      max_abs = std::max(max_abs, std::fabs(r->y_e[k] - r->y_i[k]));
+  // Bounded by the box (a member whose disk left it has failed, Failure::Escaped), so the bin
+  // count stays small and within int whatever a member reports.
+  max_abs = std::min(max_abs, H + 4.0 * largest_radius(pt.params));
+  const int n_hist = std::max(1, static_cast<int>(std::floor(max_abs / obs.abs_dy_bin)) + 1);
+  for (int k = 0; k <= n_hist; ++k) pr.abs_dy_edges.push_back(k * obs.abs_dy_bin);
+  pr.abs_dy_counts.assign(static_cast<std::size_t>(n_hist), 0.0);
+  pr.abs_dy_counts_cut.assign(static_cast<std::size_t>(n_hist), 0.0);
+  for (const auto* r : m.all) {
+    std::vector<double> counts(static_cast<std::size_t>(n_hist), 0.0), cut = counts;
+    const double top = r->ok() ? deposit_top(r->y_e, r->radius) : 0.0;
+    for (std::size_t k = 0; r->ok() && k < r->y_i.size(); ++k) {
+      const double a = std::fabs(r->y_e[k] - r->y_i[k]);
+      const auto j = static_cast<std::size_t>(
+          std::min(n_hist - 1, static_cast<int>(std::floor(a / obs.abs_dy_bin))));
+      counts[j] += 1.0;
+      if (r->y_e[k] >= cut_bottom && r->y_e[k] <= top - cut_top) cut[j] += 1.0;
+    }
+    for (std::size_t j = 0; j < counts.size(); ++j) {
+      pr.abs_dy_counts[j] += counts[j];
+      pr.abs_dy_counts_cut[j] += cut[j];
+    }
+    pr.abs_dy_member_counts.push_back(std::move(counts));
+    pr.abs_dy_member_counts_cut.push_back(std::move(cut));
+  }
+}
+
+// Avalanche events (protocol A): logarithmic bins, 4 per decade from 1e-3 to 1e5, of the disks
+// an event moved, how far down and how many steps it took; summed and per member.
+void add_event_histograms(const MemberSamples& m, PointResult& pr) {
+  const int per_decade = 4, decades = 8;
+  for (int k = 0; k <= per_decade * decades; ++k)
+    pr.event_edges.push_back(std::pow(10.0, -3.0 + static_cast<double>(k) / per_decade));
+  const auto nb = static_cast<std::size_t>(per_decade * decades);
+  pr.event_downward_counts.assign(nb, 0.0);
+  pr.event_moved_counts.assign(nb, 0.0);
+  pr.event_steps_counts.assign(nb, 0.0);
+  auto bin_of = [&](double v) {
+    const int j = static_cast<int>(std::floor((std::log10(v) + 3.0) * per_decade));
+    return static_cast<std::size_t>(std::clamp(j, 0, per_decade * decades - 1));
+  };
+  for (const auto* r : m.all) {
+    std::vector<double> downward(nb, 0.0), moved(nb, 0.0), steps(nb, 0.0);
+    for (std::size_t k = 0; r->ok() && k < r->events.size(); ++k) {
+      const AvalancheEvent& ev = r->events[k];
+      if (ev.steps > 0) steps[bin_of(static_cast<double>(ev.steps))] += 1.0;
+      if (ev.moved == 0) {
+        pr.events_without_motion += 1.0;
+        continue;
+      }
+      moved[bin_of(ev.moved)] += 1.0;
+      if (ev.downward > 0.0) downward[bin_of(ev.downward)] += 1.0;
+    }
+    for (std::size_t j = 0; j < nb; ++j) {
+      pr.event_downward_counts[j] += downward[j];
+      pr.event_moved_counts[j] += moved[j];
+      pr.event_steps_counts[j] += steps[j];
+    }
+    pr.event_member_downward_counts.push_back(std::move(downward));
+    pr.event_member_moved_counts.push_back(std::move(moved));
+    pr.event_member_steps_counts.push_back(std::move(steps));
+  }
+}
+
+// The ensemble of point pt over its members in results.
+PointResult point_result(const ScanPoint& pt, const ObservableSettings& obs,
+                         const std::vector<MemberResult>& results) {
+  PointResult pr;
+  pr.point = pt;
+  const double H = pt.params.height;
+  const int n_strips = std::max(1, static_cast<int>(std::ceil(H / obs.strip_width)));
+  const int n_bins = std::max(1, static_cast<int>(std::ceil(H / obs.bin_width)));
+  MemberSamples m;
+  for (const auto& r : results)
+    if (r.member.point == pt.index) add_member(pt, obs, n_strips, r, pr, m);
+  std::vector<double> strip_centre;
+  for (int s = 0; s < n_strips; ++s) strip_centre.push_back((s + 0.5) * obs.strip_width);
+  pr.nu = ensemble(m.nu_rows, strip_centre);
+  pr.nu_deposition = ensemble(m.nud_rows, strip_centre);
+  pr.nu_lower_half = mean_sem(m.lower_half);
+  pr.mean_abs_dy = mean_sem(m.abs_dy_means);
+  pr.nu_initial = mean_sem(m.nu_i);
+  pr.nu_final = mean_sem(m.nu_f);
+  pr.relative_increase = mean_sem(m.rel);
+  pr.dy_by_yi = binned(m.all, true, obs.bin_width, n_bins);
+  pr.dy_by_ye = binned(m.all, false, obs.bin_width, n_bins);
+  add_abs_dy_histograms(pt, obs, m, pr);
+  if (pt.protocol == Protocol::A) add_event_histograms(m, pr);
+  return pr;
+}
+
 }  // namespace
 
 std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberResult>& results) {
-  const auto& obs = scan.observables;
   std::vector<PointResult> out;
-  for (const auto& pt : scan.points) {
-    PointResult pr;
-    pr.point = pt;
-    const SystemParams& p = pt.params;
-    const double H = p.height;
-    const double lower_half_from = obs.lower_half_from_at(H), cut_bottom = obs.cut_bottom_at(H),
-                 cut_top = obs.cut_top_at(H);
-    const int n_strips = std::max(1, static_cast<int>(std::ceil(H / obs.strip_width)));
-    const int n_bins = std::max(1, static_cast<int>(std::ceil(H / obs.bin_width)));
-    std::vector<const MemberResult*> all, ok;
-    std::vector<std::vector<double>> nu_rows, nud_rows;
-    std::vector<double> lower_half, abs_dy_means, nu_i, nu_f, rel;
-    for (const auto& r : results) {
-      if (r.member.point != pt.index) continue;
-      ++pr.members;
-      all.push_back(&r);
-      const double top = deposit_top(r.y_e, r.radius);
-      pr.m_disks.push_back(static_cast<double>(r.y_e.size()));
-      pr.m_top.push_back(top);
-      pr.m_steps.push_back(static_cast<double>(r.steps));
-      pr.m_sweeps.push_back(static_cast<double>(r.sweeps));
-      pr.m_wall_time.push_back(r.wall_time);
-      pr.m_failure.push_back(static_cast<double>(r.failure));
-      pr.m_capped.push_back(r.capped);
-      pr.m_seed_index.push_back(r.member.seed_index);
-      // For C the final deposit is lower than H: its bulk band ends at half its own top.
-      const double band_top = pt.protocol == Protocol::C ? 0.5 * top : 0.5 * H;
-      const double nlh =
-          band_volume_fraction(r.y_e, r.radius, p.width, lower_half_from, band_top);
-      pr.m_nu_lower_half.push_back(r.ok() ? nlh : kNaN);
-      if (!r.ok()) {
-        ++pr.failed;
-        pr.nu_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
-        pr.nu_deposition_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
-        continue;  // failed members are excluded from every aggregate
-      }
-      ok.push_back(&r);
-      nu_rows.push_back(
-          volume_fraction_profile(r.y_e, r.radius, p.width, obs.strip_width, n_strips));
-      pr.nu_member_rows.push_back(nu_rows.back());
-      // Deposition density: disk area by deposition height y_i (centre counting of y_i).
-      std::vector<double> nud(static_cast<std::size_t>(n_strips), 0.0);
-      double sum_abs = 0.0;
-      for (std::size_t k = 0; k < r.y_i.size(); ++k) {
-        const int s = static_cast<int>(std::floor(r.y_i[k] / obs.strip_width));
-        if (s >= 0 && s < n_strips)
-          nud[static_cast<std::size_t>(s)] +=
-              M_PI * r.radius[k] * r.radius[k] / (p.width * obs.strip_width);
-        sum_abs += std::fabs(r.y_e[k] - r.y_i[k]);
-      }
-      nud_rows.push_back(nud);
-      pr.nu_deposition_member_rows.push_back(nud);
-      lower_half.push_back(nlh);
-      abs_dy_means.push_back(r.y_i.empty() ? kNaN : sum_abs / static_cast<double>(r.y_i.size()));
-      if (pt.protocol == Protocol::C) {
-        const double ni = band_volume_fraction(r.y_i, r.radius, p.width, lower_half_from,
-                                               0.5 * deposit_top(r.y_i, r.radius));
-        nu_i.push_back(ni);
-        nu_f.push_back(nlh);
-        rel.push_back((nlh - ni) / ni);
-      }
-    }
-    std::vector<double> strip_centre, bin_centre;
-    for (int s = 0; s < n_strips; ++s) strip_centre.push_back((s + 0.5) * obs.strip_width);
-    pr.nu = ensemble(nu_rows, strip_centre);
-    pr.nu_deposition = ensemble(nud_rows, strip_centre);
-    pr.nu_lower_half = mean_sem(lower_half);
-    pr.mean_abs_dy = mean_sem(abs_dy_means);
-    pr.nu_initial = mean_sem(nu_i);
-    pr.nu_final = mean_sem(nu_f);
-    pr.relative_increase = mean_sem(rel);
-    pr.dy_by_yi = binned(all, true, obs.bin_width, n_bins);
-    pr.dy_by_ye = binned(all, false, obs.bin_width, n_bins);
-
-    // |Delta y| histograms: all disks, and without the bottom and top of the final deposit.
-    double max_abs = 0.0;
-    for (const auto* r : ok)
-      for (std::size_t k = 0; k < r->y_i.size(); ++k)
-        max_abs = std::max(max_abs, std::fabs(r->y_e[k] - r->y_i[k]));
-    // Bounded by the box (a member whose disk left it has failed, Failure::Escaped), so the bin
-    // count stays small and within int whatever a member reports.
-    max_abs = std::min(max_abs, H + 4.0 * largest_radius(pt.params));
-    const int n_hist = std::max(1, static_cast<int>(std::floor(max_abs / obs.abs_dy_bin)) + 1);
-    for (int k = 0; k <= n_hist; ++k) pr.abs_dy_edges.push_back(k * obs.abs_dy_bin);
-    pr.abs_dy_counts.assign(static_cast<std::size_t>(n_hist), 0.0);
-    pr.abs_dy_counts_cut.assign(static_cast<std::size_t>(n_hist), 0.0);
-    for (const auto* r : all) {
-      std::vector<double> counts(static_cast<std::size_t>(n_hist), 0.0), cut = counts;
-      const double top = r->ok() ? deposit_top(r->y_e, r->radius) : 0.0;
-      for (std::size_t k = 0; r->ok() && k < r->y_i.size(); ++k) {
-        const double a = std::fabs(r->y_e[k] - r->y_i[k]);
-        const auto j = static_cast<std::size_t>(
-            std::min(n_hist - 1, static_cast<int>(std::floor(a / obs.abs_dy_bin))));
-        counts[j] += 1.0;
-        if (r->y_e[k] >= cut_bottom && r->y_e[k] <= top - cut_top) cut[j] += 1.0;
-      }
-      for (std::size_t j = 0; j < counts.size(); ++j) {
-        pr.abs_dy_counts[j] += counts[j];
-        pr.abs_dy_counts_cut[j] += cut[j];
-      }
-      pr.abs_dy_member_counts.push_back(std::move(counts));
-      pr.abs_dy_member_counts_cut.push_back(std::move(cut));
-    }
-
-    // Avalanche events (protocol A): logarithmic bins, 4 per decade from 1e-3 to 1e5.
-    if (pt.protocol == Protocol::A) {
-      const int per_decade = 4, decades = 8;
-      for (int k = 0; k <= per_decade * decades; ++k)
-        pr.event_edges.push_back(std::pow(10.0, -3.0 + static_cast<double>(k) / per_decade));
-      const auto nb = static_cast<std::size_t>(per_decade * decades);
-      pr.event_downward_counts.assign(nb, 0.0);
-      pr.event_moved_counts.assign(nb, 0.0);
-      pr.event_steps_counts.assign(nb, 0.0);
-      auto bin_of = [&](double v) {
-        const int j = static_cast<int>(std::floor((std::log10(v) + 3.0) * per_decade));
-        return static_cast<std::size_t>(std::clamp(j, 0, per_decade * decades - 1));
-      };
-      for (const auto* r : all) {
-        std::vector<double> downward(nb, 0.0), moved(nb, 0.0), steps(nb, 0.0);
-        for (std::size_t k = 0; r->ok() && k < r->events.size(); ++k) {
-          const AvalancheEvent& ev = r->events[k];
-          if (ev.steps > 0) steps[bin_of(static_cast<double>(ev.steps))] += 1.0;
-          if (ev.moved == 0) {
-            pr.events_without_motion += 1.0;
-            continue;
-          }
-          moved[bin_of(ev.moved)] += 1.0;
-          if (ev.downward > 0.0) downward[bin_of(ev.downward)] += 1.0;
-        }
-        for (std::size_t j = 0; j < nb; ++j) {
-          pr.event_downward_counts[j] += downward[j];
-          pr.event_moved_counts[j] += moved[j];
-          pr.event_steps_counts[j] += steps[j];
-        }
-        pr.event_member_downward_counts.push_back(std::move(downward));
-        pr.event_member_moved_counts.push_back(std::move(moved));
-        pr.event_member_steps_counts.push_back(std::move(steps));
-      }
-    }
-    out.push_back(std::move(pr));
-  }
+  for (const auto& pt : scan.points) out.push_back(point_result(pt, scan.observables, results));
   return out;
 }
 

@@ -356,6 +356,133 @@ void snapshot(hid_t g, const MemberResult& r) {
   dataset(g, "contact_moment", cm);
 }
 
+// The file's provenance (program, build, run) and the scan's own values and settings.
+void write_header(hid_t file, const Scan& scan, const RunInfo& info) {
+  attribute(file, "program", std::string("loosepack"));
+  attribute(file, "version", std::string(LOOSEPACK_VERSION));
+  attribute(file, "git_commit", std::string(LOOSEPACK_GIT_COMMIT));
+  attribute(file, "compiler", std::string(LOOSEPACK_COMPILER));
+  attribute(file, "cxx_flags", std::string(LOOSEPACK_CXX_FLAGS));
+  attribute(file, "kokkos_execution_space", std::string(Kokkos::DefaultExecutionSpace::name()));
+  attribute(file, "kokkos_version", static_cast<double>(KOKKOS_VERSION));
+  attribute(file, "units",
+            std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
+                        "time sqrt(R/g); lengths in R"));
+  attribute(file, "start_time", info.start_time);
+  attribute(file, "end_time", info.end_time);
+  attribute(file, "wall_seconds", info.wall_seconds);
+  count(file, "mpi_ranks", info.ranks);
+  count(file, "members_unfinished", info.members_unfinished);
+  attribute(file, "scan_file", scan.file);
+  string_dataset(file, "scan_text", scan.text);
+  attribute(file, "scan_name", scan.name);
+  {
+    H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
+    H5 a(H5Acreate2(file, "seed", H5T_STD_U64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+         "create attribute seed");
+    check(H5Awrite(a, H5T_NATIVE_UINT64, &scan.seed), "write attribute seed");
+  }
+  count(file, "seeds", scan.seeds);
+  count(file, "batch_size", scan.batch_size);
+  H5 g = group(file, "settings");
+  for (const auto& key : setting_keys()) {
+    if (key.stored && !key.stored(scan)) continue;
+    if (key.type == SettingKey::Type::Choice)
+      attribute(g, key.attribute, key.name(scan));
+    else
+      attribute(g, key.attribute, key.get(scan));
+  }
+}
+
+// A point's ensemble: its settings, profiles, histograms, events and the analysis of it.
+void write_point(hid_t g, const Scan& scan, const PointResult& pr, const PointAnalysis& an) {
+  attribute(g, "protocol", protocol_name(pr.point.protocol));
+  attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
+  attribute(g, "solver_max_sweeps",
+            static_cast<double>(scan.max_sweeps(pr.point.protocol, pr.point.params)));
+  params(g, pr.point.params);
+  const double H = pr.point.params.height;
+  attribute(g, "lower_half_from", scan.observables.lower_half_from_at(H));
+  attribute(g, "cut_bottom", scan.observables.cut_bottom_at(H));
+  attribute(g, "cut_top", scan.observables.cut_top_at(H));
+  count(g, "members", pr.members);
+  count(g, "failed", pr.failed);
+  scalar(g, "nu_lower_half", pr.nu_lower_half);
+  scalar(g, "mean_abs_dy", pr.mean_abs_dy);
+  fields(g, "nu", pr.nu, kProfileFields);
+  dataset(g, "nu/member_mean", pr.nu_member_rows);
+  std::vector<double> depth;
+  for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
+  dataset(g, "nu/depth", depth);
+  fields(g, "nu_deposition", pr.nu_deposition, kProfileFields);
+  dataset(g, "nu_deposition/member_mean", pr.nu_deposition_member_rows);
+  binned_stat(g, "avalanche_by_yi", pr.dy_by_yi);
+  binned_stat(g, "avalanche_by_ye", pr.dy_by_ye);
+  {
+    H5 h = group(g, "abs_dy_histogram");
+    dataset(h, "edges", pr.abs_dy_edges);
+    dataset(h, "counts", pr.abs_dy_counts);
+    dataset(h, "counts_cut", pr.abs_dy_counts_cut);
+    dataset(h, "member_counts", pr.abs_dy_member_counts);
+    dataset(h, "member_counts_cut", pr.abs_dy_member_counts_cut);
+  }
+  if (pr.point.protocol == Protocol::C) {
+    scalar(g, "nu_initial", pr.nu_initial);
+    scalar(g, "nu_final", pr.nu_final);
+    scalar(g, "relative_increase", pr.relative_increase);
+  }
+  point_analysis(g, pr.point.protocol, an);
+  if (pr.point.protocol == Protocol::A) {
+    H5 e = group(g, "events");
+    dataset(e, "edges", pr.event_edges);
+    dataset(e, "downward_counts", pr.event_downward_counts);
+    dataset(e, "moved_counts", pr.event_moved_counts);
+    dataset(e, "steps_counts", pr.event_steps_counts);
+    dataset(e, "member_downward_counts", pr.event_member_downward_counts);
+    dataset(e, "member_moved_counts", pr.event_member_moved_counts);
+    dataset(e, "member_steps_counts", pr.event_member_steps_counts);
+    count(e, "without_motion", std::llround(pr.events_without_motion));
+  }
+}
+
+// A point's members: their values, trajectories, snapshots (if asked) and every failed member's
+// state at its failure.
+void write_members(hid_t m, const Scan& scan, const PointResult& pr,
+                   const std::vector<MemberResult>& members, bool snapshots) {
+  dataset(m, "seed_index", pr.m_seed_index);
+  dataset(m, "disks", pr.m_disks);
+  dataset(m, "top", pr.m_top);
+  dataset(m, "nu_lower_half", pr.m_nu_lower_half);
+  dataset(m, "steps", pr.m_steps);
+  dataset(m, "sweeps", pr.m_sweeps);
+  dataset(m, "wall_time", pr.m_wall_time);
+  dataset(m, "failure", pr.m_failure);
+  dataset(m, "capped", pr.m_capped);
+  if (scan.observables.trajectory_every > 0) {
+    for (const auto& r : members) {
+      if (r.member.point != pr.point.index) continue;
+      H5 t = group(m, "trajectory_" + std::to_string(r.member.seed_index));
+      dataset(t, "time", r.trajectory_time);
+      dataset(t, "disk", r.trajectory_disk);
+      dataset(t, "x", r.trajectory_x);
+      dataset(t, "y", r.trajectory_y);
+    }
+  }
+  for (const auto& r : members) {
+    if (r.member.point != pr.point.index) continue;
+    if (snapshots) snapshot(group(m, "snapshot_" + std::to_string(r.member.seed_index)), r);
+    if (r.ok()) continue;
+    // A failed member's state at the failure, always: its diagnostic snapshot.
+    H5 f = group(m, "failure_" + std::to_string(r.member.seed_index));
+    snapshot(f, r);
+    count(f, "member", r.member.id);
+    attribute(f, "failure", failure_message(r.failure));
+    dataset(f, "vx", r.vx);
+    dataset(f, "vy", r.vy);
+    dataset(f, "w", r.w);
+  }
+}
+
 }  // namespace
 
 void write_results(const std::string& path, const Scan& scan, const RunInfo& info,
@@ -365,128 +492,14 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
   replace_file(path, [&](const std::string& tmp) {
     H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
             "create " + tmp);
-    attribute(file, "program", std::string("loosepack"));
-    attribute(file, "version", std::string(LOOSEPACK_VERSION));
-    attribute(file, "git_commit", std::string(LOOSEPACK_GIT_COMMIT));
-    attribute(file, "compiler", std::string(LOOSEPACK_COMPILER));
-    attribute(file, "cxx_flags", std::string(LOOSEPACK_CXX_FLAGS));
-    attribute(file, "kokkos_execution_space", std::string(Kokkos::DefaultExecutionSpace::name()));
-    attribute(file, "kokkos_version", static_cast<double>(KOKKOS_VERSION));
-    attribute(file, "units",
-              std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
-                          "time sqrt(R/g); lengths in R"));
-    attribute(file, "start_time", info.start_time);
-    attribute(file, "end_time", info.end_time);
-    attribute(file, "wall_seconds", info.wall_seconds);
-    count(file, "mpi_ranks", info.ranks);
-    count(file, "members_unfinished", info.members_unfinished);
-    attribute(file, "scan_file", scan.file);
-    string_dataset(file, "scan_text", scan.text);
-    attribute(file, "scan_name", scan.name);
-    {
-      H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
-      H5 a(H5Acreate2(file, "seed", H5T_STD_U64LE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-           "create attribute seed");
-      check(H5Awrite(a, H5T_NATIVE_UINT64, &scan.seed), "write attribute seed");
-    }
-    count(file, "seeds", scan.seeds);
-    count(file, "batch_size", scan.batch_size);
-    {
-      H5 g = group(file, "settings");
-      for (const auto& key : setting_keys()) {
-        if (key.stored && !key.stored(scan)) continue;
-        if (key.type == SettingKey::Type::Choice)
-          attribute(g, key.attribute, key.name(scan));
-        else
-          attribute(g, key.attribute, key.get(scan));
-      }
-    }
+    write_header(file, scan, info);
     scan_analysis(file, analysis.scan);
     H5 all = group(file, "points");
     for (std::size_t pk = 0; pk < points.size(); ++pk) {
       const PointResult& pr = points[pk];
-      const PointAnalysis& an = analysis.points.at(pk);
       H5 g = group(file, point_name(pr.point.index));
-      attribute(g, "protocol", protocol_name(pr.point.protocol));
-      attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
-      attribute(g, "solver_max_sweeps",
-                static_cast<double>(scan.max_sweeps(pr.point.protocol, pr.point.params)));
-      params(g, pr.point.params);
-      const double H = pr.point.params.height;
-      attribute(g, "lower_half_from", scan.observables.lower_half_from_at(H));
-      attribute(g, "cut_bottom", scan.observables.cut_bottom_at(H));
-      attribute(g, "cut_top", scan.observables.cut_top_at(H));
-      count(g, "members", pr.members);
-      count(g, "failed", pr.failed);
-      scalar(g, "nu_lower_half", pr.nu_lower_half);
-      scalar(g, "mean_abs_dy", pr.mean_abs_dy);
-      fields(g, "nu", pr.nu, kProfileFields);
-      dataset(g, "nu/member_mean", pr.nu_member_rows);
-      std::vector<double> depth;
-      for (double c : pr.nu.centre) depth.push_back(pr.point.params.height - c);
-      dataset(g, "nu/depth", depth);
-      fields(g, "nu_deposition", pr.nu_deposition, kProfileFields);
-      dataset(g, "nu_deposition/member_mean", pr.nu_deposition_member_rows);
-      binned_stat(g, "avalanche_by_yi", pr.dy_by_yi);
-      binned_stat(g, "avalanche_by_ye", pr.dy_by_ye);
-      {
-        H5 h = group(g, "abs_dy_histogram");
-        dataset(h, "edges", pr.abs_dy_edges);
-        dataset(h, "counts", pr.abs_dy_counts);
-        dataset(h, "counts_cut", pr.abs_dy_counts_cut);
-        dataset(h, "member_counts", pr.abs_dy_member_counts);
-        dataset(h, "member_counts_cut", pr.abs_dy_member_counts_cut);
-      }
-      if (pr.point.protocol == Protocol::C) {
-        scalar(g, "nu_initial", pr.nu_initial);
-        scalar(g, "nu_final", pr.nu_final);
-        scalar(g, "relative_increase", pr.relative_increase);
-      }
-      point_analysis(g, pr.point.protocol, an);
-      if (pr.point.protocol == Protocol::A) {
-        H5 e = group(g, "events");
-        dataset(e, "edges", pr.event_edges);
-        dataset(e, "downward_counts", pr.event_downward_counts);
-        dataset(e, "moved_counts", pr.event_moved_counts);
-        dataset(e, "steps_counts", pr.event_steps_counts);
-        dataset(e, "member_downward_counts", pr.event_member_downward_counts);
-        dataset(e, "member_moved_counts", pr.event_member_moved_counts);
-        dataset(e, "member_steps_counts", pr.event_member_steps_counts);
-        count(e, "without_motion", std::llround(pr.events_without_motion));
-      }
-      H5 m = group(g, "members");
-      dataset(m, "seed_index", pr.m_seed_index);
-      dataset(m, "disks", pr.m_disks);
-      dataset(m, "top", pr.m_top);
-      dataset(m, "nu_lower_half", pr.m_nu_lower_half);
-      dataset(m, "steps", pr.m_steps);
-      dataset(m, "sweeps", pr.m_sweeps);
-      dataset(m, "wall_time", pr.m_wall_time);
-      dataset(m, "failure", pr.m_failure);
-      dataset(m, "capped", pr.m_capped);
-      if (scan.observables.trajectory_every > 0) {
-        for (const auto& r : members) {
-          if (r.member.point != pr.point.index) continue;
-          H5 t = group(m, "trajectory_" + std::to_string(r.member.seed_index));
-          dataset(t, "time", r.trajectory_time);
-          dataset(t, "disk", r.trajectory_disk);
-          dataset(t, "x", r.trajectory_x);
-          dataset(t, "y", r.trajectory_y);
-        }
-      }
-      for (const auto& r : members) {
-        if (r.member.point != pr.point.index) continue;
-        if (snapshots) snapshot(group(m, "snapshot_" + std::to_string(r.member.seed_index)), r);
-        if (r.ok()) continue;
-        // A failed member's state at the failure, always: its diagnostic snapshot.
-        H5 f = group(m, "failure_" + std::to_string(r.member.seed_index));
-        snapshot(f, r);
-        count(f, "member", r.member.id);
-        attribute(f, "failure", failure_message(r.failure));
-        dataset(f, "vx", r.vx);
-        dataset(f, "vy", r.vy);
-        dataset(f, "w", r.w);
-      }
+      write_point(g, scan, pr, analysis.points.at(pk));
+      write_members(group(g, "members"), scan, pr, members, snapshots);
     }
     check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
   });
