@@ -484,103 +484,114 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
   return h;
 }
 
-Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
-  Analysis out;
-  const auto& obs = scan.observables;
-  for (const auto& pr : points) {
-    PointAnalysis a;
-    const Protocol prot = pr.point.protocol;
-    const double H = pr.point.params.height;
-    const bool moves =
-        prot == Protocol::C || (prot == Protocol::A && std::isfinite(pr.point.params.bond_number));
-    a.abs_dy = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts, pr.abs_dy_member_counts);
-    a.abs_dy_cut =
-        histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut, pr.abs_dy_member_counts_cut);
-    a.nu_predicted.assign(pr.nu.centre.size(), kNaN);
-    a.nu_deviation.assign(pr.nu.centre.size(), kNaN);
-    a.nu_rms_deviation = kNaN;
-    if (!moves || pr.members - pr.failed < 2) {
-      out.points.push_back(std::move(a));
-      continue;
-    }
-    const int degree = prot == Protocol::A ? 2 : 1;
-    a.dy_by_yi = profile_fit(pr.dy_by_yi, degree);
-    a.dy_by_ye = profile_fit(pr.dy_by_ye, degree);
-    if (prot == Protocol::A) {
-      // The slice model without the top cut_top of the box: the paper's "crust", disks
-      // deposited last that have hardly moved, which the slice model does not describe.
-      a.slice_parabola = ensemble_fit(pr.dy_by_ye, H - obs.cut_top_at(H), 1, slice_basis(H));
-    } else if (a.dy_by_ye.valid() && a.dy_by_yi.valid()) {
-      const double b = -coef(a.dy_by_ye, 1), sb = err(a.dy_by_ye, 1);
-      const double ae = coef(a.dy_by_ye, 0), sa = err(a.dy_by_ye, 0);
-      a.b_prime = -coef(a.dy_by_yi, 1);
-      a.b_prime_error = err(a.dy_by_yi, 1);
-      a.a_prime = coef(a.dy_by_yi, 0);
-      a.a_prime_error = err(a.dy_by_yi, 0);
-      a.b_prime_predicted = b / (1.0 + b);
-      a.b_prime_predicted_error = sb / ((1.0 + b) * (1.0 + b));
-      a.a_prime_predicted = ae / (1.0 + b);
-      a.a_prime_predicted_error = std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
-      a.slope_increase = b;
-      a.slope_increase_error = sb;
-      identity_differences(a);
-    }
-    // Final density from the deposition density.
-    {
-      std::vector<double> x, y, s;
-      for (std::size_t k = 0; k < pr.nu_deposition.centre.size(); ++k) {
-        const double c = pr.nu_deposition.centre[k];
-        if (c < obs.lower_half_from_at(H) || c + 1.5 * obs.strip_width > H) continue;
-        x.push_back(c);
-        y.push_back(pr.nu_deposition.mean[k]);
-        s.push_back(pr.nu_deposition.sem[k]);
-      }
-      a.deposition_power_law = power_law_fit(x, y, s);
-      const std::vector<std::size_t> bins =
-          profile_bins(pr.dy_by_ye, std::numeric_limits<double>::infinity());
-      if (a.deposition_power_law.valid() && a.dy_by_ye.valid() && !x.empty() && !bins.empty()) {
-        const double y_lo = pr.dy_by_ye.position[bins.front()];
-        const double y_hi = pr.dy_by_ye.position[bins.back()];
-        const double lnA = coef(a.deposition_power_law, 0), p = coef(a.deposition_power_law, 1);
-        double sum2 = 0.0;
-        int n = 0;
-        for (std::size_t k = 0; k < pr.nu.centre.size(); ++k) {
-          const double ye = pr.nu.centre[k];
-          if (ye < y_lo || ye > y_hi) continue;
-          const double yi = ye - polynomial(a.dy_by_ye, ye);
-          if (yi < x.front() || yi > x.back()) continue;
-          const double slope = coef(a.dy_by_ye, 1) + 2.0 * coef(a.dy_by_ye, 2) * ye;
-          a.nu_predicted[k] = std::exp(lnA) * std::pow(yi, p) * (1.0 - slope);
-          a.nu_deviation[k] = a.nu_predicted[k] - pr.nu.mean[k];
-          if (ye >= obs.lower_half_from_at(H) && std::isfinite(a.nu_deviation[k])) {
-            sum2 += a.nu_deviation[k] * a.nu_deviation[k];
-            ++n;
-          }
-        }
-        a.nu_rms_deviation = n > 0 ? std::sqrt(sum2 / n) : kNaN;
-      }
-    }
-    out.points.push_back(std::move(a));
-  }
+namespace {
 
-  // Across scan points.
+// Protocol C's identities: b' = b / (1 + b) and a' = a / (1 + b) from the fits of Delta y
+// against y_e and y_i (docs/MODEL.md, "Theory evaluated on the results").
+void add_identities(PointAnalysis& a) {
+  const double b = -coef(a.dy_by_ye, 1), sb = err(a.dy_by_ye, 1);
+  const double ae = coef(a.dy_by_ye, 0), sa = err(a.dy_by_ye, 0);
+  a.b_prime = -coef(a.dy_by_yi, 1);
+  a.b_prime_error = err(a.dy_by_yi, 1);
+  a.a_prime = coef(a.dy_by_yi, 0);
+  a.a_prime_error = err(a.dy_by_yi, 0);
+  a.b_prime_predicted = b / (1.0 + b);
+  a.b_prime_predicted_error = sb / ((1.0 + b) * (1.0 + b));
+  a.a_prime_predicted = ae / (1.0 + b);
+  a.a_prime_predicted_error = std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
+  a.slope_increase = b;
+  a.slope_increase_error = sb;
+  identity_differences(a);
+}
+
+// The final density from the deposition density: a power law fitted to nu_d(y_i), carried to
+// y_e by the fit of Delta y(y_e), against the measured nu(y_e).
+void add_final_density(const PointResult& pr, const ObservableSettings& obs, PointAnalysis& a) {
+  const double H = pr.point.params.height;
+  std::vector<double> x, y, s;
+  for (std::size_t k = 0; k < pr.nu_deposition.centre.size(); ++k) {
+    const double c = pr.nu_deposition.centre[k];
+    if (c < obs.lower_half_from_at(H) || c + 1.5 * obs.strip_width > H) continue;
+    x.push_back(c);
+    y.push_back(pr.nu_deposition.mean[k]);
+    s.push_back(pr.nu_deposition.sem[k]);
+  }
+  a.deposition_power_law = power_law_fit(x, y, s);
+  const std::vector<std::size_t> bins =
+      profile_bins(pr.dy_by_ye, std::numeric_limits<double>::infinity());
+  if (!a.deposition_power_law.valid() || !a.dy_by_ye.valid() || x.empty() || bins.empty()) return;
+  const double y_lo = pr.dy_by_ye.position[bins.front()];
+  const double y_hi = pr.dy_by_ye.position[bins.back()];
+  const double lnA = coef(a.deposition_power_law, 0), p = coef(a.deposition_power_law, 1);
+  double sum2 = 0.0;
+  int n = 0;
+  for (std::size_t k = 0; k < pr.nu.centre.size(); ++k) {
+    const double ye = pr.nu.centre[k];
+    if (ye < y_lo || ye > y_hi) continue;
+    const double yi = ye - polynomial(a.dy_by_ye, ye);
+    if (yi < x.front() || yi > x.back()) continue;
+    const double slope = coef(a.dy_by_ye, 1) + 2.0 * coef(a.dy_by_ye, 2) * ye;
+    a.nu_predicted[k] = std::exp(lnA) * std::pow(yi, p) * (1.0 - slope);
+    a.nu_deviation[k] = a.nu_predicted[k] - pr.nu.mean[k];
+    if (ye >= obs.lower_half_from_at(H) && std::isfinite(a.nu_deviation[k])) {
+      sum2 += a.nu_deviation[k] * a.nu_deviation[k];
+      ++n;
+    }
+  }
+  a.nu_rms_deviation = n > 0 ? std::sqrt(sum2 / n) : kNaN;
+}
+
+// The fits of one point: histogram shapes, the avalanche profiles, the slice model (A) or the
+// identities (C), and the final density from the deposition density.
+PointAnalysis analyse_point(const PointResult& pr, const ObservableSettings& obs) {
+  PointAnalysis a;
+  const Protocol prot = pr.point.protocol;
+  const double H = pr.point.params.height;
+  const bool moves =
+      prot == Protocol::C || (prot == Protocol::A && std::isfinite(pr.point.params.bond_number));
+  a.abs_dy = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts, pr.abs_dy_member_counts);
+  a.abs_dy_cut =
+      histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut, pr.abs_dy_member_counts_cut);
+  a.nu_predicted.assign(pr.nu.centre.size(), kNaN);
+  a.nu_deviation.assign(pr.nu.centre.size(), kNaN);
+  a.nu_rms_deviation = kNaN;
+  if (!moves || pr.members - pr.failed < 2) return a;
+  const int degree = prot == Protocol::A ? 2 : 1;
+  a.dy_by_yi = profile_fit(pr.dy_by_yi, degree);
+  a.dy_by_ye = profile_fit(pr.dy_by_ye, degree);
+  if (prot == Protocol::A) {
+    // The slice model without the top cut_top of the box: the paper's "crust", disks
+    // deposited last that have hardly moved, which the slice model does not describe.
+    a.slice_parabola = ensemble_fit(pr.dy_by_ye, H - obs.cut_top_at(H), 1, slice_basis(H));
+  } else if (a.dy_by_ye.valid() && a.dy_by_yi.valid()) {
+    add_identities(a);
+  }
+  add_final_density(pr, obs, a);
+  return a;
+}
+
+// The fits across scan points: the collapse's increase against ln H and nu_i (C), and the
+// curvature and the slice model against H (A).
+ScanAnalysis analyse_across(const std::vector<PointResult>& points,
+                            const std::vector<PointAnalysis>& fits) {
+  ScanAnalysis out;
   using Data = const std::vector<double>&;
   const auto line = [](Data x, Data y, Data s) { return polynomial_fit(x, y, s, 1); };
-  out.scan.increase_vs_log_height =
+  out.increase_vs_log_height =
       across_points(points, Protocol::C, Varying::Height, line, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
         return keep_if(std::isfinite(inc.mean),
                        {std::log(points[k].point.params.height), inc.mean, inc.sem});
       });
   // The initial density varies with the capture radius; fit against the measured nu_i.
-  out.scan.increase_vs_nu_initial =
+  out.increase_vs_nu_initial =
       across_points(points, Protocol::C, Varying::CaptureRadius, power_law_fit, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
         return keep_if(std::isfinite(inc.mean), {points[k].nu_initial.mean, inc.mean, inc.sem});
       });
-  out.scan.quadratic_vs_height =
+  out.quadratic_vs_height =
       across_points(points, Protocol::A, Varying::Height, power_law_fit, [&](std::size_t k) {
-        const Fit& f = out.points[k].dy_by_ye;
+        const Fit& f = fits[k].dy_by_ye;
         const bool curved = f.valid() && f.coef.size() >= 3 && f.coef[2] != 0.0;
         return keep_if(curved, {points[k].point.params.height, std::fabs(coef(f, 2)), err(f, 2)});
       });
@@ -588,12 +599,21 @@ Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
   const auto three_or_more = [](Data x, Data y, Data s) {
     return x.size() >= 3 ? power_law_fit(x, y, s) : Fit{};
   };
-  out.scan.slice_vs_height =
+  out.slice_vs_height =
       across_points(points, Protocol::A, Varying::Height, three_or_more, [&](std::size_t k) {
-        const Fit& f = out.points[k].slice_parabola;
+        const Fit& f = fits[k].slice_parabola;
         const bool positive = f.valid() && !f.coef.empty() && f.coef[0] > 0.0;
         return keep_if(positive, {points[k].point.params.height, coef(f, 0), err(f, 0)});
       });
+  return out;
+}
+
+}  // namespace
+
+Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
+  Analysis out;
+  for (const auto& pr : points) out.points.push_back(analyse_point(pr, scan.observables));
+  out.scan = analyse_across(points, out.points);
   return out;
 }
 
