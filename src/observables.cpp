@@ -139,7 +139,7 @@ BinnedStat binned(const std::vector<const MemberResult*>& members, bool by_initi
 struct MemberSamples {
   std::vector<const MemberResult*> all, ok;  // every member of the point; those that did not fail
   std::vector<std::vector<double>> nu_rows, nud_rows;
-  std::vector<double> lower_half, abs_dy_means, nu_i, nu_f, rel;
+  std::vector<double> lower_half, abs_dy_means, nu_i, rel;  // nu_i and rel: protocol C
 };
 
 // Adds member r of point pt to pr's per-member rows and to the samples (failed members only to
@@ -191,7 +191,6 @@ void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips
     const double ni = band_volume_fraction(r.y_i, r.radius, p.width, lower_half_from,
                                            0.5 * deposit_top(r.y_i, r.radius));
     m.nu_i.push_back(ni);
-    m.nu_f.push_back(nlh);
     m.rel.push_back((nlh - ni) / ni);
   }
 }
@@ -287,7 +286,8 @@ PointResult point_result(const ScanPoint& pt, const ObservableSettings& obs,
   pr.nu_lower_half = mean_sem(m.lower_half);
   pr.mean_abs_dy = mean_sem(m.abs_dy_means);
   pr.nu_initial = mean_sem(m.nu_i);
-  pr.nu_final = mean_sem(m.nu_f);
+  // C's final density is its lower-half density (the band ends at half the final top).
+  pr.nu_final = pt.protocol == Protocol::C ? pr.nu_lower_half : mean_sem({});
   pr.relative_increase = mean_sem(m.rel);
   pr.dy_by_yi = binned(m.all, true, obs.bin_width, n_bins);
   pr.dy_by_ye = binned(m.all, false, obs.bin_width, n_bins);
