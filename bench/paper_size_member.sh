@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# One paper-size protocol-A member (200 R x 800 R, the paper's stop rule), timed end to end across
+# as many runs as it takes (docs/PERFORMANCE.md, "Scaling with system size"): the first call
+# starts it, every later call resumes it from its checkpoint, and each call appends the run's
+# CPU seconds against the disks deposited, once a minute, to OUT_DIR/progress.tsv. When the
+# member has finished, the summary (bench/paper_size_member.py) gives its total CPU and the
+# exponent of the CPU against the disks deposited.
+#
+#   bench/paper_size_member.sh OUT_DIR [BOND_NUMBER] [SETTINGS]
+#
+# BOND_NUMBER: 1e3 (default; h = 0.0028) or 1e2 (h = 0.009), as the paper files set them.
+# SETTINGS: "tall" (default: relaxation regions r = 8 checked every 10th disk and
+# solver.tolerance = 3e-3, as the tall and wide fig. 7 files) or "defaults" (the program's).
+# Stop it with Ctrl-C or SIGTERM: the run writes its checkpoint and the next call goes on.
+set -euo pipefail
+out=${1:?usage: paper_size_member.sh OUT_DIR [BOND_NUMBER] [SETTINGS]}
+bond=${2:-1e3}
+settings=${3:-tall}
+here=$(cd "$(dirname "$0")" && pwd)
+exe=${LOOSEPACK:-$here/../build/loosepack}
+case "$bond" in
+  1e3) b=1000.0 dt=0.0028 ;;
+  1e2) b=100.0 dt=0.009 ;;
+  *) echo "paper_size_member.sh: BOND_NUMBER must be 1e3 or 1e2, not '$bond'" >&2; exit 2 ;;
+esac
+case "$settings" in
+  tall | defaults) ;;
+  *) echo "paper_size_member.sh: SETTINGS must be tall or defaults, not '$settings'" >&2; exit 2 ;;
+esac
+mkdir -p "$out"
+cd "$out"
+name="A_bo${bond}_${settings}"
+if [ ! -f "$name.toml" ]; then
+  {
+    printf '[scan]\nname = "%s"\nseed = 2011\nseeds = 1\nbatch_size = 1\nprotocol = "A"\n\n' "$name"
+    printf '[system]\nwidth = 200.0\nheight = 800.0\nbond_number = %s\ntime_step = %s\n\n' "$b" "$dt"
+    printf '[protocol]\nstop_rule = "no_room"\n'
+    if [ "$settings" = tall ]; then
+      printf 'region_radius = 8.0\nregion_check_every = 10\n\n[solver]\ntolerance = 3e-3\n'
+    fi
+  } >"$name.toml"
+fi
+if [ -f "$name.h5" ]; then
+  echo "paper_size_member.sh: $out/$name.h5 is finished; summary:" >&2
+  exec python3 "$here/paper_size_member.py" "$out/progress.tsv"
+fi
+resume=()
+[ -d "$name.h5.checkpoint" ] && resume=(--resume)
+run=$(($(cut -f1 progress.tsv 2>/dev/null | sort -n | tail -n 1 || echo 0) + 1))
+[ -f progress.tsv ] || printf 'run\tepoch_s\tcpu_s\tdisks\n' >progress.tsv
+commit=$("$exe" --version 2>/dev/null | head -n 1 || true)
+echo "$run $(date -u +%FT%TZ) $commit ${resume[*]}" >>runs.txt
+
+"$exe" run "$name.toml" -o "$name.h5" --checkpoint-every 300 "${resume[@]}" 2>>"$name.log" &
+pid=$!
+trap 'kill -INT $pid 2>/dev/null; wait $pid; exit 130' INT TERM
+tick=$(getconf CLK_TCK)
+while kill -0 "$pid" 2>/dev/null; do
+  sleep 60 &
+  wait $! || true  # a signal's trap runs at once, not after the minute
+  [ -r "/proc/$pid/stat" ] || break
+  # utime + stime of the run, in clock ticks (fields 14 and 15 after the command's name).
+  cpu=$(sed 's/^.*) //' "/proc/$pid/stat" | awk -v t="$tick" '{printf "%.1f", ($12 + $13) / t}')
+  disks=$(tail -n 1 "$name.log" | sed -n 's/.* \([0-9][0-9]*\) disks deposited.*/\1/p')
+  [ -n "$disks" ] && printf '%s\t%s\t%s\t%s\n' "$run" "$(date +%s)" "$cpu" "$disks" >>progress.tsv
+done
+wait "$pid"
+[ -f "$name.h5" ] && python3 "$here/paper_size_member.py" progress.tsv
