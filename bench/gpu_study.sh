@@ -13,7 +13,10 @@
 #      whole solve in one launch; K > 0 splits a step's solve over launches of at most K sweeps,
 #      so that a launch does not wait for the slowest system); FENCED=0 runs them as a user
 #      does, without --timing's fence after every stage (and without its table);
-#   5. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
+#   5. if PAPER_MEMBER_S is set: one paper-size protocol-A member (bench/paper_size_member.sh:
+#      200 R x 800 R, Bo = 1e3, regions) for that many seconds on the device (a batch of one,
+#      the backend's defaults) and side by side on one host core: the disks each deposited;
+#   6. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
 #      of BUDGET_S.
 #
 #   bench/gpu_study.sh OUT DEVICE_LOOSEPACK HOST_LOOSEPACK [BEFORE_LOOSEPACK]
@@ -24,9 +27,10 @@
 #          take.
 #
 # Writes OUT/study.log (the machine, the progress), OUT/runs.jsonl (bench/gpu_runs.sh's lines,
-# each with "where" and "variant"), OUT/timing.txt (each run's --timing), OUT/tests_tests.txt and
-# OUT/tests_failed_tails.txt (bench/gpu_tests.sh's results) and OUT/summary.md (the tables,
-# bench/gpu_summary.py): six files in all. Binaries built
+# each with "where" and "variant"), OUT/timing.txt (each run's --timing), OUT/member.jsonl (the
+# paper-size member's disks on each side), OUT/tests_tests.txt and OUT/tests_failed_tails.txt
+# (bench/gpu_tests.sh's results) and OUT/summary.md (the tables, bench/gpu_summary.py): seven
+# files in all. Binaries built
 # on another machine run with their shared libraries beside them (bench/gpu_bundle.sh gathers
 # both).
 set -uo pipefail
@@ -93,6 +97,20 @@ for sweeps in ${SWEEPS_PER_LAUNCHES:-0}; do
 done
 wait "$host_job"
 log "host reference done"
+
+if [ -n "${PAPER_MEMBER_S:-}" ]; then
+  log "a paper-size member for $PAPER_MEMBER_S s on the device and on host core $last_core"
+  LOOSEPACK=$host FOR_S=$PAPER_MEMBER_S taskset -c "$last_core" \
+    "$here/paper_size_member.sh" "$work/member-host" 2>>"$out/study.log" &
+  member_job=$!
+  LOOSEPACK=$device FOR_S=$PAPER_MEMBER_S "$here/paper_size_member.sh" "$work/member-device" \
+    2>>"$out/study.log"
+  wait "$member_job"
+  for where in device host; do  # the last progress line: disks deposited, seconds elapsed
+    grep 'disks deposited' "$work/member-$where"/*.log | tail -n 1 |
+      sed -n "s/.* \([0-9][0-9]*\) disks deposited.* \([0-9][0-9]*\) s elapsed.*/{\"where\": \"$where\", \"disks\": \1, \"elapsed_s\": \2}/p"
+  done | tee -a "$out/study.log" >>"$out/member.jsonl"
+fi
 
 if [ -n "${TESTS:-}" ]; then
   left=$((${BUDGET_S:-540} - ($(date +%s) - t0) - 15))

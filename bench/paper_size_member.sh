@@ -12,6 +12,8 @@
 # SETTINGS: "tall" (default: relaxation regions r = 8 checked every 10th disk and
 # solver.tolerance = 3e-3, as the tall and wide fig. 7 files) or "defaults" (the program's).
 # Stop it with Ctrl-C or SIGTERM: the run writes its checkpoint and the next call goes on.
+# FOR_S=N stops the run so after N seconds (bench/gpu_study.sh's PAPER_MEMBER_S). LOOSEPACK names
+# the binary (default build/loosepack).
 set -euo pipefail
 out=${1:?usage: paper_size_member.sh OUT_DIR [BOND_NUMBER] [SETTINGS]}
 bond=${2:-1e3}
@@ -54,15 +56,26 @@ echo "$run $(date -u +%FT%TZ) $commit ${resume[*]}" >>runs.txt
 "$exe" run "$name.toml" -o "$name.h5" --checkpoint-every 300 "${resume[@]}" 2>>"$name.log" &
 pid=$!
 trap 'kill -INT $pid 2>/dev/null; wait $pid; exit 130' INT TERM
+stopper=
+if [ -n "${FOR_S:-}" ]; then
+  { sleep "$FOR_S" && kill -INT "$pid" 2>/dev/null; } &
+  stopper=$!
+fi
 tick=$(getconf CLK_TCK)
+next=$(($(date +%s) + 60))
 while kill -0 "$pid" 2>/dev/null; do
-  sleep 60 &
-  wait $! || true  # a signal's trap runs at once, not after the minute
+  sleep 5 &
+  wait $! || true  # a signal's trap runs at once, not after the sleep
+  [ "$(date +%s)" -ge "$next" ] || continue
+  next=$((next + 60))
   [ -r "/proc/$pid/stat" ] || break
   # utime + stime of the run, in clock ticks (fields 14 and 15 after the command's name).
   cpu=$(sed 's/^.*) //' "/proc/$pid/stat" | awk -v t="$tick" '{printf "%.1f", ($12 + $13) / t}')
   disks=$(tail -n 1 "$name.log" | sed -n 's/.* \([0-9][0-9]*\) disks deposited.*/\1/p')
   [ -n "$disks" ] && printf '%s\t%s\t%s\t%s\n' "$run" "$(date +%s)" "$cpu" "$disks" >>progress.tsv
 done
-wait "$pid"
+wait "$pid" || true
+[ -n "$stopper" ] && { kill "$stopper" 2>/dev/null || true; }
+tail -n 1 "$name.log" | grep -q 'interrupted' && tail -n 2 "$name.log" | head -n 1 >&2
 [ -f "$name.h5" ] && python3 "$here/paper_size_member.py" progress.tsv
+exit 0
