@@ -722,24 +722,35 @@ std::string read_attribute_string(const std::string& path, const std::string& ob
   return string_attribute(file, object, name);
 }
 
-// The fits of the analysis under the summary's table, where the file has them.
-static void print_fits(hid_t file, const std::vector<std::string>& names, std::ostream& out) {
-  auto exists = [&](const std::string& object) {
+namespace {
+// Reads the fits of the analysis from a result file as the summary prints them.
+struct FitReader {
+  hid_t file;
+
+  bool exists(const std::string& object) const {
     return H5Lexists(file, object.c_str(), H5P_DEFAULT) > 0 &&
            H5Oexists_by_name(file, object.c_str(), H5P_DEFAULT) > 0;
-  };
+  }
+  double attribute(const std::string& object, const char* name) const {
+    return double_attribute(file, object, name);
+  }
   // A valid fit's coefficients and errors, at least `n` of each (else the file is refused).
-  auto coefficients = [&](const std::string& object, std::size_t n) {
+  std::pair<std::vector<double>, std::vector<double>> coefficients(const std::string& object,
+                                                                   std::size_t n) const {
     auto c = doubles(file, object + "/coef"), e = doubles(file, object + "/error");
     check_lengths(object, {{"coef", c.size()}, {"error", e.size()}});
     if (c.size() < n)
       throw std::runtime_error(object + "/coef has " + std::to_string(c.size()) +
                                " values, fewer than its model has (the file is damaged or was "
                                "edited)");
-    return std::make_pair(c, e);
-  };
-  auto fit_text = [&](const std::string& object, const char* var) {
-    if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
+    return {c, e};
+  }
+  bool valid(const std::string& object) const {
+    return exists(object) && attribute(object, "valid") != 0.0;
+  }
+  // A polynomial in `var`, or "" where the file has no valid fit.
+  std::string fit_text(const std::string& object, const char* var) const {
+    if (!valid(object)) return std::string();
     const auto [c, e] = coefficients(object, 1);
     std::ostringstream o;
     o << std::setprecision(3);
@@ -748,84 +759,99 @@ static void print_fits(hid_t file, const std::vector<std::string>& names, std::o
       if (k == 1) o << " " << var;
       if (k > 1) o << " " << var << "^" << k;
     }
-    o << "  [chi2/dof " << double_attribute(file, object, "reduced_chi2") << "]";
+    o << "  [chi2/dof " << attribute(object, "reduced_chi2") << "]";
     return o.str();
-  };
+  }
   // A power law A x^p, fitted as ln A + p ln x: the error of A is A times that of ln A.
-  auto power_text = [&](const std::string& object) {
-    if (!exists(object) || double_attribute(file, object, "valid") == 0.0) return std::string();
+  std::string power_text(const std::string& object) const {
+    if (!valid(object)) return std::string();
     const auto [c, e] = coefficients(object, 2);
     std::ostringstream o;
     o << std::setprecision(3) << "A = " << std::exp(c[0]) << " +- " << std::exp(c[0]) * e[0]
-      << ", p = " << c[1] << " +- " << e[1] << "  [chi2/dof "
-      << double_attribute(file, object, "reduced_chi2") << "]";
+      << ", p = " << c[1] << " +- " << e[1] << "  [chi2/dof " << attribute(object, "reduced_chi2")
+      << "]";
     return o.str();
-  };
-  bool header = false;
-  for (const auto& n : names) {
-    const std::string yi = fit_text(n + "/avalanche_by_yi/fit", "y_i");
-    const std::string ye = fit_text(n + "/avalanche_by_ye/fit", "y_e");
-    auto verdict = [&](const char* which) {  // a histogram's preferred shape, or "none"
-      const std::string h = n + "/abs_dy_histogram/" + which;
-      return exists(h) ? string_attribute(file, h, "preferred") : std::string("none");
-    };
-    if (yi.empty() && ye.empty() && verdict("shape") == "none" && verdict("shape_cut") == "none")
-      continue;
-    if (!header) out << "# fits (docs/OUTPUT.md, analysis)\n";
-    header = true;
-    out << n.substr(7) << ":\n";
-    if (!yi.empty()) out << "  Delta y(y_i) = " << yi << "\n";
-    if (!ye.empty()) out << "  Delta y(y_e) = " << ye << "\n";
-    const std::string slice = n + "/avalanche_by_ye/slice_parabola";
-    if (exists(slice) && double_attribute(file, slice, "valid") != 0.0) {
-      const auto [c, e] = coefficients(slice, 1);
-      out << "  slice model Delta y(y_e) = -a y_e (1 - y_e/H): a = " << c[0] << " +- " << e[0]
-          << "\n";
-    }
-    auto identity = [&](const char* a) {
-      return double_attribute(file, n + "/collapse_identity", a);
-    };
-    if (exists(n + "/collapse_identity") && std::isfinite(identity("b_prime"))) {
-      const auto& c = identity;
-      out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error")
-          << ", from b/(1+b): " << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
-          << "; a' = " << c("a_prime") << " +- " << c("a_prime_error")
-          << ", from a/(1+b): " << c("a_prime_predicted") << " +- " << c("a_prime_predicted_error")
-          << "; -dDelta y/dy_e = " << c("slope_increase") << " +- " << c("slope_increase_error")
-          << " vs dnu/nu_i = " << double_attribute(file, n, "relative_increase_mean") << " +- "
-          << double_attribute(file, n, "relative_increase_sem") << "\n";
-      if (H5Aexists_by_name(file, (n + "/collapse_identity").c_str(), "b_prime_difference",
-                            H5P_DEFAULT) > 0)  // files from 2026-11-25 on
-        out << "  b' - b/(1+b) = " << c("b_prime_difference") << " +- "
-            << c("b_prime_difference_error") << ", a' - a/(1+b) = " << c("a_prime_difference")
-            << " +- " << c("a_prime_difference_error") << " (jackknife of the differences)\n";
-    }
-    const std::string nud = power_text(n + "/nu_deposition/power_law");
-    if (!nud.empty()) out << "  deposition density nu_d = A y_i^p: " << nud << "\n";
-    const double rms = double_attribute(file, n + "/nu", "rms_deviation");
-    if (std::isfinite(rms))
-      out << "  nu predicted from the deposition density: rms deviation " << rms << "\n";
-    for (const char* which : {"shape", "shape_cut"}) {
-      const std::string h = n + "/abs_dy_histogram/" + which, pref = verdict(which);
-      if (pref == "none") continue;
-      out << "  |Delta y| histogram"
-          << (which == std::string("shape") ? "" : " (top and bottom cut)") << ": " << pref
-          << " (chi2/dof gaussian " << double_attribute(file, h + "/gaussian", "reduced_chi2")
-          << ", exponential " << double_attribute(file, h + "/exponential", "reduced_chi2")
-          << ")\n";
-    }
   }
-  // The fits across scan points, where the scan has the points for them.
-  const std::string log_h = fit_text("analysis/increase_vs_log_height", "ln H");
-  const std::string nu_i = power_text("analysis/increase_vs_nu_initial");
-  const std::string c_h = power_text("analysis/quadratic_vs_height");
-  const std::string a_h = power_text("analysis/slice_vs_height");
+  // A histogram's preferred shape, or "none".
+  std::string verdict(const std::string& point, const char* which) const {
+    const std::string h = point + "/abs_dy_histogram/" + which;
+    return exists(h) ? string_attribute(file, h, "preferred") : std::string("none");
+  }
+};
+
+// Protocol C's identity between the collapse's line and the deposition's (docs/OUTPUT.md).
+void print_collapse_identity(const FitReader& f, const std::string& n, std::ostream& out) {
+  const std::string id = n + "/collapse_identity";
+  const auto c = [&](const char* a) { return f.attribute(id, a); };
+  if (!f.exists(id) || !std::isfinite(c("b_prime"))) return;
+  out << "  b' = " << c("b_prime") << " +- " << c("b_prime_error")
+      << ", from b/(1+b): " << c("b_prime_predicted") << " +- " << c("b_prime_predicted_error")
+      << "; a' = " << c("a_prime") << " +- " << c("a_prime_error")
+      << ", from a/(1+b): " << c("a_prime_predicted") << " +- " << c("a_prime_predicted_error")
+      << "; -dDelta y/dy_e = " << c("slope_increase") << " +- " << c("slope_increase_error")
+      << " vs dnu/nu_i = " << f.attribute(n, "relative_increase_mean") << " +- "
+      << f.attribute(n, "relative_increase_sem") << "\n";
+  // The jackknife of the differences: files from 2026-11-25 on.
+  if (H5Aexists_by_name(f.file, id.c_str(), "b_prime_difference", H5P_DEFAULT) > 0)
+    out << "  b' - b/(1+b) = " << c("b_prime_difference") << " +- " << c("b_prime_difference_error")
+        << ", a' - a/(1+b) = " << c("a_prime_difference") << " +- " << c("a_prime_difference_error")
+        << " (jackknife of the differences)\n";
+}
+
+// The fits of scan point `n` (points/NNNN), under a header printed once (`header`).
+void print_point_fits(const FitReader& f, const std::string& n, bool& header, std::ostream& out) {
+  const std::string yi = f.fit_text(n + "/avalanche_by_yi/fit", "y_i");
+  const std::string ye = f.fit_text(n + "/avalanche_by_ye/fit", "y_e");
+  if (yi.empty() && ye.empty() && f.verdict(n, "shape") == "none" &&
+      f.verdict(n, "shape_cut") == "none")
+    return;
+  if (!header) out << "# fits (docs/OUTPUT.md, analysis)\n";
+  header = true;
+  out << n.substr(7) << ":\n";
+  if (!yi.empty()) out << "  Delta y(y_i) = " << yi << "\n";
+  if (!ye.empty()) out << "  Delta y(y_e) = " << ye << "\n";
+  const std::string slice = n + "/avalanche_by_ye/slice_parabola";
+  if (f.valid(slice)) {
+    const auto [c, e] = f.coefficients(slice, 1);
+    out << "  slice model Delta y(y_e) = -a y_e (1 - y_e/H): a = " << c[0] << " +- " << e[0]
+        << "\n";
+  }
+  print_collapse_identity(f, n, out);
+  const std::string nud = f.power_text(n + "/nu_deposition/power_law");
+  if (!nud.empty()) out << "  deposition density nu_d = A y_i^p: " << nud << "\n";
+  const double rms = f.attribute(n + "/nu", "rms_deviation");
+  if (std::isfinite(rms))
+    out << "  nu predicted from the deposition density: rms deviation " << rms << "\n";
+  for (const char* which : {"shape", "shape_cut"}) {
+    const std::string h = n + "/abs_dy_histogram/" + which, pref = f.verdict(n, which);
+    if (pref == "none") continue;
+    out << "  |Delta y| histogram" << (which == std::string("shape") ? "" : " (top and bottom cut)")
+        << ": " << pref << " (chi2/dof gaussian " << f.attribute(h + "/gaussian", "reduced_chi2")
+        << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2") << ")\n";
+  }
+}
+
+// The fits across scan points, where the scan has the points for them.
+void print_fits_across(const FitReader& f, std::ostream& out) {
+  const std::string log_h = f.fit_text("analysis/increase_vs_log_height", "ln H");
+  const std::string nu_i = f.power_text("analysis/increase_vs_nu_initial");
+  const std::string c_h = f.power_text("analysis/quadratic_vs_height");
+  const std::string a_h = f.power_text("analysis/slice_vs_height");
   if (log_h.empty() && nu_i.empty() && c_h.empty() && a_h.empty()) return;
   out << "# fits across points\n";
   if (!log_h.empty()) out << "  dnu/nu_i = " << log_h << "\n";
   if (!nu_i.empty()) out << "  dnu/nu_i = A nu_i^p: " << nu_i << "\n";
   if (!c_h.empty()) out << "  abs(c2) of Delta y(y_e) = A H^p: " << c_h << "\n";
   if (!a_h.empty()) out << "  slice model a = A H^p: " << a_h << "\n";
+}
+}  // namespace
+
+// The fits of the analysis under the summary's table, where the file has them.
+static void print_fits(hid_t file, const std::vector<std::string>& names, std::ostream& out) {
+  const FitReader f{file};
+  bool header = false;
+  for (const auto& n : names) print_point_fits(f, n, header, out);
+  print_fits_across(f, out);
 }
 
 void print_summary(const std::string& path, std::ostream& out) {
