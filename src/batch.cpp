@@ -170,28 +170,133 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   }
 }
 
-// Newton steps (src/newton.hpp) for the systems `due`, on host copies of their state (the same
-// memory on a host backend), one system per host thread; per round at most kNewtonSteps steps
-// that are not blocked, and kMaxSteps in all (a blocked step opens one self-stress of a loop
-// that cannot close: src/newton.hpp).
+namespace {
+template <class T>
+using HostCopy =
+    decltype(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), std::declval<DView<T>>()));
+template <class T>
+HostCopy<T> host_copy(const DView<T>& v) {
+  return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
+}
+
+// Host copies of the batch state a Newton round reads (the same memory on a host backend): each
+// system's bodies and contacts gathered into a NewtonSystem, and its impulses and velocities
+// scattered back after the round.
+struct NewtonHostState {
+  HostCopy<double> vx, vy, w, vfx, vfy, wf, inv_mass, inv_inertia, radius;
+  HostCopy<int> n_incident, incident, partner;
+  HostCopy<double> nx, ny, gap, rc, wn, wa, wb, wc, lower, pn, pt, pm, weight, tolerance;
+  HostCopy<int> counts;
+
+  NewtonHostState(const ParticleViews& part, const ContactViews& con, const SystemViews& sys)
+      : vx(host_copy(part.vx)),
+        vy(host_copy(part.vy)),
+        w(host_copy(part.w)),
+        vfx(host_copy(part.vfx)),
+        vfy(host_copy(part.vfy)),
+        wf(host_copy(part.wf)),
+        inv_mass(host_copy(part.inv_mass)),
+        inv_inertia(host_copy(part.inv_inertia)),
+        radius(host_copy(part.radius)),
+        n_incident(host_copy(part.n_incident)),
+        incident(host_copy(part.incident)),
+        partner(host_copy(con.partner)),
+        nx(host_copy(con.nx)),
+        ny(host_copy(con.ny)),
+        gap(host_copy(con.gap)),
+        rc(host_copy(con.rc)),
+        wn(host_copy(con.wn)),
+        wa(host_copy(con.wa)),
+        wb(host_copy(con.wb)),
+        wc(host_copy(con.wc)),
+        lower(host_copy(con.lower)),
+        pn(host_copy(con.pn)),
+        pt(host_copy(con.pt)),
+        pm(host_copy(con.pm)),
+        weight(host_copy(sys.weight)),
+        tolerance(host_copy(sys.step_tolerance)),
+        counts(host_copy(sys.count)) {}
+
+  // System s's bodies first..first+count and their contacts in slot order; `local` maps the
+  // system's contact slots to the NewtonSystem's contacts (-1: no contact).
+  NewtonSystem gather(int s, const SystemParams& pr, int first, std::vector<int>& local) const {
+    const int count = counts(s);
+    NewtonSystem ns;
+    ns.impulse_unit = pr.time_step * weight(s);
+    local.assign(static_cast<std::size_t>(count) * kSlots, -1);
+    for (int p = first; p < first + count; ++p)
+      for (int a = 0; a < kSlots; ++a) {
+        const int c = p * kSlots + a;
+        const int j = partner(c);
+        if (j == kNoContact) break;
+        local[static_cast<std::size_t>(c - first * kSlots)] = ns.contacts();
+        ns.i.push_back(p - first);
+        ns.j.push_back(j >= 0 ? j - first : kFloor);
+        ns.nx.push_back(nx(c));
+        ns.ny.push_back(ny(c));
+        ns.rc.push_back(rc(c));
+        ns.problem.push_back({gap(c), pr.time_step, wn(c), wa(c), wb(c), wc(c), lower(c),
+                              pr.friction, pr.rolling_friction * rc(c)});
+        ns.impulse.push_back({pn(c), pt(c), pm(c)});
+      }
+    ns.incident_start.push_back(0);
+    for (int p = first; p < first + count; ++p) {
+      ns.inv_mass.push_back(inv_mass(p));
+      ns.inv_inertia.push_back(inv_inertia(p));
+      ns.radius.push_back(radius(p));
+      ns.vfx.push_back(vfx(p));
+      ns.vfy.push_back(vfy(p));
+      ns.wf.push_back(wf(p));
+      ns.vx.push_back(vx(p));
+      ns.vy.push_back(vy(p));
+      ns.w.push_back(w(p));
+      for (int a = 0; a < n_incident(p); ++a)
+        ns.incident.push_back(
+            local[static_cast<std::size_t>(incident(p * kIncident + a) - first * kSlots)]);
+      ns.incident_start.push_back(static_cast<int>(ns.incident.size()));
+    }
+    return ns;
+  }
+
+  // The round's impulses and velocities back into the copies of system s.
+  void scatter(const NewtonSystem& ns, int s, int first, const std::vector<int>& local) const {
+    for (int p = first; p < first + counts(s); ++p) {
+      const auto b = static_cast<std::size_t>(p - first);
+      vx(p) = ns.vx[b];
+      vy(p) = ns.vy[b];
+      w(p) = ns.w[b];
+      for (int a = 0; a < kSlots; ++a) {
+        const int c = p * kSlots + a;
+        const int l = local[static_cast<std::size_t>(c - first * kSlots)];
+        if (l < 0) break;
+        const ContactImpulse& P = ns.impulse[static_cast<std::size_t>(l)];
+        pn(c) = P.pn;
+        pt(c) = P.pt;
+        pm(c) = P.pm;
+      }
+    }
+  }
+
+  // The copies' velocities and impulses back into the batch.
+  void write_back(const ParticleViews& part, const ContactViews& con) const {
+    Kokkos::deep_copy(part.vx, vx);
+    Kokkos::deep_copy(part.vy, vy);
+    Kokkos::deep_copy(part.w, w);
+    Kokkos::deep_copy(con.pn, pn);
+    Kokkos::deep_copy(con.pt, pt);
+    Kokkos::deep_copy(con.pm, pm);
+  }
+};
+}  // namespace
+
+// Newton steps (src/newton.hpp) for the systems `due`, on host copies of their state, one
+// system per host thread; per round at most kNewtonSteps steps that are not blocked, and
+// kMaxSteps in all (a blocked step opens one self-stress of a loop that cannot close:
+// src/newton.hpp).
 template <class Fx>
 void Batch::Impl::newton_round(const std::vector<int>& due) {
   constexpr int kNewtonSteps = 3, kMaxSteps = 8;
-  const auto mirror = [](const auto& v) {
-    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
-  };
-  const auto vx = mirror(part.vx), vy = mirror(part.vy), w = mirror(part.w);
-  const auto vfx = mirror(part.vfx), vfy = mirror(part.vfy), wf = mirror(part.wf);
-  const auto inv_mass = mirror(part.inv_mass), inv_inertia = mirror(part.inv_inertia);
-  const auto radius = mirror(part.radius);
-  const auto n_incident = mirror(part.n_incident), incident = mirror(part.incident);
-  const auto partner = mirror(con.partner);
-  const auto nx = mirror(con.nx), ny = mirror(con.ny), gap_ = mirror(con.gap), rc = mirror(con.rc);
-  const auto wn = mirror(con.wn), wa = mirror(con.wa), wb = mirror(con.wb), wc = mirror(con.wc);
-  const auto lower = mirror(con.lower);
-  const auto pn = mirror(con.pn), pt = mirror(con.pt), pm = mirror(con.pm);
-  const auto weight = mirror(sys.weight), tolerance = mirror(sys.step_tolerance);
-  const auto counts = mirror(sys.count);
+  const NewtonHostState host(part, con, sys);
   Kokkos::parallel_for(
       "newton",
       Kokkos::RangePolicy<Kokkos::DefaultHostExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>(
@@ -199,48 +304,13 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
       [&](int k) {
         const int s = due[static_cast<std::size_t>(k)];
         const auto su = static_cast<std::size_t>(s);
-        const SystemParams& pr = params[su];
-        const int first = offsets[su], count = counts(s);
-        // Gather: bodies first..first+count, their contacts in slot order.
-        NewtonSystem ns;
-        ns.impulse_unit = pr.time_step * weight(s);
+        std::vector<int> local;
+        NewtonSystem ns = host.gather(s, params[su], offsets[su], local);
         ns.factor = newton_factor[su].get();
-        std::vector<int> local(static_cast<std::size_t>(count) * kSlots, -1);
-        for (int p = first; p < first + count; ++p)
-          for (int a = 0; a < kSlots; ++a) {
-            const int c = p * kSlots + a;
-            const int j = partner(c);
-            if (j == kNoContact) break;
-            local[static_cast<std::size_t>(c - first * kSlots)] = ns.contacts();
-            ns.i.push_back(p - first);
-            ns.j.push_back(j >= 0 ? j - first : kFloor);
-            ns.nx.push_back(nx(c));
-            ns.ny.push_back(ny(c));
-            ns.rc.push_back(rc(c));
-            ns.problem.push_back({gap_(c), pr.time_step, wn(c), wa(c), wb(c), wc(c), lower(c),
-                                  pr.friction, pr.rolling_friction * rc(c)});
-            ns.impulse.push_back({pn(c), pt(c), pm(c)});
-          }
-        ns.incident_start.push_back(0);
-        for (int p = first; p < first + count; ++p) {
-          ns.inv_mass.push_back(inv_mass(p));
-          ns.inv_inertia.push_back(inv_inertia(p));
-          ns.radius.push_back(radius(p));
-          ns.vfx.push_back(vfx(p));
-          ns.vfy.push_back(vfy(p));
-          ns.wf.push_back(wf(p));
-          ns.vx.push_back(vx(p));
-          ns.vy.push_back(vy(p));
-          ns.w.push_back(w(p));
-          for (int a = 0; a < n_incident(p); ++a)
-            ns.incident.push_back(
-                local[static_cast<std::size_t>(incident(p * kIncident + a) - first * kSlots)]);
-          ns.incident_start.push_back(static_cast<int>(ns.incident.size()));
-        }
-        const double before = ns.residual<Fx>();
+        const double tolerance = host.tolerance(s), before = ns.residual<Fx>();
         double residual = before;
         int steps = 0;  // taken (a failed one ends the round)
-        for (int full = 0; full < kNewtonSteps && steps < kMaxSteps && residual > tolerance(s);
+        for (int full = 0; full < kNewtonSteps && steps < kMaxSteps && residual > tolerance;
              ++steps) {
           const auto step = ns.newton_step<Fx>();
           if (step == NewtonSystem::Step::Failed) break;
@@ -248,33 +318,12 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
           residual = ns.residual<Fx>();
         }
         newton_steps[su] += steps;
-        newton_pace[su].after_round(residual < 0.1 * before || !(residual > tolerance(s)),
+        newton_pace[su].after_round(residual < 0.1 * before || !(residual > tolerance),
                                     NewtonPace::round_cost(steps, ns.factor_entries, ns.contacts()),
                                     shortest_newton_wait(), longest_newton_wait(s));
-
-        // Scatter the impulses and velocities back.
-        for (int p = first; p < first + count; ++p) {
-          const auto b = static_cast<std::size_t>(p - first);
-          vx(p) = ns.vx[b];
-          vy(p) = ns.vy[b];
-          w(p) = ns.w[b];
-          for (int a = 0; a < kSlots; ++a) {
-            const int c = p * kSlots + a;
-            const int l = local[static_cast<std::size_t>(c - first * kSlots)];
-            if (l < 0) break;
-            const ContactImpulse& P = ns.impulse[static_cast<std::size_t>(l)];
-            pn(c) = P.pn;
-            pt(c) = P.pt;
-            pm(c) = P.pm;
-          }
-        }
+        host.scatter(ns, s, offsets[su], local);
       });
-  Kokkos::deep_copy(part.vx, vx);
-  Kokkos::deep_copy(part.vy, vy);
-  Kokkos::deep_copy(part.w, w);
-  Kokkos::deep_copy(con.pn, pn);
-  Kokkos::deep_copy(con.pt, pt);
-  Kokkos::deep_copy(con.pm, pm);
+  host.write_back(part, con);
 }
 
 // Colours the contacts of every system (ColourRound) and lists the batch's contact slots by
