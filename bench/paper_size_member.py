@@ -3,9 +3,9 @@
 
     python3 bench/paper_size_member.py OUT_DIR/progress.tsv
 
-progress.tsv holds, once a minute, each run's CPU seconds and the disks deposited. A resumed run
-starts again from the member's last checkpoint, so the CPU of the runs before it is added in
-full (the work redone after a stop counts, as it cost). Prints one JSON line: the CPU so far, the
+progress.tsv holds, once a minute and at each run's end, the run's CPU seconds and the disks
+deposited. A resumed run starts again from the member's last checkpoint, so the CPU of the runs
+before it is added in full (the work redone after a stop counts, as it cost). Prints one JSON line: the CPU so far, the
 disks, the CPU at each doubling of the disks and the exponent p of CPU = A disks^p fitted over
 the samples from 1 000 disks on.
 """

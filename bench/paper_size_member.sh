@@ -2,7 +2,8 @@
 # One paper-size protocol-A member (200 R x 800 R, the paper's stop rule), timed end to end across
 # as many runs as it takes (docs/PERFORMANCE.md, "Scaling with system size"): the first call
 # starts it, every later call resumes it from its checkpoint, and each call appends the run's
-# CPU seconds against the disks deposited, once a minute, to OUT_DIR/progress.tsv. When the
+# CPU seconds against the disks deposited, once a minute and at its end, to OUT_DIR/progress.tsv
+# (a line per run in OUT_DIR/runs.txt: its start, the binary's version, --resume). When the
 # member has finished, the summary (bench/paper_size_member.py) gives its total CPU and the
 # exponent of the CPU against the disks deposited.
 #
@@ -48,32 +49,49 @@ if [ -f "$name.h5" ]; then
 fi
 resume=()
 [ -d "$name.h5.checkpoint" ] && resume=(--resume)
-run=$(($(cut -f1 progress.tsv 2>/dev/null | sort -n | tail -n 1 || echo 0) + 1))
 [ -f progress.tsv ] || printf 'run\tepoch_s\tcpu_s\tdisks\n' >progress.tsv
+touch runs.txt  # a line per run
+run=$(($(wc -l <runs.txt) + 1))
 commit=$("$exe" --version 2>/dev/null | head -n 1 || true)
 echo "$run $(date -u +%FT%TZ) $commit ${resume[*]}" >>runs.txt
 
 "$exe" run "$name.toml" -o "$name.h5" --checkpoint-every 300 "${resume[@]}" 2>>"$name.log" &
 pid=$!
-trap 'kill -INT $pid 2>/dev/null; wait $pid; exit 130' INT TERM
+tick=$(getconf CLK_TCK)
+cpu= disks= written=
+sample() {  # the run's CPU seconds (utime + stime) and its last progress line's disks
+  local c d
+  # After the command's name, utime and stime are the 12th and 13th fields.
+  c=$(sed 's/^.*) //' "/proc/$pid/stat" 2>/dev/null |
+    awk -v t="$tick" '{printf "%.1f", ($12 + $13) / t}') || return 0
+  d=$(grep 'disks deposited' "$name.log" | tail -n 1 |
+    sed -n 's/.* \([0-9][0-9]*\) disks deposited.*/\1/p') || return 0
+  [ -n "$c" ] && [ -n "$d" ] && cpu=$c disks=$d
+  return 0
+}
+record() {  # the last sample as a row of progress.tsv, once
+  [ -n "$disks" ] && [ "$cpu $disks" != "$written" ] || return 0
+  printf '%s\t%s\t%s\t%s\n' "$run" "$(date +%s)" "$cpu" "$disks" >>progress.tsv
+  written="$cpu $disks"
+}
+trap 'kill -INT $pid 2>/dev/null; wait $pid || true; record; exit 130' INT TERM
 stopper=
 if [ -n "${FOR_S:-}" ]; then
   { sleep "$FOR_S" && kill -INT "$pid" 2>/dev/null; } &
   stopper=$!
 fi
-tick=$(getconf CLK_TCK)
+# A sample every 5 s, a row every minute and at the end (the CPU of a run is then complete to
+# within 5 s when the next run adds to it).
 next=$(($(date +%s) + 60))
 while kill -0 "$pid" 2>/dev/null; do
   sleep 5 &
   wait $! || true  # a signal's trap runs at once, not after the sleep
+  sample
   [ "$(date +%s)" -ge "$next" ] || continue
   next=$((next + 60))
-  [ -r "/proc/$pid/stat" ] || break
-  # utime + stime of the run, in clock ticks (fields 14 and 15 after the command's name).
-  cpu=$(sed 's/^.*) //' "/proc/$pid/stat" | awk -v t="$tick" '{printf "%.1f", ($12 + $13) / t}')
-  disks=$(tail -n 1 "$name.log" | sed -n 's/.* \([0-9][0-9]*\) disks deposited.*/\1/p')
-  [ -n "$disks" ] && printf '%s\t%s\t%s\t%s\n' "$run" "$(date +%s)" "$cpu" "$disks" >>progress.tsv
+  record
 done
+record
 wait "$pid" || true
 [ -n "$stopper" ] && { kill "$stopper" 2>/dev/null || true; }
 tail -n 1 "$name.log" | grep -q 'interrupted' && tail -n 2 "$name.log" | head -n 1 >&2
