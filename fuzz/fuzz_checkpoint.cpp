@@ -54,7 +54,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       (std::filesystem::temp_directory_path() / ("loosepack-fuzz-" + std::to_string(getpid())))
           .string();
   std::filesystem::create_directories(dir);
-  std::string part = "LPCKPT01";
+  std::string part = "LPCKPT02";
   put<std::uint32_t>(part, 0x01020304u);
   put<std::uint64_t>(part, loosepack::scan_fingerprint(scan));
   part += body;

@@ -20,7 +20,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'P', 'C', 'K', 'P', 'T', '0', '1'};
+// "LPCKPT" and the format's version: 02 holds snapshots inside relaxation regions.
+constexpr char kMagic[8] = {'L', 'P', 'C', 'K', 'P', 'T', '0', '2'};
 constexpr std::uint32_t kByteOrder = 0x01020304u;  // refuses a file from the other endianness
 
 std::uint64_t fnv1a(const char* data, std::size_t n, std::uint64_t h = 14695981039346656037ull) {
@@ -157,19 +158,8 @@ std::vector<MemberResult> decode_from(Reader& in, const std::vector<Member>& mem
   return out;
 }
 
-// A running member's snapshot: its result so far, its stage and its system.
-void encode(Writer& w, const MemberSnapshot& snap) {
-  encode(w, snap.result);
-  w.put<std::int32_t>(static_cast<std::int32_t>(snap.phase));
-  const MemberStage& st = snap.stage;
-  for (long v : {st.steps, st.cap, st.moved_until, st.unconverged, st.deposited})
-    w.put<std::int64_t>(v);
-  w.put<double>(st.filled);
-  for (bool b : {st.gave_up, st.checking, st.event_capped, st.event_open, st.final_check})
-    w.put<std::uint8_t>(b ? 1 : 0);
-  w.put<std::int32_t>(st.quiet);
-  w.put<std::int32_t>(st.rounds);
-  const Batch::SystemState& sys = snap.system;
+// A system's state: its disks, contacts and impulses, stream, status and pace.
+void encode(Writer& w, const Batch::SystemState& sys) {
   std::vector<double> disk;
   std::vector<std::uint8_t> flags;
   for (const Disk& d : sys.disks) {
@@ -198,23 +188,38 @@ void encode(Writer& w, const MemberSnapshot& snap) {
   w.put<double>(sys.pace.credit);
 }
 
-MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
-  MemberSnapshot snap;
-  snap.result = decode(in, members);
-  snap.phase = static_cast<MemberPhase>(in.get<std::int32_t>());
-  if (!goes_on_from(snap.phase)) in.fail("a running member in no phase it can go on from");
-  MemberStage& st = snap.stage;
-  for (long* v : {&st.steps, &st.cap, &st.moved_until, &st.unconverged, &st.deposited})
-    *v = in.get<std::int64_t>();
-  st.filled = in.get<double>();
-  for (bool* b : {&st.gave_up, &st.checking, &st.event_capped, &st.event_open, &st.final_check})
-    *b = in.get<std::uint8_t>() != 0;
-  st.quiet = in.get<std::int32_t>();
-  st.rounds = in.get<std::int32_t>();
-  Batch::SystemState& sys = snap.system;
+// A running member's snapshot: its result so far, its stage, its system and its
+// relaxation region's, if it is in one.
+void encode(Writer& w, const MemberSnapshot& snap) {
+  encode(w, snap.result);
+  w.put<std::int32_t>(static_cast<std::int32_t>(snap.phase));
+  const MemberStage& st = snap.stage;
+  for (long v : {st.steps, st.cap, st.moved_until, st.unconverged, st.deposited})
+    w.put<std::int64_t>(v);
+  w.put<double>(st.filled);
+  for (bool b : {st.gave_up, st.checking, st.event_capped, st.event_open, st.final_check})
+    w.put<std::uint8_t>(b ? 1 : 0);
+  w.put<std::int32_t>(st.quiet);
+  w.put<std::int32_t>(st.rounds);
+  encode(w, snap.system);
+  w.put<std::uint8_t>(snap.region ? 1 : 0);
+  if (!snap.region) return;
+  const RegionState& rg = *snap.region;
+  w.put(rg.index);
+  w.put(std::vector<std::uint8_t>(rg.moving.begin(), rg.moving.end()));
+  std::vector<double> seeds;
+  for (const auto& p : rg.seeds) seeds.insert(seeds.end(), {p.x, p.y});
+  w.put(seeds);
+  for (double v : {rg.radius, rg.y0, rg.height, rg.tolerance}) w.put<double>(v);
+  encode(w, rg.system);
+}
+
+// A system's state (encode above); `what` names it in a message.
+Batch::SystemState decode_system(Reader& in, const std::string& what) {
+  Batch::SystemState sys;
   const auto disk = in.vec();
   const auto flags = in.vec<std::uint8_t>();
-  if (disk.size() != 8 * flags.size()) in.fail("the disks of a running member do not match");
+  if (disk.size() != 8 * flags.size()) in.fail("the disks of " + what + " do not match");
   for (std::size_t k = 0; k < flags.size(); ++k) {
     const double* d = disk.data() + 8 * k;
     Disk a;
@@ -253,9 +258,50 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
   for (std::size_t c = 0; c < n; ++c)
     fits = fits && sys.slot[c] >= 0 && sys.partner[c] >= -1 &&
            sys.partner[c] < static_cast<int>(disks);
-  if (!fits)
-    in.fail("the state of running member " + std::to_string(snap.result.member.id) +
-            " does not hold together");
+  if (!fits) in.fail("the state of " + what + " does not hold together");
+  return sys;
+}
+
+// The relaxation region of `who` (encode above), in a system of `whole` disks.
+RegionState decode_region(Reader& in, int whole, const std::string& who) {
+  RegionState rg;
+  rg.index = in.vec<int>();
+  const auto moving = in.vec<std::uint8_t>();
+  rg.moving.assign(moving.begin(), moving.end());
+  const auto seeds = in.vec();
+  for (std::size_t k = 0; k + 1 < seeds.size(); k += 2)
+    rg.seeds.push_back({seeds[k], seeds[k + 1]});
+  for (double* v : {&rg.radius, &rg.y0, &rg.height, &rg.tolerance}) *v = in.get<double>();
+  rg.system = decode_system(in, "the relaxation region of " + who);
+  const std::size_t n = rg.index.size();
+  bool fits = n > 0 && rg.moving.size() == n && rg.system.disks.size() == n &&
+              seeds.size() % 2 == 0 && !rg.seeds.empty() && rg.radius > 0.0 && rg.height > 0.0;
+  for (int k : rg.index) fits = fits && k >= 0 && k < whole;
+  if (!fits) in.fail("the relaxation region of " + who + " does not fit its system");
+  return rg;
+}
+
+MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
+  MemberSnapshot snap;
+  snap.result = decode(in, members);
+  snap.phase = static_cast<MemberPhase>(in.get<std::int32_t>());
+  if (!goes_on_from(snap.phase)) in.fail("a running member in no phase it can go on from");
+  MemberStage& st = snap.stage;
+  for (long* v : {&st.steps, &st.cap, &st.moved_until, &st.unconverged, &st.deposited})
+    *v = in.get<std::int64_t>();
+  st.filled = in.get<double>();
+  for (bool* b : {&st.gave_up, &st.checking, &st.event_capped, &st.event_open, &st.final_check})
+    *b = in.get<std::uint8_t>() != 0;
+  st.quiet = in.get<std::int32_t>();
+  st.rounds = in.get<std::int32_t>();
+  const std::string who = "running member " + std::to_string(snap.result.member.id);
+  snap.system = decode_system(in, who);
+  const bool in_region = in.get<std::uint8_t>() != 0;
+  if (in_region != (snap.phase == MemberPhase::Region))
+    in.fail(who + (in_region ? " has a relaxation region outside one"
+                             : " is in a relaxation region without its state"));
+  if (!in_region) return snap;
+  snap.region = decode_region(in, snap.system.status.count, who);
   return snap;
 }
 
@@ -335,9 +381,14 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
     const std::string bytes = ss.str();
     constexpr std::size_t kHeader = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
     if (bytes.size() < kHeader + 2 * sizeof(std::uint64_t) ||
-        std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+        std::memcmp(bytes.data(), kMagic, sizeof kMagic - 2) != 0)
       throw CheckpointError(what + " is not a loosepack checkpoint or is truncated: delete " +
                             directory + " to start the run again");
+    if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+      throw CheckpointError(what + " has another checkpoint format (" + bytes.substr(0, 8) +
+                            ", this build's " + std::string(kMagic, sizeof kMagic) +
+                            "): resume it with the build that wrote it, or delete " + directory +
+                            " to start the run again");
     const std::size_t body = bytes.size() - sizeof(std::uint64_t);
     std::uint64_t stored;
     std::memcpy(&stored, bytes.data() + body, sizeof stored);

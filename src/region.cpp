@@ -97,10 +97,39 @@ struct Regions::Impl {
     SeedGrid grid;
     double radius = 0.0;   // disks within it of a seed move
     double y0 = 0.0;       // the region's y = the whole system's y - y0
+    double height = 0.0;   // of the small system's box
     double tolerance = 0;  // the whole system's solver tolerance
     long done_steps = 0, done_sweeps = 0;
   };
   std::vector<Slot> slots;
+
+  // The small system of a region of system s of `whole`: its disks (in the region's frame) in a
+  // box `height` tall, solved as the whole system is, to `tolerance`.
+  SystemSetup setup(const Batch& whole, int s, double height, double tolerance,
+                    std::vector<Disk> disks) const {
+    SystemSetup su;
+    su.params = whole.params(s);
+    su.params.height = height;
+    su.capacity = settings.max_disks;
+    su.tolerance = tolerance;
+    su.max_sweeps = whole.max_sweeps(s);
+    su.disks = std::move(disks);
+    return su;
+  }
+  // Slot s runs the region of these disks and seeds.
+  void start(const Batch& whole, int s, const RegionSelection& sel, std::vector<Point> seeds,
+             double radius, double y0, double height, double tolerance) {
+    Slot& sl = slots.at(static_cast<std::size_t>(s));
+    sl.running = true;
+    sl.index = sel.index;
+    sl.moving = sel.moving;
+    sl.grid = SeedGrid(seeds, whole.params(s).width, radius);
+    sl.seeds = std::move(seeds);
+    sl.radius = radius;
+    sl.y0 = y0;
+    sl.height = height;
+    sl.tolerance = tolerance;
+  }
 
   // Positions and velocities of the moving disks, the impulses of every contact with a moving
   // disk (the whole system keeps its impulses between fixed disks), and the solver's pace.
@@ -179,7 +208,6 @@ Regions::~Regions() = default;
 bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double tolerance,
                     double radius) {
   auto& I = *impl_;
-  auto& sl = I.slots.at(static_cast<std::size_t>(s));
   const std::vector<Disk> disks = whole.disks(s);
   const SystemParams& pr = whole.params(s);
   double rmax = pr.radius;
@@ -200,12 +228,8 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   }
   for (const auto& p : seeds) lowest = std::min(lowest, p.y - radius);
   const double y0 = std::max(0.0, lowest - 2.0 * pr.radius);
-  SystemSetup su;
-  su.params = pr;
-  su.params.height = top - y0 + 2.0 * pr.radius;
-  su.capacity = I.settings.max_disks;
-  su.tolerance = tolerance;
-  su.max_sweeps = whole.max_sweeps(s);
+  const double height = top - y0 + 2.0 * pr.radius;
+  std::vector<Disk> in_region;
   for (std::size_t k = 0; k < sel.index.size(); ++k) {
     Disk d = disks[static_cast<std::size_t>(sel.index[k])];
     d.y -= y0;
@@ -213,10 +237,10 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
       d.fixed = true;
       d.vx = d.vy = d.w = 0.0;
     }
-    su.disks.push_back(d);
+    in_region.push_back(d);
   }
   try {
-    I.batch->reset(s, su);
+    I.batch->reset(s, I.setup(whole, s, height, tolerance, std::move(in_region)));
   } catch (const std::invalid_argument&) {
     return false;  // more grid cells than the slot holds: too tall
   }
@@ -236,14 +260,7 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   // The pace of the Newton rounds learned on this deposit so far, not afresh for every region.
   I.batch->set_solver_pace(s, whole.solver_pace(s));
   I.batch->set_active(s, true);
-  sl.running = true;
-  sl.index = sel.index;
-  sl.moving = sel.moving;
-  sl.seeds = seeds;
-  sl.grid = SeedGrid(seeds, pr.width, radius);
-  sl.radius = radius;
-  sl.y0 = y0;
-  sl.tolerance = tolerance;
+  I.start(whole, s, sel, seeds, radius, y0, height, tolerance);
   return true;
 }
 
@@ -289,6 +306,38 @@ void Regions::stop(Batch& whole, int s) {
   if (!I.slots.at(static_cast<std::size_t>(s)).running) return;
   if (I.batch->status(s).failure == Failure::None) I.write_back(whole, s, I.batch->disks(s));
   I.end(s);
+}
+
+RegionState Regions::state(int s) const {
+  const auto& sl = impl_->slots.at(static_cast<std::size_t>(s));
+  if (!sl.running)
+    throw std::logic_error("Regions::state: region " + std::to_string(s) + " is not running");
+  RegionState out;
+  out.index = sl.index;
+  out.moving = sl.moving;
+  out.seeds = sl.seeds;
+  out.radius = sl.radius;
+  out.y0 = sl.y0;
+  out.height = sl.height;
+  out.tolerance = sl.tolerance;
+  out.system = impl_->batch->state(s);
+  return out;
+}
+
+void Regions::resume(const Batch& whole, int s, const RegionState& state) {
+  auto& I = *impl_;
+  const std::size_t n = state.index.size();
+  const int count = whole.status(s).count;
+  const bool fits = n > 0 && state.moving.size() == n && state.system.disks.size() == n &&
+                    !state.seeds.empty() && state.radius > 0.0 &&
+                    std::all_of(state.index.begin(), state.index.end(),
+                                [&](int k) { return k >= 0 && k < count; });
+  if (!fits || static_cast<int>(n) > I.settings.max_disks)
+    throw std::invalid_argument("the relaxation region does not fit system " + std::to_string(s));
+  I.batch->reset(s, I.setup(whole, s, state.height, state.tolerance, state.system.disks));
+  I.batch->restore(s, state.system);
+  I.start(whole, s, RegionSelection{state.index, state.moving}, state.seeds, state.radius, state.y0,
+          state.height, state.tolerance);
 }
 
 const SystemStatus& Regions::status(int s) const { return impl_->batch->status(s); }

@@ -15,8 +15,9 @@
 namespace loosepack {
 
 namespace {
-// After a stop, the run goes on at most this long [s] for snapshots of the members inside
-// relaxation regions (a batch system's grace period after SIGTERM is usually 30 s or more).
+// After a stop, the run goes on at most this long [s] for snapshots of the members inside a step
+// whose solve goes on over launches (a batch system's grace period after SIGTERM is usually 30 s
+// or more).
 constexpr double kStopGrace = 10.0;
 // Whether the default execution space runs on a device whose memory the host cannot read.
 constexpr bool kOnDevice =
@@ -211,18 +212,24 @@ void MemberRun::go_on_from(std::size_t k, const MemberSnapshot& snap) {
   if (!goes_on_from(snap.phase))
     throw std::invalid_argument("the snapshot of member " + std::to_string(m.id) +
                                 " has no phase a member goes on from");
+  if (snap.region && !regions_)
+    throw std::invalid_argument("the snapshot of member " + std::to_string(m.id) +
+                                " is inside a relaxation region, and this run has none");
   SystemSetup su = setup_of(m);
   su.disks = snap.system.disks;
   batch_->reset(s, su);
   batch_->restore(s, snap.system);  // active as the snapshot's phase needs
+  if (snap.region) regions_->resume(*batch_, s, *snap.region);
   static_cast<MemberStage&>(sl) = snap.stage;
   sl.phase = snap.phase;
   sl.result = snap.result;
   sl.result.member = m;
   sl.start -= std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(snap.result.wall_time));
-  sl.region_steps -= snap.result.steps;
-  sl.region_sweeps -= snap.result.sweeps;
+  if (regions_) {  // the region steps before the snapshot are the member's, not this run's
+    sl.region_steps = regions_->steps(s) - snap.result.steps;
+    sl.region_sweeps = regions_->sweeps(s) - snap.result.sweeps;
+  }
   progress_.disks_deposited += sl.deposited;
   progress_.disks_before += sl.deposited;
 }
@@ -302,7 +309,7 @@ bool MemberRun::stopped() {
 // Snapshots of running members for checkpoints (RunHooks::snapshots): those asked for, taken
 // slot by slot when each can be, and handed over when every running member has one. At a stop,
 // the latest of every member that can give one, and the run goes on (for at most kStopGrace)
-// until the members inside relaxation regions have left them. True when handed over.
+// until the members inside a step have ended it. True when handed over.
 bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
   if (!hooks_.snapshots) return true;
   if (!snapshots_wanted_ && (stopping || (hooks_.snapshot_wanted && hooks_.snapshot_wanted()))) {
@@ -346,6 +353,7 @@ MemberSnapshot MemberRun::snapshot(std::size_t k) const {
   snap.phase = sl.phase;
   snap.stage = sl;
   snap.system = batch_->state(s);
+  if (sl.phase == Phase::Region) snap.region = regions_->state(s);
   return snap;
 }
 

@@ -114,6 +114,26 @@ MemberSnapshot snapshot(const Scan& scan, std::size_t id) {
   return snap;
 }
 
+// The same member inside a relaxation region of its two disks: the first moves, the second is
+// held; the region's small system is the whole one's, shifted down by y0.
+MemberSnapshot in_region(const Scan& scan, std::size_t id) {
+  MemberSnapshot snap = snapshot(scan, id);
+  snap.phase = MemberPhase::Region;
+  RegionState rg;
+  rg.index = {0, 1};
+  rg.moving = {1, 0};
+  rg.seeds = {{0.5, 2.0}, {1.5, -0.0}};
+  rg.radius = 8.0;
+  rg.y0 = 0.75;
+  rg.height = 9.0;
+  rg.tolerance = 3e-3;
+  rg.system = snap.system;
+  rg.system.status.steps = 5;
+  rg.system.pace.wait = 24;
+  snap.region = rg;
+  return snap;
+}
+
 }  // namespace
 
 TEST(Checkpoint, MembersRoundTripBitForBit) {
@@ -149,18 +169,36 @@ TEST(Checkpoint, MembersRoundTripBitForBit) {
   }
 }
 
-// A part with a finished and a running member reads back; every truncation and every single
-// flipped byte of it is refused with a CheckpointError naming the file: never a crash, never
-// silently used.
+// A part with a finished member and two running ones (one inside a relaxation region) reads
+// back; every truncation and every single flipped byte of it is refused with a CheckpointError
+// naming the file: never a crash, never silently used.
 TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   const Scan scan = small_scan();
   const ScratchDir dir("loosepack-ckpt");
   const std::string part = checkpoint_part(dir.string(), 1, 0);
-  write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)}, {snapshot(scan, 2)});
+  write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)},
+                        {snapshot(scan, 2), in_region(scan, 3)});
   const auto ck = read_checkpoint(dir.string(), scan);
   ASSERT_EQ(ck.members.size(), 1u);
-  ASSERT_EQ(ck.running.size(), 1u);
+  ASSERT_EQ(ck.running.size(), 2u);
   const MemberSnapshot& back = ck.running[0];
+  EXPECT_FALSE(back.region.has_value());
+  const MemberSnapshot& inside = ck.running[1];
+  EXPECT_EQ(inside.phase, MemberPhase::Region);
+  ASSERT_TRUE(inside.region.has_value());
+  const RegionState& rg = *inside.region;
+  EXPECT_EQ(rg.index, std::vector<int>({0, 1}));
+  EXPECT_EQ(rg.moving, std::vector<char>({1, 0}));
+  ASSERT_EQ(rg.seeds.size(), 2u);
+  EXPECT_EQ(rg.seeds[0].x, 0.5);
+  EXPECT_TRUE(std::signbit(rg.seeds[1].y));
+  EXPECT_EQ(rg.radius, 8.0);
+  EXPECT_EQ(rg.y0, 0.75);
+  EXPECT_EQ(rg.height, 9.0);
+  EXPECT_EQ(rg.tolerance, 3e-3);
+  EXPECT_EQ(rg.system.status.steps, 5);
+  EXPECT_EQ(rg.system.pace.wait, 24);
+  EXPECT_TRUE(rg.system.disks[1].fixed);
   EXPECT_EQ(back.result.member.id, 2u);
   EXPECT_EQ(back.phase, MemberPhase::Deposit);
   EXPECT_EQ(back.stage.steps, 17);
@@ -192,6 +230,20 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
     std::string d = bytes;
     d[k] = static_cast<char>(d[k] ^ 0x10);
     ASSERT_TRUE(refused(d)) << "byte " << k << " flipped";
+  }
+  // A part of the format before snapshots inside regions is refused with its format named.
+  {
+    std::string older = bytes;
+    older[7] = '1';
+    std::ofstream(part, std::ios::binary | std::ios::trunc) << older;
+    try {
+      read_checkpoint(dir.string(), scan);
+      ADD_FAILURE() << "a part of format LPCKPT01 was read";
+    } catch (const CheckpointError& e) {
+      EXPECT_NE(std::string(e.what()).find("another checkpoint format (LPCKPT01"),
+                std::string::npos)
+          << e.what();
+    }
   }
   // Another scan (one character edited) is refused too.
   write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)});
@@ -322,9 +374,10 @@ void expect_same_member(const MemberResult& a, const MemberResult& b) {
 // cohesive deposits relaxed in regions with a whole-system check every third disk (A), slow
 // deposits without cohesion (A) and collapses (C), with trajectories, on batches of 2: a
 // snapshot of every running member is asked for every 16 rounds; the run is stopped after
-// every eighth of the rounds the whole run takes, each time saved to a checkpoint part and read
-// back, and resumed on batches of 3. Every member's result equals the uninterrupted run's bit
-// for bit. `solver` is the scan file's [solver] section.
+// every twelfth of the rounds the whole run takes (or, every other time, crashes), each time saved
+// to a checkpoint part and read back, and resumed on batches of 3. Every member's result equals
+// the uninterrupted run's bit for bit; some went on from inside a relaxation region. `solver` is
+// the scan file's [solver] section.
 void expect_running_members_go_on(const std::string& solver) {
   const Scan scan = parse_scan(
       "[scan]\nseeds = 2\nbatch_size = 2\n"
@@ -352,9 +405,9 @@ void expect_running_members_go_on(const std::string& solver) {
   std::vector<MemberResult> done;
   std::vector<MemberSnapshot> started;
   int stops = 0;
-  bool went_on_moving = false, went_on_resting = false;
+  bool went_on_moving = false, went_on_resting = false, went_on_in_region = false;
   while (done.size() < members.size()) {
-    ASSERT_LT(stops, 10);
+    ASSERT_LT(stops, 16);
     std::vector<Member> todo;
     for (const auto& m : members)
       if (std::none_of(done.begin(), done.end(),
@@ -369,11 +422,19 @@ void expect_running_members_go_on(const std::string& solver) {
     hooks.stop = &stop;
     hooks.progress = [&](const Progress&) { ++n; };
     hooks.snapshot_wanted = [&] { return n % 16 == 0; };
-    // Stopped after the first set of snapshots past a sixteenth of the rounds; the stop then
-    // takes fresh snapshots, waiting for members inside relaxation regions to leave them.
+    // Stopped after the first set of snapshots past a twelfth of the rounds; the stop then
+    // takes fresh snapshots (waiting for members inside a split step to end it), which most
+    // often find the members of A inside a relaxation region. Every other stop goes on from the
+    // last set before it instead, as after a crash, and comes where that set holds a member
+    // between two disks.
+    const bool crash = stops % 2 == 1;
     hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
+      if (stop && crash) return;  // lost in the crash
+      const bool between = std::any_of(snaps.begin(), snaps.end(), [](const MemberSnapshot& s) {
+        return s.phase == MemberPhase::Deposit || s.phase == MemberPhase::Ballistic;
+      });
       for (auto& s : snaps) latest[s.result.member.id] = std::move(s);
-      if (n >= rounds / 16) stop = 1;
+      if (n >= rounds / 12 && (!crash || between)) stop = 1;
     };
     hooks.finished = [&](const MemberResult& r) { latest.erase(r.member.id); };
     for (auto& r : run_members(stops == 0 ? scan : resumed_scan, todo, hooks, started))
@@ -384,14 +445,18 @@ void expect_running_members_go_on(const std::string& solver) {
     const auto ck = read_checkpoint(dir.string(), scan);
     ASSERT_EQ(ck.members.size(), done.size());
     started = ck.running;
-    for (const auto& s : started)
-      (s.system.status.active ? went_on_moving : went_on_resting) = true;
+    for (const auto& s : started) {
+      (s.system.status.active || s.region ? went_on_moving : went_on_resting) = true;
+      went_on_in_region = went_on_in_region || s.region.has_value();
+    }
     if (done.size() < members.size()) ++stops;
   }
   EXPECT_GE(stops, 4);
-  // Some members went on inside a relaxation or collapse, some between two disks.
+  // Some members went on inside a relaxation or collapse, some between two disks, some inside a
+  // relaxation region.
   EXPECT_TRUE(went_on_moving);
   EXPECT_TRUE(went_on_resting);
+  EXPECT_TRUE(went_on_in_region);
   std::sort(done.begin(), done.end(),
             [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   for (std::size_t k = 0; k < members.size(); ++k) expect_same_member(straight[k], done[k]);

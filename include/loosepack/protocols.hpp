@@ -3,10 +3,12 @@
 #include <csignal>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "loosepack/batch.hpp"
+#include "loosepack/region.hpp"
 #include "loosepack/scan.hpp"
 
 namespace loosepack {
@@ -57,11 +59,11 @@ enum class MemberPhase {
   Relax,      // A: dynamics of the whole system until rest after the last disk
   Region,     // A: dynamics of a relaxation region around the last disk until rest
 };
-// The phases a member can be snapshotted in, and go on from: all but Empty and Region (the
-// system of a relaxation region is not in the snapshot).
+// The phases a member can be snapshotted in, and go on from: all but Empty (and no value
+// outside the enumeration: a checkpoint's phase is read as a number).
 inline bool goes_on_from(MemberPhase p) {
   return p == MemberPhase::Ballistic || p == MemberPhase::Collapse || p == MemberPhase::Deposit ||
-         p == MemberPhase::Relax;
+         p == MemberPhase::Relax || p == MemberPhase::Region;
 }
 
 // Where a running member stands in its protocol, apart from its system: the counters of its
@@ -88,7 +90,7 @@ struct MemberStage {
 };
 
 // A running member where it can stop and go on bit for bit: a checkpoint of a member that has
-// not finished. Taken between steps, never while a relaxation region runs.
+// not finished. Taken between steps (of its relaxation region's system, inside a region).
 struct MemberSnapshot {
   // What it has recorded so far; steps and sweeps: those of its relaxation regions so far;
   // wall_time: its time so far.
@@ -96,6 +98,7 @@ struct MemberSnapshot {
   MemberPhase phase = MemberPhase::Deposit;
   MemberStage stage;
   Batch::SystemState system;
+  std::optional<RegionState> region;  // the phase Region's running region; else none
 };
 
 // Reported periodically during a run (and after the last member) for progress messages.

@@ -13,6 +13,8 @@
 
 namespace loosepack {
 
+struct RegionState;
+
 struct RegionSettings {
   double radius = 0.0;      // [R]: disks within this distance of a seed move; 0: no regions
   int max_disks = 0;        // moving and fixed disks a region slot holds
@@ -58,6 +60,13 @@ class Regions {
   // Writes region s back into the whole system and stops it (a relaxation cut at its cap).
   void stop(Batch& whole, int s);
 
+  // Region s as it runs, for a member's snapshot (its small system between two steps).
+  RegionState state(int s) const;
+  // Region slot s goes on from `state`, taken of system s of `whole` as `whole` is now (the
+  // whole system restored from the same snapshot): its steps from here are those the region
+  // would have taken. Throws std::invalid_argument where the state does not fit `whole`.
+  void resume(const Batch& whole, int s, const RegionState& state);
+
   const SystemStatus& status(int s) const;  // of the current small system of slot s
   long steps(int s) const;  // all steps of slot s, all its regions, since construction
   long sweeps(int s) const;
@@ -67,6 +76,19 @@ class Regions {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
+};
+
+// A running region: what Regions keeps of it between two steps besides its small system's
+// setup, which follows from the whole system's.
+struct RegionState {
+  std::vector<int> index;  // the disk of the whole system behind each disk of the region
+  std::vector<char> moving;
+  std::vector<Regions::Point> seeds;
+  double radius = 0.0;     // disks within it of a seed move
+  double y0 = 0.0;         // the region's y = the whole system's y - y0
+  double height = 0.0;     // of the small system's box
+  double tolerance = 0.0;  // the whole system's solver tolerance
+  Batch::SystemState system;
 };
 
 // The disks within `radius` of a seed (moving), and those further out but within `reach` of the
