@@ -339,6 +339,8 @@ void RunCommand::show(bool force) {
     p.disks_before += latest[r].disks_before;
     p.collapsing += latest[r].collapsing;
     p.collapse_steps = std::max(p.collapse_steps, latest[r].collapse_steps);
+    p.relaxing_long += latest[r].relaxing_long;
+    p.relax_steps = std::max(p.relax_steps, latest[r].relax_steps);
     done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
     start_cost += latest[r].start_fraction * shard_cost[r];
     total_cost += shard_cost[r];
@@ -357,6 +359,9 @@ void RunCommand::show(bool force) {
   if (p.collapsing > 0)
     std::fprintf(stderr, ", %d collapsing (the longest for %ld steps)", p.collapsing,
                  p.collapse_steps);
+  if (p.relaxing_long > 0)
+    std::fprintf(stderr, ", %d relaxing for %ld steps or more (the longest for %ld)",
+                 p.relaxing_long, kLongRelaxation, p.relax_steps);
   if (const double eta = progress_eta(p, el); eta >= 0.0 && !finished)
     std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction, eta);
   std::fprintf(stderr, "\n");

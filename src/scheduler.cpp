@@ -360,13 +360,18 @@ MemberSnapshot MemberRun::snapshot(std::size_t k) const {
 void MemberRun::report() {
   if (!hooks_.progress) return;
   double running = 0.0;
-  progress_.collapsing = 0;
-  progress_.collapse_steps = 0;
+  progress_.collapsing = progress_.relaxing_long = 0;
+  progress_.collapse_steps = progress_.relax_steps = 0;
   for (auto& sl : slots_) {
     running += running_share(sl);
-    if (sl.phase != Phase::Collapse) continue;
-    ++progress_.collapsing;
-    progress_.collapse_steps = std::max(progress_.collapse_steps, sl.steps);
+    if (sl.phase == Phase::Collapse) {
+      ++progress_.collapsing;
+      progress_.collapse_steps = std::max(progress_.collapse_steps, sl.steps);
+    } else if ((sl.phase == Phase::Relax || sl.phase == Phase::Region) &&
+               sl.steps >= kLongRelaxation) {
+      ++progress_.relaxing_long;
+      progress_.relax_steps = std::max(progress_.relax_steps, sl.steps);
+    }
   }
   progress_.fraction = (done_cost_ + running) / total_cost_;
   if (!reported_) progress_.start_fraction = progress_.fraction;

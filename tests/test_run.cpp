@@ -266,6 +266,53 @@ lower_half_from = 4.0
   EXPECT_GT(rises, collapsing / 3);
 }
 
+// A relaxation of kLongRelaxation steps or more is reported while it runs (a tall cohesive
+// deposit's avalanche deposits nothing for hours at the paper's size, so the line would look
+// stalled), with its steps so far. Frictionless disks slide over the pile for a thousand steps and
+// more before they rest: every report of such a relaxation names at most as many steps as the
+// longest event the members record, and none is reported at the end.
+TEST(Progress, LongRelaxationsAreReportedWhileTheyRun) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 2
+[system]
+width = 10.0
+height = 8.0
+bond_number = 0.0
+friction = 0.0
+rolling_friction = 0.0
+[observables]
+lower_half_from = 0.0
+)");
+  std::vector<Progress> seen;
+  RunHooks hooks;
+  hooks.progress = [&](const Progress& p) { seen.push_back(p); };
+  const auto results = run_members(scan, members_of(scan), hooks);
+  ASSERT_EQ(results.size(), 2u);
+  long longest_event = 0;
+  for (const auto& r : results)
+    for (const auto& e : r.events) longest_event = std::max(longest_event, e.steps);
+  ASSERT_GE(longest_event, kLongRelaxation);  // the scene has such relaxations
+  int reports = 0;
+  long longest = 0;
+  for (const auto& p : seen) {
+    EXPECT_LE(p.relaxing_long, 2);
+    if (p.relaxing_long == 0) {
+      EXPECT_EQ(p.relax_steps, 0);
+      continue;
+    }
+    ++reports;
+    EXPECT_GE(p.relax_steps, kLongRelaxation);
+    longest = std::max(longest, p.relax_steps);
+  }
+  EXPECT_GT(reports, 10);
+  // An event lasts to its last step not at rest and the rest window: the relaxation's steps.
+  EXPECT_LE(longest, longest_event);
+  EXPECT_GE(longest, kLongRelaxation);
+  EXPECT_EQ(seen.back().relaxing_long, 0);
+}
+
 // A solver held to one sweep per step never reaches the tolerance in a collapsing deposit: the
 // member fails as unconverged once the cap has been hit on every step for longer than
 // protocol.max_unconverged_time (0.505 / h = 0.01: on step 51), keeps its state for the

@@ -101,6 +101,11 @@ struct MemberSnapshot {
   std::optional<RegionState> region;  // the phase Region's running region; else none
 };
 
+// A relaxation this long [steps] is reported while it runs (Progress::relaxing_long): most of a
+// deposit's relaxations take 10 to 100 steps, its avalanches thousands (docs/PERFORMANCE.md,
+// "Where a tall cohesive deposit's steps go").
+constexpr long kLongRelaxation = 1000;
+
 // Reported periodically during a run (and after the last member) for progress messages.
 struct Progress {
   int members_done = 0;
@@ -114,6 +119,11 @@ struct Progress {
   // collapse deposits nothing, so without them a long one would look stalled).
   int collapsing = 0;
   long collapse_steps = 0;
+  // Protocol A: members whose relaxation after their last disk has taken kLongRelaxation steps
+  // or more so far, and the steps of the longest (an avalanche of a tall cohesive deposit runs
+  // for thousands of steps, at the paper's size for hours, depositing nothing meanwhile).
+  int relaxing_long = 0;
+  long relax_steps = 0;
   // Fraction of the run's expected cost (expected_cost) done, counting running members by how
   // far they got: for the ETA only.
   double fraction = 0.0;
