@@ -204,14 +204,14 @@ void encode(Writer& w, const MemberSnapshot& snap) {
   encode(w, snap.system);
   w.put<std::uint8_t>(snap.region ? 1 : 0);
   if (!snap.region) return;
-  const RegionState& rg = *snap.region;
-  w.put(rg.index);
-  w.put(std::vector<std::uint8_t>(rg.moving.begin(), rg.moving.end()));
+  const RegionCut& cut = snap.region->cut;
+  w.put(cut.index);
+  w.put(std::vector<std::uint8_t>(cut.moving.begin(), cut.moving.end()));
   std::vector<double> seeds;
-  for (const auto& p : rg.seeds) seeds.insert(seeds.end(), {p.x, p.y});
+  for (const auto& p : cut.seeds) seeds.insert(seeds.end(), {p.x, p.y});
   w.put(seeds);
-  for (double v : {rg.radius, rg.y0, rg.height, rg.tolerance}) w.put<double>(v);
-  encode(w, rg.system);
+  for (double v : {cut.radius, cut.y0, cut.height, cut.tolerance}) w.put<double>(v);
+  encode(w, snap.region->system);
 }
 
 // A system's state (encode above); `what` names it in a message.
@@ -265,18 +265,19 @@ Batch::SystemState decode_system(Reader& in, const std::string& what) {
 // The relaxation region of `who` (encode above), in a system of `whole` disks.
 RegionState decode_region(Reader& in, int whole, const std::string& who) {
   RegionState rg;
-  rg.index = in.vec<int>();
+  RegionCut& cut = rg.cut;
+  cut.index = in.vec<int>();
   const auto moving = in.vec<std::uint8_t>();
-  rg.moving.assign(moving.begin(), moving.end());
+  cut.moving.assign(moving.begin(), moving.end());
   const auto seeds = in.vec();
   for (std::size_t k = 0; k + 1 < seeds.size(); k += 2)
-    rg.seeds.push_back({seeds[k], seeds[k + 1]});
-  for (double* v : {&rg.radius, &rg.y0, &rg.height, &rg.tolerance}) *v = in.get<double>();
+    cut.seeds.push_back({seeds[k], seeds[k + 1]});
+  for (double* v : {&cut.radius, &cut.y0, &cut.height, &cut.tolerance}) *v = in.get<double>();
   rg.system = decode_system(in, "the relaxation region of " + who);
-  const std::size_t n = rg.index.size();
-  bool fits = n > 0 && rg.moving.size() == n && rg.system.disks.size() == n &&
-              seeds.size() % 2 == 0 && !rg.seeds.empty() && rg.radius > 0.0 && rg.height > 0.0;
-  for (int k : rg.index) fits = fits && k >= 0 && k < whole;
+  const std::size_t n = cut.index.size();
+  bool fits = n > 0 && cut.moving.size() == n && rg.system.disks.size() == n &&
+              seeds.size() % 2 == 0 && !cut.seeds.empty() && cut.radius > 0.0 && cut.height > 0.0;
+  for (int k : cut.index) fits = fits && k >= 0 && k < whole;
   if (!fits) in.fail("the relaxation region of " + who + " does not fit its system");
   return rg;
 }

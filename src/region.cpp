@@ -91,14 +91,8 @@ struct Regions::Impl {
   std::unique_ptr<Batch> batch;
   struct Slot {
     bool running = false;
-    std::vector<int> index;  // disk of the whole system behind each disk of the region
-    std::vector<char> moving;
-    std::vector<Point> seeds;
-    SeedGrid grid;
-    double radius = 0.0;   // disks within it of a seed move
-    double y0 = 0.0;       // the region's y = the whole system's y - y0
-    double height = 0.0;   // of the small system's box
-    double tolerance = 0;  // the whole system's solver tolerance
+    RegionCut cut;
+    SeedGrid grid;  // of cut.seeds
     long done_steps = 0, done_sweeps = 0;
   };
   std::vector<Slot> slots;
@@ -116,19 +110,12 @@ struct Regions::Impl {
     su.disks = std::move(disks);
     return su;
   }
-  // Slot s runs the region of these disks and seeds.
-  void start(const Batch& whole, int s, const RegionSelection& sel, std::vector<Point> seeds,
-             double radius, double y0, double height, double tolerance) {
+  // Slot s runs the region of this cut.
+  void start(const Batch& whole, int s, RegionCut cut) {
     Slot& sl = slots.at(static_cast<std::size_t>(s));
     sl.running = true;
-    sl.index = sel.index;
-    sl.moving = sel.moving;
-    sl.grid = SeedGrid(seeds, whole.params(s).width, radius);
-    sl.seeds = std::move(seeds);
-    sl.radius = radius;
-    sl.y0 = y0;
-    sl.height = height;
-    sl.tolerance = tolerance;
+    sl.grid = SeedGrid(cut.seeds, whole.params(s).width, cut.radius);
+    sl.cut = std::move(cut);
   }
 
   // Positions and velocities of the moving disks, the impulses of every contact with a moving
@@ -138,13 +125,13 @@ struct Regions::Impl {
     std::vector<int> idx;
     std::vector<Disk> out;
     std::vector<char> moved(static_cast<std::size_t>(whole.status(s).count), 0);
-    for (std::size_t k = 0; k < sl.index.size(); ++k) {
-      if (!sl.moving[k]) continue;
+    for (std::size_t k = 0; k < sl.cut.index.size(); ++k) {
+      if (!sl.cut.moving[k]) continue;
       Disk d = region[k];
-      d.y += sl.y0;
-      idx.push_back(sl.index[k]);
+      d.y += sl.cut.y0;
+      idx.push_back(sl.cut.index[k]);
       out.push_back(d);
-      moved[static_cast<std::size_t>(sl.index[k])] = 1;
+      moved[static_cast<std::size_t>(sl.cut.index[k])] = 1;
     }
     whole.set_disks(s, idx, out);
     std::vector<ContactForce> contacts;
@@ -153,11 +140,11 @@ struct Regions::Impl {
           (c.j < 0 || !moved[static_cast<std::size_t>(c.j)]))
         contacts.push_back(c);
     for (auto c : batch->contacts(s)) {
-      if (!sl.moving[static_cast<std::size_t>(c.i)] &&
-          (c.j < 0 || !sl.moving[static_cast<std::size_t>(c.j)]))
+      if (!sl.cut.moving[static_cast<std::size_t>(c.i)] &&
+          (c.j < 0 || !sl.cut.moving[static_cast<std::size_t>(c.j)]))
         continue;
-      c.i = sl.index[static_cast<std::size_t>(c.i)];
-      if (c.j >= 0) c.j = sl.index[static_cast<std::size_t>(c.j)];
+      c.i = sl.cut.index[static_cast<std::size_t>(c.i)];
+      if (c.j >= 0) c.j = sl.cut.index[static_cast<std::size_t>(c.j)];
       contacts.push_back(c);
     }
     whole.set_contacts(s, contacts);
@@ -260,7 +247,7 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   // The pace of the Newton rounds learned on this deposit so far, not afresh for every region.
   I.batch->set_solver_pace(s, whole.solver_pace(s));
   I.batch->set_active(s, true);
-  I.start(whole, s, sel, seeds, radius, y0, height, tolerance);
+  I.start(whole, s, RegionCut{sel.index, sel.moving, seeds, radius, y0, height, tolerance});
   return true;
 }
 
@@ -286,19 +273,19 @@ Regions::State Regions::poll(Batch& whole, int s) {
   // Grow when a moving disk is in the margin; the new seeds are every moving disk.
   bool grow = false;
   std::vector<Point> fresh;
-  const double inner = (1.0 - kMargin) * sl.radius;
+  const double inner = (1.0 - kMargin) * sl.cut.radius;
   for (std::size_t k = 0; k < region.size(); ++k) {
-    if (!sl.moving[k] || !(speed(region[k], I.rest.spin) > I.rest.speed)) continue;
-    const Point p{region[k].x, region[k].y + sl.y0};
+    if (!sl.cut.moving[k] || !(speed(region[k], I.rest.spin) > I.rest.speed)) continue;
+    const Point p{region[k].x, region[k].y + sl.cut.y0};
     fresh.push_back(p);
     if (!grow && sl.grid.nearest_squared(p.x, p.y, inner * inner) > inner * inner) grow = true;
   }
   if (!grow) return State::Running;
-  std::vector<Point> seeds = sl.seeds;
+  std::vector<Point> seeds = sl.cut.seeds;
   seeds.insert(seeds.end(), fresh.begin(), fresh.end());
   I.write_back(whole, s, region);
   I.end(s);
-  return begin(whole, s, seeds, sl.tolerance, sl.radius) ? State::Running : State::Overflow;
+  return begin(whole, s, seeds, sl.cut.tolerance, sl.cut.radius) ? State::Running : State::Overflow;
 }
 
 void Regions::stop(Batch& whole, int s) {
@@ -312,32 +299,23 @@ RegionState Regions::state(int s) const {
   const auto& sl = impl_->slots.at(static_cast<std::size_t>(s));
   if (!sl.running)
     throw std::logic_error("Regions::state: region " + std::to_string(s) + " is not running");
-  RegionState out;
-  out.index = sl.index;
-  out.moving = sl.moving;
-  out.seeds = sl.seeds;
-  out.radius = sl.radius;
-  out.y0 = sl.y0;
-  out.height = sl.height;
-  out.tolerance = sl.tolerance;
-  out.system = impl_->batch->state(s);
-  return out;
+  return {sl.cut, impl_->batch->state(s)};
 }
 
 void Regions::resume(const Batch& whole, int s, const RegionState& state) {
   auto& I = *impl_;
-  const std::size_t n = state.index.size();
+  const RegionCut& cut = state.cut;
+  const std::size_t n = cut.index.size();
   const int count = whole.status(s).count;
-  const bool fits = n > 0 && state.moving.size() == n && state.system.disks.size() == n &&
-                    !state.seeds.empty() && state.radius > 0.0 &&
-                    std::all_of(state.index.begin(), state.index.end(),
-                                [&](int k) { return k >= 0 && k < count; });
+  const bool fits =
+      n > 0 && cut.moving.size() == n && state.system.disks.size() == n && !cut.seeds.empty() &&
+      cut.radius > 0.0 &&
+      std::all_of(cut.index.begin(), cut.index.end(), [&](int k) { return k >= 0 && k < count; });
   if (!fits || static_cast<int>(n) > I.settings.max_disks)
     throw std::invalid_argument("the relaxation region does not fit system " + std::to_string(s));
-  I.batch->reset(s, I.setup(whole, s, state.height, state.tolerance, state.system.disks));
+  I.batch->reset(s, I.setup(whole, s, cut.height, cut.tolerance, state.system.disks));
   I.batch->restore(s, state.system);
-  I.start(whole, s, RegionSelection{state.index, state.moving}, state.seeds, state.radius, state.y0,
-          state.height, state.tolerance);
+  I.start(whole, s, cut);
 }
 
 const SystemStatus& Regions::status(int s) const { return impl_->batch->status(s); }

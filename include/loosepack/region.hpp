@@ -78,9 +78,9 @@ class Regions {
   std::unique_ptr<Impl> impl_;
 };
 
-// A running region: what Regions keeps of it between two steps besides its small system's
-// setup, which follows from the whole system's.
-struct RegionState {
+// Where a running region was cut from the whole system: what Regions keeps of it besides its
+// small system.
+struct RegionCut {
   std::vector<int> index;  // the disk of the whole system behind each disk of the region
   std::vector<char> moving;
   std::vector<Regions::Point> seeds;
@@ -88,7 +88,12 @@ struct RegionState {
   double y0 = 0.0;         // the region's y = the whole system's y - y0
   double height = 0.0;     // of the small system's box
   double tolerance = 0.0;  // the whole system's solver tolerance
-  Batch::SystemState system;
+};
+
+// A running region between two steps, as a member's snapshot keeps it.
+struct RegionState {
+  RegionCut cut;
+  Batch::SystemState system;  // its small system
 };
 
 // The disks within `radius` of a seed (moving), and those further out but within `reach` of the
