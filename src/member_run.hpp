@@ -50,6 +50,9 @@ class MemberRun {
     bool runaway = false;
     Clock::time_point start;
     MemberResult result;
+    // A with the paper's stop rule: the highest disk top placed in each column 2 R wide (the
+    // progress estimate: the box is full when the lowest column is, not the highest).
+    std::vector<double> column_top;
     // running_cost at the phase and progress it was last computed for (running_share).
     double share = 0.0;
     Phase share_phase = Phase::Empty;
@@ -79,6 +82,8 @@ class MemberRun {
   void advance_ballistic();
   void advance_deposit();
   void redraw_where_room(const Mask& depositing, DropRule rule, std::vector<Deposit>& placed);
+  static double mean_column_top(std::vector<double>& column_top, double x, double top,
+                                const SystemParams& p);
   void advance_dynamics();
   void advance_region(std::size_t k, Mask& closing);
   void advance_relax(std::size_t k, Mask& closing);

@@ -331,8 +331,27 @@ void MemberRun::count_disk(std::size_t k, const Deposit& d) {
   ++sl.deposited;
   ++progress_.disks_deposited;
   // The highest so far, not the last: a disk landing in a valley of the rough surface would
-  // otherwise move the progress estimate backwards.
-  sl.filled = std::max(sl.filled, std::min(1.0, d.y / batch_->params(static_cast<int>(k)).height));
+  // otherwise move the progress estimate backwards. The paper's rule fills the valleys up to H
+  // before the box is full: there the mean of the columns' tops.
+  const SystemParams& p = batch_->params(static_cast<int>(k));
+  const double top = scan_.protocol.stop_rule == StopRule::NoRoom
+                         ? mean_column_top(sl.column_top, d.x, d.y + d.radius, p)
+                         : d.y;
+  sl.filled = std::max(sl.filled, std::min(1.0, top / p.height));
+}
+
+// Raises the top of the column 2 R wide that holds x to `top` if that is higher, and returns the
+// mean of the columns' tops (columns no disk has reached count as 0).
+double MemberRun::mean_column_top(std::vector<double>& column_top, double x, double top,
+                                  const SystemParams& p) {
+  const int n = std::max(1, static_cast<int>(p.width / (2.0 * p.radius)));
+  column_top.resize(static_cast<std::size_t>(n), 0.0);
+  const int c = std::clamp(static_cast<int>(std::floor(x / p.width * n)), 0, n - 1);
+  auto& column = column_top[static_cast<std::size_t>(c)];
+  column = std::max(column, top);
+  double sum = 0.0;
+  for (double t : column_top) sum += t;
+  return sum / n;
 }
 
 // Trajectory samples (observables.trajectory_every = every > 0) of the slot's first `count`

@@ -266,6 +266,43 @@ lower_half_from = 4.0
   EXPECT_GT(rises, collapsing / 3);
 }
 
+// With the paper's stop rule the box is full when its lowest column is, so a member's share done
+// follows the mean of its columns' tops, not its highest disk: the valleys of the rough top still
+// take many disks after the first column reaches H. The share is (height / H)^q with q = 3 at
+// Bo = 1e2 (expected_cost). When the member has placed 90 % of its disks its mean height is at
+// most 0.9 of the final one (the deposit is looser higher up), which is below H: a share of at
+// most 0.9^3 = 0.73. Its highest disk stands near H by then (0.82 here).
+TEST(Progress, ThePapersStopRuleCountsTheColumnsNotTheHighestDisk) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 1
+[system]
+width = 24.0
+height = 24.0
+bond_number = 100.0
+[protocol]
+stop_rule = "no_room"
+[observables]
+lower_half_from = 0.0
+)");
+  std::vector<Progress> seen;
+  RunHooks hooks;
+  hooks.progress = [&](const Progress& p) { seen.push_back(p); };
+  const auto results = run_members(scan, members_of(scan), hooks);
+  ASSERT_EQ(results.size(), 1u);
+  const auto disks = static_cast<long>(results[0].y_e.size());
+  double at_nine_tenths = -1.0;
+  for (const auto& p : seen)
+    if (p.disks_deposited * 10 >= disks * 9) {
+      at_nine_tenths = p.fraction;
+      break;
+    }
+  std::printf("%ld disks; share done at 90 %% of them: %.3f\n", disks, at_nine_tenths);
+  EXPECT_GT(at_nine_tenths, 0.3);
+  EXPECT_LT(at_nine_tenths, 0.75);
+}
+
 // A relaxation of kLongRelaxation steps or more is reported while it runs (a tall cohesive
 // deposit's avalanche deposits nothing for hours at the paper's size, so the line would look
 // stalled), with its steps so far. Frictionless disks slide over the pile for a thousand steps and

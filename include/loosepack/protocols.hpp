@@ -78,7 +78,9 @@ struct MemberStage {
   long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
   bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
   long deposited = 0;
-  double filled = 0.0;        // height of the highest deposited disk over H (the progress estimate)
+  // The progress estimate: the highest deposited disk's height over H, or with the paper's stop
+  // rule the mean of the columns' tops over H (src/phases.cpp, count_disk).
+  double filled = 0.0;
   bool checking = false;      // A: a whole system's relaxation after a region is its rest check
   int quiet = 0;              // steps in a row with no disk above the wake speed (check)
   int rounds = 0;             // relaxation regions started for the current disk
