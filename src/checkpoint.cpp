@@ -3,6 +3,8 @@
 
 #include <Kokkos_Core.hpp>
 #include <algorithm>
+#include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -201,6 +203,7 @@ void encode(Writer& w, const MemberSnapshot& snap) {
     w.put<std::uint8_t>(b ? 1 : 0);
   w.put<std::int32_t>(st.quiet);
   w.put<std::int32_t>(st.rounds);
+  w.put(st.column_top);
   encode(w, snap.system);
   w.put<std::uint8_t>(snap.region ? 1 : 0);
   if (!snap.region) return;
@@ -227,6 +230,8 @@ Batch::SystemState decode_system(Reader& in, const std::string& what) {
     a.radius = d[6], a.y_deposit = d[7];
     a.fixed = (flags[k] & 1) != 0;
     a.lock_rotation = (flags[k] & 2) != 0;
+    if (!std::isfinite(a.x) || !std::isfinite(a.y) || !(a.radius > 0.0) || !std::isfinite(a.radius))
+      in.fail("a disk of " + what + " is not in its box");
     sys.disks.push_back(a);
   }
   for (auto* v : {&sys.y_mark, &sys.inv_mass, &sys.inv_inertia, &sys.pn, &sys.pt, &sys.pm, &sys.nx,
@@ -274,11 +279,8 @@ RegionState decode_region(Reader& in, int whole, const std::string& who) {
     cut.seeds.push_back({seeds[k], seeds[k + 1]});
   for (double* v : {&cut.radius, &cut.y0, &cut.height, &cut.tolerance}) *v = in.get<double>();
   rg.system = decode_system(in, "the relaxation region of " + who);
-  const std::size_t n = cut.index.size();
-  bool fits = n > 0 && cut.moving.size() == n && rg.system.disks.size() == n &&
-              seeds.size() % 2 == 0 && !cut.seeds.empty() && cut.radius > 0.0 && cut.height > 0.0;
-  for (int k : cut.index) fits = fits && k >= 0 && k < whole;
-  if (!fits) in.fail("the relaxation region of " + who + " does not fit its system");
+  if (seeds.size() % 2 != 0 || !holds_together(rg, whole))
+    in.fail("the relaxation region of " + who + " does not fit its system");
   return rg;
 }
 
@@ -295,6 +297,7 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
     *b = in.get<std::uint8_t>() != 0;
   st.quiet = in.get<std::int32_t>();
   st.rounds = in.get<std::int32_t>();
+  st.column_top = in.vec();
   const std::string who = "running member " + std::to_string(snap.result.member.id);
   snap.system = decode_system(in, who);
   const bool in_region = in.get<std::uint8_t>() != 0;
@@ -385,6 +388,11 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
         std::memcmp(bytes.data(), kMagic, sizeof kMagic - 2) != 0)
       throw CheckpointError(what + " is not a loosepack checkpoint or is truncated: delete " +
                             directory + " to start the run again");
+    const bool version = std::isdigit(static_cast<unsigned char>(bytes[6])) &&
+                         std::isdigit(static_cast<unsigned char>(bytes[7]));
+    if (!version)
+      throw CheckpointError(what + " is not a loosepack checkpoint: delete " + directory +
+                            " to start the run again");
     if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
       throw CheckpointError(what + " has another checkpoint format (" + bytes.substr(0, 8) +
                             ", this build's " + std::string(kMagic, sizeof kMagic) +

@@ -50,9 +50,6 @@ class MemberRun {
     bool runaway = false;
     Clock::time_point start;
     MemberResult result;
-    // A with the paper's stop rule: the highest disk top placed in each column 2 R wide (the
-    // progress estimate: the box is full when the lowest column is, not the highest).
-    std::vector<double> column_top;
     // running_cost at the phase and progress it was last computed for (running_share).
     double share = 0.0;
     Phase share_phase = Phase::Empty;

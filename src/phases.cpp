@@ -334,9 +334,9 @@ void MemberRun::count_disk(std::size_t k, const Deposit& d) {
   // otherwise move the progress estimate backwards. The paper's rule fills the valleys up to H
   // before the box is full: there the mean of the columns' tops.
   const SystemParams& p = batch_->params(static_cast<int>(k));
-  const double top = scan_.protocol.stop_rule == StopRule::NoRoom
-                         ? mean_column_top(sl.column_top, d.x, d.y + d.radius, p)
-                         : d.y;
+  const bool by_columns =
+      scan_.protocol.stop_rule == StopRule::NoRoom && members_[sl.member].protocol == Protocol::A;
+  const double top = by_columns ? mean_column_top(sl.column_top, d.x, d.y + d.radius, p) : d.y;
   sl.filled = std::max(sl.filled, std::min(1.0, top / p.height));
 }
 

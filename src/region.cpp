@@ -302,16 +302,22 @@ RegionState Regions::state(int s) const {
   return {sl.cut, impl_->batch->state(s)};
 }
 
+bool holds_together(const RegionState& state, int whole_disks) {
+  const RegionCut& cut = state.cut;
+  const std::size_t n = cut.index.size();
+  bool fits = n > 0 && cut.moving.size() == n && state.system.disks.size() == n &&
+              !cut.seeds.empty() && cut.radius > 0.0 && cut.height > 0.0;
+  for (int k : cut.index) fits = fits && k >= 0 && k < whole_disks;
+  for (const auto& p : cut.seeds) fits = fits && std::isfinite(p.x) && std::isfinite(p.y);
+  for (double v : {cut.radius, cut.y0, cut.height, cut.tolerance}) fits = fits && std::isfinite(v);
+  return fits;
+}
+
 void Regions::resume(const Batch& whole, int s, const RegionState& state) {
   auto& I = *impl_;
   const RegionCut& cut = state.cut;
-  const std::size_t n = cut.index.size();
-  const int count = whole.status(s).count;
-  const bool fits =
-      n > 0 && cut.moving.size() == n && state.system.disks.size() == n && !cut.seeds.empty() &&
-      cut.radius > 0.0 &&
-      std::all_of(cut.index.begin(), cut.index.end(), [&](int k) { return k >= 0 && k < count; });
-  if (!fits || static_cast<int>(n) > I.settings.max_disks)
+  if (!holds_together(state, whole.status(s).count) ||
+      static_cast<int>(cut.index.size()) > I.settings.max_disks)
     throw std::invalid_argument("the relaxation region does not fit system " + std::to_string(s));
   I.batch->reset(s, I.setup(whole, s, cut.height, cut.tolerance, state.system.disks));
   I.batch->restore(s, state.system);

@@ -221,9 +221,6 @@ void MemberRun::go_on_from(std::size_t k, const MemberSnapshot& snap) {
   batch_->restore(s, snap.system);  // active as the snapshot's phase needs
   if (snap.region) regions_->resume(*batch_, s, *snap.region);
   static_cast<MemberStage&>(sl) = snap.stage;
-  if (scan_.protocol.stop_rule == StopRule::NoRoom)  // the progress estimate's columns, from here
-    for (const Disk& d : snap.system.disks)
-      mean_column_top(sl.column_top, d.x, d.y + d.radius, batch_->params(s));
   sl.phase = snap.phase;
   sl.result = snap.result;
   sl.result.member = m;

@@ -240,6 +240,21 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
           << e.what();
     }
   }
+  // Parts with a valid checksum whose region does not hold together are refused too: a seed
+  // not in the box, a region's disk outside the whole system, a member in a region without it.
+  const auto refused_part = [&](const MemberSnapshot& snap) {
+    write_checkpoint_part(part, scan_fingerprint(scan), {}, {snap});
+    EXPECT_THROW(read_checkpoint(dir.string(), scan), CheckpointError);
+  };
+  MemberSnapshot bad = in_region(scan, 3);
+  bad.region->cut.seeds[0].x = std::nan("");
+  refused_part(bad);
+  bad = in_region(scan, 3);
+  bad.region->cut.index[1] = 2;  // the whole system has two disks
+  refused_part(bad);
+  bad = in_region(scan, 3);
+  bad.region.reset();
+  refused_part(bad);
   // Another scan (one character edited) is refused too.
   write_checkpoint_part(part, scan_fingerprint(scan), {filled(scan, 1)});
   Scan edited = small_scan();

@@ -78,9 +78,12 @@ struct MemberStage {
   long unconverged = 0;  // consecutive steps whose solve hit the sweep cap
   bool gave_up = false;  // unconverged for protocol.max_unconverged_time: Failure::Unconverged
   long deposited = 0;
-  // The progress estimate: the highest deposited disk's height over H, or with the paper's stop
-  // rule the mean of the columns' tops over H (src/phases.cpp, count_disk).
+  // The progress estimate: the highest deposited disk's centre over H, or for A with the paper's
+  // stop rule the mean of column_top over H (src/phases.cpp, count_disk).
   double filled = 0.0;
+  // A with the paper's stop rule: the highest top of a disk placed in each column 2 R wide
+  // (the box is full when its lowest column is, not its highest).
+  std::vector<double> column_top;
   bool checking = false;      // A: a whole system's relaxation after a region is its rest check
   int quiet = 0;              // steps in a row with no disk above the wake speed (check)
   int rounds = 0;             // relaxation regions started for the current disk
@@ -152,8 +155,9 @@ struct RunHooks {
   // relaxation regions' batch follow, their names prefixed with "region ".
   std::vector<StageCost>* stage_costs = nullptr;
   // Checkpoints of running members. When `snapshot_wanted` returns true the run takes a
-  // snapshot of every running member at its next point where it can (not while a relaxation
-  // region runs) and hands them to `snapshots` together. At a stop it takes the latest it can
+  // snapshot of every running member at its next point where it can (between two steps: not
+  // while a step's solve goes on over launches, solver.sweeps_per_launch) and hands them to
+  // `snapshots` together. At a stop it takes the latest it can
   // and goes on, for at most 10 seconds, until every running member has one.
   std::function<bool()> snapshot_wanted;
   std::function<void(std::vector<MemberSnapshot>)> snapshots;

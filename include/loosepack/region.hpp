@@ -96,6 +96,11 @@ struct RegionState {
   Batch::SystemState system;  // its small system
 };
 
+// Whether `state` can be a running region of a system of `whole_disks` disks: one entry per disk
+// of its small system, each the whole system's, seeds, frame, box and tolerance finite, radius
+// and box positive (what Regions::resume and the checkpoint reader check).
+bool holds_together(const RegionState& state, int whole_disks);
+
 // The disks within `radius` of a seed (moving), and those further out but within `reach` of the
 // moving ones (fixed), in increasing index order; periodic in x with period `width`.
 struct RegionSelection {
