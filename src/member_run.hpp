@@ -79,8 +79,6 @@ class MemberRun {
   void advance_ballistic();
   void advance_deposit();
   void redraw_where_room(const Mask& depositing, DropRule rule, std::vector<Deposit>& placed);
-  static double mean_column_top(std::vector<double>& column_top, double x, double top,
-                                const SystemParams& p);
   void advance_dynamics();
   void advance_region(std::size_t k, Mask& closing);
   void advance_relax(std::size_t k, Mask& closing);

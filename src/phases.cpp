@@ -326,6 +326,24 @@ void MemberRun::count_step(Slot& sl, const SystemStatus& st, const SystemParams&
   sl.runaway = st.max_speed > runaway_speed(p);
 }
 
+namespace {
+
+// Raises the top of the column 2 R wide that holds x to `top` if that is higher, and returns the
+// mean of the columns' tops (columns no disk has reached count as 0).
+double mean_column_top(std::vector<double>& column_top, double x, double top,
+                       const SystemParams& p) {
+  const int n = std::max(1, static_cast<int>(p.width / (2.0 * p.radius)));
+  column_top.resize(static_cast<std::size_t>(n), 0.0);
+  const int c = std::clamp(static_cast<int>(std::floor(x / p.width * n)), 0, n - 1);
+  auto& column = column_top[static_cast<std::size_t>(c)];
+  column = std::max(column, top);
+  double sum = 0.0;
+  for (double t : column_top) sum += t;
+  return sum / n;
+}
+
+}  // namespace
+
 void MemberRun::count_disk(std::size_t k, const Deposit& d) {
   Slot& sl = slots_[k];
   ++sl.deposited;
@@ -338,20 +356,6 @@ void MemberRun::count_disk(std::size_t k, const Deposit& d) {
       scan_.protocol.stop_rule == StopRule::NoRoom && members_[sl.member].protocol == Protocol::A;
   const double top = by_columns ? mean_column_top(sl.column_top, d.x, d.y + d.radius, p) : d.y;
   sl.filled = std::max(sl.filled, std::min(1.0, top / p.height));
-}
-
-// Raises the top of the column 2 R wide that holds x to `top` if that is higher, and returns the
-// mean of the columns' tops (columns no disk has reached count as 0).
-double MemberRun::mean_column_top(std::vector<double>& column_top, double x, double top,
-                                  const SystemParams& p) {
-  const int n = std::max(1, static_cast<int>(p.width / (2.0 * p.radius)));
-  column_top.resize(static_cast<std::size_t>(n), 0.0);
-  const int c = std::clamp(static_cast<int>(std::floor(x / p.width * n)), 0, n - 1);
-  auto& column = column_top[static_cast<std::size_t>(c)];
-  column = std::max(column, top);
-  double sum = 0.0;
-  for (double t : column_top) sum += t;
-  return sum / n;
 }
 
 // Trajectory samples (observables.trajectory_every = every > 0) of the slot's first `count`

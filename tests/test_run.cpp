@@ -119,6 +119,52 @@ TEST(Progress, EtaCountsTheRateSinceTheStart) {
   EXPECT_LT(progress_eta(p, 10.0), 0.0);
 }
 
+namespace {
+
+// A run of `scan` stopped at its first snapshot after `reports` progress reports: the snapshots,
+// and the share done the run had reported when they were taken.
+struct Stopped {
+  std::vector<MemberSnapshot> snaps;
+  double reached = 0.0;
+};
+Stopped stopped_after(const Scan& scan, long reports) {
+  volatile std::sig_atomic_t stop = 0;
+  long n = 0;
+  Stopped out;
+  RunHooks hooks;
+  hooks.stop = &stop;
+  hooks.progress = [&](const Progress& p) {
+    ++n;
+    if (out.snaps.empty()) out.reached = p.fraction;
+  };
+  hooks.snapshot_wanted = [&] { return n >= reports; };
+  hooks.snapshots = [&](std::vector<MemberSnapshot> s) {
+    out.snaps = std::move(s);
+    stop = 1;
+  };
+  run_members(scan, members_of(scan), hooks);
+  return out;
+}
+
+// One member of protocol A at Bo = 1e2 in a 24 R x 24 R box with the paper's stop rule.
+Scan papers_rule_scan() {
+  return scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 1
+[system]
+width = 24.0
+height = 24.0
+bond_number = 100.0
+[protocol]
+stop_rule = "no_room"
+[observables]
+lower_half_from = 0.0
+)");
+}
+
+}  // namespace
+
 // A member that goes on from its snapshot has its share done and its disks from the first report
 // on: the resumed run's start_fraction is that first report's fraction, at least what the stopped
 // run had reported when the snapshot was taken.
@@ -135,22 +181,7 @@ bond_number = 50
 lower_half_from = 2.0
 )");
   const auto members = members_of(scan);
-  volatile std::sig_atomic_t stop = 0;
-  long reports = 0;
-  double reached = 0.0;  // the stopped run's fraction at its snapshot
-  std::vector<MemberSnapshot> snaps;
-  RunHooks first;
-  first.stop = &stop;
-  first.progress = [&](const Progress& p) {
-    ++reports;
-    if (snaps.empty()) reached = p.fraction;
-  };
-  first.snapshot_wanted = [&] { return reports >= 200; };
-  first.snapshots = [&](std::vector<MemberSnapshot> s) {
-    snaps = std::move(s);
-    stop = 1;
-  };
-  run_members(scan, members, first);
+  const auto [snaps, reached] = stopped_after(scan, 200);
   ASSERT_EQ(snaps.size(), 1u);
   std::vector<Progress> seen;
   RunHooks second;
@@ -271,21 +302,10 @@ lower_half_from = 4.0
 // take many disks after the first column reaches H. The share is (height / H)^q with q = 3 at
 // Bo = 1e2 (expected_cost). When the member has placed 90 % of its disks its mean height is at
 // most 0.9 of the final one (the deposit is looser higher up), which is below H: a share of at
-// most 0.9^3 = 0.73. By then its highest disk stands at about 0.93 H, which gave 0.82.
+// most 0.9^3 = 0.73, and at least (2/3)^3 = 0.30 while its mean height is two thirds of H or more.
+// By then its highest disk stands at about 0.93 H, which gave 0.82.
 TEST(Progress, ThePapersStopRuleCountsTheColumnsNotTheHighestDisk) {
-  const auto scan = scan_of(R"(
-[scan]
-protocol = "A"
-seeds = 1
-[system]
-width = 24.0
-height = 24.0
-bond_number = 100.0
-[protocol]
-stop_rule = "no_room"
-[observables]
-lower_half_from = 0.0
-)");
+  const auto scan = papers_rule_scan();
   std::vector<Progress> seen;
   RunHooks hooks;
   hooks.progress = [&](const Progress& p) { seen.push_back(p); };
@@ -306,19 +326,7 @@ lower_half_from = 0.0
 // A member of the paper's rule that goes on from its snapshot keeps its columns' tops (they are in
 // the snapshot): at every disk count its share done is the uninterrupted run's.
 TEST(Progress, ThePapersStopRuleKeepsItsEstimateOverAResume) {
-  const auto scan = scan_of(R"(
-[scan]
-protocol = "A"
-seeds = 1
-[system]
-width = 24.0
-height = 24.0
-bond_number = 100.0
-[protocol]
-stop_rule = "no_room"
-[observables]
-lower_half_from = 0.0
-)");
+  const auto scan = papers_rule_scan();
   const auto members = members_of(scan);
   std::map<long, double> straight;  // disks deposited -> share done
   RunHooks whole;
@@ -326,18 +334,7 @@ lower_half_from = 0.0
     if (p.members_done == 0) straight[p.disks_deposited] = p.fraction;
   };
   run_members(scan, members, whole);
-  volatile std::sig_atomic_t stop = 0;
-  long reports = 0;
-  std::vector<MemberSnapshot> snaps;
-  RunHooks first;
-  first.stop = &stop;
-  first.progress = [&](const Progress&) { ++reports; };
-  first.snapshot_wanted = [&] { return reports >= 300; };
-  first.snapshots = [&](std::vector<MemberSnapshot> s) {
-    snaps = std::move(s);
-    stop = 1;
-  };
-  run_members(scan, members, first);
+  const std::vector<MemberSnapshot> snaps = stopped_after(scan, 300).snaps;
   ASSERT_EQ(snaps.size(), 1u);
   ASSERT_GT(snaps[0].stage.column_top.size(), 0u);
   int compared = 0;
