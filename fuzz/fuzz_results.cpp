@@ -1,11 +1,12 @@
-// libFuzzer target for the result-file readers (`loosepack summary` and `loosepack analyse`,
-// src/output.cpp). A valid result file of a small scan (protocols A and C, three seeds) is
-// computed once; each input is a list of edits applied to a copy of it through HDF5, so that
-// the file stays a valid HDF5 file (the readers' checks are fuzzed, not HDF5's own parser):
-// remove a dataset or an attribute, give a dataset another length, set an element or an
-// attribute to any double (NaN, infinities, 1e300, negative counts), or replace a string. The
-// readers must print or write a file, or refuse with std::runtime_error; any other exception,
-// crash, sanitizer report or huge allocation is a bug.
+// libFuzzer target for the result-file readers (`loosepack summary`, `loosepack analyse` and
+// `loosepack merge`, src/output.cpp and src/shards.cpp). A valid result file of a small scan
+// (protocols A and C, three seeds), written as the one shard of its scan, is computed once; each
+// input is a list of edits applied to a copy of it through HDF5, so that the file stays a valid
+// HDF5 file (the readers' checks are fuzzed, not HDF5's own parser): remove a dataset or an
+// attribute, give a dataset another length, set an element or an attribute to any double (NaN,
+// infinities, 1e300, negative counts), or replace a string. The readers must print or write a file,
+// or refuse with std::runtime_error; any other exception, crash, sanitizer report or huge
+// allocation is a bug.
 #include <hdf5.h>
 #include <unistd.h>
 
@@ -18,11 +19,10 @@
 #include <string>
 #include <vector>
 
-#include "loosepack/analysis.hpp"
-#include "loosepack/observables.hpp"
 #include "loosepack/output.hpp"
 #include "loosepack/protocols.hpp"
 #include "loosepack/scan.hpp"
+#include "loosepack/shards.hpp"
 
 namespace {
 
@@ -67,9 +67,10 @@ Template& make_template() {
     const auto members = loosepack::members_of(scan);
     loosepack::resolve_backend_defaults(scan, members.size());
     const auto results = loosepack::run_members(scan, members);
-    const auto points = loosepack::aggregate(scan, results);
-    loosepack::write_results(t.path, scan, {}, points, loosepack::analyse(scan, points), results,
-                             true);
+    loosepack::RunInfo info;
+    info.shard = 0;
+    info.shards = 1;
+    loosepack::write_member_results(t.path, scan, info, results, true, false);
     hid_t f = H5Fopen(t.path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     H5Ovisit(f, H5_INDEX_NAME, H5_ITER_INC, collect, &t);
     H5Fclose(f);
@@ -209,6 +210,10 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }
   try {
     loosepack::reanalyse(t.work, t.out);
+  } catch (const std::runtime_error&) {
+  }
+  try {
+    loosepack::read_shards({t.work});
   } catch (const std::runtime_error&) {
   }
   return 0;

@@ -342,9 +342,9 @@ std::string checkpoint_part(const std::string& directory, int generation, int ra
          (finished > 0 ? "-" + std::to_string(finished) : std::string()) + ".bin";
 }
 
-void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
-                           const std::vector<MemberResult>& results,
-                           const std::vector<MemberSnapshot>& running) {
+std::string checkpoint_part_bytes(std::uint64_t fingerprint,
+                                  const std::vector<MemberResult>& results,
+                                  const std::vector<MemberSnapshot>& running) {
   std::string bytes(kMagic, sizeof kMagic);
   Writer w(bytes);
   w.put<std::uint32_t>(kByteOrder);
@@ -353,12 +353,54 @@ void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
   w.put<std::uint64_t>(running.size());
   for (const auto& snap : running) encode(w, snap);
   w.put<std::uint64_t>(fnv1a(bytes.data(), bytes.size()));
+  return bytes;
+}
+
+void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
+                           const std::vector<MemberResult>& results,
+                           const std::vector<MemberSnapshot>& running) {
+  const std::string bytes = checkpoint_part_bytes(fingerprint, results, running);
   replace_file(file, [&](const std::string& tmp) {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
     f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     f.flush();
     if (!f) throw std::runtime_error("cannot write checkpoint " + tmp);
   });
+}
+
+CheckpointPart decode_checkpoint_part(const std::string& bytes, const Scan& scan,
+                                      const std::string& what, const PartRemedies& remedy) {
+  constexpr std::size_t kHeader = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
+  if (bytes.size() < kHeader + 2 * sizeof(std::uint64_t) ||
+      std::memcmp(bytes.data(), kMagic, sizeof kMagic - 2) != 0)
+    throw CheckpointError(what +
+                          " is not a loosepack checkpoint or is truncated: " + remedy.damaged);
+  const bool version = std::isdigit(static_cast<unsigned char>(bytes[6])) &&
+                       std::isdigit(static_cast<unsigned char>(bytes[7]));
+  if (!version) throw CheckpointError(what + " is not a loosepack checkpoint: " + remedy.damaged);
+  if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+    throw CheckpointError(what + " has another checkpoint format (" + bytes.substr(0, 8) +
+                          ", this build's " + std::string(kMagic, sizeof kMagic) +
+                          "): " + remedy.other_build);
+  const std::size_t body = bytes.size() - sizeof(std::uint64_t);
+  std::uint64_t stored;
+  std::memcpy(&stored, bytes.data() + body, sizeof stored);
+  if (stored != fnv1a(bytes.data(), body))
+    throw CheckpointError(what + " is corrupt or truncated (checksum mismatch): " + remedy.damaged);
+  Reader in(bytes, sizeof kMagic, what);
+  if (in.get<std::uint32_t>() != kByteOrder)
+    throw CheckpointError(what + " was written on a machine of another byte order");
+  if (in.get<std::uint64_t>() != scan_fingerprint(scan))
+    throw CheckpointError(
+        what + " belongs to another scan file or another loosepack build: " + remedy.other_build);
+  const auto members = members_of(scan);
+  CheckpointPart part;
+  part.finished = decode_from(in, members);
+  const auto n_running = in.get<std::uint64_t>();
+  for (std::uint64_t k = 0; k < n_running; ++k)
+    part.running.push_back(decode_snapshot(in, members));
+  if (in.at() != body) in.fail("unexpected bytes after the last member");
+  return part;
 }
 
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan) {
@@ -373,59 +415,27 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
       files.push_back(entry.path().string());
   }
   std::sort(files.begin(), files.end());
-  const auto members = members_of(scan);
-  const auto fingerprint = scan_fingerprint(scan);
+  const PartRemedies remedy{
+      "delete " + directory + " to start the run again",
+      "the scan was edited, or the program rebuilt, since: restore them, or delete " + directory +
+          " to start the run again"};
   std::map<std::uint64_t, MemberResult> finished;
   std::map<std::uint64_t, std::pair<int, MemberSnapshot>> running;  // the latest generation's
   for (const auto& file : files) {
-    const std::string what = "checkpoint " + file;
     std::ifstream f(file, std::ios::binary);
     std::ostringstream ss;
     ss << f.rdbuf();
-    const std::string bytes = ss.str();
-    constexpr std::size_t kHeader = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
-    if (bytes.size() < kHeader + 2 * sizeof(std::uint64_t) ||
-        std::memcmp(bytes.data(), kMagic, sizeof kMagic - 2) != 0)
-      throw CheckpointError(what + " is not a loosepack checkpoint or is truncated: delete " +
-                            directory + " to start the run again");
-    const bool version = std::isdigit(static_cast<unsigned char>(bytes[6])) &&
-                         std::isdigit(static_cast<unsigned char>(bytes[7]));
-    if (!version)
-      throw CheckpointError(what + " is not a loosepack checkpoint: delete " + directory +
-                            " to start the run again");
-    if (std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
-      throw CheckpointError(what + " has another checkpoint format (" + bytes.substr(0, 8) +
-                            ", this build's " + std::string(kMagic, sizeof kMagic) +
-                            "): resume it with the build that wrote it, or delete " + directory +
-                            " to start the run again");
-    const std::size_t body = bytes.size() - sizeof(std::uint64_t);
-    std::uint64_t stored;
-    std::memcpy(&stored, bytes.data() + body, sizeof stored);
-    if (stored != fnv1a(bytes.data(), body))
-      throw CheckpointError(what + " is corrupt or truncated (checksum mismatch): delete " +
-                            directory + " to start the run again");
-    Reader in(bytes, sizeof kMagic, what);
-    if (in.get<std::uint32_t>() != kByteOrder)
-      throw CheckpointError(what + " was written on a machine of another byte order");
-    if (in.get<std::uint64_t>() != fingerprint)
-      throw CheckpointError(what +
-                            " belongs to another scan file or another loosepack build "
-                            "(the scan was edited, or the program rebuilt, since): restore them, "
-                            "or delete " +
-                            directory + " to start the run again");
-    for (auto& r : decode_from(in, members)) {
+    CheckpointPart part = decode_checkpoint_part(ss.str(), scan, "checkpoint " + file, remedy);
+    for (auto& r : part.finished) {
       const auto id = r.member.id;
       finished.emplace(id, std::move(r));
     }
     int generation = 0;
     std::sscanf(fs::path(file).filename().string().c_str(), "part-%d-", &generation);
-    const auto n_running = in.get<std::uint64_t>();
-    for (std::uint64_t k = 0; k < n_running; ++k) {
-      auto snap = decode_snapshot(in, members);
+    for (auto& snap : part.running) {
       auto& latest = running[snap.result.member.id];
       if (generation >= latest.first) latest = {generation, std::move(snap)};
     }
-    if (in.at() != body) in.fail("unexpected bytes after the last member");
     out.generation = std::max(out.generation, generation);
     ++out.parts;
   }

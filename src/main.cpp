@@ -18,16 +18,18 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 #include <vector>
 
 #include "fault_injection.hpp"
 #include "loosepack/checkpoint.hpp"
-#include "loosepack/observables.hpp"
 #include "loosepack/export.hpp"
+#include "loosepack/observables.hpp"
 #include "loosepack/output.hpp"
 #include "loosepack/parallel.hpp"
 #include "loosepack/protocols.hpp"
 #include "loosepack/scan.hpp"
+#include "loosepack/shards.hpp"
 #include "loosepack_git_commit.hpp"
 #include "output_lock.hpp"
 #include "replace_file.hpp"
@@ -106,7 +108,25 @@ struct RunOptions {
   int batch_size = 0;
   double checkpoint_every = 300.0;  // seconds between checkpoints; 0: after every member
   long member = -1;                 // run only this member (re-running a failed one)
+  std::string shard;                // "K/N": run shard K of N only (include/loosepack/shards.hpp)
 };
+
+// Tells the user of each failed member of `results` and how to run it again; returns how many.
+int report_failures(const std::vector<MemberResult>& results, const std::string& scan_path) {
+  int failed = 0;
+  for (const auto& r : results) {
+    if (r.ok()) continue;
+    ++failed;
+    std::cerr << "loosepack: member " << r.member.id << " (point " << r.member.point << ", seed "
+              << r.member.seed_index << ", Bo " << r.member.params.bond_number
+              << ") failed: " << failure_message(r.failure)
+              << "; excluded from the aggregates, its state at the failure is in the output; "
+                 "re-run it alone with: loosepack run "
+              << scan_path << " --member " << r.member.id << " -o member-" << r.member.id
+              << ".h5\n";
+  }
+  return failed;
+}
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) {
@@ -213,6 +233,20 @@ int RunCommand::load() {
     }
     members = {all_members[static_cast<std::size_t>(o.member)]};
   }
+  if (!o.shard.empty()) {
+    try {
+      std::tie(info.shard, info.shards) = parse_shard(o.shard);
+    } catch (const ShardError& e) {
+      say(e.what());
+      return kInvalid;
+    }
+    members = shard_of(all_members, info.shard, info.shards);
+    if (members.empty()) {
+      say("--shard " + o.shard + ": the scan has " + std::to_string(all_members.size()) +
+          " members, too few for " + std::to_string(info.shards) + " shards");
+      return kInvalid;
+    }
+  }
   resolve_backend_defaults(scan, members.size());
   return 0;
 }
@@ -287,6 +321,7 @@ void RunCommand::announce() const {
   std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
             << scan.seeds << " seeds = " << all_members.size() << " members";
   if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
+  if (info.shards > 0) std::cerr << " (shard " << o.shard << ": " << members.size() << " of them)";
   std::cerr << ", batches of " << scan.batch_size << " on " << Kokkos::DefaultExecutionSpace::name()
             << ", solver " << solver_kind_name(scan.solver.kind);
   if (scan.solver.sweeps_per_launch > 0)
@@ -532,26 +567,12 @@ int RunCommand::write() {
   info.end_time = utc_now();
   info.members_unfinished = static_cast<long>(members.size() - results.size());
   info.wall_seconds = seconds_since(t0);
-  int failed = 0;
-  for (const auto& r : results) {
-    if (r.ok()) continue;
-    ++failed;
-    std::cerr << "loosepack: member " << r.member.id << " (point " << r.member.point << ", seed "
-              << r.member.seed_index << ", Bo " << r.member.params.bond_number
-              << ") failed: " << failure_message(r.failure)
-              << "; excluded from the aggregates, its state at the failure is in the output; "
-                 "re-run it alone with: loosepack run "
-              << o.scan_path << " --member " << r.member.id << " -o member-" << r.member.id
-              << ".h5\n";
-  }
-  auto points = aggregate(scan, results);
-  if (o.member >= 0 || o.finished_only)  // only the points of the members at hand
-    points.erase(std::remove_if(points.begin(), points.end(),
-                                [](const PointResult& p) { return p.members == 0; }),
-                 points.end());
+  const int failed = report_failures(results, o.scan_path);
   try {
     inject_write_failure();
-    write_results(o.out_path, scan, info, points, analyse(scan, points), results, o.snapshots);
+    // Only the points of the members at hand in a file of one member, a shard or those finished.
+    write_member_results(o.out_path, scan, info, results, o.snapshots,
+                         o.member >= 0 || o.finished_only || info.shards > 0);
   } catch (const std::exception& e) {
     say(std::string(e.what()) + "; the results are kept in " + ck_dir +
         ": once the cause is fixed, write the file with: loosepack run " + o.scan_path + " -o " +
@@ -580,9 +601,12 @@ int RunCommand::dry_run() const {
   // calibrated on (the geometric mean over the recorded protocol-A scenes, src/protocols.cpp):
   // right within a factor of a few.
   constexpr double kSecondsPerUnit = 3.9e-8;
+  std::string selected;
+  if (o.member >= 0) selected = " (one member selected)";
+  if (info.shards > 0)
+    selected = " (shard " + o.shard + ": " + std::to_string(members.size()) + " of them)";
   std::printf("# scan '%s': %zu points x %d seeds = %zu members%s\n", scan.name.c_str(),
-              scan.points.size(), scan.seeds, all_members.size(),
-              o.member >= 0 ? " (one member selected)" : "");
+              scan.points.size(), scan.seeds, all_members.size(), selected.c_str());
   std::printf("%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",
               "height", "members", "expected CPU s per member");
   double total = 0.0;
@@ -678,8 +702,15 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
                        : std::string("must be a finite number of seconds");
           },
           "FINITE"));
-  run_cmd->add_option("--member", o.member, "run only this member (id as printed for a failure)")
-      ->check(CLI::Range(0L, 1000000000L));
+  auto* member =
+      run_cmd
+          ->add_option("--member", o.member, "run only this member (id as printed for a failure)")
+          ->check(CLI::Range(0L, 1000000000L));
+  run_cmd
+      ->add_option("--shard", o.shard,
+                   "K/N: run shard K of N only (0 <= K < N; the members rank K of an N-rank run "
+                   "computes), one file each, for loosepack merge")
+      ->excludes(member);
   return run_cmd;
 }
 
@@ -743,6 +774,74 @@ int analyse_command(const FileCommands& f) {
   return kOk;
 }
 
+// `loosepack merge`'s options.
+struct MergeOptions {
+  CLI::App* command = nullptr;
+  std::vector<std::string> parts;
+  std::string out_path;
+  bool force = false, snapshots = false, quiet = false;
+};
+
+void add_merge_command(CLI::App& app, MergeOptions& m) {
+  m.command = app.add_subcommand(
+      "merge",
+      "Merge the files of shards of one scan (loosepack run SCAN --shard K/N) into the file "
+      "one run of the whole scan writes");
+  m.command->add_option("shards", m.parts, "the shards' result files (HDF5)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  m.command
+      ->add_option("-o,--output", m.out_path,
+                   "merged result file (HDF5), written atomically; refused if it exists, unless "
+                   "--force")
+      ->required();
+  m.command->add_flag("--force", m.force, "replace an existing result file");
+  m.command->add_flag("--snapshots", m.snapshots,
+                      "store every member's final disks and contact forces (as run --snapshots)");
+  m.command->add_flag("-q,--quiet", m.quiet, "no message when done");
+}
+
+// `loosepack merge`: the output checked and locked as a run's; the shards read and checked
+// whole before anything is written.
+int merge_command(const MergeOptions& m) {
+  std::string why;
+  for (const auto& part : m.parts)
+    if (why.empty()) why = output_path_problem(m.out_path, part);
+  if (why.empty() && !m.force && std::filesystem::exists(m.out_path))
+    why = "the output file " + m.out_path + " exists; add --force to replace it";
+  OutputLock lock;  // a run or another merge writing the same file now
+  if (why.empty()) why = lock.acquire(m.out_path);
+  if (!why.empty()) {
+    std::cerr << "loosepack: " << why << "\n";
+    return kInvalid;
+  }
+  remove_stale_temporaries(m.out_path);
+  MergedShards merged;
+  try {
+    merged = read_shards(m.parts);
+  } catch (const ShardError& e) {
+    std::cerr << "loosepack: " << e.what() << "\n";
+    return kInvalid;
+  }
+  const int failed = report_failures(merged.members, merged.scan.file);
+  try {
+    write_member_results(m.out_path, merged.scan, merged.info, merged.members, m.snapshots, true);
+  } catch (const std::exception& e) {
+    std::cerr << "loosepack: " << e.what() << "\n";
+    return kError;
+  }
+  if (!m.quiet) {
+    std::cerr << "loosepack: wrote " << m.out_path << " with " << merged.members.size()
+              << " members from " << m.parts.size() << " shard files (" << failed
+              << " failed members)";
+    if (merged.info.members_unfinished > 0)
+      std::cerr << "; " << merged.info.members_unfinished
+                << " members of the scan are in none of them";
+    std::cerr << "\n";
+  }
+  return failed > 0 ? kMembersFailed : kOk;
+}
+
 // summary, analyse or export, on rank 0.
 int file_command(const FileCommands& f) {
   try {
@@ -779,12 +878,14 @@ int main(int argc, char** argv) {
   CLI::App* run_cmd = add_run_command(app, o);
   FileCommands files;
   add_file_commands(app, files);
+  MergeOptions merge;
+  add_merge_command(app, merge);
   std::vector<char*> args = without_kokkos_options(argc, argv);
-  const std::set<std::string> subcommands = {"run", "summary", "analyse", "export"};
+  const std::set<std::string> subcommands = {"run", "summary", "analyse", "export", "merge"};
   if (args.size() > 1 && args[1][0] != '-' && !subcommands.count(args[1])) {
     if (ranks.root())
       std::cerr << "loosepack: unknown subcommand '" << args[1]
-                << "' (run, summary, analyse or export; loosepack --help)\n";
+                << "' (run, merge, summary, analyse or export; loosepack --help)\n";
     return kInvalid;
   }
   try {
@@ -801,8 +902,8 @@ int main(int argc, char** argv) {
   }
   if (app.get_subcommands().empty()) {
     if (ranks.root())
-      std::cerr << "loosepack: a subcommand is required: run, summary, analyse or export "
-                   "(loosepack --help)\n";
+      std::cerr << "loosepack: a subcommand is required: run, merge, summary, analyse or "
+                   "export (loosepack --help)\n";
     return kInvalid;
   }
   if (*run_cmd) {
@@ -810,5 +911,6 @@ int main(int argc, char** argv) {
     std::signal(SIGTERM, on_signal);
     return run(o, ranks);
   }
+  if (*merge.command) return ranks.root() ? merge_command(merge) : kOk;
   return ranks.root() ? file_command(files) : kOk;
 }

@@ -4,6 +4,7 @@
 #include <hdf5.h>
 
 #include <Kokkos_Core.hpp>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,8 +12,9 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "loosepack/settings.hpp"
 #include "hdf5.hpp"
+#include "loosepack/checkpoint.hpp"
+#include "loosepack/settings.hpp"
 #include "loosepack_git_commit.hpp"
 #include "replace_file.hpp"
 
@@ -180,6 +182,18 @@ void string_dataset(hid_t parent, const std::string& name, const std::string& v)
          H5Dclose, "create dataset " + name);
   const char* p = v.c_str();
   check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), "write dataset " + name);
+}
+
+// Opaque bytes as a one-dimensional dataset of unsigned 8-bit integers.
+void bytes_dataset(hid_t parent, const std::string& name, const std::string& bytes) {
+  const hsize_t n = bytes.size();
+  H5 space(H5Screate_simple(1, &n, nullptr), H5Sclose, "create dataspace for " + name);
+  H5 set(
+      H5Dcreate2(parent, name.c_str(), H5T_STD_U8LE, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Dclose, "create dataset " + name);
+  if (n > 0)
+    check(H5Dwrite(set, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()),
+          "write dataset " + name);
 }
 
 void scalar(hid_t obj, const std::string& name, const Scalar& s) {
@@ -373,6 +387,15 @@ void write_header(hid_t file, const Scan& scan, const RunInfo& info) {
   attribute(file, "wall_seconds", info.wall_seconds);
   count(file, "mpi_ranks", info.ranks);
   count(file, "members_unfinished", info.members_unfinished);
+  if (info.shards > 0) {
+    count(file, "shard", info.shard);
+    count(file, "shards", info.shards);
+  }
+  if (!info.merged_from.empty()) {
+    std::string parts;
+    for (const auto& p : info.merged_from) parts += (parts.empty() ? "" : "\n") + p;
+    attribute(file, "merged_from", parts);
+  }
   attribute(file, "scan_file", scan.file);
   string_dataset(file, "scan_text", scan.text);
   attribute(file, "scan_name", scan.name);
@@ -501,8 +524,21 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       write_point(g, scan, pr, analysis.points.at(pk));
       write_members(group(g, "members"), scan, pr, members, snapshots);
     }
+    if (info.shards > 0)
+      bytes_dataset(file, "shard_members", checkpoint_part_bytes(scan_fingerprint(scan), members));
     check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
   });
+}
+
+void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
+                          const std::vector<MemberResult>& members, bool snapshots,
+                          bool present_points_only) {
+  auto points = aggregate(scan, members);
+  if (present_points_only)
+    points.erase(std::remove_if(points.begin(), points.end(),
+                                [](const PointResult& p) { return p.members == 0; }),
+                 points.end());
+  write_results(path, scan, info, points, analyse(scan, points), members, snapshots);
 }
 
 namespace {
@@ -722,6 +758,40 @@ std::string read_attribute_string(const std::string& path, const std::string& ob
   return string_attribute(file, object, name);
 }
 
+ShardFile read_shard_file(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  ShardFile out;
+  out.path = path;
+  try {
+    H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
+            "open it (not an HDF5 file written by loosepack?)");
+    if (H5Aexists(file, "shards") <= 0 || H5Lexists(file, "shard_members", H5P_DEFAULT) <= 0)
+      throw std::runtime_error(
+          "not a shard's file (a shard is written by loosepack run SCAN --shard K/N)");
+    out.scan_text = scan_text_of(file);
+    out.scan_file = string_attribute(file, "/", "scan_file");
+    out.info.start_time = string_attribute(file, "/", "start_time");
+    out.info.end_time = string_attribute(file, "/", "end_time");
+    out.info.wall_seconds = double_attribute(file, "/", "wall_seconds");
+    out.info.ranks = count_attribute(file, "mpi_ranks");
+    out.info.shard = count_attribute(file, "shard");
+    out.info.shards = count_attribute(file, "shards");
+    H5 set(H5Dopen2(file, "shard_members", H5P_DEFAULT), H5Dclose, "open dataset shard_members");
+    H5 type(H5Dget_type(set), H5Tclose, "get the type of shard_members");
+    H5 space(H5Dget_space(set), H5Sclose, "get dataspace of shard_members");
+    if (H5Tget_class(type) != H5T_INTEGER || H5Tget_size(type) != 1 ||
+        H5Sget_simple_extent_ndims(space) != 1)
+      throw std::runtime_error("shard_members is not a one-dimensional dataset of bytes");
+    out.members.resize(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space)));
+    if (!out.members.empty())
+      check(H5Dread(set, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.members.data()),
+            "read dataset shard_members");
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(path + ": " + e.what());
+  }
+  return out;
+}
+
 namespace {
 // Reads the fits of the analysis from a result file as the summary prints them.
 struct FitReader {
@@ -873,8 +943,14 @@ void print_summary(const std::string& path, std::ostream& out) {
       << names.size() << " points, " << double_attribute(file, "/", "wall_seconds") << " s";
   if (H5Aexists(file, "members_unfinished") > 0) {
     const double unfinished = double_attribute(file, "/", "members_unfinished");
-    if (unfinished > 0) out << "; an unfinished run: " << unfinished << " members not in this file";
+    if (unfinished > 0)
+      out << "; " << unfinished << " members not in this file ("
+          << (H5Aexists(file, "merged_from") > 0 ? "shards not merged" : "an unfinished run")
+          << ")";
   }
+  if (H5Aexists(file, "shards") > 0)
+    out << "; shard " << count_attribute(file, "shard") << " of " << count_attribute(file, "shards")
+        << " of the scan (loosepack merge joins the shards' files)";
   out << "\n";
   out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
       << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)

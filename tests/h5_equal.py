@@ -1,14 +1,14 @@
 #!/usr/bin/env python3
 """Compares two loosepack result files bit for bit: every dataset and every attribute, except
 what records the run rather than the results (times, the number of MPI ranks, the batch size,
-and members/wall_time, the seconds each member took). Exit 0 when equal, 1 with the first
-differences listed."""
+the shard files a merged file came from, and members/wall_time, the seconds each member took).
+Exit 0 when equal, 1 with the first differences listed."""
 import sys
 
 import h5py
 import numpy as np
 
-RUN_ATTRIBUTES = {"start_time", "end_time", "wall_seconds", "mpi_ranks", "batch_size"}
+RUN_ATTRIBUTES = {"start_time", "end_time", "wall_seconds", "mpi_ranks", "batch_size", "merged_from"}
 RUN_DATASETS = {"wall_time"}
 
 

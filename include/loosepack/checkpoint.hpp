@@ -40,8 +40,13 @@ std::string checkpoint_directory(const std::string& output_path);
 std::string checkpoint_part(const std::string& directory, int generation, int rank,
                             int finished = 0);
 
-// Writes one part atomically (temporary file, then rename): header with the fingerprint,
-// the encoded members, snapshots of the running members, and a checksum of all of it.
+// One part as bytes: header with the fingerprint, the encoded members, snapshots of the
+// running members, and a checksum of all of it. A part file holds these bytes, and so does a
+// shard's result file (`run --shard`, docs/OUTPUT.md).
+std::string checkpoint_part_bytes(std::uint64_t fingerprint,
+                                  const std::vector<MemberResult>& results,
+                                  const std::vector<MemberSnapshot>& running = {});
+// Writes one part's bytes atomically (temporary file, then rename).
 void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
                            const std::vector<MemberResult>& results,
                            const std::vector<MemberSnapshot>& running = {});
@@ -57,6 +62,20 @@ struct CheckpointContents {
   int parts = 0;
 };
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan);
+
+// One part's bytes back: its finished members and the snapshots of its running ones. Checks
+// the format, the checksum, the byte order and that the part belongs to `scan` and this build;
+// throws CheckpointError naming `what` and saying what to do: `damaged` for bytes that are
+// not a whole part, `other_build` for a part of another format, scan or build.
+struct PartRemedies {
+  std::string damaged, other_build;
+};
+struct CheckpointPart {
+  std::vector<MemberResult> finished;
+  std::vector<MemberSnapshot> running;
+};
+CheckpointPart decode_checkpoint_part(const std::string& bytes, const Scan& scan,
+                                      const std::string& what, const PartRemedies& remedy);
 
 // Removes the directory's part files and the directory (after a complete result was written).
 void remove_checkpoint(const std::string& directory);

@@ -15,6 +15,11 @@ struct RunInfo {
   int ranks = 1;
   // Members of the scan a file of an unfinished run leaves out (`run --finished-only`).
   long members_unfinished = 0;
+  // A shard's file (`run --shard K/N`): K and N (-1 and 0 otherwise). Its members are stored
+  // with it, encoded as a checkpoint part, for `loosepack merge`.
+  int shard = -1, shards = 0;
+  // A merged file: the shard files it was merged from.
+  std::vector<std::string> merged_from;
 };
 
 // Writes `path` via a temporary file in the same directory and a rename, so an existing file
@@ -22,6 +27,23 @@ struct RunInfo {
 void write_results(const std::string& path, const Scan& scan, const RunInfo& info,
                    const std::vector<PointResult>& points, const Analysis& analysis,
                    const std::vector<MemberResult>& members, bool snapshots);
+
+// The one way from members to a result file: aggregates `members` (in member order), analyses
+// the points and writes `path` (write_results). With `present_points_only` the points that no
+// member of `members` belongs to are left out (a file of one member, of a shard, or of the
+// members finished so far).
+void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
+                          const std::vector<MemberResult>& members, bool snapshots,
+                          bool present_points_only);
+
+// What `loosepack merge` reads of a shard's file: the scan file's text and name, the run's
+// provenance and its members' bytes (a checkpoint part). Throws std::runtime_error naming the
+// file when it is not a loosepack result file, or not a shard's.
+struct ShardFile {
+  std::string path, scan_text, scan_file, members;
+  RunInfo info;
+};
+ShardFile read_shard_file(const std::string& path);
 
 // Recomputes the analysis of result file `in` from what it stores (its scan_text, the
 // aggregated profiles, avalanche bins, histograms and scalars) and writes it with the fits

@@ -1,0 +1,92 @@
+#!/usr/bin/env bash
+# Shards (`loosepack run --shard K/N`, then `loosepack merge`): the scan of three protocols,
+# with trajectories and a failed member (injected NaN), run whole and as three shards. Merged in
+# any order, the shards give the whole run's file (tests/h5_equal.py: every dataset and
+# attribute but the run's times, ranks and the files merged), report the failure once and exit
+# with 3; a shard run under mpirun (when the second argument names it) merges as the shard run
+# without does; two of the three shards give a file that counts the third's members as missing. Bad
+# input is refused with exit code 2 and nothing written: a shard given twice, a file that is
+# no shard, a shard of another scan, a damaged shard, an existing output, bad --shard values.
+source "$(dirname "$0")/common.sh"
+mpirun_cmd=${2:-}
+cd "$dir"
+mixed_scan s.toml
+echo "trajectory_every = 4" >> s.toml  # into [observables], the scan's last table
+expect_rc() {  # expect_rc CODE LOG COMMAND...: runs COMMAND, its stderr to LOG
+  local want=$1 log=$2
+  shift 2
+  set +e
+  "$@" 2>"$log"
+  local rc=$?
+  set -e
+  [ "$rc" -eq "$want" ] || fail "exit code $rc, expected $want: $* ($(cat "$log"))"
+}
+expect_rc 3 whole.log env LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml -o whole.h5 --snapshots
+for k in 0 1 2; do
+  set +e
+  LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml --shard $k/3 -o p$k.h5 2>p$k.log
+  set -e
+  [ -f p$k.h5 ] || fail "shard $k/3 wrote no file: $(cat p$k.log)"
+  grep -q "(shard $k/3: [0-9]* of them)" p$k.log || fail "shard $k/3 not announced: $(cat p$k.log)"
+done
+expect_rc 3 merge.log "$exe" merge p2.h5 p0.h5 p1.h5 -o merged.h5 --snapshots
+same whole.h5 merged.h5
+[ "$(grep -c "failed: non-finite" merge.log)" -eq 1 ] || fail "merge: $(cat merge.log)"
+grep -q "with 9 members from 3 shard files" merge.log || fail "merge: $(cat merge.log)"
+# The comparison can fail: without --snapshots the merged file lacks the whole run's snapshots.
+expect_rc 3 plain.log "$exe" merge p0.h5 p1.h5 p2.h5 -o plain.h5
+/usr/bin/python3 "$here/h5_equal.py" whole.h5 plain.h5 >/dev/null && fail "h5_equal saw no difference"
+# Two shards of three: the third's members are counted as missing.
+expect_rc 0 two.log "$exe" merge p0.h5 p2.h5 -o two.h5 -q
+members_of() {
+  /usr/bin/python3 -c "import h5py, sys
+f = h5py.File(sys.argv[1], 'r')
+print(sum(int(g.attrs['members']) for g in f['points'].values()), int(f.attrs['members_unfinished']))" "$1"
+}
+read -r n1 _ <<<"$(members_of p1.h5)"
+read -r n02 missing <<<"$(members_of two.h5)"
+[ "$missing" -eq "$n1" ] && [ $((n02 + n1)) -eq 9 ] ||
+  fail "two shards: $n02 members, $missing missing; shard 1 has $n1"
+"$exe" summary two.h5 | head -1 | grep -q "$n1 members not in this file (shards not merged)" ||
+  fail "summary of two shards: $("$exe" summary two.h5 | head -1)"
+"$exe" summary p1.h5 | head -1 | grep -q "shard 1 of 3 of the scan" || fail "summary of a shard"
+if [ -n "$mpirun_cmd" ]; then
+  set +e
+  LOOSEPACK_INJECT_NAN=1 "$mpirun_cmd" --oversubscribe -np 2 "$exe" run s.toml --shard 0/3 \
+    -o mpi0.h5 -q 2>mpi0.log
+  set -e
+  expect_rc 3 mpimerge.log "$exe" merge mpi0.h5 p1.h5 p2.h5 -o mpimerged.h5 --snapshots
+  same whole.h5 mpimerged.h5
+fi
+# Refused, with nothing written.
+refused() {  # refused MESSAGE COMMAND...
+  local message=$1
+  shift
+  expect_rc 2 refused.log "$@"
+  grep -qF -- "$message" refused.log || fail "message for $*: $(cat refused.log)"
+  [ ! -e bad.h5 ] || fail "$* wrote bad.h5"
+}
+refused "is in both p0.h5 and p0.h5" "$exe" merge p0.h5 p0.h5 -o bad.h5
+refused "whole.h5: not a shard's file" "$exe" merge p0.h5 whole.h5 -o bad.h5
+sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > other.toml
+"$exe" run other.toml --shard 1/3 -o other1.h5 -q 2>/dev/null || true
+refused "other1.h5 is a shard of another scan file than p0.h5" \
+  "$exe" merge p0.h5 other1.h5 -o bad.h5
+cp p1.h5 damaged.h5
+/usr/bin/python3 -c "import h5py, sys
+with h5py.File(sys.argv[1], 'r+') as f:
+    b = f['shard_members'][()]
+    b[len(b) // 2] ^= 0x10
+    f['shard_members'][...] = b" damaged.h5
+refused "damaged.h5: shard_members is corrupt" "$exe" merge p0.h5 damaged.h5 -o bad.h5
+echo junk > junk.h5
+refused "junk.h5: HDF5: cannot open it" "$exe" merge p0.h5 junk.h5 -o bad.h5
+before=$(md5sum merged.h5)
+refused "merged.h5 exists; add --force" "$exe" merge p0.h5 p1.h5 p2.h5 -o merged.h5
+[ "$(md5sum merged.h5)" = "$before" ] || fail "an existing output was changed"
+for bad in 3/3 1/0 x/3 -1/3; do
+  refused "--shard $bad" "$exe" run s.toml --shard "$bad" -o bad.h5
+done
+refused "--member excludes --shard" "$exe" run s.toml --shard 0/2 --member 1 -o bad.h5
+refused "too few for 12 shards" "$exe" run s.toml --shard 11/12 -o bad.h5
+echo "shards: all checks passed"
