@@ -50,6 +50,14 @@ read -r n02 missing <<<"$(members_of two.h5)"
 "$exe" summary two.h5 | head -1 | grep -q "$n1 members not in this file (shards not merged)" ||
   fail "summary of two shards: $("$exe" summary two.h5 | head -1)"
 "$exe" summary p1.h5 | head -1 | grep -q "shard 1 of 3 of the scan" || fail "summary of a shard"
+# A shard's file is a result file of its members (one a point here, whose errors are NaN): the
+# tools read it.
+/usr/bin/python3 "$repo/tools/plot.py" p1.h5 -o fig >plot.log 2>&1 || fail "plot.py: $(cat plot.log)"
+set +e
+/usr/bin/python3 "$repo/tools/claims.py" p1.h5 >claims.log 2>&1
+rc=$?
+set -e
+[ "$rc" -le 1 ] || fail "claims.py on a shard's file (exit $rc): $(tail -3 claims.log)"
 if [ -n "$mpirun_cmd" ]; then
   set +e
   LOOSEPACK_INJECT_NAN=1 "$mpirun_cmd" --oversubscribe -np 2 "$exe" run s.toml --shard 0/3 \

@@ -94,7 +94,10 @@ RCP = 0.84  # 2D random close packing of disks: the paper's upper limit of the c
 
 
 def chi2_quantile99(dof):
-    """The 99 % quantile of chi2 with dof degrees of freedom (Wilson and Hilferty)."""
+    """The 99 % quantile of chi2 with dof degrees of freedom (Wilson and Hilferty); NaN without
+    a degree of freedom (a fit with as many parameters as points, or of a single member)."""
+    if not dof > 0:
+        return math.nan
     a = 2.0 / (9.0 * dof)
     return dof * (1.0 - a + Z99 * math.sqrt(a)) ** 3
 

@@ -55,10 +55,15 @@ def attr(obj, name):
     return obj.attrs[name]
 
 
-def sem(group):
-    """Standard errors for error bars: a bin with no estimate (one member) draws no bar."""
-    e = np.asarray(need(group, "sem"), dtype=float)
+def bars(errors):
+    """Standard errors as error bars: one with no estimate (a single member) draws no bar."""
+    e = np.asarray(errors, dtype=float)
     return np.where(np.isfinite(e), e, 0.0)
+
+
+def sem(group):
+    """A group's standard errors (dataset `sem`) as error bars."""
+    return bars(need(group, "sem"))
 
 
 def text(v):
@@ -126,7 +131,7 @@ def nu_lower_half(points, out, written):
     lo = min(finite) / 10 if finite else 0.1
     hi = max(finite) * 10 if finite else 10
     pos = [lo if b == 0 else hi if math.isinf(b) else b for b in xs]
-    ax.errorbar(pos, ys, yerr=es, fmt="o", capsize=3)
+    ax.errorbar(pos, ys, yerr=bars(es), fmt="o", capsize=3)
     ax.set_xscale("log")
     ax.set_xlabel("Bond number (Bo = 0 at the left end, inf at the right)")
     ax.set_ylabel("nu_lower_half")
@@ -246,7 +251,7 @@ def scaled_avalanche_profiles(f, points, out, written):
     axes[0].legend(fontsize=7)
     for pts, fmt, name in ((c2, "o", "abs(c2) of Delta y(y_e)"), (sa, "s", "slice model a")):
         if pts:
-            axes[1].errorbar(*zip(*[(h, v) for h, v, _ in pts]), yerr=[e for _, _, e in pts],
+            axes[1].errorbar(*zip(*[(h, v) for h, v, _ in pts]), yerr=bars([e for _, _, e in pts]),
                              fmt=fmt, capsize=3, label=name)
     an = f["analysis"] if f is not None and "analysis" in f else None
     for key, name in (("quadratic_vs_height", "c2"), ("slice_vs_height", "a")):
@@ -285,7 +290,7 @@ def collapse_increase(f, points, out, written):
     for rc in sorted({attr(g, "capture_radius") for g in c}):
         g_rc = [g for g in c if attr(g, "capture_radius") == rc]
         inc = [attr(g, "relative_increase_mean") for g in g_rc]
-        err = [attr(g, "relative_increase_sem") for g in g_rc]
+        err = bars([attr(g, "relative_increase_sem") for g in g_rc])
         lab = f"r_capt = {rc:g}"
         axes[0].errorbar([attr(g, "height") for g in g_rc], inc, yerr=err, fmt="o", capsize=3,
                          label=lab)

@@ -69,6 +69,8 @@ def test_chi2_quantile_matches_known_values():
     # chi2 99 % quantiles: 6.635 (1 dof), 23.209 (10), 50.892 (30)
     for dof, q in ((1, 6.635), (10, 23.209), (30, 50.892)):
         assert claims.chi2_quantile99(dof) == pytest.approx(q, rel=0.02)
+    # A fit without a degree of freedom (one member) has no bound, and passes no test against it.
+    assert math.isnan(claims.chi2_quantile99(0))
 
 
 def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_path):
