@@ -3,6 +3,7 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,6 +12,7 @@
 #include <stdexcept>
 
 #include "hdf5.hpp"
+#include "replace_file.hpp"
 
 namespace loosepack {
 
@@ -43,6 +45,21 @@ std::vector<std::string> children(hid_t loc, const std::string& name) {
     out.push_back(child);
   }
   return out;
+}
+
+// A selection that names no point or seed of the file: std::invalid_argument with the file's.
+void check_selection(hid_t file, const std::string& path, const ExportSelection& sel) {
+  const std::vector<std::string> points = children(file, "points");
+  if (sel.point >= 0 && std::none_of(points.begin(), points.end(), [&](const std::string& p) {
+        return std::stoi(p) == sel.point;
+      }))
+    throw std::invalid_argument("--point " + std::to_string(sel.point) + ": " + path +
+                                " has the points " + (points.empty() ? "(none)" : points.front()) +
+                                " to " + (points.empty() ? "(none)" : points.back()));
+  const double seeds = double_attribute(file, "/", "seeds");
+  if (sel.seed >= 0 && sel.seed >= seeds)
+    throw std::invalid_argument("--seed " + std::to_string(sel.seed) + ": " + path +
+                                " has the seeds 0 to " + std::to_string(std::lround(seeds) - 1));
 }
 
 std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
@@ -266,6 +283,7 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
                                              const ExportSelection& selection) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  check_selection(file, path, selection);
   const std::vector<MemberData> members = members_in(file, selection);
   if (members.empty())
     throw std::runtime_error(path + " holds no snapshot, failure snapshot or trajectory" +
@@ -283,21 +301,27 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
     }
     return written;
   }
-  const std::string side_path = base + "_xdmf.h5";
-  const std::string side = fs::path(side_path).filename().string();
-  const std::string side_tmp = side_path + ".tmp";
-  {
-    H5 sidecar(H5Fcreate(side_tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-               "create " + side_tmp);
-    for (const auto& m : members) {
-      written.push_back(base + stem_name(m) + ".xmf");
-      write_text(written.back(), xdmf_document(m.kind == "trajectory"
-                                                   ? xdmf_trajectory(file, m, h5)
-                                                   : xdmf_snapshot(file, sidecar, m, h5, side)));
+  for (const auto& m : members) {
+    const std::string xmf = base + stem_name(m) + ".xmf";
+    if (m.kind == "trajectory") {
+      write_text(xmf, xdmf_document(xdmf_trajectory(file, m, h5)));
+      written.push_back(xmf);
+      continue;
     }
+    // A snapshot's contact lines go to a file of its own, so that exporting another selection
+    // later leaves this one's files whole.
+    const std::string side_path = base + stem_name(m) + "_contacts.h5";
+    const std::string side = fs::path(side_path).filename().string();
+    std::string grids;
+    replace_file(side_path, [&](const std::string& tmp) {
+      H5 sidecar(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+                 "create " + tmp);
+      grids = xdmf_snapshot(file, sidecar, m, h5, side);
+    });
+    write_text(xmf, xdmf_document(grids));
+    written.push_back(xmf);
+    written.push_back(side_path);
   }
-  fs::rename(side_tmp, side_path);
-  written.push_back(side_path);
   return written;
 }
 

@@ -855,6 +855,9 @@ int file_command(const FileCommands& f) {
     std::ostringstream text;  // printed whole, or not at all when the file is refused
     print_summary(f.summary_path, text);
     std::cout << text.str();
+  } catch (const std::invalid_argument& e) {  // a selection the file does not have
+    std::cerr << "loosepack: " << e.what() << "\n";
+    return kInvalid;
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return kError;

@@ -4,9 +4,11 @@ each fell during the deposition (Delta y = y_e - y_i), and the contacts as lines
 their normal force (force chains; tension, which cohesion allows, blue). Reads the XDMF files `loosepack export` writes.
 
     loosepack run examples/render.toml -o out/render.h5 --snapshots
-    xvfb-run -a /usr/bin/python3 tools/render_deposit.py out/render.h5 docs/figures/deposit_bo1e3.png
+    xvfb-run -a -s "-screen 0 1280x1024x24" /usr/bin/python3 tools/render_deposit.py \
+        out/render.h5 docs/figures/deposit_bo1e3.png
 
-Needs Debian's python3-paraview (and an X display: xvfb-run on a machine without one)."""
+Needs Debian's python3-paraview and an X display of 24-bit colour: on a machine without one,
+xvfb-run with the screen above (its default screen is 8-bit, on which ParaView aborts)."""
 
 import argparse
 import os

@@ -1,7 +1,11 @@
 """`loosepack export`: the XDMF files opened by ParaView's own reader and the extended XYZ read
 back by ASE, each compared with the disks, contacts and trajectories of the result file."""
 
+import os
+import re
+import shutil
 import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -46,8 +50,58 @@ def test_export_names_every_file(exported):
     stem = res.path[:-len(".h5")]
     assert sorted(files["xdmf"]) == sorted(
         [stem + "_p0000_s%d%s.xmf" % (s, t) for s in (0, 1) for t in ("", "_trajectory")] +
-        [stem + "_xdmf.h5"])
+        [stem + "_p0000_s%d_contacts.h5" % s for s in (0, 1)])
     assert len(files["extxyz"]) == 4
+
+
+def test_a_later_export_leaves_the_earlier_files_whole(exported, tmp_path):
+    """Each snapshot's contact lines are in a file of its own: exporting one seed after another
+    leaves the first seed's files as they were, and they still hold what its XDMF file names."""
+    res, _ = exported
+    exe = loosepack.find_program()
+    out = tmp_path / "again.h5"
+    out.write_bytes(open(res.path, "rb").read())
+    first = subprocess.run([exe, "export", str(out), "--point", "0", "--seed", "0"],
+                           capture_output=True, text=True, check=True).stdout.split()
+    before = {f: open(f, "rb").read() for f in first}
+    subprocess.run([exe, "export", str(out), "--point", "0", "--seed", "1"],
+                   capture_output=True, text=True, check=True)
+    assert {f: open(f, "rb").read() for f in first} == before
+    xmf = [f for f in first if f.endswith("_s0.xmf")][0]
+    side = [f for f in first if f.endswith("_s0_contacts.h5")][0]
+    with h5py.File(side, "r") as h:
+        for ref in re.findall(r"_contacts\.h5:(/[^<\s]+)", open(xmf).read()):
+            assert ref in h
+
+
+def test_render_deposit_draws_a_snapshot_under_xvfb(exported, tmp_path):
+    """tools/render_deposit.py as the README runs it (xvfb-run with a 24-bit screen)."""
+    pytest.importorskip("paraview.simple",
+                        reason="python3-paraview is not installed (scripts/install-deps.sh --test)")
+    if shutil.which("xvfb-run") is None:
+        pytest.skip("xvfb-run is not installed (scripts/install-deps.sh --test)")
+    res, _ = exported
+    out = tmp_path / "deposit.h5"
+    out.write_bytes(open(res.path, "rb").read())
+    png = tmp_path / "deposit.png"
+    script = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "render_deposit.py")
+    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", sys.executable,
+                           script, str(out), str(png), "--point", "0", "--seed", "1"],
+                          capture_output=True, text=True,
+                          env=dict(os.environ, LOOSEPACK=loosepack.find_program()))
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert png.stat().st_size > 10000
+
+
+def test_a_selection_the_file_lacks_is_refused_with_its_range(exported):
+    res, _ = exported
+    exe = loosepack.find_program()
+    for option, value, message in (("--point", "7", "has the points 0000 to 0000"),
+                                   ("--seed", "5", "has the seeds 0 to 1")):
+        done = subprocess.run([exe, "export", res.path, option, value], capture_output=True,
+                              text=True)
+        assert done.returncode == 2
+        assert message in done.stderr
 
 
 def test_paraview_reads_disks_contacts_and_forces(exported):
