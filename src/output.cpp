@@ -959,10 +959,10 @@ void print_summary(const std::string& path, std::ostream& out) {
       << "members(failed)\n";
   for (const auto& n : names) {
     auto d = [&](const char* a) { return double_attribute(file, n, a); };
+    // A mean of one member has no error: "nan", never a zero that reads as an exact value.
     auto pm = [](double m, double s) {
       std::ostringstream o;
-      o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4)
-        << (std::isnan(s) ? 0.0 : s);
+      o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4) << s;
       return o.str();
     };
     const std::string prot = string_attribute(file, n, "protocol");

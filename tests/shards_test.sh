@@ -50,6 +50,8 @@ read -r n02 missing <<<"$(members_of two.h5)"
 "$exe" summary two.h5 | head -1 | grep -q "$n1 members not in this file (shards not merged)" ||
   fail "summary of two shards: $("$exe" summary two.h5 | head -1)"
 "$exe" summary p1.h5 | head -1 | grep -q "shard 1 of 3 of the scan" || fail "summary of a shard"
+# A point of one member has no standard error: the summary says nan, not a zero.
+"$exe" summary p1.h5 | grep -q "^0000 .* +- nan " || fail "summary of one member: $("$exe" summary p1.h5)"
 # A shard's file is a result file of its members (one a point here, whose errors are NaN): the
 # tools read it.
 /usr/bin/python3 "$repo/tools/plot.py" p1.h5 -o fig >plot.log 2>&1 || fail "plot.py: $(cat plot.log)"
