@@ -868,6 +868,9 @@ int file_command(const FileCommands& f) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // A reader of stdout or stderr that goes away (`| head`) makes writes fail, not the program
+  // die: a run goes on to write its file.
+  std::signal(SIGPIPE, SIG_IGN);
   Ranks ranks(argc, argv);
   CLI::App app{
       "loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)\n"

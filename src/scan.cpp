@@ -58,9 +58,18 @@ std::string where(const std::string& file, const toml::source_region& src) {
   throw ScanError(where(file, node.source()) + ": key '" + key + "': " + what);
 }
 
-// A number: integer, float, or the strings "inf" / "infinity".
+std::string format_number(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+
+// A number: integer, float, or the strings "inf" / "infinity"; nan is none.
 double as_number(const std::string& file, const toml::node& node, const std::string& key) {
-  if (auto v = node.as_floating_point()) return v->get();
+  if (auto v = node.as_floating_point()) {
+    if (std::isnan(v->get())) fail(file, node, key, "nan is not a value");
+    return v->get();
+  }
   if (auto v = node.as_integer()) return static_cast<double>(v->get());
   if (auto v = node.as_string()) {
     if (v->get() == "inf" || v->get() == "infinity") return INFINITY;
@@ -88,7 +97,13 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node,
   std::vector<double> out;
   if (auto arr = node.as_array()) {
     if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
-    for (const auto& e : *arr) out.push_back(as_number(file, e, key));
+    for (const auto& e : *arr) {
+      const double v = as_number(file, e, key);
+      // The same value twice would run the same members twice under two scan points.
+      if (std::find(out.begin(), out.end(), v) != out.end())
+        fail(file, e, key, "the value " + format_number(v) + " is already in this axis");
+      out.push_back(v);
+    }
     return out;
   }
   if (auto tbl = node.as_table()) {
@@ -144,11 +159,13 @@ const std::vector<SystemKey>& system_keys() {
   static const std::vector<SystemKey> keys = {
       {"width", [](SystemParams& p, double v) { p.width = v; },
        [](const SystemParams& p) {
-         return p.width >= 4.0 * p.radius && std::isfinite(p.width) ? "" : "L_x must be >= 4 R";
+         return p.width >= 4.0 * p.radius && std::isfinite(p.width) ? ""
+                                                                     : "L_x must be finite and >= 4 R";
        }},
       {"height", [](SystemParams& p, double v) { p.height = v; },
        [](const SystemParams& p) {
-         return p.height >= 4.0 * p.radius && std::isfinite(p.height) ? "" : "H must be >= 4 R";
+         return p.height >= 4.0 * p.radius && std::isfinite(p.height) ? ""
+                                                                       : "H must be finite and >= 4 R";
        }},
       {"radius", [](SystemParams& p, double v) { p.radius = v; },
        [](const SystemParams& p) {
@@ -422,6 +439,7 @@ class ScanParser {
   void check_counts(const std::vector<ScanPoint>& points);
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
   void warn_diverging_jacobi();
+  void warn_unused_capture_radius(const std::vector<ScanPoint>& points);
   void check_sweeps_per_launch();
   int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
     auto i = v.as_integer();
@@ -492,6 +510,7 @@ Scan ScanParser::parse() {
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   warn_unresolved_barrier(points);
+  warn_unused_capture_radius(points);
   warn_diverging_jacobi();
   check_sweeps_per_launch();
   scan.points = std::move(points);
@@ -784,6 +803,21 @@ void ScanParser::warn_diverging_jacobi() {
     scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
                                    "relaxation > 0.5 (its members fail, their disks thrown "
                                    "about); set solver.relaxation <= 0.5 or mass_splitting = true");
+}
+
+// The capture radius shapes the ballistic deposits of protocols B and C; protocol A drops each
+// disk with its dynamics, so an A point of another capture radius repeats the point of 1.
+void ScanParser::warn_unused_capture_radius(const std::vector<ScanPoint>& points) {
+  std::vector<int> unused;
+  for (const auto& sp : points)
+    if (sp.protocol == Protocol::A && sp.params.capture_radius != 1.0) unused.push_back(sp.index);
+  if (unused.empty()) return;
+  std::ostringstream o;
+  o << file << ": capture_radius acts in protocols B and C only; the protocol-A point"
+    << (unused.size() > 1 ? "s " : " ");
+  for (std::size_t k = 0; k < unused.size(); ++k) o << (k > 0 ? ", " : "") << unused[k];
+  o << (unused.size() > 1 ? " run" : " runs") << " as with capture_radius = 1";
+  scan.warnings.push_back(o.str());
 }
 
 // The discrete pull-off barrier matches F_c d_c only for h well below sqrt(2 m_n d_c / F_c),

@@ -50,6 +50,14 @@ printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nh
 grep -qE "^0000 +B .* 2 +[0-9.e+-]+$" "$dir/dry.txt" || fail "--dry-run: $(cat "$dir/dry.txt")"
 grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimate: $(cat "$dir/dry.txt")"
 [ ! -e "$dir/good.h5" ] || fail "--dry-run wrote a file"
+# A reader of the messages that goes away (a pipe into head) does not stop the run: it writes its
+# file and exits 0 (a run of a few tenths of a second, which writes after head has gone).
+printf '[scan]\nseeds = 2\n[system]\nwidth = 16\nheight = 16\nbond_number = 100\n' > "$dir/piped.toml"
+set +e
+"$exe" run "$dir/piped.toml" -o "$dir/piped.h5" 2>&1 | head -c 10 >/dev/null
+rc=${PIPESTATUS[0]}
+set -e
+[ "$rc" -eq 0 ] && [ -s "$dir/piped.h5" ] || fail "a run whose stderr pipe closed exited $rc"
 # Kokkos's own options pass through.
 "$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --kokkos-num-threads=1
 # --timing: every stage of the step, then the solve's balance. With the team solver's solve split

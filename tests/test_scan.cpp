@@ -145,8 +145,13 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\nfriction = [0.3, -0.1]\n", "key 'system.friction': mu must be >= 0"},
       {"[system]\ncapture_radius = 0.5\n",
        "key 'system.capture_radius': r_capt must be in [1, 10]"},
-      {"[system]\nheight = 3\n", "key 'system.height': H must be >= 4 R"},
-      {"[system]\nwidth = 2\n", "key 'system.width': L_x must be >= 4 R"},
+      {"[system]\nheight = 3\n", "key 'system.height': H must be finite and >= 4 R"},
+      {"[system]\nwidth = 2\n", "key 'system.width': L_x must be finite and >= 4 R"},
+      {"[system]\nwidth = \"inf\"\n", "key 'system.width': L_x must be finite and >= 4 R"},
+      {"[system]\nwidth = nan\n", "bad.toml:2:9: key 'system.width': nan is not a value"},
+      {"[solver]\ntolerance = nan\n", "key 'solver.tolerance': nan is not a value"},
+      {"[system]\nbond_number = [100, 1e3, 100]\n",
+       "bad.toml:2:26: key 'system.bond_number': the value 100 is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
       {"[system]\nwidth = \"wide\"\n", "key 'system.width': expected a number"},
       {"[scan]\nseeds = 0\n", "key 'scan.seeds': expected an integer in [1,"},
@@ -311,6 +316,21 @@ TEST(Scan, WarnsWhenTheTimeStepDoesNotResolveTheCohesiveBarrier) {
 
 // The default time step resolves the cohesive barrier at each point's own Bond number:
 // 0.9 sqrt(2 m_n d_c / F_c) = 0.9 sqrt(d_c / (Bo g)), at most 0.01; a set time step wins.
+// Protocol A drops its disks with their dynamics: a capture radius other than 1 changes nothing
+// there, and the file is told so (a grid of protocols and capture radii would repeat A points).
+TEST(Scan, WarnsWhenProtocolAPointsSetACaptureRadius) {
+  const auto scan = parse_scan(
+      "[scan]\nprotocol = [\"A\", \"C\"]\n[system]\ncapture_radius = [1, 2, 3]\n", "r.toml");
+  ASSERT_EQ(scan.warnings.size(), 1u);
+  EXPECT_NE(scan.warnings[0].find("capture_radius acts in protocols B and C only; the "
+                                  "protocol-A points 1, 2 run as with capture_radius = 1"),
+            std::string::npos)
+      << scan.warnings[0];
+  EXPECT_TRUE(parse_scan("[scan]\nprotocol = [\"B\", \"C\"]\n[system]\ncapture_radius = 2\n",
+                         "r.toml")
+                  .warnings.empty());
+}
+
 TEST(Scan, DefaultTimeStepResolvesTheBarrierAtEachBondNumber) {
   const auto scan = parse_scan(
       "[system]\nwidth = 24\nheight = 24\ncohesion_range = 0.02\n"
