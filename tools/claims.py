@@ -76,7 +76,8 @@ and their chi2 that of the residuals against the residuals' own jackknife errors
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
 one. Prints one line per claim (PASS or FAIL with the numbers) and exits with status 1 when any
-claim fails, 2 when the file has nothing to judge. Uses Debian's python3-h5py.
+claim fails, 2 when the file has nothing to judge or cannot be read (and for a usage error).
+Uses Debian's python3-h5py.
 """
 import math
 import sys
@@ -185,8 +186,14 @@ def parabola_verdict(band, fits):
     return holds, accept(x0, d0), detail
 
 
+def unusable(message):
+    """Input the claims cannot be judged on: the message, and exit status 2."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
+
+
 def fail_missing(path, name):
-    sys.exit(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
+    unusable(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
              f"`loosepack analyse {path}` adds the current analysis to a file of an older one)")
 
 
@@ -688,13 +695,16 @@ def check_scan(f, path):
 
 
 def main():
+    if len(sys.argv) == 2 and sys.argv[1] in ("-h", "--help"):
+        print(__doc__)
+        sys.exit(0)
     if len(sys.argv) != 2 or sys.argv[1].startswith("-"):
-        sys.exit("usage: claims.py RESULT.h5")
+        unusable("usage: claims.py RESULT.h5 (claims.py --help says what it checks)")
     path = sys.argv[1]
     try:
         f = h5py.File(path, "r")
     except OSError as e:
-        sys.exit(f"claims.py: {path}: not a readable HDF5 file ({e})")
+        unusable(f"claims.py: {path}: not a readable HDF5 file ({e})")
     with f:
         if "points" not in f:
             fail_missing(path, "/points")

@@ -289,11 +289,27 @@ def describe(point):
                      for k in keys if k in a)
 
 
+def scan_keys_differ(pa, pb):
+    """The scan parameters two paired points differ in (the point index pairs them): a note, so
+    that a comparison of unlike points is seen as one."""
+    keys = ("protocol", "bond_number", "width", "height", "capture_radius", "radius",
+            "polydispersity", "cohesion_range", "friction", "rolling_friction", "time_step")
+    return [k for k in keys if k in pa.attrs and k in pb.attrs and
+            np.asarray(pa.attrs[k]).tobytes() != np.asarray(pb.attrs[k]).tobytes()]
+
+
+def positive(text):
+    v = float(text)
+    if not v > 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number of standard errors, not {text}")
+    return v
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("a")
     ap.add_argument("b")
-    ap.add_argument("--sigma", type=float, default=2.0)
+    ap.add_argument("--sigma", type=positive, default=2.0)
     ap.add_argument("--json", help="append one JSON line per point to this file")
     ap.add_argument("--label", default="", help="a note stored with each JSON line")
     args = ap.parse_args()
@@ -301,16 +317,25 @@ def main():
     try:
         fa, fb = h5py.File(args.a, "r"), h5py.File(args.b, "r")
     except OSError as e:
-        sys.exit(f"compare.py: {e}")
+        print(f"compare.py: {e}", file=sys.stderr)
+        sys.exit(2)
     with fa, fb:
-        names = sorted(set(fa.get("points", {})) & set(fb.get("points", {})))
+        in_a, in_b = set(fa.get("points", {})), set(fb.get("points", {}))
+        names = sorted(in_a & in_b)
         if not names:
             print(f"compare.py: {args.a} and {args.b} share no scan point", file=sys.stderr)
             sys.exit(2)
+        for path, only in ((args.a, in_a - in_b), (args.b, in_b - in_a)):
+            if only:
+                print(f"compare.py: only {path} has the points {', '.join(sorted(only))}: "
+                      "not compared", file=sys.stderr)
         for name in names:
             pa, pb = fa["points"][name], fb["points"][name]
             rows = compare_point(pa, pb, args.sigma)
             print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)}\n")
+            if differing := scan_keys_differ(pa, pb):
+                print(f"(the two points differ in {', '.join(differing)}: compared as paired by "
+                      "their index)\n")
             print("| quantity | A | B | distance | within |")
             print("|---|---|---|---|---|")
             for r in rows:

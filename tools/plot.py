@@ -11,8 +11,8 @@ pictures of single members (snapshots, trajectories): draw those from each file 
 
 Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
 histograms with the Gaussian and exponential fits, deposition density with the final density
-predicted from it. When the file has them: nu_lower_half against the Bond number (several
-points), protocol-A profiles of several heights scaled by H with c2 and the slice model's a
+predicted from it. When the file has them: nu_lower_half against the Bond number, or against
+the capture radius where the Bond number is one (several points), protocol-A profiles of several heights scaled by H with c2 and the slice model's a
 against H (the paper's fig. 7), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
 distributions (protocol A), a picture of each snapshot with its compressive contact forces
 (run with --snapshots; the paper's fig. 1) and the trajectories of every k-th disk
@@ -121,20 +121,38 @@ def density_profiles(points, out, written):
 
 
 def nu_lower_half(points, out, written):
+    """nu_lower_half against the Bond number, or against the capture radius where every point
+    has one Bond number (figs. 2-3, 13): a series for each protocol, height and width, each point
+    at its own tick (Bo = 0 and inf at the ends of the log axis, named so)."""
     if len(points) < 2:
         return
-    fig, ax = plt.subplots(figsize=(6, 4.5))
-    xs = [attr(g, "bond_number") for g in points]
-    ys = [attr(g, "nu_lower_half_mean") for g in points]
-    es = [attr(g, "nu_lower_half_sem") for g in points]
+    x_key = next((k for k in ("bond_number", "capture_radius")
+                  if len({float(attr(g, k)) for g in points}) > 1), None)
+    if x_key is None:
+        return
+    series = {}
+    for g in points:
+        key = (text(attr(g, "protocol")), float(attr(g, "height")), float(attr(g, "width")))
+        series.setdefault(key, []).append(g)
+    xs = sorted({float(attr(g, x_key)) for g in points})
     finite = [b for b in xs if b > 0 and not math.isinf(b)]
     lo = min(finite) / 10 if finite else 0.1
     hi = max(finite) * 10 if finite else 10
-    pos = [lo if b == 0 else hi if math.isinf(b) else b for b in xs]
-    ax.errorbar(pos, ys, yerr=bars(es), fmt="o", capsize=3)
+    where = lambda b: lo if b == 0 else hi if math.isinf(b) else b
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for (protocol, height, width), gs in sorted(series.items()):
+        gs = sorted(gs, key=lambda g: float(attr(g, x_key)))
+        ax.errorbar([where(float(attr(g, x_key))) for g in gs],
+                    [attr(g, "nu_lower_half_mean") for g in gs],
+                    yerr=bars([attr(g, "nu_lower_half_sem") for g in gs]), fmt="o-", capsize=3,
+                    label=f"{protocol}, {width:g} R x {height:g} R")
     ax.set_xscale("log")
-    ax.set_xlabel("Bond number (Bo = 0 at the left end, inf at the right)")
+    ax.set_xticks([where(b) for b in xs],
+                  ["0" if b == 0 else "inf" if math.isinf(b) else f"{b:g}" for b in xs])
+    ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax.set_xlabel("Bond number" if x_key == "bond_number" else "capture radius r_capt [R]")
     ax.set_ylabel("nu_lower_half")
+    ax.legend(fontsize=7)
     save(fig, out, "nu_lower_half.png", written)
 
 
@@ -462,7 +480,10 @@ def main():
     # One file: its fits across points too. Several: those fits belong to each file alone.
     whole = files[0] if len(files) == 1 else None
     points = [f["points"][k] for f in files for k in sorted(f["points"])]
-    os.makedirs(out, exist_ok=True)
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as e:
+        sys.exit(f"plot.py: cannot make the folder {out} for the figures ({e})")
     written = []
     density_profiles(points, out, written)
     nu_lower_half(points, out, written)

@@ -7,6 +7,8 @@ and the laws across scan points (1/H, a fixed slice model, dnu/nu_i against ln H
 import importlib.util
 import math
 import os
+import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -405,3 +407,16 @@ def test_trajectories_move_collectively_and_mainly_downwards(tmp_path):
                                                                       together: False}
     sideways = lambda rng, x, y: avalanche(rng, x, y, sideways=0.5, downwards=0.0)
     assert trajectory_point(tmp_path, "sideways", sideways) == {down: False, together: True}
+
+
+def test_help_and_unusable_input():
+    """--help prints what is checked and exits 0; a file it cannot read exits 2, as a file with
+    nothing to judge does (1 is kept for claims that fail)."""
+    tool = os.path.join(HERE, "..", "..", "tools", "claims.py")
+    run = lambda *args: subprocess.run([sys.executable, tool, *args], capture_output=True,
+                                       text=True)
+    done = run("--help")
+    assert done.returncode == 0 and "Checks the paper's qualitative claims" in done.stdout
+    done = run("/nonexistent/x.h5")
+    assert done.returncode == 2 and "x.h5: not a readable HDF5 file" in done.stderr
+    assert run().returncode == 2

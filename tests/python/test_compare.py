@@ -62,11 +62,16 @@ def test_another_bond_number_differs(runs):
     assert not rows["nu_lower_half"]["within"]
     assert not rows["nu(y)"]["within"]
     assert "| nu_lower_half |" in out.stdout and "NO |" in out.stdout
+    # Points paired by their index that differ in a scan parameter are said to.
+    assert "(the two points differ in bond_number" in out.stdout
+    assert "differ in" not in run_tool(cohesive, cohesive).stdout
 
 
 def test_unusable_input_is_named():
     out = run_tool("/nonexistent/a.h5", "/nonexistent/b.h5")
-    assert out.returncode != 0 and "a.h5" in out.stderr
+    assert out.returncode == 2 and "a.h5" in out.stderr
+    out = run_tool("/nonexistent/a.h5", "/nonexistent/b.h5", "--sigma", "-1")
+    assert out.returncode == 2 and "positive number of standard errors" in out.stderr
 
 
 def test_homogeneity_tells_one_distribution_from_two():
