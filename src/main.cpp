@@ -58,8 +58,10 @@ std::string output_path_problem(const std::string& out, const std::string& input
     if (!fs::is_regular_file(st)) return out + " is not a regular file (a device, FIFO or socket)";
     if (fs::equivalent(out, input, ec)) return out + " is the input file " + input;
   }
-  if (::access(directory_of_path(out).c_str(), W_OK) != 0)
-    return "cannot write into " + directory_of_path(out) + " (for " + out + ")";
+  const std::string dir = directory_of_path(out);
+  if (!fs::is_directory(dir, ec))
+    return "the directory " + dir + " of " + out + " does not exist (make it first)";
+  if (::access(dir.c_str(), W_OK) != 0) return "cannot write into " + dir + " (for " + out + ")";
   return "";
 }
 
@@ -625,6 +627,8 @@ int RunCommand::dry_run() const {
       "# expected: about %.3g CPU s in all (the cost model, right within a factor of a "
       "few: docs/PERFORMANCE.md, \"What a member costs\")\n",
       total);
+  if (!o.force && std::filesystem::exists(o.out_path))
+    std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());
   return kOk;
 }
 
@@ -844,6 +848,12 @@ int merge_command(const MergeOptions& m) {
 
 // summary, analyse or export, on rank 0.
 int file_command(const FileCommands& f) {
+  const std::string& in = *f.analyse ? f.analyse_path : *f.exporter ? f.export_path
+                                                                    : f.summary_path;
+  if (!is_hdf5_file(in)) {
+    std::cerr << "loosepack: " << in << " is not an HDF5 file (not a loosepack result file)\n";
+    return kInvalid;
+  }
   try {
     if (*f.analyse) return analyse_command(f);
     if (*f.exporter) {

@@ -604,7 +604,8 @@ std::string string_of_dataset(hid_t loc, const std::string& name) {
 // of that name in files written before it became a dataset.
 std::string scan_text_of(hid_t file) {
   if (H5Lexists(file, "scan_text", H5P_DEFAULT) > 0) return string_of_dataset(file, "scan_text");
-  return string_attribute(file, "/", "scan_text");
+  if (H5Aexists(file, "scan_text") > 0) return string_attribute(file, "/", "scan_text");
+  throw std::runtime_error("no /scan_text (the scan file the results came from)");
 }
 
 // A count stored as a double attribute, checked before it becomes an int.
@@ -756,6 +757,11 @@ std::string read_attribute_string(const std::string& path, const std::string& ob
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
   return string_attribute(file, object, name);
+}
+
+bool is_hdf5_file(const std::string& path) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  return H5Fis_hdf5(path.c_str()) > 0;
 }
 
 ShardFile read_shard_file(const std::string& path) {

@@ -50,6 +50,15 @@ printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nh
 grep -qE "^0000 +B .* 2 +[0-9.e+-]+$" "$dir/dry.txt" || fail "--dry-run: $(cat "$dir/dry.txt")"
 grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimate: $(cat "$dir/dry.txt")"
 [ ! -e "$dir/good.h5" ] || fail "--dry-run wrote a file"
+"$exe" run "$dir/good.toml" -o "$dir/out.h5" --dry-run | grep -q "out.h5 exists: the run would be refused without --force" ||
+  fail "--dry-run onto an existing file does not say it would be refused"
+# An output in a directory that does not exist is refused before any work, and said so.
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/nodir/x.h5" 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "the directory .*nodir of .*x.h5 does not exist" ||
+  fail "output in a missing directory (exit $rc): $msg"
 # A reader of the messages that goes away (a pipe into head) does not stop the run: it writes its
 # file and exits 0 (a run of a few tenths of a second, which writes after head has gone).
 printf '[scan]\nseeds = 2\n[system]\nwidth = 16\nheight = 16\nbond_number = 100\n' > "$dir/piped.toml"
@@ -257,8 +266,8 @@ set +e
 msg=$("$exe" analyse "$dir/bad_copy.toml" 2>&1)
 rc=$?
 set -e
-[ "$rc" -eq 1 ] || fail "analyse of a non-HDF5 file: exit code $rc"
-echo "$msg" | grep -q "bad_copy.toml: .*not an HDF5 file" || fail "analyse message: $msg"
+[ "$rc" -eq 2 ] || fail "analyse of a non-HDF5 file: exit code $rc"
+echo "$msg" | grep -q "bad_copy.toml is not an HDF5 file" || fail "analyse message: $msg"
 cmp -s "$dir/bad.toml" "$dir/bad_copy.toml" || fail "analyse touched a file it refused"
 ls "$dir" | grep -q tmp && fail "analyse left a temporary file behind"
 set +e
