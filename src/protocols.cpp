@@ -76,6 +76,16 @@ double collapse_cost(const SystemParams& p) {
   return 0.25 * p.width * p.height * p.height / p.time_step;
 }
 
+// The cost model was fitted on disks of radius 1: a system of radius r is that system scaled,
+// its box W/r x H/r radii and its time step h / sqrt(r) (units of sqrt(R/g)).
+SystemParams in_radii(const SystemParams& p) {
+  SystemParams q = p;
+  q.width = p.width / p.radius;
+  q.height = p.height / p.radius;
+  q.time_step = p.time_step / std::sqrt(p.radius);
+  return q;
+}
+
 }  // namespace
 
 bool deposits_ballistically(const Member& m) {
@@ -83,9 +93,10 @@ bool deposits_ballistically(const Member& m) {
 }
 
 double expected_cost(const Member& m) {
+  const SystemParams p = in_radii(m.params);
   if (deposits_ballistically(m))
-    return ballistic_cost(m.params) + (m.protocol == Protocol::C ? collapse_cost(m.params) : 0.0);
-  return slow_cost(m.params);
+    return ballistic_cost(p) + (m.protocol == Protocol::C ? collapse_cost(p) : 0.0);
+  return slow_cost(p);
 }
 
 double collapse_steps(const SystemParams& p) {
@@ -95,7 +106,7 @@ double collapse_steps(const SystemParams& p) {
 double running_cost(const Member& m, MemberPhase phase, double got) {
   // A collapse that runs past its expected steps counts as at most this share done.
   constexpr double kMostOfACollapse = 0.9;
-  const SystemParams& p = m.params;
+  const SystemParams p = in_radii(m.params);
   switch (phase) {
     case MemberPhase::Empty:
       return 0.0;

@@ -347,6 +347,12 @@ TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
            expected_cost(deposit_member(bo, 40.0, 60.0));
   };
   EXPECT_GT(taller(1e3), taller(0.0));
+  // Disks of radius 2 in a box and with a time step scaled to them are the same system (lengths
+  // in R, times in sqrt(R/g)), and cost the same.
+  Member doubled = deposit_member(1e3, 80.0, 120.0);
+  doubled.params.radius = 2.0;
+  doubled.params.time_step = 0.0028 * std::sqrt(2.0);
+  EXPECT_DOUBLE_EQ(expected_cost(doubled), expected_cost(deposit_member(1e3, 40.0, 60.0)));
 }
 
 namespace {

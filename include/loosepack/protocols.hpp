@@ -201,9 +201,10 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 // Bo = 0, 0.02 at Bo = 1e3); q grows with the Bond number, from 2.5 without cohesion to 4 at
 // Bo = 1e3 (avalanches grow with the height above them), and a running member's share done is
 // the cost of a member as tall as its deposit so far; a collapse ~ width * height^2 / time
-// step; ballistic deposition ~ width * height (negligible beside either). Calibrated on members
-// of this machine, and right within a factor of a few only: docs/PERFORMANCE.md, "What a member
-// costs".
+// step; ballistic deposition ~ width * height (negligible beside either); lengths in disk radii,
+// the time step in sqrt(R/g) (a system of radius 2 costs what the same system of radius 1 does).
+// Calibrated on members of this machine, and right within a factor of a few only:
+// docs/PERFORMANCE.md, "What a member costs".
 double expected_cost(const Member& m);
 
 // The steps a collapse (protocol C) is expected to take, for the progress line's ETA: the top of
