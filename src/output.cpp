@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -958,10 +959,24 @@ void print_summary(const std::string& path, std::ostream& out) {
     out << "; shard " << count_attribute(file, "shard") << " of " << count_attribute(file, "shards")
         << " of the scan (loosepack merge joins the shards' files)";
   out << "\n";
+  // Scan parameters without a column of their own get one where the points differ in them, so
+  // that a scan over widths or radii does not read as repeated rows.
+  std::vector<std::pair<const char*, const char*>> extras;  // (attribute, column title)
+  for (const auto& [attribute, title] :
+       {std::pair("width", "L_x"), std::pair("radius", "R"), std::pair("polydispersity", "sd_R/R"),
+        std::pair("cohesion_range", "d_c"), std::pair("time_step", "h")}) {
+    std::set<double> values;
+    for (const auto& n : names)
+      if (H5Aexists_by_name(file, n.c_str(), attribute, H5P_DEFAULT) > 0)
+        values.insert(double_attribute(file, n, attribute));
+    if (values.size() > 1) extras.emplace_back(attribute, title);
+  }
   out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
       << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)
-      << "mu_r" << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]"
-      << std::setw(22) << "dnu/nu_i"
+      << "mu_r";
+  for (const auto& [attribute, title] : extras) out << std::setw(10) << title;
+  out << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]" << std::setw(22)
+      << "dnu/nu_i"
       << "members(failed)\n";
   for (const auto& n : names) {
     auto d = [&](const char* a) { return double_attribute(file, n, a); };
@@ -982,8 +997,9 @@ void print_summary(const std::string& path, std::ostream& out) {
     std::ostringstream line;
     line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
          << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
-         << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction") << std::setw(22)
-         << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
+         << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction");
+    for (const auto& [attribute, title] : extras) line << std::setw(10) << d(attribute);
+    line << std::setw(22) << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
          << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members
          << "(" << failed << ")\n";
     out << line.str();

@@ -146,6 +146,14 @@ set -e
 cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "analyse -o overwrote the scan file"
 "$exe" summary "$dir/good.h5" | grep -q "scan 'cli'" || fail "summary header"
 "$exe" summary "$dir/good.h5" | grep -qE "^0000 +B " || fail "summary row"
+"$exe" summary "$dir/good.h5" | grep -q "L_x" && fail "summary shows a width no point differs in"
+# Points that differ in a parameter without a column of its own (the width, the radius) show it.
+printf '[scan]\nprotocol = "B"\n[system]\nwidth = [20, 30]\nradius = [1, 2]\nheight = 30\n' \
+  > "$dir/widths.toml"
+"$exe" run "$dir/widths.toml" -o "$dir/widths.h5" -q
+"$exe" summary "$dir/widths.h5" | grep -qE "^point .* mu_r +L_x +R +nu_lower_half" ||
+  fail "summary of a scan over widths and radii: $("$exe" summary "$dir/widths.h5")"
+"$exe" summary "$dir/widths.h5" | grep -qE "^0003 .* 30 +2 +0\." || fail "summary row of width 30, R 2"
 set +e
 "$exe" summary "$dir/bad.toml" >/dev/null 2>&1 && fail "summary of a non-HDF5 file succeeded"
 set -e
