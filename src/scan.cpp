@@ -412,6 +412,10 @@ Scan load_scan(const std::string& path) {
   if (!in) throw ScanError(path + ": cannot open the scan file");
   std::stringstream ss;
   ss << in.rdbuf();
+  // A result file or another binary given by mistake: said so, not a TOML syntax error deep in it.
+  if (ss.str().find('\0') != std::string::npos)
+    throw ScanError(path + ": not a text file (a scan file is TOML; a result file is read by "
+                           "loosepack summary)");
   return parse_scan(ss.str(), path);
 }
 

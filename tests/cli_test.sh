@@ -156,6 +156,12 @@ printf '[scan]\nprotocol = "B"\n[system]\nwidth = [20, 30]\nradius = [1, 2]\nhei
 "$exe" summary "$dir/widths.h5" | grep -qE "^0003 .* 30 +2 +0\." || fail "summary row of width 30, R 2"
 set +e
 "$exe" summary "$dir/bad.toml" >/dev/null 2>&1 && fail "summary of a non-HDF5 file succeeded"
+# A result file given as the scan file is named as not a text file.
+set +e
+msg=$("$exe" run "$dir/good.h5" -o "$dir/never.h5" --dry-run 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "good.h5: not a text file" || fail "binary scan file: $msg"
 set -e
 # Figures from the result file (Debian's python3 with h5py and matplotlib).
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/good.h5" -o "$dir/fig" >/dev/null
