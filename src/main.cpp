@@ -160,6 +160,12 @@ class RunCommand {
   void say(const std::string& s) const {
     if (talk) std::cerr << "loosepack: " << s << "\n";
   }
+  // The command of this run, with the members it selects, for the messages on how to go on.
+  std::string this_run() const {
+    return "loosepack run " + o.scan_path + " -o " + o.out_path +
+           (o.member >= 0 ? " --member " + std::to_string(o.member) : "") +
+           (o.shard.empty() ? "" : " --shard " + o.shard);
+  }
 
   const RunOptions& o;
   Ranks& ranks;
@@ -528,7 +534,7 @@ int RunCommand::wait_for_ranks() {
   else
     say("interrupted by " + by +
         ": finished members, and where the running ones were, are saved in " + ck_dir +
-        "; continue with: loosepack run " + o.scan_path + " -o " + o.out_path + " --resume");
+        "; continue with: " + this_run() + " --resume");
   return 128 + static_cast<int>(g_signal);
 }
 
@@ -577,16 +583,15 @@ int RunCommand::write() {
                          o.member >= 0 || o.finished_only || info.shards > 0);
   } catch (const std::exception& e) {
     say(std::string(e.what()) + "; the results are kept in " + ck_dir +
-        ": once the cause is fixed, write the file with: loosepack run " + o.scan_path + " -o " +
-        o.out_path + " --resume");
+        ": once the cause is fixed, write the file with: " + this_run() + " --resume");
     return kError;
   }
   if (o.finished_only) {
     if (!o.quiet)
       std::cerr << "loosepack: wrote " << o.out_path << " with the " << results.size() << " of "
                 << members.size() << " members finished so far (" << failed
-                << " failed); the checkpoint " << ck_dir << " stays: continue with loosepack run "
-                << o.scan_path << " -o " << o.out_path << " --resume --force\n";
+                << " failed); the checkpoint " << ck_dir << " stays: continue with " << this_run()
+                << " --resume --force\n";
   } else {
     remove_checkpoint(ck_dir);
     if (!o.quiet)

@@ -68,6 +68,15 @@ if [ -n "$mpirun_cmd" ]; then
   expect_rc 3 mpimerge.log "$exe" merge mpi0.h5 p1.h5 p2.h5 -o mpimerged.h5 --snapshots
   same whole.h5 mpimerged.h5
 fi
+# A shard whose file cannot be written keeps its members in its checkpoint and names itself in
+# the command that writes the file; that command gives the shard's file, which merges as before.
+expect_rc 1 wf.log env LOOSEPACK_INJECT_NAN=1 LOOSEPACK_INJECT_WRITE_FAILURE=1 \
+  "$exe" run s.toml --shard 2/3 -o wf.h5
+grep -q "write the file with: loosepack run s.toml -o wf.h5 --shard 2/3 --resume" wf.log ||
+  fail "the hint after a failed write: $(cat wf.log)"
+"$exe" run s.toml -o wf.h5 --shard 2/3 --resume -q 2>/dev/null || true
+expect_rc 3 wfmerge.log "$exe" merge p0.h5 p1.h5 wf.h5 -o wfmerged.h5 --snapshots
+same whole.h5 wfmerged.h5
 # Refused, with nothing written.
 refused() {  # refused MESSAGE COMMAND...
   local message=$1
