@@ -368,8 +368,9 @@ void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
   });
 }
 
-CheckpointPart decode_checkpoint_part(const std::string& bytes, const Scan& scan,
-                                      const std::string& what, const PartRemedies& remedy) {
+CheckpointPart decode_checkpoint_part(const std::string& bytes, const std::vector<Member>& members,
+                                      std::uint64_t fingerprint, const std::string& what,
+                                      const PartRemedies& remedy) {
   constexpr std::size_t kHeader = sizeof kMagic + sizeof(std::uint32_t) + sizeof(std::uint64_t);
   if (bytes.size() < kHeader + 2 * sizeof(std::uint64_t) ||
       std::memcmp(bytes.data(), kMagic, sizeof kMagic - 2) != 0)
@@ -390,10 +391,9 @@ CheckpointPart decode_checkpoint_part(const std::string& bytes, const Scan& scan
   Reader in(bytes, sizeof kMagic, what);
   if (in.get<std::uint32_t>() != kByteOrder)
     throw CheckpointError(what + " was written on a machine of another byte order");
-  if (in.get<std::uint64_t>() != scan_fingerprint(scan))
+  if (in.get<std::uint64_t>() != fingerprint)
     throw CheckpointError(
         what + " belongs to another scan file or another loosepack build: " + remedy.other_build);
-  const auto members = members_of(scan);
   CheckpointPart part;
   part.finished = decode_from(in, members);
   const auto n_running = in.get<std::uint64_t>();
@@ -419,13 +419,16 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
       "delete " + directory + " to start the run again",
       "the scan was edited, or the program rebuilt, since: restore them, or delete " + directory +
           " to start the run again"};
+  const auto members = members_of(scan);
+  const std::uint64_t fingerprint = scan_fingerprint(scan);
   std::map<std::uint64_t, MemberResult> finished;
   std::map<std::uint64_t, std::pair<int, MemberSnapshot>> running;  // the latest generation's
   for (const auto& file : files) {
     std::ifstream f(file, std::ios::binary);
     std::ostringstream ss;
     ss << f.rdbuf();
-    CheckpointPart part = decode_checkpoint_part(ss.str(), scan, "checkpoint " + file, remedy);
+    CheckpointPart part =
+        decode_checkpoint_part(ss.str(), members, fingerprint, "checkpoint " + file, remedy);
     for (auto& r : part.finished) {
       const auto id = r.member.id;
       finished.emplace(id, std::move(r));

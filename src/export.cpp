@@ -52,10 +52,12 @@ void check_selection(hid_t file, const std::string& path, const ExportSelection&
   const std::vector<std::string> points = children(file, "points");
   if (sel.point >= 0 && std::none_of(points.begin(), points.end(), [&](const std::string& p) {
         return std::stoi(p) == sel.point;
-      }))
+      })) {
+    std::string present;  // the points the file holds (a file of some members holds some)
+    for (const auto& p : points) present += (present.empty() ? "" : ", ") + p;
     throw std::invalid_argument("--point " + std::to_string(sel.point) + ": " + path +
-                                " has the points " + (points.empty() ? "(none)" : points.front()) +
-                                " to " + (points.empty() ? "(none)" : points.back()));
+                                " has the points " + (present.empty() ? "(none)" : present));
+  }
   const double seeds = double_attribute(file, "/", "seeds");
   if (sel.seed >= 0 && sel.seed >= seeds)
     throw std::invalid_argument("--seed " + std::to_string(sel.seed) + ": " + path +

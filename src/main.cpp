@@ -143,6 +143,7 @@ class RunCommand {
 
  private:
   int load();
+  int select_members();
   int dry_run() const;
   int claim_output();
   int read_checkpoint();
@@ -231,7 +232,14 @@ int RunCommand::load() {
     return kInvalid;
   }
   all_members = members_of(scan);
+  if (const int rc = select_members()) return rc;
   if (!o.dry_run && claim_output() != 0) return kInvalid;
+  resolve_backend_defaults(scan, members.size());
+  return 0;
+}
+
+// The members this run computes: all, the one of --member, or the shard of --shard.
+int RunCommand::select_members() {
   members = all_members;
   if (o.member >= 0) {
     if (o.member >= static_cast<long>(all_members.size())) {
@@ -241,21 +249,19 @@ int RunCommand::load() {
     }
     members = {all_members[static_cast<std::size_t>(o.member)]};
   }
-  if (!o.shard.empty()) {
-    try {
-      std::tie(info.shard, info.shards) = parse_shard(o.shard);
-    } catch (const ShardError& e) {
-      say(e.what());
-      return kInvalid;
-    }
-    members = shard_of(all_members, info.shard, info.shards);
-    if (members.empty()) {
-      say("--shard " + o.shard + ": the scan has " + std::to_string(all_members.size()) +
-          " members, too few for " + std::to_string(info.shards) + " shards");
-      return kInvalid;
-    }
+  if (o.shard.empty()) return 0;
+  try {
+    std::tie(info.shard, info.shards) = parse_shard(o.shard);
+  } catch (const ShardError& e) {
+    say(e.what());
+    return kInvalid;
   }
-  resolve_backend_defaults(scan, members.size());
+  if (static_cast<std::size_t>(info.shards) > all_members.size()) {
+    say("--shard " + o.shard + ": the scan has " + std::to_string(all_members.size()) +
+        " members, too few for " + std::to_string(info.shards) + " shards");
+    return kInvalid;
+  }
+  members = shard_of(all_members, info.shard, info.shards);
   return 0;
 }
 
@@ -269,7 +275,7 @@ int RunCommand::claim_output() {
     if (why.empty())
       for (const auto& f : remove_stale_temporaries(o.out_path))
         say("removed " + f + ", left by a run that ended while writing");
-    if (why.empty()) why = space_problem(o.out_path, all_members);
+    if (why.empty()) why = space_problem(o.out_path, members);
   }
   if (!why.empty()) say(why);
   return ranks.broadcast(why.empty() ? 0 : 1);
@@ -298,6 +304,17 @@ int RunCommand::read_checkpoint() {
   ranks.barrier();
   std::set<std::uint64_t> selected;
   for (const auto& m : members) selected.insert(m.id);
+  // A checkpoint of another selection (another --shard or --member, or none): going on would
+  // drop its other members, and removing it at the end would lose them.
+  const auto outside = [&](std::uint64_t id) { return selected.count(id) == 0; };
+  if (std::any_of(ck.members.begin(), ck.members.end(),
+                  [&](const MemberResult& r) { return outside(r.member.id); }) ||
+      std::any_of(ck.running.begin(), ck.running.end(),
+                  [&](const MemberSnapshot& s) { return outside(s.result.member.id); })) {
+    say(ck_dir + " holds members this run does not select: it was written by a run of another " +
+        "--shard or --member, or of the whole scan; resume with the options that wrote it");
+    return kInvalid;
+  }
   for (auto& r : ck.members)
     if (selected.count(r.member.id)) {
       resumed.insert(r.member.id);
@@ -719,6 +736,11 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
       ->add_option("--shard", o.shard,
                    "K/N: run shard K of N only (0 <= K < N; the members rank K of an N-rank run "
                    "computes), one file each, for loosepack merge")
+      ->check(CLI::Validator(
+          [](const std::string& text) {
+            return text.empty() ? std::string("give K/N") : std::string();
+          },
+          "K/N"))
       ->excludes(member);
   return run_cmd;
 }
@@ -763,22 +785,36 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
       ->check(CLI::Range(0, 1000000000));
 }
 
+// Claims `out` for a command that writes it from the files `inputs` (analyse -o, merge), as a
+// run claims its output: a path that can take a result file and is none of the inputs, an
+// existing file only with `force`, the lock (no run or other command writes it now), and the
+// temporaries of one that died while writing it removed. "" when claimed, else why not.
+std::string claim_output_path(OutputLock& lock, const std::string& out,
+                              const std::vector<std::string>& inputs, bool force) {
+  std::string why;
+  for (const auto& in : inputs)
+    if (why.empty()) why = output_path_problem(out, in);
+  if (why.empty() && !force && std::filesystem::exists(out))
+    why = "the output file " + out + " exists; add --force to replace it";
+  if (why.empty()) why = lock.acquire(out);
+  if (why.empty())
+    for (const auto& f : remove_stale_temporaries(out))
+      std::cerr << "loosepack: removed " << f << ", left by a run that ended while writing\n";
+  return why;
+}
+
 // `loosepack analyse`: the output checked and locked as a run's, then written atomically.
 int analyse_command(const FileCommands& f) {
   const std::string out = f.analyse_out.empty() ? f.analyse_path : f.analyse_out;
-  std::string why;
-  if (out != f.analyse_path) {
-    why = output_path_problem(out, f.analyse_path);
-    if (why.empty() && !f.analyse_force && std::filesystem::exists(out))
-      why = "the output file " + out + " exists; add --force to replace it";
-  }
-  OutputLock lock;  // a run or another analyse writing `out` now
-  if (why.empty()) why = lock.acquire(out);
-  if (!why.empty()) {
+  const bool in_place = out == f.analyse_path;
+  OutputLock lock;
+  if (const std::string why = claim_output_path(
+          lock, out, in_place ? std::vector<std::string>{} : std::vector{f.analyse_path},
+          in_place || f.analyse_force);
+      !why.empty()) {
     std::cerr << "loosepack: " << why << "\n";
     return kInvalid;
   }
-  remove_stale_temporaries(out);
   reanalyse(f.analyse_path, out);
   return kOk;
 }
@@ -788,7 +824,7 @@ struct MergeOptions {
   CLI::App* command = nullptr;
   std::vector<std::string> parts;
   std::string out_path;
-  bool force = false, snapshots = false, quiet = false;
+  bool force = false, snapshots = false, quiet = false, partial = false;
 };
 
 void add_merge_command(CLI::App& app, MergeOptions& m) {
@@ -807,29 +843,35 @@ void add_merge_command(CLI::App& app, MergeOptions& m) {
   m.command->add_flag("--force", m.force, "replace an existing result file");
   m.command->add_flag("--snapshots", m.snapshots,
                       "store every member's final disks and contact forces (as run --snapshots)");
+  m.command->add_flag("--partial", m.partial,
+                      "merge shards that leave members out (shards not given, or files of "
+                      "their finished members only): a file of those at hand");
   m.command->add_flag("-q,--quiet", m.quiet, "no message when done");
 }
 
 // `loosepack merge`: the output checked and locked as a run's; the shards read and checked
 // whole before anything is written.
 int merge_command(const MergeOptions& m) {
-  std::string why;
-  for (const auto& part : m.parts)
-    if (why.empty()) why = output_path_problem(m.out_path, part);
-  if (why.empty() && !m.force && std::filesystem::exists(m.out_path))
-    why = "the output file " + m.out_path + " exists; add --force to replace it";
-  OutputLock lock;  // a run or another merge writing the same file now
-  if (why.empty()) why = lock.acquire(m.out_path);
-  if (!why.empty()) {
+  OutputLock lock;
+  if (const std::string why = claim_output_path(lock, m.out_path, m.parts, m.force); !why.empty()) {
     std::cerr << "loosepack: " << why << "\n";
     return kInvalid;
   }
-  remove_stale_temporaries(m.out_path);
   MergedShards merged;
   try {
     merged = read_shards(m.parts);
   } catch (const ShardError& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
+    return kInvalid;
+  } catch (const std::exception& e) {  // a file HDF5 reads wrong, memory
+    std::cerr << "loosepack: " << e.what() << "\n";
+    return kError;
+  }
+  std::string missing;
+  for (const auto& what : merged.missing) missing += (missing.empty() ? "" : ", ") + what;
+  if (!missing.empty() && !m.partial) {
+    std::cerr << "loosepack: the shards leave members out (" << missing
+              << "): merge them all, or add --partial to merge those at hand\n";
     return kInvalid;
   }
   const int failed = report_failures(merged.members, merged.scan.file);
@@ -839,15 +881,12 @@ int merge_command(const MergeOptions& m) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return kError;
   }
-  if (!m.quiet) {
+  if (!missing.empty())  // said even with -q: the file is not the whole scan's
+    std::cerr << "loosepack: " << m.out_path << " leaves out " << missing << "\n";
+  if (!m.quiet)
     std::cerr << "loosepack: wrote " << m.out_path << " with " << merged.members.size()
               << " members from " << m.parts.size() << " shard files (" << failed
-              << " failed members)";
-    if (merged.info.members_unfinished > 0)
-      std::cerr << "; " << merged.info.members_unfinished
-                << " members of the scan are in none of them";
-    std::cerr << "\n";
-  }
+              << " failed members)\n";
   return failed > 0 ? kMembersFailed : kOk;
 }
 

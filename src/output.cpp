@@ -707,12 +707,17 @@ void reanalyse(const std::string& in, const std::string& out) {
             "open it (not an HDF5 file written by loosepack?)");
     scan = parse_scan(scan_text_of(file), in + " (scan_text)");
     for (const auto& p : scan.points) {
+      // A file of some members (one member, a shard, the finished ones) has their points only.
+      if (H5Lexists(file, "points", H5P_DEFAULT) > 0 &&
+          H5Lexists(file, point_name(p.index).c_str(), H5P_DEFAULT) <= 0)
+        continue;
       try {
         points.push_back(read_point(file, p));
       } catch (const std::runtime_error& e) {
         throw std::runtime_error(point_name(p.index) + ": " + e.what());
       }
     }
+    if (points.empty()) throw std::runtime_error("no scan point of its scan_text");
   } catch (const ScanError&) {
     throw;
   } catch (const std::runtime_error& e) {
@@ -789,7 +794,13 @@ ShardFile read_shard_file(const std::string& path) {
     if (H5Tget_class(type) != H5T_INTEGER || H5Tget_size(type) != 1 ||
         H5Sget_simple_extent_ndims(space) != 1)
       throw std::runtime_error("shard_members is not a one-dimensional dataset of bytes");
-    out.members.resize(static_cast<std::size_t>(H5Sget_simple_extent_npoints(space)));
+    // No more bytes than the file holds: a damaged extent is refused, not allocated.
+    const hssize_t n = H5Sget_simple_extent_npoints(space);
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(path, ec);
+    if (n < 0 || ec || static_cast<std::uintmax_t>(n) > size)
+      throw std::runtime_error("shard_members has a length the file cannot hold");
+    out.members.resize(static_cast<std::size_t>(n));
     if (!out.members.empty())
       check(H5Dread(set, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.members.data()),
             "read dataset shard_members");
@@ -964,7 +975,7 @@ void print_summary(const std::string& path, std::ostream& out) {
   std::vector<std::pair<const char*, const char*>> extras;  // (attribute, column title)
   for (const auto& [attribute, title] :
        {std::pair("width", "L_x"), std::pair("radius", "R"), std::pair("polydispersity", "sd_R/R"),
-        std::pair("cohesion_range", "d_c"), std::pair("time_step", "h")}) {
+        std::pair("cohesion_range", "d_c")}) {
     std::set<double> values;
     for (const auto& n : names)
       if (H5Aexists_by_name(file, n.c_str(), attribute, H5P_DEFAULT) > 0)
@@ -998,7 +1009,11 @@ void print_summary(const std::string& path, std::ostream& out) {
     line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
          << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
          << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction");
-    for (const auto& [attribute, title] : extras) line << std::setw(10) << d(attribute);
+    for (const auto& [attribute, title] : extras) {
+      std::ostringstream v;
+      v << std::setprecision(6) << d(attribute);
+      line << std::setw(10) << v.str() + " ";
+    }
     line << std::setw(22) << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
          << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members
          << "(" << failed << ")\n";

@@ -99,7 +99,7 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node,
     if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
     for (const auto& e : *arr) {
       const double v = as_number(file, e, key);
-      // The same value twice would run the same members twice under two scan points.
+      // The same value twice would make two scan points of one set of parameters.
       if (std::find(out.begin(), out.end(), v) != out.end())
         fail(file, e, key, "the value " + format_number(v) + " is already in this axis");
       out.push_back(v);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <map>
 #include <regex>
+#include <set>
 
 #include "loosepack/checkpoint.hpp"
 #include "loosepack/scan.hpp"
@@ -15,10 +16,10 @@ std::pair<int, int> parse_shard(const std::string& text) {
   if (!std::regex_match(text, m, std::regex("([0-9]{1,9})/([0-9]{1,9})")))
     throw ShardError("--shard " + text + ": give K/N, shard K of N counted from 0 (0/4 to 3/4)");
   const int k = std::stoi(m[1].str()), n = std::stoi(m[2].str());
-  if (n < 1 || k >= n)
-    throw ShardError("--shard " + text + ": K must be at least 0 and below N (0/" +
-                     std::to_string(std::max(n, 1)) + " to " + std::to_string(std::max(n, 1) - 1) +
-                     "/" + std::to_string(std::max(n, 1)) + ")");
+  if (n < 1) throw ShardError("--shard " + text + ": N must be at least 1");
+  if (k >= n)
+    throw ShardError("--shard " + text + ": K must be below N (0/" + std::to_string(n) + " to " +
+                     std::to_string(n - 1) + "/" + std::to_string(n) + ")");
   return {k, n};
 }
 
@@ -68,31 +69,50 @@ MergedShards read_shards(const std::vector<std::string>& paths) {
   }
   const auto all = members_of(out.scan);
   resolve_backend_defaults(out.scan, all.size());
+  const int n = first.info.shards;
+  const auto name = [n](int k) { return std::to_string(k) + "/" + std::to_string(n); };
   const PartRemedies remedy{
       "run that shard again",
       "merge it with the loosepack build that ran it (its git_commit attribute; loosepack "
       "--version)"};
-  std::map<std::uint64_t, std::string> holder;  // member id -> the file that holds it
+  const std::uint64_t fingerprint = scan_fingerprint(out.scan);
+  std::map<int, std::string> given;  // shard -> its file
   for (const auto& f : files) {
     if (f.scan_text != first.scan_text)
       throw ShardError(f.path + " is a shard of another scan file than " + first.path +
                        " (their scan_text differs)");
+    if (f.info.shards != n || f.info.shard < 0 || f.info.shard >= n)
+      throw ShardError(f.path + " is shard " + std::to_string(f.info.shard) + "/" +
+                       std::to_string(f.info.shards) + ", " + first.path + " one of " +
+                       std::to_string(n) + ": merge the shards of one split");
+    const auto [at, fresh] = given.emplace(f.info.shard, f.path);
+    if (!fresh)
+      throw ShardError(at->second + " and " + f.path + " are both shard " + name(f.info.shard) +
+                       " (the same shard given twice?)");
     CheckpointPart part;
     try {
-      part = decode_checkpoint_part(f.members, out.scan, f.path + ": shard_members", remedy);
+      part =
+          decode_checkpoint_part(f.members, all, fingerprint, f.path + ": shard_members", remedy);
     } catch (const CheckpointError& e) {
       throw ShardError(e.what());
     }
     if (!part.running.empty())
       throw ShardError(f.path + ": shard_members holds members that had not finished");
+    std::set<std::uint64_t> own;
+    for (const auto& m : shard_of(all, f.info.shard, n)) own.insert(m.id);
     for (auto& r : part.finished) {
-      const auto [at, fresh] = holder.emplace(r.member.id, f.path);
-      if (!fresh)
-        throw ShardError("member " + std::to_string(r.member.id) + " is in both " + at->second +
-                         " and " + f.path + " (the same shard given twice?)");
+      if (!own.count(r.member.id))
+        throw ShardError(f.path + ": member " + std::to_string(r.member.id) + " is not one of " +
+                         "shard " + name(f.info.shard) + "'s (was the file edited?)");
+      own.erase(r.member.id);
       out.members.push_back(std::move(r));
     }
+    if (!own.empty())  // a shard's file of its finished members only (--finished-only)
+      out.missing.push_back(std::to_string(own.size()) + " members of shard " + name(f.info.shard) +
+                            " (" + f.path + ")");
   }
+  for (int k = 0; k < n; ++k)
+    if (!given.count(k)) out.missing.push_back("shard " + name(k));
   std::sort(out.members.begin(), out.members.end(),
             [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   out.info = merged_info(files, static_cast<long>(all.size() - out.members.size()));

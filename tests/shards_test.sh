@@ -36,8 +36,14 @@ grep -q "with 9 members from 3 shard files" merge.log || fail "merge: $(cat merg
 # The comparison can fail: without --snapshots the merged file lacks the whole run's snapshots.
 expect_rc 3 plain.log "$exe" merge p0.h5 p1.h5 p2.h5 -o plain.h5
 /usr/bin/python3 "$here/h5_equal.py" whole.h5 plain.h5 >/dev/null && fail "h5_equal saw no difference"
-# Two shards of three: the third's members are counted as missing.
-expect_rc 0 two.log "$exe" merge p0.h5 p2.h5 -o two.h5 -q
+# Two shards of three are refused, naming the one missing; with --partial they give a file that
+# counts the third's members as missing, and say so even with -q.
+expect_rc 2 two.log "$exe" merge p0.h5 p2.h5 -o two.h5
+grep -q "the shards leave members out (shard 1/3): merge them all, or add --partial" two.log ||
+  fail "two shards of three: $(cat two.log)"
+[ ! -e two.h5 ] || fail "a refused merge wrote its file"
+expect_rc 0 two.log "$exe" merge p0.h5 p2.h5 -o two.h5 -q --partial
+grep -q "two.h5 leaves out shard 1/3" two.log || fail "partial merge: $(cat two.log)"
 members_of() {
   /usr/bin/python3 -c "import h5py, sys
 f = h5py.File(sys.argv[1], 'r')
@@ -74,6 +80,10 @@ expect_rc 1 wf.log env LOOSEPACK_INJECT_NAN=1 LOOSEPACK_INJECT_WRITE_FAILURE=1 \
   "$exe" run s.toml --shard 2/3 -o wf.h5
 grep -q "write the file with: loosepack run s.toml -o wf.h5 --shard 2/3 --resume" wf.log ||
   fail "the hint after a failed write: $(cat wf.log)"
+# Its checkpoint is refused to a resume of another shard (which would drop its members), and kept.
+expect_rc 2 other.log "$exe" run s.toml -o wf.h5 --shard 1/3 --resume
+grep -q "wf.h5.checkpoint holds members this run does not select" other.log ||
+  fail "resume with another shard: $(cat other.log)"
 "$exe" run s.toml -o wf.h5 --shard 2/3 --resume -q 2>/dev/null || true
 expect_rc 3 wfmerge.log "$exe" merge p0.h5 p1.h5 wf.h5 -o wfmerged.h5 --snapshots
 same whole.h5 wfmerged.h5
@@ -85,7 +95,10 @@ refused() {  # refused MESSAGE COMMAND...
   grep -qF -- "$message" refused.log || fail "message for $*: $(cat refused.log)"
   [ ! -e bad.h5 ] || fail "$* wrote bad.h5"
 }
-refused "is in both p0.h5 and p0.h5" "$exe" merge p0.h5 p0.h5 -o bad.h5
+refused "p0.h5 and p0.h5 are both shard 0/3" "$exe" merge p0.h5 p0.h5 -o bad.h5
+"$exe" run s.toml --shard 1/2 -o half1.h5 -q 2>/dev/null || true
+refused "half1.h5 is shard 1/2, p0.h5 one of 3: merge the shards of one split" \
+  "$exe" merge p0.h5 half1.h5 -o bad.h5
 refused "whole.h5: not a shard's file" "$exe" merge p0.h5 whole.h5 -o bad.h5
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > other.toml
 "$exe" run other.toml --shard 1/3 -o other1.h5 -q 2>/dev/null || true
@@ -106,6 +119,8 @@ refused "merged.h5 exists; add --force" "$exe" merge p0.h5 p1.h5 p2.h5 -o merged
 for bad in 3/3 1/0 x/3 -1/3; do
   refused "--shard $bad" "$exe" run s.toml --shard "$bad" -o bad.h5
 done
+refused "give K/N" "$exe" run s.toml --shard "" -o bad.h5
+refused "too few for 999999999 shards" "$exe" run s.toml --shard 0/999999999 -o bad.h5 --dry-run
 refused "--member excludes --shard" "$exe" run s.toml --shard 0/2 --member 1 -o bad.h5
 refused "too few for 12 shards" "$exe" run s.toml --shard 11/12 -o bad.h5
 echo "shards: all checks passed"

@@ -314,8 +314,6 @@ TEST(Scan, WarnsWhenTheTimeStepDoesNotResolveTheCohesiveBarrier) {
       << scan.warnings[0];
 }
 
-// The default time step resolves the cohesive barrier at each point's own Bond number:
-// 0.9 sqrt(2 m_n d_c / F_c) = 0.9 sqrt(d_c / (Bo g)), at most 0.01; a set time step wins.
 // Protocol A drops its disks with their dynamics: a capture radius other than 1 changes nothing
 // there, and the file is told so (a grid of protocols and capture radii would repeat A points).
 TEST(Scan, WarnsWhenProtocolAPointsSetACaptureRadius) {
@@ -331,6 +329,8 @@ TEST(Scan, WarnsWhenProtocolAPointsSetACaptureRadius) {
                   .warnings.empty());
 }
 
+// The default time step resolves the cohesive barrier at each point's own Bond number:
+// 0.9 sqrt(2 m_n d_c / F_c) = 0.9 sqrt(d_c / (Bo g)), at most 0.01; a set time step wins.
 TEST(Scan, DefaultTimeStepResolvesTheBarrierAtEachBondNumber) {
   const auto scan = parse_scan(
       "[system]\nwidth = 24\nheight = 24\ncohesion_range = 0.02\n"

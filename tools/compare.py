@@ -294,14 +294,16 @@ def scan_keys_differ(pa, pb):
     that a comparison of unlike points is seen as one."""
     keys = ("protocol", "bond_number", "width", "height", "capture_radius", "radius",
             "polydispersity", "cohesion_range", "friction", "rolling_friction", "time_step")
+    value = lambda v: text(v) if isinstance(v, (bytes, str)) else float(v)
     return [k for k in keys if k in pa.attrs and k in pb.attrs and
-            np.asarray(pa.attrs[k]).tobytes() != np.asarray(pb.attrs[k]).tobytes()]
+            value(pa.attrs[k]) != value(pb.attrs[k])]
 
 
-def positive(text):
-    v = float(text)
+def positive(value):
+    v = float(value)
     if not v > 0:
-        raise argparse.ArgumentTypeError(f"must be a positive number of standard errors, not {text}")
+        raise argparse.ArgumentTypeError(
+            f"must be a positive number of standard errors, not {value}")
     return v
 
 

@@ -12,8 +12,9 @@ pictures of single members (snapshots, trajectories): draw those from each file 
 Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
 histograms with the Gaussian and exponential fits, deposition density with the final density
 predicted from it. When the file has them: nu_lower_half against the Bond number, or against
-the capture radius where the Bond number is one (several points), protocol-A profiles of several heights scaled by H with c2 and the slice model's a
-against H (the paper's fig. 7), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
+the capture radius where all points share one Bond number (several points), protocol-A
+profiles of several heights scaled by H with c2 and the slice model's a against H (the paper's
+fig. 7), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
 distributions (protocol A), a picture of each snapshot with its compressive contact forces
 (run with --snapshots; the paper's fig. 1) and the trajectories of every k-th disk
 (observables.trajectory_every; the paper's fig. 5).
@@ -120,32 +121,47 @@ def density_profiles(points, out, written):
     save(fig, out, "density_profiles.png", written)
 
 
+SCAN_KEYS = ("protocol", "bond_number", "capture_radius", "width", "height", "radius",
+             "polydispersity", "cohesion_range", "friction", "rolling_friction")
+
+
+def scan_value(g, key):
+    v = attr(g, key)
+    return text(v) if isinstance(v, (bytes, str)) else float(v)
+
+
 def nu_lower_half(points, out, written):
-    """nu_lower_half against the Bond number, or against the capture radius where every point
-    has one Bond number (figs. 2-3, 13): a series for each protocol, height and width, each point
-    at its own tick (Bo = 0 and inf at the ends of the log axis, named so)."""
+    """nu_lower_half against the Bond number, or against the capture radius where all points
+    share one Bond number (figs. 2-3, 13): a series for each set of the other scan parameters,
+    named by those that differ between series, each point at its own tick (Bo = 0 and inf at the
+    ends of the log axis, named so)."""
     if len(points) < 2:
         return
     x_key = next((k for k in ("bond_number", "capture_radius")
                   if len({float(attr(g, k)) for g in points}) > 1), None)
     if x_key is None:
         return
+    others = [k for k in SCAN_KEYS if k != x_key and k in points[0].attrs]
+    varying = [k for k in others if len({scan_value(g, k) for g in points}) > 1]
     series = {}
     for g in points:
-        key = (text(attr(g, "protocol")), float(attr(g, "height")), float(attr(g, "width")))
-        series.setdefault(key, []).append(g)
+        series.setdefault(tuple(scan_value(g, k) for k in others), []).append(g)
     xs = sorted({float(attr(g, x_key)) for g in points})
     finite = [b for b in xs if b > 0 and not math.isinf(b)]
     lo = min(finite) / 10 if finite else 0.1
     hi = max(finite) * 10 if finite else 10
     where = lambda b: lo if b == 0 else hi if math.isinf(b) else b
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    for (protocol, height, width), gs in sorted(series.items()):
+    for key, gs in sorted(series.items()):
         gs = sorted(gs, key=lambda g: float(attr(g, x_key)))
+        named = dict(zip(others, key))
+        name = ", ".join(f"{k} {named[k]:g}" if isinstance(named[k], float) else f"{named[k]}"
+                         for k in varying)
         ax.errorbar([where(float(attr(g, x_key))) for g in gs],
                     [attr(g, "nu_lower_half_mean") for g in gs],
                     yerr=bars([attr(g, "nu_lower_half_sem") for g in gs]), fmt="o-", capsize=3,
-                    label=f"{protocol}, {width:g} R x {height:g} R")
+                    label=name or f"{named['protocol']}, {named['width']:g} R x "
+                                  f"{named['height']:g} R")
     ax.set_xscale("log")
     ax.set_xticks([where(b) for b in xs],
                   ["0" if b == 0 else "inf" if math.isinf(b) else f"{b:g}" for b in xs])

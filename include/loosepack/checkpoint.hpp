@@ -63,10 +63,11 @@ struct CheckpointContents {
 };
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan);
 
-// One part's bytes back: its finished members and the snapshots of its running ones. Checks
-// the format, the checksum, the byte order and that the part belongs to `scan` and this build;
-// throws CheckpointError naming `what` and saying what to do: `damaged` for bytes that are
-// not a whole part, `other_build` for a part of another format, scan or build.
+// One part's bytes back: its finished members and the snapshots of its running ones, of the
+// scan whose members are `members` (members_of) and fingerprint `fingerprint`
+// (scan_fingerprint). Checks the format, the checksum, the byte order and the fingerprint;
+// throws CheckpointError naming `what` and saying what to do: `damaged` for bytes that are not
+// a whole part, `other_build` for a part of another format, scan or build.
 struct PartRemedies {
   std::string damaged, other_build;
 };
@@ -74,8 +75,9 @@ struct CheckpointPart {
   std::vector<MemberResult> finished;
   std::vector<MemberSnapshot> running;
 };
-CheckpointPart decode_checkpoint_part(const std::string& bytes, const Scan& scan,
-                                      const std::string& what, const PartRemedies& remedy);
+CheckpointPart decode_checkpoint_part(const std::string& bytes, const std::vector<Member>& members,
+                                      std::uint64_t fingerprint, const std::string& what,
+                                      const PartRemedies& remedy);
 
 // Removes the directory's part files and the directory (after a complete result was written).
 void remove_checkpoint(const std::string& directory);

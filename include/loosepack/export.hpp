@@ -16,9 +16,11 @@ struct ExportSelection {
 // Writes the viewer files of `path` next to it (`<stem>_pNNNN_sK.xmf`, `..._trajectory.xmf`,
 // or the same with .extxyz) and returns their paths. XDMF reads the disks, forces and
 // trajectories from the result file itself; only the contacts as line segments (their ends,
-// across the periodic seam and down to the floor), which the file does not hold, go into one
-// sidecar `<stem>_xdmf.h5`. Throws std::runtime_error when the file
-// has nothing to export (no snapshots: run with --snapshots or observables.trajectory_every).
+// across the periodic seam and down to the floor), which the file does not hold, go into a
+// file of each snapshot's own, `<stem>_pNNNN_sK[_failure]_contacts.h5`. Throws
+// std::invalid_argument for a point or seed the file does not have, std::runtime_error when
+// the file has nothing to export (no snapshots: run with --snapshots or
+// observables.trajectory_every).
 std::vector<std::string> export_viewer_files(const std::string& path, ExportFormat format,
                                              const ExportSelection& selection = {});
 

@@ -27,16 +27,19 @@ std::pair<int, int> parse_shard(const std::string& text);
 // The members of shard k of n: rank k's share of an n-rank run (shard_members), in member order.
 std::vector<Member> shard_of(const std::vector<Member>& members, int k, int n);
 
-// The shard files of one scan, read for a merge: the scan (from their scan text, with the
-// backend's defaults resolved as a run of all its members resolves them), every member they
-// hold in member order, and the provenance of the whole (the first start, the last end, the
-// files' wall seconds and MPI ranks summed, the files merged, the members none of them holds).
-// Throws ShardError for a file that is not a shard's, is damaged or was written by another
-// build, for shards of different scan files, and for a member that two files hold.
+// The shard files of one split of one scan, read for a merge: the scan (from their scan text,
+// with the backend's defaults resolved as a run of all its members resolves them), every member
+// they hold in member order, the provenance of the whole (the first start, the last end, the
+// files' wall seconds and MPI ranks summed, the files merged, the members none of them holds),
+// and what the files leave out: shards not given, and shards of which a file holds only the
+// members finished (`run --resume --finished-only`). Throws ShardError for a file that is not a
+// shard's, is damaged or was written by another build, for shards of different scan files or
+// splits, a shard given twice, and a member that is not its shard's.
 struct MergedShards {
   Scan scan;
   std::vector<MemberResult> members;
   RunInfo info;
+  std::vector<std::string> missing;  // "shard 1/4", "3 members of shard 2/4 (FILE)"
 };
 MergedShards read_shards(const std::vector<std::string>& paths);
 
