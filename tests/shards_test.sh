@@ -87,6 +87,17 @@ grep -q "wf.h5.checkpoint holds members this run does not select" other.log ||
 "$exe" run s.toml -o wf.h5 --shard 2/3 --resume -q 2>/dev/null || true
 expect_rc 3 wfmerge.log "$exe" merge p0.h5 p1.h5 wf.h5 -o wfmerged.h5 --snapshots
 same whole.h5 wfmerged.h5
+# The job array example (examples/slurm_shards.sh) as SLURM would run its three tasks, then again
+# (every part finished: nothing to do), merges to the whole run's file.
+for k in 0 1 2; do
+  for round in 1 2; do
+    LOOSEPACK="$exe" SLURM_ARRAY_TASK_ID=$k SLURM_ARRAY_TASK_COUNT=3 LOOSEPACK_INJECT_NAN=1 \
+      bash "$repo/examples/slurm_shards.sh" s.toml array >/dev/null 2>&1 || true
+  done
+done
+expect_rc 3 array.log "$exe" merge array/part-0.h5 array/part-1.h5 array/part-2.h5 -o array.h5 \
+  --snapshots
+same whole.h5 array.h5
 # Refused, with nothing written.
 refused() {  # refused MESSAGE COMMAND...
   local message=$1
