@@ -70,6 +70,9 @@ MergedShards read_shards(const std::vector<std::string>& paths) {
   const auto all = members_of(out.scan);
   resolve_backend_defaults(out.scan, all.size());
   const int n = first.info.shards;
+  if (n < 1 || static_cast<std::size_t>(n) > all.size())  // what no run writes: a damaged file
+    throw ShardError(first.path + ": shards = " + std::to_string(n) +
+                     " is no split of its scan's " + std::to_string(all.size()) + " members");
   const auto name = [n](int k) { return std::to_string(k) + "/" + std::to_string(n); };
   const PartRemedies remedy{
       "run that shard again",
