@@ -159,13 +159,13 @@ const std::vector<SystemKey>& system_keys() {
   static const std::vector<SystemKey> keys = {
       {"width", [](SystemParams& p, double v) { p.width = v; },
        [](const SystemParams& p) {
-         return p.width >= 4.0 * p.radius && std::isfinite(p.width) ? ""
-                                                                     : "L_x must be finite and >= 4 R";
+         const bool ok = p.width >= 4.0 * p.radius && std::isfinite(p.width);
+         return ok ? "" : "L_x must be finite and >= 4 R";
        }},
       {"height", [](SystemParams& p, double v) { p.height = v; },
        [](const SystemParams& p) {
-         return p.height >= 4.0 * p.radius && std::isfinite(p.height) ? ""
-                                                                       : "H must be finite and >= 4 R";
+         const bool ok = p.height >= 4.0 * p.radius && std::isfinite(p.height);
+         return ok ? "" : "H must be finite and >= 4 R";
        }},
       {"radius", [](SystemParams& p, double v) { p.radius = v; },
        [](const SystemParams& p) {

@@ -8,7 +8,8 @@ import sys
 import h5py
 import numpy as np
 
-RUN_ATTRIBUTES = {"start_time", "end_time", "wall_seconds", "mpi_ranks", "batch_size", "merged_from"}
+RUN_ATTRIBUTES = {"start_time", "end_time", "wall_seconds", "mpi_ranks", "batch_size",
+                  "merged_from"}
 RUN_DATASETS = {"wall_time"}
 
 
