@@ -802,8 +802,12 @@ void ScanParser::check_sweeps_per_launch() {
 // converge at 0.5; at Bo = 1e2 they blow up at the default 0.8, at Bo = 0 at 1.0, and their
 // members fail).
 void ScanParser::warn_diverging_jacobi() {
-  if (scan.solver_kind_given && scan.solver.kind == SolverKind::Jacobi &&
-      !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
+  const bool jacobi = scan.solver_kind_given && scan.solver.kind == SolverKind::Jacobi;
+  if (!scan.solver.mass_splitting && !jacobi)  // the other solvers update one contact at a time
+    scan.warnings.push_back(file +
+                            ": solver.mass_splitting acts in the Jacobi solver only "
+                            "(solver.kind = \"jacobi\"); this scan's solver ignores it");
+  if (jacobi && !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
     scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
                                    "relaxation > 0.5 (its members fail, their disks thrown "
                                    "about); set solver.relaxation <= 0.5 or mass_splitting = true");

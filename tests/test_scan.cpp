@@ -393,6 +393,11 @@ TEST(Scan, WarnsOfJacobiWithoutMassSplittingAtLargeRelaxation) {
   ASSERT_EQ(loud.warnings.size(), 1u);
   EXPECT_NE(loud.warnings[0].find("without mass splitting diverges"), std::string::npos);
   EXPECT_TRUE(parse_scan(base + "relaxation = 0.5\n", "j.toml").warnings.empty());
+  // With another solver the setting does nothing, and the file is told so.
+  const auto other = parse_scan("[solver]\nmass_splitting = false\n", "j.toml");
+  ASSERT_EQ(other.warnings.size(), 1u);
+  EXPECT_NE(other.warnings[0].find("mass_splitting acts in the Jacobi solver only"),
+            std::string::npos);
 }
 
 // Every scan file shipped in examples/ (the default job, the paper's figures) is valid.
