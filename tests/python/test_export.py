@@ -1,11 +1,8 @@
 """`loosepack export`: the XDMF files opened by ParaView's own reader and the extended XYZ read
 back by ASE, each compared with the disks, contacts and trajectories of the result file."""
 
-import os
 import re
-import shutil
 import subprocess
-import sys
 
 import h5py
 import numpy as np
@@ -74,25 +71,6 @@ def test_a_later_export_leaves_the_earlier_files_whole(exported, tmp_path):
     with h5py.File(side, "r") as h:
         for ref in refs:
             assert ref in h
-
-
-def test_render_deposit_draws_a_snapshot_under_xvfb(exported, tmp_path):
-    """tools/render_deposit.py as the README runs it (xvfb-run with a 24-bit screen)."""
-    pytest.importorskip("paraview.simple",
-                        reason="python3-paraview is not installed (scripts/install-deps.sh --test)")
-    if shutil.which("xvfb-run") is None:
-        pytest.skip("xvfb-run is not installed (scripts/install-deps.sh --test)")
-    res, _ = exported
-    out = tmp_path / "deposit.h5"
-    out.write_bytes(open(res.path, "rb").read())
-    png = tmp_path / "deposit.png"
-    script = os.path.join(os.path.dirname(__file__), "..", "..", "tools", "render_deposit.py")
-    done = subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 1280x1024x24", sys.executable,
-                           script, str(out), str(png), "--point", "0", "--seed", "1"],
-                          capture_output=True, text=True,
-                          env=dict(os.environ, LOOSEPACK=loosepack.find_program()))
-    assert done.returncode == 0, done.stderr[-2000:]
-    assert png.stat().st_size > 10000
 
 
 def test_a_selection_the_file_lacks_is_refused_with_its_range(exported):
