@@ -70,7 +70,7 @@ Template& make_template() {
     loosepack::RunInfo info;
     info.shard = 0;
     info.shards = 1;
-    loosepack::write_member_results(t.path, scan, info, results, true, false);
+    loosepack::write_member_results(t.path, scan, info, results, true);
     hid_t f = H5Fopen(t.path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     H5Ovisit(f, H5_INDEX_NAME, H5_ITER_INC, collect, &t);
     H5Fclose(f);

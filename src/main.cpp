@@ -595,9 +595,7 @@ int RunCommand::write() {
   const int failed = report_failures(results, o.scan_path);
   try {
     inject_write_failure();
-    // Only the points of the members at hand in a file of one member, a shard or those finished.
-    write_member_results(o.out_path, scan, info, results, o.snapshots,
-                         o.member >= 0 || o.finished_only || info.shards > 0);
+    write_member_results(o.out_path, scan, info, results, o.snapshots);
   } catch (const std::exception& e) {
     say(std::string(e.what()) + "; the results are kept in " + ck_dir +
         ": once the cause is fixed, write the file with: " + this_run() + " --resume");
@@ -876,7 +874,7 @@ int merge_command(const MergeOptions& m) {
   }
   const int failed = report_failures(merged.members, merged.scan.file);
   try {
-    write_member_results(m.out_path, merged.scan, merged.info, merged.members, m.snapshots, true);
+    write_member_results(m.out_path, merged.scan, merged.info, merged.members, m.snapshots);
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return kError;

@@ -532,11 +532,9 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
 }
 
 void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
-                          const std::vector<MemberResult>& members, bool snapshots,
-                          bool present_points_only) {
+                          const std::vector<MemberResult>& members, bool snapshots) {
   auto points = aggregate(scan, members);
-  if (present_points_only)
-    points.erase(std::remove_if(points.begin(), points.end(),
+  points.erase(std::remove_if(points.begin(), points.end(),
                                 [](const PointResult& p) { return p.members == 0; }),
                  points.end());
   write_results(path, scan, info, points, analyse(scan, points), members, snapshots);

@@ -29,12 +29,11 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
                    const std::vector<MemberResult>& members, bool snapshots);
 
 // The one way from members to a result file: aggregates `members` (in member order), analyses
-// the points and writes `path` (write_results). With `present_points_only` the points that no
-// member of `members` belongs to are left out (a file of one member, of a shard, or of the
-// members finished so far).
+// the points and writes `path` (write_results). The points that no member of `members` belongs
+// to are left out (a file of one member, of a shard, or of the members finished so far; a run of
+// the whole scan has every point's members, failed ones included).
 void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
-                          const std::vector<MemberResult>& members, bool snapshots,
-                          bool present_points_only);
+                          const std::vector<MemberResult>& members, bool snapshots);
 
 // What `loosepack merge` reads of a shard's file: the scan file's text and name, the run's
 // provenance and its members' bytes (a checkpoint part). Throws std::runtime_error naming the
