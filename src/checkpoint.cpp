@@ -337,6 +337,23 @@ std::string checkpoint_directory(const std::string& output_path) {
   return output_path + ".checkpoint";
 }
 
+void write_checkpoint_selection(const std::string& directory, const std::string& selection) {
+  replace_file(directory + "/selection", [&](const std::string& tmp) {
+    std::ofstream f(tmp, std::ios::trunc);
+    f << selection << "\n";
+    f.flush();
+    if (!f) throw std::runtime_error("cannot write " + tmp);
+  });
+}
+
+std::optional<std::string> read_checkpoint_selection(const std::string& directory) {
+  std::ifstream f(directory + "/selection");
+  if (!f) return std::nullopt;
+  std::string line;
+  std::getline(f, line);
+  return line;
+}
+
 std::string checkpoint_part(const std::string& directory, int generation, int rank, int finished) {
   return directory + "/part-" + std::to_string(generation) + "-" + std::to_string(rank) +
          (finished > 0 ? "-" + std::to_string(finished) : std::string()) + ".bin";

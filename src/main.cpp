@@ -163,9 +163,15 @@ class RunCommand {
   }
   // The command of this run, with the members it selects, for the messages on how to go on.
   std::string this_run() const {
+    const std::string flags = selection();
     return "loosepack run " + o.scan_path + " -o " + o.out_path +
-           (o.member >= 0 ? " --member " + std::to_string(o.member) : "") +
-           (o.shard.empty() ? "" : " --shard " + o.shard);
+           (flags.empty() ? "" : " " + flags);
+  }
+  // The options that select this run's members (--member, --shard), or "" for the whole scan.
+  std::string selection() const {
+    if (o.member >= 0) return "--member " + std::to_string(o.member);
+    if (info.shards == 0) return "";
+    return "--shard " + std::to_string(info.shard) + "/" + std::to_string(info.shards);
   }
 
   const RunOptions& o;
@@ -182,6 +188,7 @@ class RunCommand {
   std::vector<double> shard_cost;  // expected cost of each rank's share
   std::string ck_dir, part;
   std::uint64_t fingerprint = 0;  // of the scan, in every checkpoint part (computed once)
+  bool selection_written = false;  // the checkpoint's `selection` file (rank 0)
   CheckpointContents ck;
   // This rank's members finished since the last checkpoint, the finished parts written so far,
   // and the latest snapshot of each of its running members.
@@ -302,6 +309,13 @@ int RunCommand::read_checkpoint() {
     return kInvalid;
   }
   ranks.barrier();
+  if (const auto wrote = read_checkpoint_selection(ck_dir); wrote && *wrote != selection()) {
+    say(ck_dir + " was written by a run of " +
+        (wrote->empty() ? std::string("the whole scan") : *wrote) + ", this one selects " +
+        (selection().empty() ? std::string("the whole scan") : selection()) +
+        ": resume with the options that wrote it");
+    return kInvalid;
+  }
   std::set<std::uint64_t> selected;
   for (const auto& m : members) selected.insert(m.id);
   // A checkpoint of another selection (another --shard or --member, or none): going on would
@@ -364,6 +378,10 @@ void RunCommand::announce() const {
 void RunCommand::save_checkpoint() {
   if (fresh.empty() && running.empty()) return;
   std::filesystem::create_directories(ck_dir);
+  if (ranks.root() && !selection_written) {
+    write_checkpoint_selection(ck_dir, selection());
+    selection_written = true;
+  }
   if (!fresh.empty()) {
     const int generation = ck.generation + 1;
     write_checkpoint_part(checkpoint_part(ck_dir, generation, ranks.rank(), ++finished_parts),

@@ -80,10 +80,22 @@ expect_rc 1 wf.log env LOOSEPACK_INJECT_NAN=1 LOOSEPACK_INJECT_WRITE_FAILURE=1 \
   "$exe" run s.toml --shard 2/3 -o wf.h5
 grep -q "write the file with: loosepack run s.toml -o wf.h5 --shard 2/3 --resume" wf.log ||
   fail "the hint after a failed write: $(cat wf.log)"
-# Its checkpoint is refused to a resume of another shard (which would drop its members), and kept.
+# Its checkpoint is refused to a resume of another shard (which would drop its members) and to
+# one of the whole scan (which would compute every member into the shard's file), and kept.
 expect_rc 2 other.log "$exe" run s.toml -o wf.h5 --shard 1/3 --resume
-grep -q "wf.h5.checkpoint holds members this run does not select" other.log ||
-  fail "resume with another shard: $(cat other.log)"
+grep -q "wf.h5.checkpoint was written by a run of --shard 2/3, this one selects --shard 1/3" \
+  other.log || fail "resume with another shard: $(cat other.log)"
+expect_rc 2 all.log "$exe" run s.toml -o wf.h5 --resume
+grep -q "written by a run of --shard 2/3, this one selects the whole scan" all.log ||
+  fail "resume of the whole scan: $(cat all.log)"
+[ "$(cat wf.h5.checkpoint/selection)" = "--shard 2/3" ] ||
+  fail "the checkpoint's selection: $(cat wf.h5.checkpoint/selection)"
+# A checkpoint without that file (an earlier version's) is checked by the members it holds.
+mv wf.h5.checkpoint/selection selection.kept
+expect_rc 2 old.log "$exe" run s.toml -o wf.h5 --shard 1/3 --resume
+grep -q "wf.h5.checkpoint holds members this run does not select" old.log ||
+  fail "resume of a checkpoint without its selection: $(cat old.log)"
+mv selection.kept wf.h5.checkpoint/selection
 "$exe" run s.toml -o wf.h5 --shard 2/3 --resume -q 2>/dev/null || true
 expect_rc 3 wfmerge.log "$exe" merge p0.h5 p1.h5 wf.h5 -o wfmerged.h5 --snapshots
 same whole.h5 wfmerged.h5

@@ -3,6 +3,7 @@
 // encoding (layout in docs/OUTPUT.md).
 #pragma once
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -37,6 +38,12 @@ std::vector<MemberResult> decode_members(const std::string& bytes, const Scan& s
 // resumed run reads every part and writes new ones under the next generation, so no part is
 // ever rewritten by another run.
 std::string checkpoint_directory(const std::string& output_path);
+// The members the run that writes a checkpoint selects, as its command line names them
+// (`--member N`, `--shard K/N`, or empty for the whole scan), in `<directory>/selection`: a
+// resume must select the same. Reading a checkpoint without that file (one of an earlier
+// version) gives std::nullopt.
+void write_checkpoint_selection(const std::string& directory, const std::string& selection);
+std::optional<std::string> read_checkpoint_selection(const std::string& directory);
 std::string checkpoint_part(const std::string& directory, int generation, int rank,
                             int finished = 0);
 
