@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -81,6 +82,27 @@ std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
     }
   }
   return out;
+}
+
+// A selection with nothing to export: when the file holds snapshots or trajectories of other
+// members (a file of some members, a seed that failed without a snapshot), std::invalid_argument
+// naming them; else std::runtime_error saying how to record some.
+[[noreturn]] void refuse_empty_selection(hid_t file, const std::string& path,
+                                         const ExportSelection& selection) {
+  std::set<std::pair<std::string, int>> held;
+  for (const auto& m : members_in(file, ExportSelection{})) held.insert({m.point, m.seed});
+  if (!held.empty()) {
+    constexpr std::size_t kNamed = 8;
+    std::string named;
+    std::size_t n = 0;
+    for (auto it = held.begin(); it != held.end() && n < kNamed; ++it, ++n)
+      named += (n > 0 ? ", " : "") + it->first + " seed " + std::to_string(it->second);
+    if (held.size() > kNamed) named += " and " + std::to_string(held.size() - kNamed) + " more";
+    throw std::invalid_argument(path + " holds no snapshot or trajectory of that selection; it " +
+                                "holds those of point " + named);
+  }
+  throw std::runtime_error(path + " holds no snapshot, failure snapshot or trajectory: run with " +
+                           "--snapshots or observables.trajectory_every");
 }
 
 std::size_t length(hid_t file, const std::string& name) {
@@ -287,11 +309,7 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
   check_selection(file, path, selection);
   const std::vector<MemberData> members = members_in(file, selection);
-  if (members.empty())
-    throw std::runtime_error(path + " holds no snapshot, failure snapshot or trajectory" +
-                             (selection.point >= 0 || selection.seed >= 0 ? " of that selection"
-                                                                          : "") +
-                             ": run with --snapshots or observables.trajectory_every");
+  if (members.empty()) refuse_empty_selection(file, path, selection);
   const fs::path p(path);
   const std::string base = (p.parent_path() / p.stem()).string();
   const std::string h5 = p.filename().string();  // the viewer files lie next to it

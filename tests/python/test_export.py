@@ -84,6 +84,21 @@ def test_a_selection_the_file_lacks_is_refused_with_its_range(exported):
         assert message in done.stderr
 
 
+def test_a_seed_a_file_of_some_members_lacks_is_refused_with_what_it_holds(tmp_path):
+    """A file of some members (here `--member 1`: seed 1 of point 0) has seed 0 in its scan's
+    range but no snapshot of it: refused as a selection (exit 2), naming the snapshots it has."""
+    out = tmp_path / "one.h5"
+    loosepack.run(SCAN, out, progress=False, args=["--snapshots", "--member", "1"])
+    exe = loosepack.find_program()
+    done = subprocess.run([exe, "export", str(out), "--seed", "0"], capture_output=True,
+                          text=True)
+    assert done.returncode == 2
+    assert "holds those of point 0000 seed 1" in done.stderr
+    done = subprocess.run([exe, "export", str(out), "--seed", "1"], capture_output=True,
+                          text=True, check=True)
+    assert any(f.endswith("_p0000_s1.xmf") for f in done.stdout.split())
+
+
 def test_paraview_reads_disks_contacts_and_forces(exported):
     pv = pytest.importorskip("paraview.simple",
                              reason="python3-paraview is not installed (scripts/install-deps.sh --test)")
