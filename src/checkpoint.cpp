@@ -314,7 +314,7 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
 std::uint64_t scan_fingerprint(const Scan& scan) {
   const std::string program = std::string(LOOSEPACK_VERSION) + " " + LOOSEPACK_GIT_COMMIT + " " +
                               Kokkos::DefaultExecutionSpace::name();
-  return fnv1a(scan.text.data(), scan.text.size(), fnv1a(program.data(), program.size()));
+  return fnv1a(scan.content.data(), scan.content.size(), fnv1a(program.data(), program.size()));
 }
 
 std::string encode_members(const std::vector<MemberResult>& results) {

@@ -481,6 +481,9 @@ Scan ScanParser::parse() {
       << e.description();
     throw ScanError(o.str());
   }
+  std::ostringstream content;
+  content << root;
+  scan.content = content.str();
   if (root.empty())
     throw ScanError(file +
                     ": the scan file sets nothing; every default together is a 200 R x 150 R "

@@ -61,6 +61,14 @@ MergedShards read_shards(const std::vector<std::string>& paths) {
   }
   if (files.empty()) throw ShardError("no shard files to merge");
   const ShardFile& first = files.front();
+  // A shard's scan settings (Scan::content), which an edit of the scan file's comments leaves.
+  const auto content_of = [](const ShardFile& f) {
+    try {
+      return parse_scan(f.scan_text, f.scan_file).content;
+    } catch (const ScanError& e) {
+      throw ShardError(f.path + ": its scan text: " + e.what());
+    }
+  };
   MergedShards out;
   try {
     out.scan = parse_scan(first.scan_text, first.scan_file);
@@ -81,9 +89,9 @@ MergedShards read_shards(const std::vector<std::string>& paths) {
   const std::uint64_t fingerprint = scan_fingerprint(out.scan);
   std::map<int, std::string> given;  // shard -> its file
   for (const auto& f : files) {
-    if (f.scan_text != first.scan_text)
-      throw ShardError(f.path + " is a shard of another scan file than " + first.path +
-                       " (their scan_text differs)");
+    if (f.scan_text != first.scan_text && content_of(f) != out.scan.content)
+      throw ShardError(f.path + " is a shard of another scan than " + first.path +
+                       " (the settings of their scan_text differ)");
     if (f.info.shards != n || f.info.shard < 0 || f.info.shard >= n)
       throw ShardError(f.path + " is shard " + std::to_string(f.info.shard) + "/" +
                        std::to_string(f.info.shards) + ", " + first.path + " one of " +

@@ -84,11 +84,16 @@ PY
 msg=$("$exe" run s.toml -o t.h5 --resume 2>&1) &&
   fail "the partial file was replaced without --force"
 echo "$msg" | grep -q "add --force" || fail "message: $msg"
-# A checkpoint of another scan file is refused, and so is a corrupt one.
+# A checkpoint of another scan is refused (a setting edited), and so is a corrupt one; an edit of
+# the scan file's comments and layout leaves its checkpoint usable.
 cp s.toml edited.toml
 sed -i 's/seeds = 4/seeds = 4 # edited/' edited.toml
 cp -r t.h5.checkpoint e.h5.checkpoint
-msg=$("$exe" run edited.toml -o e.h5 --resume 2>&1) && fail "a checkpoint of another scan was used"
+"$exe" run edited.toml -o e.h5 --resume --force -q || fail "a comment made the checkpoint unusable"
+same full.h5 e.h5 --except scan_text --except scan_file
+sed -i 's/seeds = 4 # edited/seeds = 5/' edited.toml
+cp -r t.h5.checkpoint e5.h5.checkpoint
+msg=$("$exe" run edited.toml -o e5.h5 --resume 2>&1) && fail "a checkpoint of another scan was used"
 echo "$msg" | grep -q "belongs to another scan file" || fail "message: $msg"
 cp -r t.h5.checkpoint c.h5.checkpoint
 part=$(ls c.h5.checkpoint/*.bin | head -1)

@@ -125,8 +125,17 @@ refused "half1.h5 is shard 1/2, p0.h5 one of 3: merge the shards of one split" \
 refused "whole.h5: not a shard's file" "$exe" merge p0.h5 whole.h5 -o bad.h5
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > other.toml
 "$exe" run other.toml --shard 1/3 -o other1.h5 -q 2>/dev/null || true
-refused "other1.h5 is a shard of another scan file than p0.h5" \
+refused "other1.h5 is a shard of another scan than p0.h5" \
   "$exe" merge p0.h5 other1.h5 -o bad.h5
+# A shard of the scan file with a comment added and its keys in another layout is of the same
+# scan: it merges, and the merged file is the whole run's (whose scan text is the first shard's).
+sed -e 's/^name = "mixed"$/name="mixed"  # a comment/' s.toml > commented.toml
+cmp -s s.toml commented.toml && fail "the commented scan file is the same file"
+set +e
+LOOSEPACK_INJECT_NAN=1 "$exe" run commented.toml --shard 1/3 -o c1.h5 -q 2>/dev/null
+set -e
+expect_rc 3 cmerge.log "$exe" merge p0.h5 c1.h5 p2.h5 -o cmerged.h5 --snapshots
+same whole.h5 cmerged.h5
 cp p1.h5 damaged.h5
 /usr/bin/python3 -c "import h5py, sys
 with h5py.File(sys.argv[1], 'r+') as f:

@@ -19,8 +19,9 @@ class CheckpointError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Identifies what a checkpoint belongs to: the scan file's text and the program (version,
-// commit and Kokkos backend), since another build may give other bits.
+// Identifies what a checkpoint belongs to: the scan file's settings (Scan::content: an edit of
+// its comments or layout leaves them) and the program (version, commit and Kokkos backend),
+// since another build may give other bits.
 std::uint64_t scan_fingerprint(const Scan& scan);
 
 // Member results as bytes and back. Doubles travel bit for bit. Decoding takes each member's
