@@ -337,21 +337,38 @@ std::string checkpoint_directory(const std::string& output_path) {
   return output_path + ".checkpoint";
 }
 
+namespace {
+// How the `selection` file names a run of the whole scan (an empty file is a damaged one).
+constexpr const char* kWholeScan = "the whole scan";
+}  // namespace
+
 void write_checkpoint_selection(const std::string& directory, const std::string& selection) {
   replace_file(directory + "/selection", [&](const std::string& tmp) {
     std::ofstream f(tmp, std::ios::trunc);
-    f << selection << "\n";
+    f << (selection.empty() ? kWholeScan : selection) << "\n";
     f.flush();
     if (!f) throw std::runtime_error("cannot write " + tmp);
   });
 }
 
 std::optional<std::string> read_checkpoint_selection(const std::string& directory) {
-  std::ifstream f(directory + "/selection");
-  if (!f) return std::nullopt;
+  const std::string path = directory + "/selection";
+  std::error_code ec;
+  if (!fs::exists(path, ec) && !ec) return std::nullopt;
+  std::ifstream f(path);
   std::string line;
-  std::getline(f, line);
-  return line;
+  const bool read = static_cast<bool>(std::getline(f, line));
+  unsigned long a = 0, b = 0;
+  char end = 0;
+  const bool known = line == kWholeScan ||
+                     std::sscanf(line.c_str(), "--member %lu%c", &a, &end) == 1 ||
+                     std::sscanf(line.c_str(), "--shard %lu/%lu%c", &a, &b, &end) == 2;
+  if (!read || !known)
+    throw CheckpointError(path + " (the --member or --shard of the run that wrote " + directory +
+                          ") cannot be read or is damaged: write that option into it (\"" +
+                          kWholeScan + "\" for none), or delete " + directory +
+                          " to start the run again");
+  return line == kWholeScan ? std::string() : line;
 }
 
 std::string checkpoint_part(const std::string& directory, int generation, int rank, int finished) {
@@ -410,7 +427,8 @@ CheckpointPart decode_checkpoint_part(const std::string& bytes, const std::vecto
     throw CheckpointError(what + " was written on a machine of another byte order");
   if (in.get<std::uint64_t>() != fingerprint)
     throw CheckpointError(
-        what + " belongs to another scan file or another loosepack build: " + remedy.other_build);
+        what +
+        " belongs to a scan of other settings or another loosepack build: " + remedy.other_build);
   CheckpointPart part;
   part.finished = decode_from(in, members);
   const auto n_running = in.get<std::uint64_t>();
@@ -434,8 +452,9 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   std::sort(files.begin(), files.end());
   const PartRemedies remedy{
       "delete " + directory + " to start the run again",
-      "the scan was edited, or the program rebuilt, since: restore them, or delete " + directory +
-          " to start the run again"};
+      "a setting of the scan file was changed, or the program rebuilt, since: restore them, or "
+      "delete " +
+          directory + " to start the run again"};
   const auto members = members_of(scan);
   const std::uint64_t fingerprint = scan_fingerprint(scan);
   std::map<std::uint64_t, MemberResult> finished;

@@ -90,19 +90,26 @@ std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
 [[noreturn]] void refuse_empty_selection(hid_t file, const std::string& path,
                                          const ExportSelection& selection) {
   std::set<std::pair<std::string, int>> held;
-  for (const auto& m : members_in(file, ExportSelection{})) held.insert({m.point, m.seed});
-  if (!held.empty()) {
-    constexpr std::size_t kNamed = 8;
-    std::string named;
-    std::size_t n = 0;
-    for (auto it = held.begin(); it != held.end() && n < kNamed; ++it, ++n)
-      named += (n > 0 ? ", " : "") + it->first + " seed " + std::to_string(it->second);
-    if (held.size() > kNamed) named += " and " + std::to_string(held.size() - kNamed) + " more";
-    throw std::invalid_argument(path + " holds no snapshot or trajectory of that selection; it " +
-                                "holds those of point " + named);
+  bool final_snapshots = false;  // not only failures' snapshots
+  for (const auto& m : members_in(file, ExportSelection{})) {
+    held.insert({m.point, m.seed});
+    final_snapshots = final_snapshots || m.kind == "snapshot";
   }
-  throw std::runtime_error(path + " holds no snapshot, failure snapshot or trajectory: run with " +
-                           "--snapshots or observables.trajectory_every");
+  const std::string how = "run with --snapshots or observables.trajectory_every";
+  if (held.empty())
+    throw std::runtime_error(path + " holds no snapshot, failure snapshot or trajectory: " + how);
+  constexpr std::size_t kNamed = 8;
+  std::string named;
+  std::size_t n = 0;
+  for (auto it = held.begin(); it != held.end() && n < kNamed; ++it, ++n)
+    named += (n > 0 ? ", point " : "point ") + it->first + " seed " + std::to_string(it->second);
+  if (held.size() > kNamed) named += " and " + std::to_string(held.size() - kNamed) + " more";
+  std::string asked = selection.point >= 0 ? "--point " + std::to_string(selection.point) : "";
+  if (selection.seed >= 0)
+    asked += (asked.empty() ? "--seed " : " --seed ") + std::to_string(selection.seed);
+  throw std::invalid_argument(asked + ": " + path + " holds no snapshot or trajectory of it, " +
+                              "only those of " + named +
+                              (final_snapshots ? "" : " (" + how + " for every member's)"));
 }
 
 std::size_t length(hid_t file, const std::string& name) {

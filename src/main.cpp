@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -144,6 +145,7 @@ class RunCommand {
  private:
   int load();
   int select_members();
+  int other_selection() const;
   int dry_run() const;
   int claim_output();
   int read_checkpoint();
@@ -167,7 +169,8 @@ class RunCommand {
     return "loosepack run " + o.scan_path + " -o " + o.out_path +
            (flags.empty() ? "" : " " + flags);
   }
-  // The options that select this run's members (--member, --shard), or "" for the whole scan.
+  // The options that select this run's members (--member, --shard, K/N as parsed), or "" for
+  // the whole scan.
   std::string selection() const {
     if (o.member >= 0) return "--member " + std::to_string(o.member);
     if (info.shards == 0) return "";
@@ -188,7 +191,7 @@ class RunCommand {
   std::vector<double> shard_cost;  // expected cost of each rank's share
   std::string ck_dir, part;
   std::uint64_t fingerprint = 0;  // of the scan, in every checkpoint part (computed once)
-  bool selection_written = false;  // the checkpoint's `selection` file (rank 0)
+  bool selection_written = false;  // the checkpoint's `selection` file, by this rank
   CheckpointContents ck;
   // This rank's members finished since the last checkpoint, the finished parts written so far,
   // and the latest snapshot of each of its running members.
@@ -288,6 +291,26 @@ int RunCommand::claim_output() {
   return ranks.broadcast(why.empty() ? 0 : 1);
 }
 
+// Rank 0: 1 (said why) when the checkpoint records another selection of members than this
+// run's, or a damaged record of it; 0 when it records this run's or none (a checkpoint of a
+// build that wrote no record: its members are checked instead, in read_checkpoint).
+int RunCommand::other_selection() const {
+  std::optional<std::string> wrote;
+  try {
+    wrote = read_checkpoint_selection(ck_dir);
+  } catch (const CheckpointError& e) {
+    say(e.what());
+    return 1;
+  }
+  if (!wrote || *wrote == selection()) return 0;
+  const auto named = [](const std::string& s) {
+    return s.empty() ? std::string("the whole scan") : s;
+  };
+  say(ck_dir + " was written by a run of " + named(*wrote) + ", this one selects " +
+      named(selection()) + ": resume with the options that wrote it");
+  return 1;
+}
+
 // The finished members of an interrupted run and the snapshots of its running ones, read by
 // every rank before any rank writes a part of its own; what is left to compute.
 int RunCommand::read_checkpoint() {
@@ -302,6 +325,7 @@ int RunCommand::read_checkpoint() {
     say("--resume: no checkpoint " + ck_dir + " (written next to the output file given by -o)");
     return kInvalid;
   }
+  if (ranks.broadcast(ranks.root() ? other_selection() : 0) != 0) return kInvalid;
   try {
     ck = loosepack::read_checkpoint(ck_dir, scan);
   } catch (const CheckpointError& e) {
@@ -309,13 +333,6 @@ int RunCommand::read_checkpoint() {
     return kInvalid;
   }
   ranks.barrier();
-  if (const auto wrote = read_checkpoint_selection(ck_dir); wrote && *wrote != selection()) {
-    say(ck_dir + " was written by a run of " +
-        (wrote->empty() ? std::string("the whole scan") : *wrote) + ", this one selects " +
-        (selection().empty() ? std::string("the whole scan") : selection()) +
-        ": resume with the options that wrote it");
-    return kInvalid;
-  }
   std::set<std::uint64_t> selected;
   for (const auto& m : members) selected.insert(m.id);
   // A checkpoint of another selection (another --shard or --member, or none): going on would
@@ -360,7 +377,8 @@ void RunCommand::announce() const {
   std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
             << scan.seeds << " seeds = " << all_members.size() << " members";
   if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
-  if (info.shards > 0) std::cerr << " (shard " << o.shard << ": " << members.size() << " of them)";
+  if (info.shards > 0)
+    std::cerr << " (" << selection().substr(2) << ": " << members.size() << " of them)";
   std::cerr << ", batches of " << scan.batch_size << " on " << Kokkos::DefaultExecutionSpace::name()
             << ", solver " << solver_kind_name(scan.solver.kind);
   if (scan.solver.sweeps_per_launch > 0)
@@ -378,7 +396,7 @@ void RunCommand::announce() const {
 void RunCommand::save_checkpoint() {
   if (fresh.empty() && running.empty()) return;
   std::filesystem::create_directories(ck_dir);
-  if (ranks.root() && !selection_written) {
+  if (!selection_written) {  // by every rank, before its first part: no part lies there without it
     write_checkpoint_selection(ck_dir, selection());
     selection_written = true;
   }
@@ -644,7 +662,7 @@ int RunCommand::dry_run() const {
   std::string selected;
   if (o.member >= 0) selected = " (one member selected)";
   if (info.shards > 0)
-    selected = " (shard " + o.shard + ": " + std::to_string(members.size()) + " of them)";
+    selected = " (" + selection().substr(2) + ": " + std::to_string(members.size()) + " of them)";
   std::printf("# scan '%s': %zu points x %d seeds = %zu members%s\n", scan.name.c_str(),
               scan.points.size(), scan.seeds, all_members.size(), selected.c_str());
   std::printf("%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",

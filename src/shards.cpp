@@ -60,6 +60,10 @@ MergedShards read_shards(const std::vector<std::string>& paths) {
     }
   }
   if (files.empty()) throw ShardError("no shard files to merge");
+  // The lowest shard's scan text is the merged file's, in whatever order the files are given.
+  std::stable_sort(files.begin(), files.end(), [](const ShardFile& a, const ShardFile& b) {
+    return a.info.shard < b.info.shard;
+  });
   const ShardFile& first = files.front();
   // A shard's scan settings (Scan::content), which an edit of the scan file's comments leaves.
   const auto content_of = [](const ShardFile& f) {

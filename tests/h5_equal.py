@@ -35,7 +35,7 @@ def main():
     args = sys.argv[1:]
     skip = [args[k + 1] for k in range(len(args) - 1) if args[k] == "--except"]
     files = [a for k, a in enumerate(args) if a != "--except" and (k == 0 or args[k - 1] != "--except")]
-    if len(files) != 2:
+    if len(files) != 2 or (args and args[-1] == "--except"):
         print("usage: h5_equal.py A.h5 B.h5 [--except NAME]...", file=sys.stderr)
         return 2
     a, b = items(files[0], skip), items(files[1], skip)

@@ -89,12 +89,14 @@ echo "$msg" | grep -q "add --force" || fail "message: $msg"
 cp s.toml edited.toml
 sed -i 's/seeds = 4/seeds = 4 # edited/' edited.toml
 cp -r t.h5.checkpoint e.h5.checkpoint
-"$exe" run edited.toml -o e.h5 --resume --force -q || fail "a comment made the checkpoint unusable"
+"$exe" run edited.toml -o e.h5 --resume 2>e.log || fail "a comment made the checkpoint unusable"
+grep -q "resuming from e.h5.checkpoint: [1-9][0-9]* of 8 members finished" e.log ||
+  fail "the commented scan's resume: $(cat e.log)"
 same full.h5 e.h5 --except scan_text --except scan_file
 sed -i 's/seeds = 4 # edited/seeds = 5/' edited.toml
 cp -r t.h5.checkpoint e5.h5.checkpoint
 msg=$("$exe" run edited.toml -o e5.h5 --resume 2>&1) && fail "a checkpoint of another scan was used"
-echo "$msg" | grep -q "belongs to another scan file" || fail "message: $msg"
+echo "$msg" | grep -q "belongs to a scan of other settings" || fail "message: $msg"
 cp -r t.h5.checkpoint c.h5.checkpoint
 part=$(ls c.h5.checkpoint/*.bin | head -1)
 truncate -s -9 "$part"

@@ -90,8 +90,14 @@ grep -q "written by a run of --shard 2/3, this one selects the whole scan" all.l
   fail "resume of the whole scan: $(cat all.log)"
 [ "$(cat wf.h5.checkpoint/selection)" = "--shard 2/3" ] ||
   fail "the checkpoint's selection: $(cat wf.h5.checkpoint/selection)"
-# A checkpoint without that file (an earlier version's) is checked by the members it holds.
+# A record that names no selection (an empty file) is refused, saying what to do.
 mv wf.h5.checkpoint/selection selection.kept
+: > wf.h5.checkpoint/selection
+expect_rc 2 empty.log "$exe" run s.toml -o wf.h5 --shard 2/3 --resume
+grep -q "selection (the --member or --shard of the run that wrote .*) cannot be read or is damaged" \
+  empty.log || fail "an empty selection file: $(cat empty.log)"
+# A checkpoint without that file (a build's that wrote none) is checked by the members it holds.
+rm wf.h5.checkpoint/selection
 expect_rc 2 old.log "$exe" run s.toml -o wf.h5 --shard 1/3 --resume
 grep -q "wf.h5.checkpoint holds members this run does not select" old.log ||
   fail "resume of a checkpoint without its selection: $(cat old.log)"
@@ -127,14 +133,17 @@ sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > other.toml
 "$exe" run other.toml --shard 1/3 -o other1.h5 -q 2>/dev/null || true
 refused "other1.h5 is a shard of another scan than p0.h5" \
   "$exe" merge p0.h5 other1.h5 -o bad.h5
-# A shard of the scan file with a comment added and its keys in another layout is of the same
-# scan: it merges, and the merged file is the whole run's (whose scan text is the first shard's).
-sed -e 's/^name = "mixed"$/name="mixed"  # a comment/' s.toml > commented.toml
-cmp -s s.toml commented.toml && fail "the commented scan file is the same file"
+# A shard of the scan file with a comment added, other spacing and the keys of [scan] in another
+# order is of the same scan: it merges, and the merged file, given in any order, is the whole
+# run's (whose scan text is that of shard 0).
+sed -e '/^name = "mixed"$/d' -e 's/^seeds = 3$/seeds=3  # a comment\nname = "mixed"/' s.toml \
+  > commented.toml
+[ "$(sed -n 2,3p commented.toml)" = "$(printf 'seeds=3  # a comment\nname = "mixed"')" ] ||
+  fail "the reordered scan file: $(head -4 commented.toml)"
 set +e
 LOOSEPACK_INJECT_NAN=1 "$exe" run commented.toml --shard 1/3 -o c1.h5 -q 2>/dev/null
 set -e
-expect_rc 3 cmerge.log "$exe" merge p0.h5 c1.h5 p2.h5 -o cmerged.h5 --snapshots
+expect_rc 3 cmerge.log "$exe" merge c1.h5 p2.h5 p0.h5 -o cmerged.h5 --snapshots
 same whole.h5 cmerged.h5
 cp p1.h5 damaged.h5
 /usr/bin/python3 -c "import h5py, sys

@@ -37,6 +37,30 @@ friction = [0.3, 0.5]
   EXPECT_EQ(scan.points[12].protocol, Protocol::C);
 }
 
+// Scan::content, what checkpoints and merges identify a scan by: the same settings written with
+// comments, other spacing and keys in another order give the same content, which parses to
+// itself; any value that differs, in type (12, 12.0) or in its last bit, gives another.
+TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayout) {
+  const std::string text =
+      "[scan]\nseeds = 2\nprotocol = \"A\"\n[system]\nwidth = 12\nfriction = 0.1\n"
+      "bond_number = [10, 100]\n";
+  const Scan scan = parse_scan(text, "a.toml");
+  const Scan same = parse_scan(
+      "# the same settings\n[system]\nbond_number=[ 10,100 ]  # Bo\nfriction = 0.1\n\nwidth = 12\n"
+      "[scan]\nprotocol = 'A'\nseeds = 2\n",
+      "b.toml");
+  EXPECT_EQ(same.content, scan.content);
+  EXPECT_EQ(parse_scan(scan.content, "c.toml").content, scan.content);
+  const auto with = [&](const std::string& from, const std::string& to) {
+    std::string t = text;
+    t.replace(t.find(from), from.size(), to);
+    return parse_scan(t, "d.toml").content;
+  };
+  EXPECT_NE(with("width = 12", "width = 12.0"), scan.content);
+  EXPECT_NE(with("friction = 0.1", "friction = 0.10000000000000002"), scan.content);
+  EXPECT_NE(with("[10, 100]", "[100, 10]"), scan.content);
+}
+
 // A logarithmic range holds its decades exactly (each 10^k, so a point compares equal to the
 // number a user writes), with `also` values merged in ascending order and infinity last; values
 // between decades are spaced evenly in log10.

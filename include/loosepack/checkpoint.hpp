@@ -40,9 +40,10 @@ std::vector<MemberResult> decode_members(const std::string& bytes, const Scan& s
 // ever rewritten by another run.
 std::string checkpoint_directory(const std::string& output_path);
 // The members the run that writes a checkpoint selects, as its command line names them
-// (`--member N`, `--shard K/N`, or empty for the whole scan), in `<directory>/selection`: a
-// resume must select the same. Reading a checkpoint without that file (one of an earlier
-// version) gives std::nullopt.
+// (`--member N`, `--shard K/N`, or empty for the whole scan), in `<directory>/selection`,
+// written by each rank before its first part: a resume must select the same. Reading gives
+// std::nullopt where the file does not exist (a checkpoint of a build that wrote none) and
+// throws CheckpointError where it cannot be read or names no selection.
 void write_checkpoint_selection(const std::string& directory, const std::string& selection);
 std::optional<std::string> read_checkpoint_selection(const std::string& directory);
 std::string checkpoint_part(const std::string& directory, int generation, int rank,

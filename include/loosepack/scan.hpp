@@ -104,8 +104,9 @@ struct ScanPoint {
 struct Scan {
   std::string file;  // path as given
   std::string text;  // the whole scan file
-  // Its settings as parsed, without comments or layout (keys sorted, numbers as values): what
-  // identifies the scan to a checkpoint and to a merge of shards.
+  // Its settings as parsed and written out again by toml++ (keys sorted; no comments, blank
+  // lines or spacing; 12 and 12.0 differ): what identifies the scan to a checkpoint and to a
+  // merge of shards.
   std::string content;
   std::string name = "scan";
   std::uint64_t seed = 1;
