@@ -173,8 +173,11 @@ class RunCommand {
   // the whole scan.
   std::string selection() const {
     if (o.member >= 0) return "--member " + std::to_string(o.member);
-    if (info.shards == 0) return "";
-    return "--shard " + std::to_string(info.shard) + "/" + std::to_string(info.shards);
+    return info.shards == 0 ? "" : "--" + shard_name();
+  }
+  // "shard K/N" of a run of one shard.
+  std::string shard_name() const {
+    return "shard " + std::to_string(info.shard) + "/" + std::to_string(info.shards);
   }
 
   const RunOptions& o;
@@ -335,8 +338,8 @@ int RunCommand::read_checkpoint() {
   ranks.barrier();
   std::set<std::uint64_t> selected;
   for (const auto& m : members) selected.insert(m.id);
-  // A checkpoint of another selection (another --shard or --member, or none): going on would
-  // drop its other members, and removing it at the end would lose them.
+  // A checkpoint without a record of its selection (other_selection) that holds members this run
+  // does not select: going on would drop them, and removing it at the end would lose them.
   const auto outside = [&](std::uint64_t id) { return selected.count(id) == 0; };
   if (std::any_of(ck.members.begin(), ck.members.end(),
                   [&](const MemberResult& r) { return outside(r.member.id); }) ||
@@ -377,8 +380,7 @@ void RunCommand::announce() const {
   std::cerr << "loosepack: scan '" << scan.name << "': " << scan.points.size() << " points x "
             << scan.seeds << " seeds = " << all_members.size() << " members";
   if (o.member >= 0) std::cerr << " (running member " << o.member << " only)";
-  if (info.shards > 0)
-    std::cerr << " (" << selection().substr(2) << ": " << members.size() << " of them)";
+  if (info.shards > 0) std::cerr << " (" << shard_name() << ": " << members.size() << " of them)";
   std::cerr << ", batches of " << scan.batch_size << " on " << Kokkos::DefaultExecutionSpace::name()
             << ", solver " << solver_kind_name(scan.solver.kind);
   if (scan.solver.sweeps_per_launch > 0)
@@ -662,7 +664,7 @@ int RunCommand::dry_run() const {
   std::string selected;
   if (o.member >= 0) selected = " (one member selected)";
   if (info.shards > 0)
-    selected = " (" + selection().substr(2) + ": " + std::to_string(members.size()) + " of them)";
+    selected = " (" + shard_name() + ": " + std::to_string(members.size()) + " of them)";
   std::printf("# scan '%s': %zu points x %d seeds = %zu members%s\n", scan.name.c_str(),
               scan.points.size(), scan.seeds, all_members.size(), selected.c_str());
   std::printf("%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",

@@ -4,6 +4,7 @@ what records the run rather than the results (times, the number of MPI ranks, th
 the shard files a merged file came from, and members/wall_time, the seconds each member took),
 and what `--except NAME` names (a dataset's or attribute's name; repeatable).
 Exit 0 when equal, 1 with the first differences listed."""
+import argparse
 import sys
 
 import h5py
@@ -32,13 +33,14 @@ def items(path, skip=()):
 
 
 def main():
-    args = sys.argv[1:]
-    skip = [args[k + 1] for k in range(len(args) - 1) if args[k] == "--except"]
-    files = [a for k, a in enumerate(args) if a != "--except" and (k == 0 or args[k - 1] != "--except")]
-    if len(files) != 2 or (args and args[-1] == "--except"):
-        print("usage: h5_equal.py A.h5 B.h5 [--except NAME]...", file=sys.stderr)
-        return 2
-    a, b = items(files[0], skip), items(files[1], skip)
+    ap = argparse.ArgumentParser(description="Compares two loosepack result files bit for bit.")
+    ap.add_argument("a")
+    ap.add_argument("b")
+    ap.add_argument("--except", dest="skip", action="append", default=[], metavar="NAME",
+                    help="a dataset's or attribute's name to leave out (repeatable)")
+    args = ap.parse_args()  # bad arguments: exit 2
+    files = [args.a, args.b]
+    a, b = items(args.a, args.skip), items(args.b, args.skip)
     diff = sorted(k for k in a.keys() | b.keys() if a.get(k) != b.get(k))
     if diff:
         print(f"{files[0]} and {files[1]} differ in {len(diff)} items, e.g.:")
