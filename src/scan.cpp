@@ -482,7 +482,9 @@ Scan ScanParser::parse() {
     throw ScanError(o.str());
   }
   std::ostringstream content;
-  content << root;
+  content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
+          << TOML_LIB_PATCH << "\n"
+          << root;
   scan.content = content.str();
   if (root.empty())
     throw ScanError(file +

@@ -50,6 +50,7 @@ TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayout) {
       "[scan]\nprotocol = 'A'\nseeds = 2\n",
       "b.toml");
   EXPECT_EQ(same.content, scan.content);
+  EXPECT_EQ(scan.content.rfind("# written by toml++ ", 0), 0u);
   EXPECT_EQ(parse_scan(scan.content, "c.toml").content, scan.content);
   const auto with = [&](const std::string& from, const std::string& to) {
     std::string t = text;
