@@ -481,10 +481,13 @@ Scan ScanParser::parse() {
       << e.description();
     throw ScanError(o.str());
   }
+  // The batch size changes no member's result (a run may resume with another --batch-size).
+  toml::table identity = root;
+  if (auto* section = identity["scan"].as_table()) section->erase("batch_size");
   std::ostringstream content;
   content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
           << TOML_LIB_PATCH << "\n"
-          << root;
+          << identity;
   scan.content = content.str();
   if (root.empty())
     throw ScanError(file +

@@ -40,7 +40,7 @@ friction = [0.3, 0.5]
 // Scan::content, what checkpoints and merges identify a scan by: the same settings written with
 // comments, other spacing and keys in another order give the same content, which parses to
 // itself; any value that differs, in type (12, 12.0) or in its last bit, gives another.
-TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayout) {
+TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrBatchSize) {
   const std::string text =
       "[scan]\nseeds = 2\nprotocol = \"A\"\n[system]\nwidth = 12\nfriction = 0.1\n"
       "bond_number = [10, 100]\n";
@@ -52,6 +52,9 @@ TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayout) {
   EXPECT_EQ(same.content, scan.content);
   EXPECT_EQ(scan.content.rfind("# written by toml++ ", 0), 0u);
   EXPECT_EQ(parse_scan(scan.content, "c.toml").content, scan.content);
+  // The batch size changes no member's result: it is not part of the scan's identity.
+  EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + text.substr(7), "e.toml").content,
+            scan.content);
   const auto with = [&](const std::string& from, const std::string& to) {
     std::string t = text;
     t.replace(t.find(from), from.size(), to);
