@@ -120,7 +120,8 @@ KOKKOS_INLINE_FUNCTION LocalProblem local_problem(const SystemViews& sys, const 
 }
 
 // One exact local solve of contact c with everything else fixed; returns the impulse change
-// (dn, dt, dm) and the size of the change in force units for the convergence test.
+// (dn, dt, dm) and the size of the change in impulse units (impulse_change), which
+// above_tolerance compares with the step's tolerance.
 // Reads: con.{partner, gap, nx, ny, rc, wn, wa, wb, wc, lower, pn, pt, pm}; part.{system, vx, vy,
 // w, radius}; sys.{time_step, weight, friction, rolling_friction}.
 template <class Fx>
@@ -136,7 +137,16 @@ KOKKOS_INLINE_FUNCTION double local_solve(const SystemViews& sys, const Particle
   dn = p.pn - p0.pn;
   dt = p.pt - p0.pt;
   dm = p.pm - p0.pm;
-  return impulse_change<Fx>(dn, dt, dm, con.rc(c)) / (sys.time_step(s) * sys.weight(s));
+  return impulse_change<Fx>(dn, dt, dm, con.rc(c));
+}
+
+// Whether the largest change `worst` of a sweep of system s (in impulse units, as local_solve
+// gives each) is above the step's tolerance [h m g]. Divided by h m g once per test instead of
+// once per contact: division by one positive number keeps the order of numbers, so the quotient
+// of the largest change is the largest quotient, bit for bit. A NaN is not above: such a system
+// stops iterating, and the integrate guard fails it.
+KOKKOS_INLINE_FUNCTION bool above_tolerance(const SystemViews& sys, int s, double worst) {
+  return worst / (sys.time_step(s) * sys.weight(s)) > sys.step_tolerance(s);
 }
 
 // Applies an impulse change (dn, dt, dm) of contact c to the velocities of its bodies i and j.
@@ -207,7 +217,7 @@ struct BodyVelocity {
 };
 
 // One Gauss-Seidel update of contact slot c in place: the exact local solve, then its impulse
-// change applied to the two bodies at once; `worst` keeps the largest change [h m g].
+// change applied to the two bodies at once; `worst` keeps the largest change (impulse units).
 template <class Fx>
 KOKKOS_INLINE_FUNCTION void gauss_seidel_update(const SystemViews& sys, const ParticleViews& part,
                                                 const ContactViews& con, int c, double omega,
@@ -336,7 +346,7 @@ struct SequentialGaussSeidel {
       else
         for_contacts(con, first, end, update);
       sweeps(s) += 1;
-      if (!(worst > sys.step_tolerance(s))) {  // a NaN system stops; the integrate guard fails it
+      if (!above_tolerance(sys, s, worst)) {
         sys.unconverged(s) = 0;
         return;
       }
@@ -438,8 +448,7 @@ struct AcceleratedGaussSeidel {
     for_contacts(con, first, end, update);
     for_contacts_reverse(con, first, end, update);
     sweeps(s) += 2;
-    if (!(worst >
-          sys.step_tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
+    if (!above_tolerance(sys, s, worst)) {
       sys.unconverged(s) = 0;
       return true;
     }
@@ -520,8 +529,7 @@ struct ColouredAcceleratedGaussSeidel {
       for (int k = n_colours - 1; k >= 0; --k) colour_sweep(team, base, k, worst);
       team.team_reduce(Kokkos::Max<double>(worst));
       Kokkos::single(Kokkos::PerTeam(team), [&]() { sweeps(s) += 2; });
-      if (!(worst >
-            sys.step_tolerance(s))) {  // a NaN system stops iterating; the integrate guard fails it
+      if (!above_tolerance(sys, s, worst)) {
         Kokkos::single(Kokkos::PerTeam(team), [&]() {
           sys.unconverged(s) = 0;
           sys.solving(s) = 0;

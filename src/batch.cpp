@@ -113,7 +113,7 @@ void Batch::Impl::solve() {
         KOKKOS_LAMBDA(int s, int& n) {
           if (!sys_.active(s) || sys_.unconverged(s) != kIterating) return;
           sweeps(s) += 1;
-          if (!(sys_.sweep_change(s) > sys_.step_tolerance(s))) {
+          if (!above_tolerance(sys_, s, sys_.sweep_change(s))) {
             sys_.unconverged(s) = 0;
           } else if (sweeps(s) >= sys_.max_sweeps(s)) {
             sys_.unconverged(s) = kStoppedAtCap;
