@@ -158,7 +158,7 @@ struct NewtonSystem {
   }
 
   // Calls f with the change [h m g] that each contact's exact local solve would make from the
-  // current impulses (as the sweeps' convergence test measures a change).
+  // current impulses (the quotient the sweeps' convergence test compares: above_tolerance).
   template <class Fx, class F>
   void for_each_local_change(F f) const {
     for (int c = 0; c < contacts(); ++c) {

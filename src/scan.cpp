@@ -481,9 +481,13 @@ Scan ScanParser::parse() {
       << e.description();
     throw ScanError(o.str());
   }
-  // The batch size changes no member's result (a run may resume with another --batch-size).
+  // Scan::content. The batch size changes no member's result (a run may resume with another
+  // --batch-size), so it is left out.
   toml::table identity = root;
-  if (auto* section = identity["scan"].as_table()) section->erase("batch_size");
+  if (auto* section = identity["scan"].as_table()) {
+    section->erase("batch_size");
+    if (section->empty()) identity.erase("scan");  // as a file without the table
+  }
   std::ostringstream content;
   content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
           << TOML_LIB_PATCH << "\n"

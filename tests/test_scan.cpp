@@ -38,8 +38,9 @@ friction = [0.3, 0.5]
 }
 
 // Scan::content, what checkpoints and merges identify a scan by: the same settings written with
-// comments, other spacing and keys in another order give the same content, which parses to
-// itself; any value that differs, in type (12, 12.0) or in its last bit, gives another.
+// comments, other spacing and keys in another order give the same content, which names the
+// toml++ that wrote it and parses to itself, and so does another batch size; any value that
+// differs, in type (12, 12.0) or in its last bit, gives another.
 TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrBatchSize) {
   const std::string text =
       "[scan]\nseeds = 2\nprotocol = \"A\"\n[system]\nwidth = 12\nfriction = 0.1\n"
@@ -55,6 +56,9 @@ TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrBatchSize) {
   // The batch size changes no member's result: it is not part of the scan's identity.
   EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + text.substr(7), "e.toml").content,
             scan.content);
+  const std::string system = text.substr(text.find("[system]"));
+  EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + system, "f.toml").content,
+            parse_scan(system, "g.toml").content);
   const auto with = [&](const std::string& from, const std::string& to) {
     std::string t = text;
     t.replace(t.find(from), from.size(), to);
