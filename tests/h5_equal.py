@@ -39,11 +39,10 @@ def main():
     ap.add_argument("--except", dest="skip", action="append", default=[], metavar="NAME",
                     help="a dataset's or attribute's name to leave out (repeatable)")
     args = ap.parse_args()  # bad arguments: exit 2
-    files = [args.a, args.b]
     a, b = items(args.a, args.skip), items(args.b, args.skip)
     diff = sorted(k for k in a.keys() | b.keys() if a.get(k) != b.get(k))
     if diff:
-        print(f"{files[0]} and {files[1]} differ in {len(diff)} items, e.g.:")
+        print(f"{args.a} and {args.b} differ in {len(diff)} items, e.g.:")
         for k in diff[:10]:
             print("  " + k)
         return 1

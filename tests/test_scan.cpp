@@ -54,8 +54,8 @@ TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrBatchSize) {
   EXPECT_EQ(scan.content.rfind("# written by toml++ ", 0), 0u);
   EXPECT_EQ(parse_scan(scan.content, "c.toml").content, scan.content);
   // The batch size changes no member's result: it is not part of the scan's identity.
-  EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + text.substr(7), "e.toml").content,
-            scan.content);
+  const std::string after_header = text.substr(text.find("seeds"));
+  EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + after_header, "e.toml").content, scan.content);
   const std::string system = text.substr(text.find("[system]"));
   EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + system, "f.toml").content,
             parse_scan(system, "g.toml").content);
