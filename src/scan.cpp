@@ -397,6 +397,24 @@ void parse_setting(const std::string& file, const std::string& section, const st
   }
 }
 
+// The settings a scan's identity (Scan::content) is made of: the parsed file less what no
+// member's result depends on, [scan] batch_size (a run may resume with another --batch-size) and
+// the table's keys that say so (SettingKey::changes_no_result). A table left empty is left out,
+// as in a file without it.
+toml::table identity_of(const toml::table& root) {
+  toml::table identity = root;
+  auto drop = [&](const char* section, const char* key) {
+    auto* table = identity[section].as_table();
+    if (!table) return;
+    table->erase(key);
+    if (table->empty()) identity.erase(section);
+  };
+  drop("scan", "batch_size");
+  for (const auto& k : setting_keys())
+    if (k.changes_no_result) drop(k.section, k.key);
+  return identity;
+}
+
 }  // namespace
 
 std::vector<std::string> scan_file_keys() {
@@ -481,17 +499,10 @@ Scan ScanParser::parse() {
       << e.description();
     throw ScanError(o.str());
   }
-  // Scan::content. The batch size changes no member's result (a run may resume with another
-  // --batch-size), so it is left out.
-  toml::table identity = root;
-  if (auto* section = identity["scan"].as_table()) {
-    section->erase("batch_size");
-    if (section->empty()) identity.erase("scan");  // as a file without the table
-  }
   std::ostringstream content;
   content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
           << TOML_LIB_PATCH << "\n"
-          << identity;
+          << identity_of(root);
   scan.content = content.str();
   if (root.empty())
     throw ScanError(file +

@@ -80,7 +80,7 @@ std::vector<SettingKey> make_table() {
          s.solver.sweeps_per_launch = static_cast<int>(v);
          s.sweeps_per_launch_given = true;
        },
-       nullptr, nullptr, nullptr, nullptr, nullptr},
+       nullptr, nullptr, nullptr, nullptr, nullptr, /*changes_no_result=*/true},
       {"solver", "overlap_correction", Type::Real, 0.0, 1.0, "",
        "beta: fraction of every overlap removed per step", "solver_overlap_correction",
        LOOSEPACK_FIELD(solver.overlap_correction), nullptr, nullptr},

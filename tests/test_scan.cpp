@@ -41,7 +41,7 @@ friction = [0.3, 0.5]
 // comments, other spacing and keys in another order give the same content, which names the
 // toml++ that wrote it and parses to itself, and so does another batch size; any value that
 // differs, in type (12, 12.0) or in its last bit, gives another.
-TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrBatchSize) {
+TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrWhatNoResultDependsOn) {
   const std::string text =
       "[scan]\nseeds = 2\nprotocol = \"A\"\n[system]\nwidth = 12\nfriction = 0.1\n"
       "bond_number = [10, 100]\n";
@@ -59,6 +59,15 @@ TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrBatchSize) {
   const std::string system = text.substr(text.find("[system]"));
   EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + system, "f.toml").content,
             parse_scan(system, "g.toml").content);
+  // Nor is solver.sweeps_per_launch (SettingKey::changes_no_result); the solver's other keys are.
+  const std::string team = "[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\n";
+  const auto content = [&](const std::string& solver) {
+    return parse_scan(solver + text, "h.toml").content;
+  };
+  EXPECT_EQ(content(team + "sweeps_per_launch = 8\n"), content(team));
+  EXPECT_EQ(content(team + "sweeps_per_launch = 8\nnewton_every = 3\n"),
+            content(team + "newton_every = 3\n"));
+  EXPECT_NE(content(team + "newton_every = 3\n"), content(team));
   const auto with = [&](const std::string& from, const std::string& to) {
     std::string t = text;
     t.replace(t.find(from), from.size(), to);

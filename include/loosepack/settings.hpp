@@ -33,6 +33,9 @@ struct SettingKey {
   // default holds, and that is not one number).
   std::string (*check)(const Scan&);
   bool (*stored)(const Scan&);
+  // A setting of how a run goes that no member's result depends on (solver.sweeps_per_launch):
+  // left out of the scan's identity (Scan::content), so a run resumes and shards merge across it.
+  bool changes_no_result = false;
 };
 
 // Every row, section by section, in the order the error messages list the keys.
