@@ -342,10 +342,14 @@ namespace {
 constexpr const char* kWholeScan = "the whole scan";
 }  // namespace
 
+std::string selection_name(const std::string& selection) {
+  return selection.empty() ? kWholeScan : selection;
+}
+
 void write_checkpoint_selection(const std::string& directory, const std::string& selection) {
   replace_file(directory + "/selection", [&](const std::string& tmp) {
     std::ofstream f(tmp, std::ios::trunc);
-    f << (selection.empty() ? kWholeScan : selection) << "\n";
+    f << selection_name(selection) << "\n";
     f.flush();
     if (!f) throw std::runtime_error("cannot write " + tmp);
   });

@@ -306,11 +306,8 @@ int RunCommand::other_selection() const {
     return 1;
   }
   if (!wrote || *wrote == selection()) return 0;
-  const auto named = [](const std::string& s) {
-    return s.empty() ? std::string("the whole scan") : s;
-  };
-  say(ck_dir + " was written by a run of " + named(*wrote) + ", this one selects " +
-      named(selection()) + ": resume with the options that wrote it");
+  say(ck_dir + " was written by a run of " + selection_name(*wrote) + ", this one selects " +
+      selection_name(selection()) + ": resume with the options that wrote it");
   return 1;
 }
 

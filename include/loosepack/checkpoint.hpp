@@ -46,6 +46,8 @@ std::string checkpoint_directory(const std::string& output_path);
 // throws CheckpointError where it cannot be read or names no selection.
 void write_checkpoint_selection(const std::string& directory, const std::string& selection);
 std::optional<std::string> read_checkpoint_selection(const std::string& directory);
+// A selection as the file and the messages name it: itself, or "the whole scan" where empty.
+std::string selection_name(const std::string& selection);
 std::string checkpoint_part(const std::string& directory, int generation, int rank,
                             int finished = 0);
 
