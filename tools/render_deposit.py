@@ -1,14 +1,19 @@
 #!/usr/bin/env python3
 """Render one deposit of a result file with ParaView: the disks as circles coloured by how far
 each fell during the deposition (Delta y = y_e - y_i), and the contacts as lines coloured by
-their normal force (force chains; tension, which cohesion allows, blue). Reads the XDMF files `loosepack export` writes.
+their normal force (force chains; tension, which cohesion allows, blue). Reads the XDMF files
+`loosepack export` writes.
 
     loosepack run examples/render.toml -o out/render.h5 --snapshots
     xvfb-run -a -s "-screen 0 1280x1024x24" /usr/bin/python3 tools/render_deposit.py \
         out/render.h5 docs/figures/deposit_bo1e3.png
 
 Needs Debian's python3-paraview and an X display of 24-bit colour: on a machine without one,
-xvfb-run with the screen above (its default screen is 8-bit, on which ParaView aborts)."""
+xvfb-run with the screen above (Debian's default; ParaView aborts on an 8-bit screen, the
+default of some other xvfb-run).
+ParaView renders in a process of its own, started again up to ATTEMPTS times when it aborts:
+Debian's ParaView 5.11 now and then fails to open a display that is there (on a busy machine),
+and a second process renders."""
 
 import argparse
 import os
@@ -27,6 +32,10 @@ def label(bar, title):
     bar.LabelColor = [0, 0, 0]
 
 
+ATTEMPTS = 5
+ABORTED = (-6, 134)  # SIGABRT, as the process or as a shell reports it
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("result", help="result file written with --snapshots")
@@ -34,7 +43,11 @@ def main():
     ap.add_argument("--point", type=int, default=0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--size", type=int, nargs=2, default=[900, 900], help="pixels")
+    ap.add_argument("--xmf", help=argparse.SUPPRESS)  # the ParaView process: render this file
     args = ap.parse_args()
+    if args.xmf:
+        render(args.xmf, args.png, args.size)
+        return
 
     files = subprocess.run([loosepack.find_program(), "export", args.result, "--point",
                             str(args.point), "--seed", str(args.seed)],
@@ -42,11 +55,31 @@ def main():
     if files.returncode != 0:
         sys.exit(files.stderr.strip())
     xmf = [f for f in files.stdout.split() if f.endswith("_s%d.xmf" % args.seed)][0]
+    command = [sys.executable, os.path.abspath(__file__), args.result, args.png, "--xmf", xmf,
+               "--size", str(args.size[0]), str(args.size[1])]
+    for attempt in range(1, ATTEMPTS + 1):
+        run = subprocess.run(command, capture_output=True, text=True)
+        if run.returncode not in ABORTED:
+            sys.stdout.write(run.stdout)
+            sys.stderr.write(run.stderr)
+            if run.returncode < 0:  # no display at all: ParaView dies of a segmentation fault
+                sys.exit("render_deposit.py: ParaView died of signal %d; is there an X display "
+                         "(DISPLAY, or xvfb-run)?" % -run.returncode)
+            sys.exit(run.returncode)
+        if attempt < ATTEMPTS:
+            print("render_deposit.py: ParaView aborted (attempt %d of %d), starting it again"
+                  % (attempt, ATTEMPTS), file=sys.stderr)
+    sys.stderr.write(run.stderr)
+    sys.exit("render_deposit.py: ParaView aborted %d times; it needs an X display of 24-bit colour "
+             "(xvfb-run -s \"-screen 0 1280x1024x24\")" % ATTEMPTS)
 
+
+def render(xmf, png, size):
+    """The picture of one snapshot's XDMF file, written to png at size pixels."""
     from paraview import simple as pv
     reader = pv.XDMFReader(FileNames=[xmf])
     view = pv.CreateRenderView()
-    view.ViewSize = args.size
+    view.ViewSize = size
     view.OrientationAxesVisibility = 0
     view.Background = [1, 1, 1]
     try:
@@ -80,8 +113,8 @@ def main():
     label(pv.GetScalarBar(forces, view), "normal force [m g]")
     view.InteractionMode = "2D"
     pv.ResetCamera(view)
-    pv.SaveScreenshot(args.png, view, ImageResolution=args.size)
-    print(args.png)
+    pv.SaveScreenshot(png, view, ImageResolution=size)
+    print(png)
 
 
 if __name__ == "__main__":

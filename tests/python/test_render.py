@@ -1,0 +1,61 @@
+"""tools/render_deposit.py: a deposit drawn by ParaView under xvfb-run, and ParaView started
+again when it aborts (Debian's ParaView 5.11 now and then fails to open a display that is
+there; on an 8-bit screen it always aborts)."""
+
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+import loosepack
+
+TOOL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools",
+                    "render_deposit.py")
+SCAN = {
+    "scan": {"name": "render", "seed": 5, "seeds": 1, "protocol": "A"},
+    "system": {"width": 16.0, "height": 16.0, "bond_number": 1000},
+}
+
+
+@pytest.fixture(scope="module")
+def deposit(tmp_path_factory):
+    pytest.importorskip("paraview.simple",
+                        reason="python3-paraview is not installed (scripts/install-deps.sh --test)")
+    if shutil.which("xvfb-run") is None:
+        pytest.skip("xvfb-run is not installed (scripts/install-deps.sh --test)")
+    out = tmp_path_factory.mktemp("render") / "deposit.h5"
+    return loosepack.run(SCAN, out, progress=False, args=["--snapshots"])
+
+
+def render(deposit, png, depth):
+    return subprocess.run(["xvfb-run", "-a", "-s", "-screen 0 640x480x%d" % depth, sys.executable,
+                           TOOL, deposit.path, str(png), "--size", "200", "160"],
+                          capture_output=True, text=True)
+
+
+def test_the_deposit_is_drawn_on_a_white_background(deposit, tmp_path):
+    import matplotlib.image
+    png = tmp_path / "deposit.png"
+    done = render(deposit, png, 24)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split()[-1] == str(png)
+    image = matplotlib.image.imread(str(png))
+    assert image.shape[:2] == (160, 200)
+    rgb = image[:, :, :3]
+    white = (rgb > 0.99).all(axis=2)
+    # The corners are background; the disks (coloured by Delta y, the "Blues" map) and the
+    # contact lines cover part of the rest.
+    assert white[0, 0] and white[-1, 0]
+    assert 0.05 < 1.0 - white.mean() < 0.95
+
+
+def test_paraview_is_started_again_when_it_aborts(deposit, tmp_path):
+    """On an 8-bit screen every ParaView process aborts: the tool tries ATTEMPTS times, says
+    so, and fails with the screen it needs named."""
+    done = render(deposit, tmp_path / "never.png", 8)
+    assert done.returncode == 1
+    assert done.stderr.count("starting it again") == 4
+    assert "ParaView aborted 5 times; it needs an X display of 24-bit colour" in done.stderr
+    assert not (tmp_path / "never.png").exists()
