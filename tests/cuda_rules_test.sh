@@ -12,7 +12,7 @@ set -euo pipefail
 src=$1
 build=$2
 
-bad=$(awk 'FNR == 1 { inside = 0 } /^TEST(_F)?\(/ { inside = 1 } /^}/ { inside = 0 }
+bad=$(awk 'FNR == 1 { inside = 0 } /^(TYPED_)?TEST(_F|_P)?\(/ { inside = 1 } /^}/ { inside = 0 }
   inside && /KOKKOS_LAMBDA/ { print FILENAME ":" FNR ": " $0 }' "$src"/tests/*.cpp)
 if [ -n "$bad" ]; then
   echo "cuda_rules_test: a KOKKOS_LAMBDA in a test's body, which nvcc refuses (move the kernel" \

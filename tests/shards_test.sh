@@ -22,13 +22,23 @@ expect_rc() {  # expect_rc CODE LOG COMMAND...: runs COMMAND, its stderr to LOG
   [ "$rc" -eq "$want" ] || fail "exit code $rc, expected $want: $* ($(cat "$log"))"
 }
 expect_rc 3 whole.log env LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml -o whole.h5 --snapshots
+failing=0
 for k in 0 1 2; do
   set +e
   LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml --shard $k/3 -o p$k.h5 2>p$k.log
+  rc=$?
   set -e
   [ -f p$k.h5 ] || fail "shard $k/3 wrote no file: $(cat p$k.log)"
   grep -q "(shard $k/3: [0-9]* of them)" p$k.log || fail "shard $k/3 not announced: $(cat p$k.log)"
+  # Exit code 3 from the shard that holds the failed member, 0 from the others.
+  if grep -q "failed: non-finite" p$k.log; then
+    failing=$((failing + 1))
+    [ "$rc" -eq 3 ] || fail "shard $k/3 with the failed member: exit code $rc, expected 3"
+  else
+    [ "$rc" -eq 0 ] || fail "shard $k/3: exit code $rc, expected 0: $(cat p$k.log)"
+  fi
 done
+[ "$failing" -eq 1 ] || fail "the failed member reported by $failing shards, expected 1"
 expect_rc 3 merge.log "$exe" merge p2.h5 p0.h5 p1.h5 -o merged.h5 --snapshots
 same whole.h5 merged.h5
 [ "$(grep -c "failed: non-finite" merge.log)" -eq 1 ] || fail "merge: $(cat merge.log)"

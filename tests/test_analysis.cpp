@@ -574,9 +574,13 @@ TEST(Analysis, ProfileFitsUseTheBinsEveryMemberReaches) {
 }
 
 // The slice model leaves out the top cut_top of the box: there the last-deposited disks (the
-// paper's "crust") have not moved, which the slice model does not describe.
+// paper's "crust") have not moved, which the slice model does not describe. The control fits the
+// same ensemble with the crust in (cut_top = 0), which must miss alpha: a crust of 20 R has the
+// leverage to bend the fit (one of 6 R would not, as the model's -y (1 - y/H) vanishes at H).
 TEST(Analysis, SliceModelLeavesOutTheCrust) {
-  const auto scan = parse_scan(R"(
+  const double alpha = 0.1, H = 120.0, crust = 20.0;
+  const auto slice_fit = [&](double cut_top) {
+    const auto scan = parse_scan(R"(
 [scan]
 protocol = "A"
 seeds = 8
@@ -586,23 +590,26 @@ height = 120.0
 bond_number = 1000
 [observables]
 lower_half_from = 4.0
-cut_top = 8.0
-)",
-                               "synthetic.toml");
-  const double alpha = 0.1, H = 120.0, crust = 6.0;
-  std::normal_distribution<double> noise(0.0, 0.5), creep(0.0, 1e-4);
-  std::uniform_real_distribution<double> uy(1.0, H - 1.0);
-  const auto results = synthetic_ensemble(
-      scan, 17, [](const Member&) { return 1500; },
-      [&](const Member&, std::mt19937_64& rng) {
-        const double yi = uy(rng);
-        const double ye =
-            yi > H - crust ? yi + creep(rng) : slice_model_final_height(yi, alpha, H) + noise(rng);
-        return std::pair(yi, ye);
-      });
-  const auto points = aggregate(scan, results);
-  const PointAnalysis a = analyse(scan, points).points.at(0);
-  ASSERT_TRUE(a.slice_parabola.valid());
-  EXPECT_NEAR(a.slice_parabola.coef[0], alpha, 3.0 * a.slice_parabola.error[0]);
-  EXPECT_LT(a.slice_parabola.error[0], 0.1 * alpha);
+cut_top = )" + std::to_string(cut_top) +
+                                     "\n",
+                                 "synthetic.toml");
+    std::normal_distribution<double> noise(0.0, 0.5), creep(0.0, 1e-4);
+    std::uniform_real_distribution<double> uy(1.0, H - 1.0);
+    const auto results = synthetic_ensemble(
+        scan, 17, [](const Member&) { return 1500; },
+        [&](const Member&, std::mt19937_64& rng) {
+          const double yi = uy(rng);
+          const double ye = yi > H - crust ? yi + creep(rng)
+                                           : slice_model_final_height(yi, alpha, H) + noise(rng);
+          return std::pair(yi, ye);
+        });
+    return analyse(scan, aggregate(scan, results)).points.at(0).slice_parabola;
+  };
+  const Fit cut = slice_fit(crust + 4.0);
+  ASSERT_TRUE(cut.valid());
+  EXPECT_NEAR(cut.coef[0], alpha, 3.0 * cut.error[0]);
+  EXPECT_LT(cut.error[0], 0.1 * alpha);
+  const Fit with_crust = slice_fit(0.0);
+  ASSERT_TRUE(with_crust.valid());
+  EXPECT_GT(std::fabs(with_crust.coef[0] - alpha), 3.0 * with_crust.error[0]);
 }

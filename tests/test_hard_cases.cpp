@@ -479,8 +479,10 @@ TEST(HardCase, OneDiskEmptyAndFullSystems) {
   const int box_count = batch.status(4).count;
   EXPECT_EQ(in_box, box_count);
   EXPECT_GT(box_count, 0);
-  // Area bound: the disks placed fit in the box, pi R^2 each within L_x H.
+  // Area bound: the disks placed fit in the box, pi R^2 each within L_x H; and each stands
+  // below H (a deposit that would stand above it is refused).
   EXPECT_LE(box_count * M_PI, box.width * box.height);
+  for (const Disk& d : batch.disks(4)) EXPECT_LE(d.y + d.radius, box.height);
   for (int k = 0; k < 1000; ++k) batch.step();
   for (int s = 0; s < batch.size(); ++s) {
     ASSERT_EQ(batch.status(s).failure, Failure::None) << "system " << s;

@@ -124,7 +124,9 @@ TEST(Pile, SettlesAndIsBitIdenticalInsideABatch) {
   const double overlap = alone.max_overlap(0);
   std::printf("pile of %d: at rest after %ld steps, %ld sweeps, max overlap %.3g R\n", n, st.steps,
               st.sweeps, overlap);
-  EXPECT_LT(overlap, 0.02);
+  // Below the cohesion range d_c, the scale of the contact law's gaps (with cohesion a pair
+  // this deep would count as touching either way), as in the other piles' checks.
+  EXPECT_LT(overlap, p.cohesion_range);
   const auto a = alone.disks(0);
   double top = 0.0;
   for (const auto& d : a) {

@@ -190,13 +190,18 @@ lower_half_from = 4.0
   EXPECT_GT(graded - std::fabs(flat), 2.0 * std::hypot(flat_err, graded_err));
 }
 
-// Protocol C: the collapse is linear in y_e (no significant quadratic term), and the identity
-// dnu/nu_i = -d(Delta y)/dy_e holds.
-TEST(ProtocolC, LinearAvalancheProfileAndMassConservation) {
+// Protocol C: the identity dnu/nu_i = -d(Delta y)/dy_e (mass conservation: a layer dy_i ends as
+// dy_e = dy_i / (1 + b) for Delta y = a - b y_e), and told apart from b/(1 + b), the slope the
+// same collapse has against y_i. A weakly cohesive deposit (Bo = 30) collapses far (b about 0.5),
+// so the two differ by several of their errors. Its profile bends (over the whole deposit 24
+// members resolve a quadratic term), so the slope is fitted, in bins of 1 R, over the lower half
+// where nu_lower_half is measured. The straight lines of the paper's collapses (Bo = 1e3) are a
+// claim of the reproduction (tools/claims.py in the test `reproduction`).
+TEST(ProtocolC, CollapseConservesMass) {
   const auto scan = scan_of(R"(
 [scan]
 protocol = "C"
-seeds = 3
+seeds = 24
 [system]
 width = 40.0
 height = 40.0
@@ -206,31 +211,32 @@ tolerance = 1e-3
 max_sweeps = 1000
 [observables]
 lower_half_from = 4.0
+bin_width = 1.0
 )");
   const auto points = run(scan);
   const auto& p = points[0];
   ASSERT_EQ(p.failed, 0);
-  std::vector<double> ye, dy, sem;
+  // The bins of the final deposit's lower half: from lower_half_from to half its top.
+  double top = 0.0;
   for (std::size_t k = 0; k < p.dy_by_ye.centre.size(); ++k)
-    if (p.dy_by_ye.count[k] > 20 && p.dy_by_ye.centre[k] > 4.0) {
+    if (p.dy_by_ye.count[k] > 20) top = std::max(top, p.dy_by_ye.centre[k]);
+  std::vector<double> ye, dy;
+  for (std::size_t k = 0; k < p.dy_by_ye.centre.size(); ++k)
+    if (p.dy_by_ye.count[k] > 20 && p.dy_by_ye.centre[k] > 4.0 &&
+        p.dy_by_ye.centre[k] < 0.5 * top) {
       ye.push_back(p.dy_by_ye.centre[k]);
       dy.push_back(p.dy_by_ye.mean[k]);
-      sem.push_back(p.dy_by_ye.sem[k]);
     }
   ASSERT_GE(ye.size(), 4u);
-  // Linear: a quadratic term, fitted with the bins' errors, is within 3 of its errors of zero
-  // (protocol A's profile, a parabola, is not: ProtocolA tests and tools/claims.py).
-  const Fit quadratic = polynomial_fit(ye, dy, sem, 2);
-  ASSERT_TRUE(quadratic.valid());
-  std::printf("collapse: quadratic term %.3g +- %.2g\n", quadratic.coef[2], quadratic.error[2]);
-  EXPECT_LT(std::fabs(quadratic.coef[2]), 3.0 * quadratic.error[2]);
   const auto [b, se] = slope(ye, dy);
-  std::printf("collapse: d(Delta y)/dy_e = %.4f +- %.4f, dnu/nu_i = %.4f +- %.4f\n", b, se,
-              p.relative_increase.mean, p.relative_increase.sem);
+  std::printf("collapse: d(Delta y)/dy_e = %.4f +- %.4f below %.1f R, dnu/nu_i = %.4f +- %.4f\n", b,
+              se, 0.5 * top, p.relative_increase.mean, p.relative_increase.sem);
   EXPECT_LT(b, 0.0);  // higher disks fall further
   EXPECT_GT(p.relative_increase.mean, 0.0);
   const double err = std::sqrt(se * se + p.relative_increase.sem * p.relative_increase.sem);
   EXPECT_NEAR(p.relative_increase.mean, -b, 3.0 * err);
+  const double wrong = -b / (1.0 - b);
+  EXPECT_GT(std::fabs(p.relative_increase.mean - wrong), 3.0 * err);
 }
 
 // system.polydispersity = sigma (docs/MODEL.md): radii uniform on R (1 +- sqrt(3) sigma), so

@@ -497,34 +497,62 @@ TEST(Scan, DocsListEveryKeyAndNoOther) {
 // Every row of the settings table parses its own default back, is refused just outside its
 // range with the range in the message, and names every key of its section when a key is
 // unknown.
+// Values of the row's range other than `v`, nearest first: a quarter more or less (one more or
+// less for an integer), then values a check across settings may need (a region radius of at
+// least 5 R), then the range's ends.
+std::vector<double> other_values(const SettingKey& row, double v) {
+  const bool integer = row.type == SettingKey::Type::Integer;
+  std::vector<double> out;
+  for (double w :
+       {integer ? v + 1.0 : 1.25 * v, integer ? v - 1.0 : 0.8 * v, 0.5, 8.0, row.lo, row.hi})
+    if (w >= row.lo && w <= row.hi && w != v && (!integer || w == std::floor(w))) out.push_back(w);
+  return out;
+}
+
 TEST(Scan, SettingsTableDrivesParsingAndErrors) {
   const Scan defaults;
   for (const auto& row : setting_keys()) {
     SCOPED_TRACE(std::string(row.section) + "." + row.key);
     if (row.type == SettingKey::Type::Real || row.type == SettingKey::Type::Integer) {
-      std::ostringstream ok, low;
-      ok.precision(17);
-      ok << "[" << row.section << "]\n" << row.key << " = " << row.get(defaults) << "\n";
-      if (row.type == SettingKey::Type::Integer) {
-        ok.str("");
-        ok << "[" << row.section << "]\n"
-           << row.key << " = " << static_cast<long>(row.get(defaults)) << "\n";
+      // A value in range other than the default reaches the scan through the row's setter (the
+      // first of other_values that the checks across settings accept).
+      bool set = false;
+      for (double value : other_values(row, row.get(defaults))) {
+        std::ostringstream ok;
+        ok.precision(17);
+        ok << "[" << row.section << "]\n";
+        if (std::string(row.key) == "sweeps_per_launch")  // the team solver's alone
+          ok << "kind = \"coloured_accelerated_gauss_seidel\"\n";
+        ok << row.key << " = ";
+        if (row.type == SettingKey::Type::Integer)
+          ok << static_cast<long>(value) << "\n";
+        else
+          ok << value << "\n";
+        try {
+          EXPECT_EQ(row.get(parse_scan(ok.str(), "ok.toml")), value);
+          set = true;
+          break;
+        } catch (const ScanError&) {
+        }
       }
-      const Scan parsed = parse_scan(ok.str(), "ok.toml");
-      EXPECT_EQ(row.get(parsed), row.get(defaults));
-      low << "[" << row.section << "]\n"
-          << row.key << " = "
-          << (row.type == SettingKey::Type::Integer ? std::to_string(static_cast<long>(row.lo) - 1)
-                                                    : std::to_string(row.lo - 1.0))
-          << "\n";
-      const std::string error = error_of(low.str());
-      EXPECT_NE(error.find(std::string("key '") + row.section + "." + row.key + "'"),
-                std::string::npos)
-          << error;
-      EXPECT_NE(error.find(row.type == SettingKey::Type::Integer ? "expected an integer in ["
-                                                                 : "outside the allowed range ["),
-                std::string::npos)
-          << error;
+      EXPECT_TRUE(set);
+      // Below the range and above it: refused, naming the key and the range.
+      const bool integer = row.type == SettingKey::Type::Integer;
+      for (double outside : {row.lo - 1.0, 2.0 * row.hi + 1.0}) {
+        std::ostringstream text;
+        text << "[" << row.section << "]\n" << row.key << " = ";
+        if (integer)
+          text << static_cast<long>(outside) << "\n";
+        else
+          text << std::to_string(outside) << "\n";
+        const std::string error = error_of(text.str());
+        EXPECT_NE(error.find(std::string("key '") + row.section + "." + row.key + "'"),
+                  std::string::npos)
+            << error;
+        EXPECT_NE(error.find(integer ? "expected an integer in [" : "outside the allowed range ["),
+                  std::string::npos)
+            << error;
+      }
     }
   }
   for (const std::string section : {"solver", "rest", "protocol", "observables"}) {

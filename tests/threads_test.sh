@@ -8,6 +8,11 @@
 source "$(dirname "$0")/common.sh"
 export OMP_PROC_BIND=false
 mixed_scan "$dir/mixed.toml"
+# The thread counts take effect (else every run is the same one-thread run).
+for threads in 1 2 4; do
+  version=$(OMP_NUM_THREADS=$threads "$exe" --version)
+  [[ "$version" == *" $threads thread(s)"* ]] || fail "OMP_NUM_THREADS=$threads: $version"
+done
 for kind in accelerated_gauss_seidel coloured_accelerated_gauss_seidel; do
   sed "s/^\[scan\]$/[solver]\nkind = \"$kind\"\n[scan]/" "$dir/mixed.toml" > "$dir/$kind.toml"
   for threads in 1 2 4; do

@@ -61,6 +61,7 @@ def test_another_bond_number_differs(runs):
     rows = {r["quantity"]: r for r in json.loads(open(d / "bo.jsonl").read())["rows"]}
     assert not rows["nu_lower_half"]["within"]
     assert not rows["nu(y)"]["within"]
+    assert not rows["mean abs(Delta y) [R]"]["within"]  # weaker cohesion: larger avalanches
     assert "| nu_lower_half |" in out.stdout and "NO |" in out.stdout
     # Points paired by their index that differ in a scan parameter are said to.
     assert "(the two points differ in bond_number" in out.stdout
