@@ -216,15 +216,15 @@ struct BodyVelocity {
   }
 };
 
-// One Gauss-Seidel update of contact slot c in place: the exact local solve, then its impulse
-// change applied to the two bodies at once; `worst` keeps the largest change (impulse units).
+// One Gauss-Seidel update of contact c (owned by disk i) in place: the exact local solve, then
+// its impulse change applied to the two bodies at once; `worst` keeps the largest change (impulse
+// units).
 template <class Fx>
 KOKKOS_INLINE_FUNCTION void gauss_seidel_update(const SystemViews& sys, const ParticleViews& part,
-                                                const ContactViews& con, int c, double omega,
+                                                const ContactViews& con, int c, int i, double omega,
                                                 double& worst) {
   const int j = con.partner(c);
   if (j == kNoContact) return;
-  const int i = c / kSlots;
   double dn, dt, dm;
   const double change = local_solve<Fx>(sys, part, con, c, i, j, omega, dn, dt, dm);
   if (dn == 0.0 && dt == 0.0 && dm == 0.0) return;
@@ -331,7 +331,7 @@ struct SequentialGaussSeidel {
   double omega;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
-    gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
+    gauss_seidel_update<Fx>(sys, part, con, c, c / kSlots, omega, worst);
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
@@ -425,7 +425,7 @@ struct AcceleratedGaussSeidel {
   DView<int> sweep_limit;  // [S] this launch's limit, below the system's cap; empty: the cap
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
-    gauss_seidel_update<Fx>(sys, part, con, c, omega, worst);
+    gauss_seidel_update<Fx>(sys, part, con, c, c / kSlots, omega, worst);
   }
 
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
@@ -471,9 +471,12 @@ struct AcceleratedGaussSeidel {
 // NNCG over graph-coloured symmetric Gauss-Seidel with one team per system, for wide devices
 // (a GPU): the team's threads share the contacts of one colour (which share no body), sweep the
 // colours forward then backward, and reduce the convergence test and |d|^2 among themselves;
-// the NNCG step then updates every contact's impulses at once and every disk's velocity is
-// recomputed from its impulses (BodyVelocity), which needs no atomics. Each team iterates its
-// system to convergence in one launch, as AcceleratedGaussSeidel does with one thread. The team
+// the NNCG step then moves the impulses colour by colour, each contact's step applied to its two
+// bodies at once, which needs no atomics. Each team iterates its system to convergence in one
+// launch, as AcceleratedGaussSeidel does with one thread. The sweeps read a packed copy of the
+// system's contacts in colour order (`packed`, copied from the slots at each launch's start and
+// its impulses back at its end), so a colour's contacts lie side by side in memory and no empty
+// slot is visited. The team
 // first colours its own system (the Jones-Plassmann rounds of kernels/colouring.hpp, so each
 // contact gets the colour a batch-wide colouring gives it), which needs no launch or host
 // round trip per round, and sweeps only its own colours. A system whose contact pairs are those
@@ -487,10 +490,9 @@ struct AcceleratedGaussSeidel {
 // and NNCG's last |d|^2 (sys.{colours, gradient2}) and goes on in the next launch, while the
 // others take their next steps (Batch::step). The iterates are the same as in one launch.
 // Reads: sys.{active, unconverged, solving, offset, count, max_sweeps, step_tolerance}; what
-// the colouring reads (ColourRound), what the local solve reads (local_solve) and what
-// BodyVelocity reads. Writes: con.{colour, coloured_partner}; list, starts; con.{pn, pt, pm,
-// start_*, dir_*}; part.{vx, vy, w}; sys.{unconverged, solving, colours, coloured_count,
-// gradient2}; sweeps.
+// the colouring reads (ColourRound) and what the local solve reads (local_solve), of the slots.
+// Writes: con.{colour, coloured_partner, pn, pt, pm}; list, starts; packed, owner; part.{vx, vy,
+// w}; sys.{unconverged, solving, colours, coloured_count, gradient2}; sweeps.
 template <class Fx>
 struct ColouredAcceleratedGaussSeidel {
   using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;
@@ -505,20 +507,26 @@ struct ColouredAcceleratedGaussSeidel {
   // convergence or the cap in one launch.
   int sweeps_per_launch = 0;
 
+  // [P * kSlots] system s's contacts in colour order (list's), from offset(s) kSlots on, and
+  // their owners; the NNCG start and direction live only here.
+  ContactViews packed;
+  DView<int> owner;
+
   KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
     const int s = team.league_rank();
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
     const int base = range.first + s;
     const int done = sweeps(s);  // > 0 where the step's solve goes on from the last launch
-    const int n_colours = sys.solving(s) ? sys.colours(s) : start_step(team, s, range, base);
+    const bool goes_on = sys.solving(s);
+    const int n_colours = goes_on ? sys.colours(s) : start_step(team, s, range, base);
+    const int first = range.first, end = starts(base + n_colours);  // the packed contacts
+    pack(team, first, end, !goes_on);
     // NNCG's last |d|^2; a step's first iteration restarts.
-    double previous = sys.solving(s) ? sys.gradient2(s) : 0.0;
-    team.team_barrier();  // every thread has read the system's state before it changes
+    double previous = goes_on ? sys.gradient2(s) : 0.0;
+    team.team_barrier();  // the contacts are packed, and every thread has read the system's state
     const int cap = sys.max_sweeps(s);
     const int stop = sweeps_per_launch > 0 ? kmath::imin(cap, done + sweeps_per_launch) : cap;
-    // Built once a launch: on the Serial backend each copy of a view counts a reference.
-    const BodyVelocity velocity{sys, part, con, false};
     int sweep = done;
     for (; sweep < stop; sweep += 2) {
       // Each thread keeps the largest change of its own updates over both sweeps; one team
@@ -530,6 +538,7 @@ struct ColouredAcceleratedGaussSeidel {
       team.team_reduce(Kokkos::Max<double>(worst));
       Kokkos::single(Kokkos::PerTeam(team), [&]() { sweeps(s) += 2; });
       if (!above_tolerance(sys, s, worst)) {
+        unpack(team, first, end);
         Kokkos::single(Kokkos::PerTeam(team), [&]() {
           sys.unconverged(s) = 0;
           sys.solving(s) = 0;
@@ -538,39 +547,78 @@ struct ColouredAcceleratedGaussSeidel {
       }
       double g2 = 0.0;
       Kokkos::parallel_reduce(
-          Kokkos::TeamThreadRange(team, range.first, range.end),
-          [&](int c, double& sum) { sum += nncg_change2(con, c); }, g2);
+          Kokkos::TeamThreadRange(team, first, end),
+          [&](int a, double& sum) { sum += nncg_change2(packed, a); }, g2);
       const double beta = nncg_beta(previous, g2);
       previous = g2;
-      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end), [&](int c) {
-        double sn, st, sm;
-        nncg_step(con, c, beta, sn, st, sm);
-      });
-      team.team_barrier();
-      if (!(beta > 1.0)) {  // the impulses moved: the velocities follow
-        Kokkos::parallel_for(
-            Kokkos::TeamThreadRange(team, sys.offset(s), sys.offset(s) + sys.count(s)),
-            [&](int p) { velocity.set(p); });
-        team.team_barrier();
-      }
+      nncg_steps(team, base, n_colours, beta);
     }
     // Capped (the step ends unconverged), or paused until the next launch.
+    unpack(team, first, end);
     Kokkos::single(Kokkos::PerTeam(team), [&]() {
       sys.solving(s) = sweep < cap ? 1 : 0;
       sys.gradient2(s) = previous;
     });
   }
 
-  // The start of a step's solve: the system's contacts coloured and listed by colour, and the
-  // impulses the iteration starts from kept. Returns the colour count.
+  // The start of a step's solve: the system's contacts coloured and listed by colour. Returns
+  // the colour count.
   KOKKOS_INLINE_FUNCTION int start_step(const Member& team, int s, SlotRange range,
                                         int base) const {
     const int n_colours =
         same_contacts(team, s, range) ? sys.colours(s) : colour(team, s, range, base);
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, range.first, range.end),
-                         [&](int c) { nncg_keep_start(con, c); });
     Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.colours(s) = n_colours; });
+    team.team_barrier();  // starts and list are the step's before they are read
     return n_colours;
+  }
+
+  // The contacts [first, end) of list copied from their slots into `packed`; at the start of a
+  // step's solve also the impulses the iteration starts from (nncg_keep_start). Each launch
+  // copies them afresh: between launches the slots hold the system's contacts.
+  KOKKOS_INLINE_FUNCTION void pack(const Member& team, int first, int end, bool step_start) const {
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, end), [&](int a) {
+      const int c = list(a);
+      owner(a) = c / kSlots;
+      packed.partner(a) = con.partner(c);
+      packed.gap(a) = con.gap(c);
+      packed.nx(a) = con.nx(c);
+      packed.ny(a) = con.ny(c);
+      packed.rc(a) = con.rc(c);
+      packed.wn(a) = con.wn(c);
+      packed.wa(a) = con.wa(c);
+      packed.wb(a) = con.wb(c);
+      packed.wc(a) = con.wc(c);
+      packed.lower(a) = con.lower(c);
+      packed.pn(a) = con.pn(c);
+      packed.pt(a) = con.pt(c);
+      packed.pm(a) = con.pm(c);
+      if (step_start) nncg_keep_start(packed, a);
+    });
+  }
+  // The impulses of the packed contacts [first, end) back into their slots.
+  KOKKOS_INLINE_FUNCTION void unpack(const Member& team, int first, int end) const {
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, end), [&](int a) {
+      const int c = list(a);
+      con.pn(c) = packed.pn(a);
+      con.pt(c) = packed.pt(a);
+      con.pm(c) = packed.pm(a);
+    });
+  }
+
+  // NNCG's step over the packed contacts. A step (beta <= 1) moves them colour by colour, each
+  // contact's impulse step applied to its two bodies at once (a colour's contacts share no
+  // body); a restart moves no impulse and only sets the direction and the start.
+  KOKKOS_INLINE_FUNCTION void nncg_steps(const Member& team, int base, int n_colours,
+                                         double beta) const {
+    for (int k = 0; k < n_colours; ++k) {
+      Kokkos::parallel_for(
+          Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)), [&](int a) {
+            double sn, st, sm;
+            if (nncg_step(packed, a, beta, sn, st, sm))
+              apply_impulse_change(part, packed, a, owner(a), packed.partner(a), sn, st, sm);
+          });
+      team.team_barrier();
+    }
   }
 
   // Whether every contact slot of the system holds the partner it held when the system was last
@@ -604,7 +652,7 @@ struct ColouredAcceleratedGaussSeidel {
                                            double& worst) const {
     Kokkos::parallel_for(
         Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)),
-        [&](int a) { gauss_seidel_update<Fx>(sys, part, con, list(a), omega, worst); });
+        [&](int a) { gauss_seidel_update<Fx>(sys, part, packed, a, owner(a), omega, worst); });
     team.team_barrier();
   }
 

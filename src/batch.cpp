@@ -73,8 +73,11 @@ void Batch::Impl::solve() {
     return;
   }
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
-    const ColouredAcceleratedGaussSeidel<Fx> team_solver{
-        sys, part, con, sweeps, colour_list, system_colour_start, omega, solver.sweeps_per_launch};
+    const ColouredAcceleratedGaussSeidel<Fx> team_solver{sys,         part,
+                                                         con,         sweeps,
+                                                         colour_list, system_colour_start,
+                                                         omega,       solver.sweeps_per_launch,
+                                                         packed,      packed_owner};
     const int threads = team_size_of(team_solver);
     Kokkos::parallel_for("coloured_accelerated_gauss_seidel",
                          threads > 0 ? Kokkos::TeamPolicy<ExecSpace>(n_systems, threads)

@@ -60,6 +60,9 @@ struct Batch::Impl {
   ContactViews con;
   GridViews grid;
   DView<int> colour_list, colour_start, colour_fill;
+  // ColouredAcceleratedGaussSeidel's packed copy of each system's contacts and their owners.
+  ContactViews packed;
+  DView<int> packed_owner;
   DView<int> system_colour_start;  // [P * kSlots + S] ColouredAcceleratedGaussSeidel's
   DView<int> sweeps_this_step;     // [S]
   DView<int> sweep_limit;          // [S] accelerated solver with Newton steps: this launch's limit

@@ -192,8 +192,7 @@ void Batch::Impl::allocate_contacts() {
   con.pt = alloc<double>("pt", NC);
   con.pm = alloc<double>("pm", NC);
   con.colour = alloc<int>("colour", NC);
-  if (solver.kind == SolverKind::AcceleratedGaussSeidel ||
-      solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {
+  if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
     con.start_pn = alloc<double>("start_pn", NC);
     con.start_pt = alloc<double>("start_pt", NC);
     con.start_pm = alloc<double>("start_pm", NC);
@@ -206,6 +205,13 @@ void Batch::Impl::allocate_contacts() {
     system_colour_start =
         alloc<int>("system_colour_start", NC + static_cast<std::size_t>(n_systems));
     con.coloured_partner = alloc<int>("coloured_partner", NC);
+    packed_owner = alloc<int>("packed_owner", NC);
+    packed.partner = alloc<int>("packed_partner", NC);
+    for (DView<double>* v :
+         {&packed.gap, &packed.nx, &packed.ny, &packed.rc, &packed.wn, &packed.wa, &packed.wb,
+          &packed.wc, &packed.lower, &packed.pn, &packed.pt, &packed.pm, &packed.start_pn,
+          &packed.start_pt, &packed.start_pm, &packed.dir_pn, &packed.dir_pt, &packed.dir_pm})
+      *v = alloc<double>("packed", NC);
   }
   colour_start = alloc<int>("colour_start", 2);
   colour_fill = alloc<int>("colour_fill", 1);

@@ -111,8 +111,16 @@ std::vector<int> team_colours(const Graph& g, const Solver& solver, bool start =
 TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
   const Graph g = graph();
   const std::vector<int> expected = batch_colours(g);
-  Solver solver{g.sys, g.part, g.con, DView<int>(), DView<int>("list", kDisks * kSlots),
-                DView<int>("starts", kDisks * kSlots + kSystems), 1.0};
+  Solver solver{g.sys,
+                g.part,
+                g.con,
+                DView<int>(),
+                DView<int>("list", kDisks * kSlots),
+                DView<int>("starts", kDisks * kSlots + kSystems),
+                1.0,
+                0,
+                {},
+                DView<int>()};          // no sweeps: nothing packed
   Kokkos::deep_copy(g.con.colour, -3);  // the team must reset the colours itself
   const auto n = team_colours(g, solver);
   const auto colour = to_host(g.con.colour), list = to_host(solver.list),
@@ -157,16 +165,16 @@ TEST(TeamColouring, ASystemKeepsItsColouringWhileItsContactPairsStay) {
   g.sys.colours = DView<int>("colours", kSystems);
   g.sys.coloured_count = DView<int>("coloured_count", kSystems);
   g.con.coloured_partner = DView<int>("coloured_partner", n_slots);
-  for (auto* v :
-       {&g.con.pn, &g.con.pt, &g.con.pm, &g.con.start_pn, &g.con.start_pt, &g.con.start_pm})
-    *v = DView<double>("impulse", n_slots);
   const Solver solver{g.sys,
                       g.part,
                       g.con,
                       DView<int>(),
                       DView<int>("list", n_slots),
                       DView<int>("starts", n_slots + kSystems),
-                      1.0};
+                      1.0,
+                      0,
+                      {},
+                      DView<int>()};  // no sweeps: nothing packed
   const auto colours_now = [&]() { return to_host(g.con.colour); };
   constexpr int kMark = -3;
 
