@@ -494,9 +494,6 @@ TEST(Scan, DocsListEveryKeyAndNoOther) {
   EXPECT_EQ(documented_keys(), parsed);
 }
 
-// Every row of the settings table parses its own default back, is refused just outside its
-// range with the range in the message, and names every key of its section when a key is
-// unknown.
 // Values of the row's range other than `v`, nearest first: a quarter more or less (one more or
 // less for an integer), then values a check across settings may need (a region radius of at
 // least 5 R), then the range's ends.
@@ -509,6 +506,9 @@ std::vector<double> other_values(const SettingKey& row, double v) {
   return out;
 }
 
+// Every row of the settings table carries a value other than its default into the scan, is
+// refused just outside its range at either end with the range in the message, and names every
+// key of its section when a key is unknown.
 TEST(Scan, SettingsTableDrivesParsingAndErrors) {
   const Scan defaults;
   for (const auto& row : setting_keys()) {
