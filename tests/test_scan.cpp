@@ -497,6 +497,7 @@ TEST(Scan, DocsListEveryKeyAndNoOther) {
 // Values of the row's range other than `v`, nearest first: a quarter more or less (one more or
 // less for an integer), then values a check across settings may need (a region radius of at
 // least 5 R), then the range's ends.
+namespace {
 std::vector<double> other_values(const SettingKey& row, double v) {
   const bool integer = row.type == SettingKey::Type::Integer;
   std::vector<double> out;
@@ -505,6 +506,7 @@ std::vector<double> other_values(const SettingKey& row, double v) {
     if (w >= row.lo && w <= row.hi && w != v && (!integer || w == std::floor(w))) out.push_back(w);
   return out;
 }
+}  // namespace
 
 // Every row of the settings table carries a value other than its default into the scan, is
 // refused just outside its range at either end with the range in the message, and names every
