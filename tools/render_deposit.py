@@ -32,7 +32,7 @@ def label(bar, title):
     bar.LabelColor = [0, 0, 0]
 
 
-ATTEMPTS = 5
+ATTEMPTS = 8
 ABORTED = (-6, 134)  # SIGABRT, as the process or as a shell reports it
 
 
