@@ -551,7 +551,7 @@ struct ColouredAcceleratedGaussSeidel {
           [&](int a, double& sum) { sum += nncg_change2(packed, a); }, g2);
       const double beta = nncg_beta(previous, g2);
       previous = g2;
-      nncg_steps(team, base, n_colours, beta);
+      nncg_steps(team, base, n_colours, first, end, beta);
     }
     // Capped (the step ends unconverged), or paused until the next launch.
     unpack(team, first, end);
@@ -605,11 +605,20 @@ struct ColouredAcceleratedGaussSeidel {
     });
   }
 
-  // NNCG's step over the packed contacts. A step (beta <= 1) moves them colour by colour, each
-  // contact's impulse step applied to its two bodies at once (a colour's contacts share no
-  // body); a restart moves no impulse and only sets the direction and the start.
-  KOKKOS_INLINE_FUNCTION void nncg_steps(const Member& team, int base, int n_colours,
-                                         double beta) const {
+  // NNCG's step over the packed contacts [first, end). A step (beta <= 1) moves them colour by
+  // colour, each contact's impulse step applied to its two bodies at once (a colour's contacts
+  // share no body); a restart moves no impulse and only sets the direction and the start, all
+  // contacts at once.
+  KOKKOS_INLINE_FUNCTION void nncg_steps(const Member& team, int base, int n_colours, int first,
+                                         int end, double beta) const {
+    if (beta > 1.0) {
+      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, end), [&](int a) {
+        double sn, st, sm;
+        nncg_step(packed, a, beta, sn, st, sm);
+      });
+      team.team_barrier();
+      return;
+    }
     for (int k = 0; k < n_colours; ++k) {
       Kokkos::parallel_for(
           Kokkos::TeamThreadRange(team, starts(base + k), starts(base + k + 1)), [&](int a) {
