@@ -197,11 +197,6 @@ struct BodyVelocity {
     const int s = part.system(p);
     if (part.cell(p) < 0) return;
     if (only_unconverged && sys.unconverged(s) != kIterating) return;
-    set(p);
-  }
-
-  // Disk p's velocity, whatever its system's state (a solver's own use).
-  KOKKOS_INLINE_FUNCTION void set(int p) const {
     double vx = part.vfx(p), vy = part.vfy(p), w = part.wf(p);
     const double im = part.inv_mass(p), iI = part.inv_inertia(p), r = part.radius(p);
     const int n = part.n_incident(p);

@@ -39,8 +39,9 @@ friction = [0.3, 0.5]
 
 // Scan::content, what checkpoints and merges identify a scan by: the same settings written with
 // comments, other spacing and keys in another order give the same content, which names the
-// toml++ that wrote it and parses to itself, and so does another batch size; any value that
-// differs, in type (12, 12.0) or in its last bit, gives another.
+// toml++ that wrote it and parses to itself, and so does another batch size or
+// solver.sweeps_per_launch; any value that differs, in type (12, 12.0) or in its last bit, gives
+// another.
 TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrWhatNoResultDependsOn) {
   const std::string text =
       "[scan]\nseeds = 2\nprotocol = \"A\"\n[system]\nwidth = 12\nfriction = 0.1\n"

@@ -106,10 +106,10 @@ struct Scan {
   std::string text;  // the whole scan file
   // What identifies the scan to a checkpoint and to a merge of shards: its settings as parsed
   // and written out again by toml++ (keys sorted; no comments, blank lines or spacing; 12 and
-  // 12.0 differ), without the batch size, which changes no member's result, under a first line
-  // naming the version of the toml++ headers it was built with (another version may write a
-  // number otherwise, so a build against it counts the same file as another scan: the safe
-  // side).
+  // 12.0 differ), without what changes no member's result (the batch size, the sweeps a launch:
+  // identity_of in src/scan.cpp), under a first line naming the version of the toml++ headers
+  // it was built with (another version may write a number otherwise, so a build against it
+  // counts the same file as another scan: the safe side).
   std::string content;
   std::string name = "scan";
   std::uint64_t seed = 1;
