@@ -469,9 +469,9 @@ struct AcceleratedGaussSeidel {
 // the NNCG step then moves the impulses colour by colour, each contact's step applied to its two
 // bodies at once, which needs no atomics. Each team iterates its system to convergence in one
 // launch, as AcceleratedGaussSeidel does with one thread. The sweeps read a packed copy of the
-// system's contacts in colour order (`packed`, copied from the slots at each launch's start and
-// its impulses back at its end), so a colour's contacts lie side by side in memory and no empty
-// slot is visited. The team
+// system's contacts in colour order (`packed`, copied from the slots as a step's solve starts,
+// the impulses back at each launch's end), so a colour's contacts lie side by side in memory and
+// no empty slot is visited. The team
 // first colours its own system (the Jones-Plassmann rounds of kernels/colouring.hpp, so each
 // contact gets the colour a batch-wide colouring gives it), which needs no launch or host
 // round trip per round, and sweeps only its own colours. A system whose contact pairs are those
@@ -516,7 +516,7 @@ struct ColouredAcceleratedGaussSeidel {
     const bool goes_on = sys.solving(s);
     const int n_colours = goes_on ? sys.colours(s) : start_step(team, s, range, base);
     const int first = range.first, end = starts(base + n_colours);  // the packed contacts
-    pack(team, first, end, !goes_on);
+    if (!goes_on) pack(team, first, end);  // a solve that goes on has its copy
     // NNCG's last |d|^2; a step's first iteration restarts.
     double previous = goes_on ? sys.gradient2(s) : 0.0;
     team.team_barrier();  // the contacts are packed, and every thread has read the system's state
@@ -567,10 +567,11 @@ struct ColouredAcceleratedGaussSeidel {
     return n_colours;
   }
 
-  // The contacts [first, end) of list copied from their slots into `packed`; at the start of a
-  // step's solve also the impulses the iteration starts from (nncg_keep_start). Each launch
-  // copies them afresh: between launches the slots hold the system's contacts.
-  KOKKOS_INLINE_FUNCTION void pack(const Member& team, int first, int end, bool step_start) const {
+  // At the start of a step's solve, the contacts [first, end) of list copied from their slots
+  // into `packed`, and the impulses the iteration starts from kept (nncg_keep_start). The copy
+  // serves the step's every launch: between them no other stage touches a system inside its
+  // solve (sys.solving), and each launch writes the impulses back to the slots as it ends.
+  KOKKOS_INLINE_FUNCTION void pack(const Member& team, int first, int end) const {
     Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, end), [&](int a) {
       const int c = list(a);
       owner(a) = c / kSlots;
@@ -587,7 +588,7 @@ struct ColouredAcceleratedGaussSeidel {
       packed.pn(a) = con.pn(c);
       packed.pt(a) = con.pt(c);
       packed.pm(a) = con.pm(c);
-      if (step_start) nncg_keep_start(packed, a);
+      nncg_keep_start(packed, a);
     });
   }
   // The impulses of the packed contacts [first, end) back into their slots.
