@@ -64,7 +64,22 @@ std::string format_number(double v) {
   return o.str();
 }
 
-// A number: integer, float, or the strings "inf" / "infinity"; nan is none.
+// Whether a node holds a value anywhere: a section or [[point]] header alone sets nothing (an empty
+// list is a value, which its key's check refuses).
+bool sets_a_value(const toml::node& node) {
+  if (auto t = node.as_table())
+    return std::any_of(t->begin(), t->end(), [](const auto& kv) { return sets_a_value(kv.second); });
+  if (auto a = node.as_array())
+    return a->empty() || std::any_of(a->begin(), a->end(), [](const toml::node& e) { return sets_a_value(e); });
+  return true;
+}
+
+// Whether a key (or its range's from, to, also) takes "inf": the Bond number, for no gravity.
+// Every other key must be finite.
+bool takes_infinity(const std::string& key) { return key.find("bond_number") != std::string::npos; }
+
+// A number: integer, float, or the strings "inf" / "infinity" (which the key's own check refuses
+// where it must be finite); nan is none.
 double as_number(const std::string& file, const toml::node& node, const std::string& key) {
   if (auto v = node.as_floating_point()) {
     if (std::isnan(v->get())) fail(file, node, key, "nan is not a value");
@@ -74,7 +89,7 @@ double as_number(const std::string& file, const toml::node& node, const std::str
   if (auto v = node.as_string()) {
     if (v->get() == "inf" || v->get() == "infinity") return INFINITY;
   }
-  fail(file, node, key, "expected a number (or \"inf\")");
+  fail(file, node, key, takes_infinity(key) ? "expected a number (or \"inf\")" : "expected a number");
 }
 
 bool as_bool(const std::string& file, const toml::node& node, const std::string& key) {
@@ -504,7 +519,7 @@ Scan ScanParser::parse() {
           << TOML_LIB_PATCH << "\n"
           << identity_of(root);
   scan.content = content.str();
-  if (root.empty())
+  if (!sets_a_value(root))
     throw ScanError(file +
                     ": the scan file sets nothing; every default together is a 200 R x 150 R "
                     "deposit of hours (docs/SCAN.md): set at least [system] width and height");

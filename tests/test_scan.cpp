@@ -148,7 +148,7 @@ TEST(Scan, SweepCapIsTheProtocolDefaultUnlessSet) {
 }
 
 TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {
-  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").solver.newton_every,
+  EXPECT_EQ(parse_scan("[scan]\nname = \"plain\"\n", "plain.toml").solver.newton_every,
             SolverSettings{}.newton_every);
   EXPECT_GT(SolverSettings{}.newton_every, 0);
   EXPECT_EQ(parse_scan("[solver]\nnewton_every = 0\n", "off.toml").solver.newton_every, 0);
@@ -156,18 +156,18 @@ TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {
 
 // batch_size: 0 unless set, which run_members and the program read as default_batch_size().
 TEST(Scan, BatchSizeIsLeftToTheBackendUnlessSet) {
-  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").batch_size, 0);
+  EXPECT_EQ(parse_scan("[scan]\nname = \"plain\"\n", "plain.toml").batch_size, 0);
   EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n", "seven.toml").batch_size, 7);
 }
 
 TEST(Scan, OverlapCorrectionIsOffUnlessSet) {
-  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").solver.overlap_correction, 0.0);
+  EXPECT_EQ(parse_scan("[scan]\nname = \"plain\"\n", "plain.toml").solver.overlap_correction, 0.0);
   EXPECT_EQ(parse_scan("[solver]\noverlap_correction = 0.2\n", "on.toml").solver.overlap_correction,
             0.2);
 }
 
 TEST(Scan, RelativeToleranceIsTheSolversUnlessSet) {
-  EXPECT_EQ(parse_scan("[scan]\n", "plain.toml").solver.relative_tolerance,
+  EXPECT_EQ(parse_scan("[scan]\nname = \"plain\"\n", "plain.toml").solver.relative_tolerance,
             SolverSettings{}.relative_tolerance);
   EXPECT_EQ(parse_scan("[solver]\nrelative_tolerance = 0\n", "off.toml").solver.relative_tolerance,
             0.0);
@@ -177,7 +177,7 @@ TEST(Scan, RelativeToleranceIsTheSolversUnlessSet) {
 }
 
 TEST(Scan, RestNeedsAConvergedSolveUnlessSet) {
-  EXPECT_TRUE(parse_scan("[scan]\n", "plain.toml").rest.converged);
+  EXPECT_TRUE(parse_scan("[scan]\nname = \"plain\"\n", "plain.toml").rest.converged);
   EXPECT_FALSE(parse_scan("[rest]\nconverged = false\n", "speeds.toml").rest.converged);
 }
 
@@ -195,7 +195,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\nbond_number = [100, 1e3, 100]\n",
        "bad.toml:2:26: key 'system.bond_number': the value 100 is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
-      {"[system]\nwidth = \"wide\"\n", "key 'system.width': expected a number"},
+      {"[system]\nbond_number = \"strong\"\n",
+       "key 'system.bond_number': expected a number (or \"inf\")"},
       {"[scan]\nseeds = 0\n", "key 'scan.seeds': expected an integer in [1,"},
       {"[scan]\nprotocol = \"D\"\n", "key 'scan.protocol': expected \"A\", \"B\" or \"C\""},
       {"[solver]\nkind = \"newton\"\n", "key 'solver.kind'"},
@@ -228,12 +229,25 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
       {"[system]\nbond_number = -inf\n", "bad.toml:2:15: key 'system.bond_number': Bo must be 0"},
       {"# nothing but a comment\n", "bad.toml: the scan file sets nothing"},
+      {"[solver]\n", "bad.toml: the scan file sets nothing"},
+      {"[system]\n[[point]]\n", "bad.toml: the scan file sets nothing"},
       {"[system]\nheight = 120\ntime_step = 1e-5\n",
        "bad.toml:3:13: key 'system.time_step': h = 1e-05 with rest.steps = 10: a disk set free "
        "falls only g h rest.steps = 0.0001 sqrt(gR) fast within the rest window, below 2 rest "
        "speeds (0.002), so rest would be declared before anything moved; set [rest] steps >= 200"},
   };
   scan_errors::expect_refused(cases);
+}
+
+// "inf" is offered where it is a value (the Bond number without gravity), not for keys that must
+// be finite, nor for a range's ends of such a key.
+TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
+  EXPECT_EQ(error_of("[system]\nwidth = \"wide\"\n"),
+            "bad.toml:2:9: key 'system.width': expected a number");
+  EXPECT_EQ(error_of("[system]\nheight = { from = 40, to = \"tall\", points = 2 }\n"),
+            "bad.toml:2:28: key 'system.height.to': expected a number");
+  EXPECT_EQ(error_of("[system]\nbond_number = { from = 1, to = \"x\", points = 2 }\n"),
+            "bad.toml:2:32: key 'system.bond_number.to': expected a number (or \"inf\")");
 }
 
 // The rest window's bound g h rest.steps >= 2 rest.speed: where the file sets no time step the
