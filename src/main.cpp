@@ -163,11 +163,14 @@ class RunCommand {
   void say(const std::string& s) const {
     if (talk) std::cerr << "loosepack: " << s << "\n";
   }
-  // The command of this run, with the members it selects, for the messages on how to go on.
-  std::string this_run() const {
+  // The command that goes on with this run from its checkpoint: the members it selects and what
+  // it writes (--snapshots) as given, and --force where the output file is there to replace
+  // (it was when the run began with --force, or the run wrote its finished members into it).
+  std::string resume_command(bool output_written = false) const {
     const std::string flags = selection();
     return "loosepack run " + o.scan_path + " -o " + o.out_path +
-           (flags.empty() ? "" : " " + flags);
+           (flags.empty() ? "" : " " + flags) + (o.snapshots ? " --snapshots" : "") + " --resume" +
+           (o.force || output_written ? " --force" : "");
   }
   // The options that select this run's members (--member, --shard, K/N as parsed), or "" for
   // the whole scan.
@@ -586,7 +589,7 @@ int RunCommand::wait_for_ranks() {
   else
     say("interrupted by " + by +
         ": finished members, and where the running ones were, are saved in " + ck_dir +
-        "; continue with: " + this_run() + " --resume");
+        "; continue with: " + resume_command());
   return 128 + static_cast<int>(g_signal);
 }
 
@@ -633,15 +636,15 @@ int RunCommand::write() {
     write_member_results(o.out_path, scan, info, results, o.snapshots);
   } catch (const std::exception& e) {
     say(std::string(e.what()) + "; the results are kept in " + ck_dir +
-        ": once the cause is fixed, write the file with: " + this_run() + " --resume");
+        ": once the cause is fixed, write the file with: " + resume_command());
     return kError;
   }
   if (o.finished_only) {
     if (!o.quiet)
       std::cerr << "loosepack: wrote " << o.out_path << " with the " << results.size() << " of "
                 << members.size() << " members finished so far (" << failed
-                << " failed); the checkpoint " << ck_dir << " stays: continue with " << this_run()
-                << " --resume --force\n";
+                << " failed); the checkpoint " << ck_dir << " stays: continue with "
+                << resume_command(true) << "\n";
   } else {
     remove_checkpoint(ck_dir);
     if (!o.quiet)

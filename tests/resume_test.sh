@@ -15,10 +15,11 @@ total=$("$exe" run s.toml -o again.h5 --batch-size 1 2>&1 | sed -n 's/.* 8\/8 me
 [ -n "$total" ] || fail "no final progress line"
 same full.h5 again.h5
 
-# Wait until the checkpoint holds a member or two, then interrupt with signal $1.
+# Wait until the checkpoint holds a member or two, then interrupt with signal $1 (further
+# arguments go to the run).
 interrupt() {
   local sig=$1 out=$2 log=$3
-  "$exe" run s.toml -o "$out" --batch-size 1 --checkpoint-every 0 >"$log" 2>&1 &
+  "$exe" run s.toml -o "$out" --batch-size 1 --checkpoint-every 0 "${@:4}" >"$log" 2>&1 &
   local pid=$!
   for _ in $(seq 1 600); do
     ls "$out.checkpoint/"*.bin >/dev/null 2>&1 && break
@@ -56,6 +57,20 @@ interrupt TERM t.h5 t.log
 [ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat t.log)"
 grep -q "continue with: loosepack run s.toml -o t.h5 --resume" t.log || fail "message: $(cat t.log)"
 [ ! -e t.h5 ] || fail "an interrupted run wrote an output file"
+# The command the message gives goes on as the run began: over a file it was told to replace
+# (--force), writing what it was asked to (--snapshots), run as printed.
+echo old > sf.h5
+interrupt TERM sf.h5 sf.log --snapshots --force
+[ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat sf.log)"
+hint=$(sed -n 's/.*continue with: \(.*\)$/\1/p' sf.log)
+[ "$hint" = "loosepack run s.toml -o sf.h5 --snapshots --resume --force" ] || fail "hint: $hint"
+"$exe" ${hint#loosepack } -q --batch-size 1 || fail "the printed command failed"
+/usr/bin/python3 - sf.h5 <<'PY' || fail "the resumed run's snapshots: see above"
+import sys, h5py
+with h5py.File(sys.argv[1], "r") as f:
+    snaps = sum(1 for p in f["points"].values() for k in p["members"] if k.startswith("snapshot_"))
+    assert snaps == 8, f"{snaps} snapshots of 8 members"
+PY
 # SIGINT (Ctrl-C) likewise, resumed to the same file.
 interrupt INT i.h5 i.log
 [ "$rc" -eq 130 ] || fail "SIGINT exit code $rc: $(cat i.log)"
