@@ -75,8 +75,10 @@ and their chi2 that of the residuals against the residuals' own jackknife errors
 
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
-one. Prints one line per claim (PASS or FAIL with the numbers) and exits with status 1 when any
-claim fails, 2 when the file has nothing to judge or cannot be read (and for a usage error).
+one. Prints one line per claim: PASS or FAIL with the numbers, or SKIP with what is missing where
+the file holds too little to judge it (too few members, bins or strips). Exits with status 1 when
+any claim fails, 2 when the file has nothing to judge (no claim, or every one skipped) or cannot
+be read (and for a usage error).
 Uses Debian's python3-h5py.
 """
 import math
@@ -92,6 +94,7 @@ Z99 = 2.3263  # the standard normal's 99 % quantile
 
 
 RCP = 0.84  # 2D random close packing of disks: the paper's upper limit of the collapse
+NOT_JUDGED = None  # a claim's verdict where the file holds too little to judge it
 
 
 def chi2_quantile99(dof):
@@ -172,7 +175,7 @@ def profile_shapes(point, path):
 def parabola_verdict(band, fits):
     """(parabola holds, constant acceptable, detail) from the band's three fits."""
     if any(f is None for f in fits):
-        return False, False, "too few bins or members in the band between the cuts"
+        return NOT_JUDGED, NOT_JUDGED, "too few bins or members in the band between the cuts"
     (c0, e0, x0, d0), (c1, e1, x1, d1), (c2, e2, x2, d2) = fits
     accept = lambda chi2, dof: chi2 <= chi2_quantile99(dof)
     curv, curv_err = c2[2], e2[2]
@@ -275,7 +278,7 @@ def bo0_histogram_claims(point, path, where):
     hist = Histogram(point["abs_dy_histogram"], path)
     tail = hist.fit(1, hist.centre > 2.0)
     if tail is None:
-        yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R", False,
+        yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R", NOT_JUDGED,
                "too few bins or members beyond 2 R")
     else:
         coef, err, chi2, dof = tail
@@ -286,7 +289,7 @@ def bo0_histogram_claims(point, path, where):
                f"{hist.members} members")
     band = (hist.centre > 1.0) & (hist.centre < 2.0)
     if band.sum() < 2 or hist.members < 4:
-        yield (f"{where}: the |Delta y| histogram is flat between 1 and 2 R", False,
+        yield (f"{where}: the |Delta y| histogram is flat between 1 and 2 R", NOT_JUDGED,
                "fewer than two bins between 1 and 2 R, or fewer than 4 members")
         return
     diff = lambda counts: counts[band] - counts[band].mean()
@@ -344,7 +347,7 @@ def deposition_fluctuation_claims(point, path, where):
         fail_missing(path, f"{point.name}/nu_deposition/member_mean")
     fl = deposition_fluctuation(point)
     if fl is None:
-        yield (claim, False, "no deposit above 220 R in two members or more")
+        yield (claim, NOT_JUDGED, "no deposit above 220 R in two members or more")
         return
     value, error, members, x = fl
     paper = PAPER_FLUCTUATION[bo]
@@ -379,7 +382,8 @@ def deposition_fluctuation_order(f):
 
 
 def check_point(point, path):
-    """Yields (claim, ok, detail) for one scan point."""
+    """Yields (claim, ok, detail) for one scan point; ok is NOT_JUDGED where the point holds too
+    little to judge the claim."""
     a = point.attrs
     protocol, bo = text(a["protocol"]), float(a["bond_number"])
     where = f"point {point.name.split('/')[-1]} ({protocol}, Bo = {bo:g}, H = {a['height']:g})"
@@ -391,7 +395,8 @@ def check_point(point, path):
         yield from trajectory_claims(point, where)
     if protocol == "A" and 1e4 <= bo < math.inf:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
-        yield (f"{where}: at Bo >= 1e4 no parabola can be identified", not holds, detail)
+        yield (f"{where}: at Bo >= 1e4 no parabola can be identified",
+               NOT_JUDGED if holds is NOT_JUDGED else not holds, detail)
     if protocol == "A" and bo == 0:
         holds, constant, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is constant in the bulk, no parabola",
@@ -515,7 +520,7 @@ def trajectory_claims(point, where):
               f"{where}: neighbouring disks move together (similar trajectories)")
     if len(rows) < 4:
         for claim in claims:
-            yield (claim, False, f"{len(rows)} members with trajectories (4 needed)")
+            yield (claim, NOT_JUDGED, f"{len(rows)} members with trajectories (4 needed)")
         return
     replicas = [np.delete(rows, k, axis=0).mean(axis=0) for k in range(len(rows))]
     mean, err = rows.mean(axis=0), jackknife(replicas)
@@ -526,7 +531,8 @@ def trajectory_claims(point, where):
            f"{side:.3g} +- {err[1]:.2g} R sideways (difference {down - side:.3g} +- "
            f"{down_err:.2g}), {len(rows)} members")
     if not np.isfinite(rows[:, 2:]).all():
-        yield (claims[1], False, "a member without neighbours or far pairs that both moved 1 R")
+        yield (claims[1], NOT_JUDGED,
+               "a member without neighbours or far pairs that both moved 1 R")
         return
     near_err = float(jackknife([r[2] - r[3] for r in replicas]))
     yield (claims[1], near - far > 2 * near_err,
@@ -547,7 +553,7 @@ def collapse_claims(point, path, where):
         profiles[key] = Profile(point[key], -math.inf, math.inf)
     fits = {k: p.fit(1) for k, p in profiles.items()}
     if any(f is None for f in fits.values()):
-        yield (f"{where}: Delta y is a straight line in y_e and y_i", False, "too few bins")
+        yield (f"{where}: Delta y is a straight line in y_e and y_i", NOT_JUDGED, "too few bins")
         return
     lines_ok = all(f[2] <= chi2_quantile99(f[3]) for f in fits.values())
     yield (f"{where}: Delta y is a straight line in y_e and y_i", lines_ok,
@@ -606,7 +612,8 @@ def collapse_density_claims(point, path, where):
     for key, label, top in (("nu_deposition", "nu_i", h), ("nu", "nu_f", final_top)):
         r = density_slope(point[key], max(low, top / 4), top / 2)
         if r is None:
-            yield (f"{where}: {label}(y) is flat in the bulk", False, "too few strips or members")
+            yield (f"{where}: {label}(y) is flat in the bulk", NOT_JUDGED,
+                   "too few strips or members")
             continue
         slope, err, lo, hi = r
         yield (f"{where}: {label}(y) is flat in the bulk", abs(slope) <= 2 * err,
@@ -715,11 +722,24 @@ def main():
     if not results:
         print(f"claims.py: {path}: no scan point the claims speak about")
         sys.exit(2)
+    text, status = report(results)
+    print(text)
+    sys.exit(status)
+
+
+def report(results):
+    """The lines printed for (claim, ok, detail) verdicts, and the exit status: 1 when a claim
+    fails, 2 when none could be judged, else 0."""
+    lines = []
     for claim, ok, detail in results:
-        print(f"{'PASS' if ok else 'FAIL'}  {claim}  [{detail}]")
-    failed = sum(1 for _, ok, _ in results if not ok)
-    print(f"{len(results) - failed} of {len(results)} claims hold")
-    sys.exit(1 if failed else 0)
+        verdict = "SKIP" if ok is NOT_JUDGED else "PASS" if ok else "FAIL"
+        lines.append(f"{verdict}  {claim}  [{detail}]")
+    judged = [ok for _, ok, _ in results if ok is not NOT_JUDGED]
+    failed = sum(1 for ok in judged if not ok)
+    skipped = len(results) - len(judged)
+    lines.append(f"{len(judged) - failed} of {len(judged)} claims hold"
+                 + (f"; {skipped} not judged (too little in the file)" if skipped else ""))
+    return "\n".join(lines), 1 if failed else 0 if judged else 2
 
 
 if __name__ == "__main__":

@@ -87,6 +87,30 @@ def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_pat
     assert not verdicts(point_file(tmp_path, "s", "A", 100.0, {"avalanche_by_ye": shifted}))[claim][0]
 
 
+def test_too_little_to_judge_is_skipped_not_failed(tmp_path):
+    """Three members cannot give a jackknife fit's chi2 (4 are needed): the claim is skipped, and
+    verdicts that are all skipped have nothing judged (exit 2), where a failed claim exits 1."""
+    claim = "at Bo >= 1e4 no parabola can be identified"
+    path = point_file(tmp_path, "few", "A", 1e4, {"avalanche_by_ye": PARABOLA})
+    with h5py.File(path, "r+") as f:
+        g = f["points/0000/avalanche_by_ye"]
+        for k in ("member_count", "member_position", "member_mean"):
+            rows = g[k][:3]
+            del g[k]
+            g[k] = rows
+    skipped = verdicts(path)[claim]
+    assert skipped[0] is claims.NOT_JUDGED
+    text, status = claims.report([(claim, *skipped)])
+    assert status == 2 and text.startswith(f"SKIP  {claim}  [too few"), text
+    assert text.endswith("0 of 0 claims hold; 1 not judged (too little in the file)"), text
+    failed = verdicts(point_file(tmp_path, "clear", "A", 1e4, {"avalanche_by_ye": PARABOLA},
+                                 noise=0.05))[claim]
+    assert failed[0] is False
+    text, status = claims.report([(claim, *skipped), (claim, *failed)])
+    assert status == 1 and "\nFAIL  " in text and "0 of 1 claims hold; 1 not judged" in text
+    assert claims.report([(claim, True, "")])[1] == 0
+
+
 def test_bo0_passes_a_constant_and_fails_a_parabola(tmp_path):
     claim = "Delta y(y_e) is constant in the bulk, no parabola"
     assert verdicts(point_file(tmp_path, "c", "A", 0.0, {"avalanche_by_ye": CONSTANT}))[claim][0]
