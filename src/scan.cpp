@@ -476,7 +476,7 @@ class ScanParser {
   void check_counts(const std::vector<ScanPoint>& points);
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
   void warn_diverging_jacobi();
-  void warn_unused_capture_radius(const std::vector<ScanPoint>& points);
+  void reset_unused_capture_radius(std::vector<ScanPoint>& points);
   void check_sweeps_per_launch();
   int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
     auto i = v.as_integer();
@@ -549,10 +549,10 @@ Scan ScanParser::parse() {
         fail(file, *at->second, "observables.lower_half_from", o.str());
       throw ScanError(file + ": key 'observables.lower_half_from': " + o.str());
     }
+  reset_unused_capture_radius(points);
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
   warn_unresolved_barrier(points);
-  warn_unused_capture_radius(points);
   warn_diverging_jacobi();
   check_sweeps_per_launch();
   scan.points = std::move(points);
@@ -852,18 +852,36 @@ void ScanParser::warn_diverging_jacobi() {
 }
 
 // The capture radius shapes the ballistic deposits of protocols B and C; protocol A drops each
-// disk with its dynamics, so an A point of another capture radius repeats the point of 1.
-void ScanParser::warn_unused_capture_radius(const std::vector<ScanPoint>& points) {
-  std::vector<int> unused;
-  for (const auto& sp : points)
-    if (sp.protocol == Protocol::A && sp.params.capture_radius != 1.0) unused.push_back(sp.index);
-  if (unused.empty()) return;
+// disk with its dynamics. So an A point runs with capture_radius = 1 and says so in the output,
+// and an A point that the reset makes a repeat of another (a grid of protocols and capture
+// radii) is left out: it would compute the same members again under another label.
+void ScanParser::reset_unused_capture_radius(std::vector<ScanPoint>& points) {
+  std::vector<ScanPoint> kept;
+  int reset = 0, repeats = 0;
+  for (auto sp : points) {
+    if (sp.protocol == Protocol::A && sp.params.capture_radius != 1.0) {
+      sp.params.capture_radius = 1.0;
+      ++reset;
+      const auto same = [&](const ScanPoint& o) {
+        return o.protocol == sp.protocol && o.params == sp.params;
+      };
+      if (std::any_of(kept.begin(), kept.end(), same)) {
+        ++repeats;
+        continue;
+      }
+    }
+    kept.push_back(sp);
+  }
+  if (reset == 0) return;
   std::ostringstream o;
-  o << file << ": capture_radius acts in protocols B and C only; the protocol-A point"
-    << (unused.size() > 1 ? "s " : " ");
-  for (std::size_t k = 0; k < unused.size(); ++k) o << (k > 0 ? ", " : "") << unused[k];
-  o << (unused.size() > 1 ? " run" : " runs") << " as with capture_radius = 1";
+  o << file << ": capture_radius acts in protocols B and C only; protocol A runs with "
+    << "capture_radius = 1";
+  if (repeats > 0)
+    o << ", and " << repeats << " protocol-A point" << (repeats > 1 ? "s" : "")
+      << " of the grid that differed from another only in it " << (repeats > 1 ? "are" : "is")
+      << " left out";
   scan.warnings.push_back(o.str());
+  points = std::move(kept);
 }
 
 // The discrete pull-off barrier matches F_c d_c only for h well below sqrt(2 m_n d_c / F_c),

@@ -371,15 +371,29 @@ TEST(Scan, WarnsWhenTheTimeStepDoesNotResolveTheCohesiveBarrier) {
 }
 
 // Protocol A drops its disks with their dynamics: a capture radius other than 1 changes nothing
-// there, and the file is told so (a grid of protocols and capture radii would repeat A points).
-TEST(Scan, WarnsWhenProtocolAPointsSetACaptureRadius) {
+// there. Its points run with capture_radius = 1 (as the output says), a grid of protocols and
+// capture radii keeps one A point instead of repeating it, and the file is told so.
+TEST(Scan, ProtocolAPointsRunWithCaptureRadiusOneOnce) {
   const auto scan = parse_scan(
       "[scan]\nprotocol = [\"A\", \"C\"]\n[system]\ncapture_radius = [1, 2, 3]\n", "r.toml");
   ASSERT_EQ(scan.warnings.size(), 1u);
-  EXPECT_NE(scan.warnings[0].find("capture_radius acts in protocols B and C only; the "
-                                  "protocol-A points 1, 2 run as with capture_radius = 1"),
+  EXPECT_NE(scan.warnings[0].find("capture_radius acts in protocols B and C only; protocol A "
+                                  "runs with capture_radius = 1, and 2 protocol-A points of the "
+                                  "grid that differed from another only in it are left out"),
             std::string::npos)
       << scan.warnings[0];
+  ASSERT_EQ(scan.points.size(), 4u);
+  std::vector<std::pair<Protocol, double>> got;
+  for (const auto& sp : scan.points) got.emplace_back(sp.protocol, sp.params.capture_radius);
+  const std::vector<std::pair<Protocol, double>> want = {
+      {Protocol::A, 1.0}, {Protocol::C, 1.0}, {Protocol::C, 2.0}, {Protocol::C, 3.0}};
+  EXPECT_EQ(got, want);
+  for (std::size_t k = 0; k < scan.points.size(); ++k) EXPECT_EQ(scan.points[k].index, int(k));
+  // An A point alone of another capture radius runs at 1, and nothing is left out.
+  const auto alone = parse_scan("[system]\ncapture_radius = 2\n", "r.toml");
+  ASSERT_EQ(alone.points.size(), 1u);
+  EXPECT_EQ(alone.points[0].params.capture_radius, 1.0);
+  EXPECT_EQ(alone.warnings.at(0).find("left out"), std::string::npos) << alone.warnings[0];
   EXPECT_TRUE(parse_scan("[scan]\nprotocol = [\"B\", \"C\"]\n[system]\ncapture_radius = 2\n",
                          "r.toml")
                   .warnings.empty());

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <string>
+#include <tuple>
 
 namespace loosepack {
 
@@ -27,11 +28,21 @@ struct SystemParams {
   double capture_radius = 1.0;    // r_capt >= 1 (protocol B)
 
   double reference_mass() const { return disk_density * M_PI * radius * radius; }
+  // Every field, in order (a new field belongs here: the size check below fails without it).
+  auto fields() const {
+    return std::tie(width, height, radius, polydispersity, disk_density, gravity, gravity_dir_x,
+                    gravity_dir_y, gravity_on, bond_number, cohesion_range, floor_cohesion,
+                    friction, rolling_friction, time_step, capture_radius);
+  }
+  // Every field equal (two scan points of the same system).
+  bool operator==(const SystemParams& o) const { return fields() == o.fields(); }
   // F_c; zero for Bo = 0; infinite Bond numbers never reach the dynamics (protocol B path).
   double cohesive_force() const {
     return std::isfinite(bond_number) ? bond_number * reference_mass() * gravity : 0.0;
   }
 };
+static_assert(sizeof(SystemParams) == 14 * sizeof(double) + 2 * alignof(double),
+              "a field added to SystemParams belongs in SystemParams::fields()");
 
 enum class SolverKind {
   Jacobi,                 // all contacts at once from the previous iterate (parallel over contacts)
