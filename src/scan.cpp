@@ -477,6 +477,8 @@ class ScanParser {
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
   void warn_diverging_jacobi();
   void reset_unused_capture_radius(std::vector<ScanPoint>& points);
+  void check_bands(double height) const;
+  [[noreturn]] void fail_setting(const std::string& key, const std::string& reason) const;
   void check_sweeps_per_launch();
   int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
     auto i = v.as_integer();
@@ -539,16 +541,7 @@ Scan ScanParser::parse() {
     points = explicit_points_on(points.front(), system_sets_time_step);
   // Validate every point; report the first offending key with its location.
   for (const auto& sp : points) validate_point(sp);
-  for (const auto& sp : points)
-    if (!(scan.observables.lower_half_from_at(sp.params.height) < 0.5 * sp.params.height)) {
-      std::ostringstream o;
-      o << scan.observables.lower_half_from << " must lie below H/2 = " << 0.5 * sp.params.height
-        << " of every point (nu_lower_half is the band from it to H/2)";
-      const auto at = setting_nodes.find("observables.lower_half_from");
-      if (at != setting_nodes.end())
-        fail(file, *at->second, "observables.lower_half_from", o.str());
-      throw ScanError(file + ": key 'observables.lower_half_from': " + o.str());
-    }
+  for (const auto& sp : points) check_bands(sp.params.height);
   reset_unused_capture_radius(points);
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
@@ -557,6 +550,32 @@ Scan ScanParser::parse() {
   check_sweeps_per_launch();
   scan.points = std::move(points);
   return scan;
+}
+
+// The observables' bands within a point of height H: nu_lower_half from lower_half_from to H/2, and
+// the cut histogram and profile fits between the bottom and the top cut.
+void ScanParser::check_bands(double height) const {
+  const auto& obs = scan.observables;
+  if (!(obs.lower_half_from_at(height) < 0.5 * height)) {
+    std::ostringstream o;
+    o << obs.lower_half_from << " must lie below H/2 = " << 0.5 * height
+      << " of every point (nu_lower_half is the band from it to H/2)";
+    fail_setting("observables.lower_half_from", o.str());
+  }
+  const double bottom = obs.cut_bottom_at(height), top = obs.cut_top_at(height);
+  if (!(bottom + top < height)) {
+    std::ostringstream o;
+    o << "cut_bottom + cut_top = " << bottom + top << " must lie below H = " << height
+      << " of every point (the cut histogram and the profile fits use the band between them)";
+    fail_setting(obs.cut_top_given ? "observables.cut_top" : "observables.cut_bottom", o.str());
+  }
+}
+
+// Refuses the setting `key` with `reason`, at its place in the file where the file sets it.
+void ScanParser::fail_setting(const std::string& key, const std::string& reason) const {
+  const auto at = setting_nodes.find(key);
+  if (at != setting_nodes.end()) fail(file, *at->second, key, reason);
+  throw ScanError(file + ": key '" + key + "': " + reason);
 }
 
 void ScanParser::read_sections(const toml::table& root) {

@@ -227,6 +227,11 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system\nwidth = 3\n", "bad.toml:1:"},
       {"[system]\nheight = 40\n[observables]\nlower_half_from = 30\n",
        "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
+      {"[system]\nheight = 12\n[observables]\ncut_bottom = 8\ncut_top = 8\n",
+       "bad.toml:5:11: key 'observables.cut_top': cut_bottom + cut_top = 16 must lie below H = 12"},
+      {"[system]\nheight = [12, 60]\n[observables]\ncut_bottom = 11\n",
+       "bad.toml:4:14: key 'observables.cut_bottom': cut_bottom + cut_top = 13 must lie below H = "
+       "12"},
       {"[system]\nbond_number = -inf\n", "bad.toml:2:15: key 'system.bond_number': Bo must be 0"},
       {"# nothing but a comment\n", "bad.toml: the scan file sets nothing"},
       {"[solver]\n", "bad.toml: the scan file sets nothing"},
