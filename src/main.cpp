@@ -218,7 +218,7 @@ class RunCommand {
 
 int RunCommand::run() {
   if (const int rc = load()) return rc;
-  if (o.dry_run) return dry_run();
+  if (o.dry_run) return o.resume && read_checkpoint() != 0 ? kInvalid : dry_run();
   if (const int rc = read_checkpoint()) return rc;
   if (o.finished_only) return write_finished();
   share_out();
@@ -654,7 +654,8 @@ int RunCommand::write() {
   return failed > 0 ? kMembersFailed : kOk;
 }
 
-// The members, point by point, and what the cost model expects them to take; nothing runs.
+// The members to compute (with --resume, those the checkpoint does not hold finished), point by
+// point, and what the cost model expects them to take; nothing runs.
 int RunCommand::dry_run() const {
   if (!talk) return kOk;
   // expected_cost is in units of about 0.039 microseconds of one core of the machine it was
@@ -667,13 +668,17 @@ int RunCommand::dry_run() const {
     selected = " (" + shard_name() + ": " + std::to_string(members.size()) + " of them)";
   std::printf("# scan '%s': %zu points x %d seeds = %zu members%s\n", scan.name.c_str(),
               scan.points.size(), scan.seeds, all_members.size(), selected.c_str());
+  if (o.resume)
+    std::printf("# resuming from %s: %zu of %zu members finished, %zu to compute (%zu of them from "
+                "where they were)\n",
+                ck_dir.c_str(), resumed.size(), members.size(), todo.size(), started.size());
   std::printf("%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",
               "height", "members", "expected CPU s per member");
   double total = 0.0;
   for (const auto& pt : scan.points) {
     int n = 0;
     double cost = 0.0;
-    for (const auto& m : members)
+    for (const auto& m : o.resume ? todo : members)
       if (m.point == pt.index) ++n, cost = expected_cost(m) * kSecondsPerUnit;
     if (n == 0) continue;
     total += n * cost;
@@ -687,6 +692,10 @@ int RunCommand::dry_run() const {
       total);
   if (!o.force && std::filesystem::exists(o.out_path))
     std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());
+  if (!o.resume && std::filesystem::exists(checkpoint_directory(o.out_path)))
+    std::printf("# a checkpoint of an interrupted run exists (%s): the run would be refused "
+                "without --resume\n",
+                checkpoint_directory(o.out_path).c_str());
   return kOk;
 }
 
@@ -734,7 +743,8 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
       ->capture_default_str();
   run_cmd->add_flag("--force", o.force, "replace an existing result file");
   run_cmd->add_flag("--dry-run", o.dry_run,
-                    "print the members and the cost model's estimate, run nothing");
+                    "print the members and the cost model's estimate, run nothing (with "
+                    "--resume: those the checkpoint does not hold finished)");
   run_cmd->add_flag("-q,--quiet", o.quiet, "no progress on stderr");
   run_cmd->add_option("--batch-size", o.batch_size, "systems per batch (overrides scan.batch_size)")
       ->check(CLI::Range(1, 1000000));

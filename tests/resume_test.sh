@@ -57,6 +57,15 @@ interrupt TERM t.h5 t.log
 [ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat t.log)"
 grep -q "continue with: loosepack run s.toml -o t.h5 --resume" t.log || fail "message: $(cat t.log)"
 [ ! -e t.h5 ] || fail "an interrupted run wrote an output file"
+# A dry run over the checkpoint says the run would be refused; with --resume it plans what is left.
+"$exe" run s.toml -o t.h5 --dry-run | grep -q "checkpoint of an interrupted run exists (t.h5.checkpoint): the run would be refused without --resume" ||
+  fail "a dry run did not see the checkpoint"
+"$exe" run s.toml -o t.h5 --dry-run --resume > plan.txt
+finished=$(sed -n 's/^# resuming from t.h5.checkpoint: \([0-9]*\) of 8 members finished, \([0-9]*\) to compute.*/\1 \2/p' plan.txt)
+read -r done_ck left <<<"$finished"
+[ -n "$done_ck" ] && [ "$done_ck" -ge 1 ] && [ $((done_ck + left)) -eq 8 ] || fail "plan: $(cat plan.txt)"
+planned=$(awk '/^[0-9][0-9][0-9][0-9] / {n += $7} END {print n}' plan.txt)
+[ "$planned" -eq "$left" ] || fail "the plan lists $planned members, $left are left: $(cat plan.txt)"
 # The command the message gives goes on as the run began: over a file it was told to replace
 # (--force), writing what it was asked to (--snapshots), run as printed.
 echo old > sf.h5
