@@ -837,7 +837,7 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
 // temporaries of one that died while writing it removed. "" when claimed, else why not.
 std::string claim_output_path(OutputLock& lock, const std::string& out,
                               const std::vector<std::string>& inputs, bool force) {
-  std::string why;
+  std::string why = inputs.empty() ? output_path_problem(out, "") : "";
   for (const auto& in : inputs)
     if (why.empty()) why = output_path_problem(out, in);
   if (why.empty() && !force && std::filesystem::exists(out))
@@ -858,7 +858,11 @@ int analyse_command(const FileCommands& f) {
           lock, out, in_place ? std::vector<std::string>{} : std::vector{f.analyse_path},
           in_place || f.analyse_force);
       !why.empty()) {
-    std::cerr << "loosepack: " << why << "\n";
+    std::cerr << "loosepack: " << why
+              << (in_place ? "; `loosepack analyse FILE -o NEW.h5` writes the analysis into a "
+                             "copy elsewhere"
+                           : "")
+              << "\n";
     return kInvalid;
   }
   reanalyse(f.analyse_path, out);
@@ -941,7 +945,9 @@ int file_command(const FileCommands& f) {
   const std::string& in = *f.analyse ? f.analyse_path : *f.exporter ? f.export_path
                                                                     : f.summary_path;
   if (!is_hdf5_file(in)) {
-    std::cerr << "loosepack: " << in << " is not an HDF5 file (not a loosepack result file)\n";
+    std::cerr << "loosepack: " << in
+              << " is not an HDF5 file that can be opened (not a loosepack result file, or "
+                 "damaged: truncated by a copy or a full disk?)\n";
     return kInvalid;
   }
   try {

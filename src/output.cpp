@@ -765,7 +765,11 @@ std::string read_attribute_string(const std::string& path, const std::string& ob
 
 bool is_hdf5_file(const std::string& path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  return H5Fis_hdf5(path.c_str()) > 0;
+  if (H5Fis_hdf5(path.c_str()) <= 0) return false;
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);  // a truncated file fails
+  if (file < 0) return false;
+  H5Fclose(file);
+  return true;
 }
 
 ShardFile read_shard_file(const std::string& path) {

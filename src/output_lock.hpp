@@ -8,6 +8,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <fstream>
 #include <string>
 
@@ -25,7 +27,7 @@ class OutputLock {
     lock_path_ = path + ".lock";
     for (int attempt = 0; attempt < 10; ++attempt) {
       fd_ = ::open(lock_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-      if (fd_ < 0) return "cannot create the lock file " + lock_path_;
+      if (fd_ < 0) return "cannot create the lock file " + lock_path_ + ": " + std::strerror(errno);
       if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
         std::string pid;
         std::ifstream(lock_path_) >> pid;

@@ -283,6 +283,31 @@ set -e
 [ "$rc" -eq 2 ] || fail "analyse of a non-HDF5 file: exit code $rc"
 echo "$msg" | grep -q "bad_copy.toml is not an HDF5 file" || fail "analyse message: $msg"
 cmp -s "$dir/bad.toml" "$dir/bad_copy.toml" || fail "analyse touched a file it refused"
+# A file in a directory the user cannot write: analyse in place says why and how to write a copy
+# (run as the unprivileged user nobody, for whom the permissions hold; root bypasses them).
+if [ "$(id -u)" -eq 0 ] && command -v setpriv >/dev/null && id nobody >/dev/null 2>&1; then
+  ro=$(mktemp -d)
+  cp "$dir/good.h5" "$ro/r.h5"
+  chmod 755 "$ro" && chmod 644 "$ro/r.h5"
+  set +e
+  msg=$(setpriv --reuid=nobody --regid=nogroup --clear-groups "$exe" analyse "$ro/r.h5" 2>&1)
+  rc=$?
+  set -e
+  rm -rf "$ro"
+  [ "$rc" -eq 2 ] || fail "analyse in a read-only directory: exit code $rc ($msg)"
+  echo "$msg" | grep -q "cannot write into $ro (for $ro/r.h5); .*analyse FILE -o NEW.h5" ||
+    fail "analyse in a read-only directory: $msg"
+fi
+# A result file cut short (a copy or a full disk) is invalid input too, for each command.
+head -c 5000 "$dir/good.h5" > "$dir/cut.h5"
+for cmd in summary analyse export; do
+  set +e
+  msg=$("$exe" $cmd "$dir/cut.h5" 2>&1)
+  rc=$?
+  set -e
+  [ "$rc" -eq 2 ] || fail "$cmd of a truncated file: exit code $rc ($msg)"
+  echo "$msg" | grep -q "cut.h5 is not an HDF5 file that can be opened" || fail "$cmd message: $msg"
+done
 ls "$dir" | grep -q tmp && fail "analyse left a temporary file behind"
 set +e
 msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)
