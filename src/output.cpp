@@ -65,6 +65,10 @@ DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
     return {"1", profile + ": " + (name == "mean" ? "ensemble mean" : name == "sem"
                                                                           ? "standard error"
                                                                           : "one row per member")};
+  if (group == "nu" && name == "predicted")
+    return {"1", "final volume fraction predicted from the deposition density and Delta y(y_e)"};
+  if (group == "nu" && name == "deviation")
+    return {"1", "predicted minus measured final volume fraction"};
   if (density && name == "rel_fluctuation")
     return {"1", profile + ": standard deviation over mean across members"};
   if (avalanche && (name == "mean" || name == "stddev" || name == "sem" || name == "member_mean"))
@@ -175,14 +179,17 @@ void attribute(hid_t obj, const std::string& name, const std::string& v) {
   string_attribute_on(obj, name, v);
 }
 
-// A text as a scalar string dataset: unlike an attribute (64 KiB at most), any length.
-void string_dataset(hid_t parent, const std::string& name, const std::string& v) {
+// A text as a scalar string dataset (unlike an attribute, 64 KiB at most, of any length) with its
+// long name.
+void string_dataset(hid_t parent, const std::string& name, const std::string& v,
+                    const std::string& long_name) {
   H5 type = utf8_string_type();
   H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
   H5 set(H5Dcreate2(parent, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
          H5Dclose, "create dataset " + name);
   const char* p = v.c_str();
   check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), "write dataset " + name);
+  string_attribute_on(set, "long_name", long_name);
 }
 
 // Opaque bytes as a one-dimensional dataset of unsigned 8-bit integers.
@@ -398,7 +405,7 @@ void write_header(hid_t file, const Scan& scan, const RunInfo& info) {
     attribute(file, "merged_from", parts);
   }
   attribute(file, "scan_file", scan.file);
-  string_dataset(file, "scan_text", scan.text);
+  string_dataset(file, "scan_text", scan.text, "the scan file the results came from, as read");
   attribute(file, "scan_name", scan.name);
   {
     H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");

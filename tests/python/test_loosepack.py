@@ -41,6 +41,17 @@ def test_points_table_has_parameters_scalars_and_integer_counts(result):
     assert isinstance(result.attrs["program"], str) and result.attrs["seeds"] == 3
 
 
+def test_every_dataset_says_what_it_holds(result):
+    """docs/OUTPUT.md: every dataset has a long_name, and a volume fraction the units 1."""
+    missing = []
+    with h5py.File(result.path, "r") as f:
+        f.visititems(lambda name, obj: missing.append(name) if isinstance(obj, h5py.Dataset)
+                     and "long_name" not in obj.attrs else None)
+        for name in ("mean", "predicted", "deviation"):
+            assert f[f"points/0001/nu/{name}"].attrs["units"] == "1", name
+    assert not missing, missing
+
+
 def test_nu_profile_is_the_mean_of_its_member_rows(result):
     nu = result.nu(1)
     assert nu["y"].attrs["units"] == "R" and nu["mean"].attrs["units"] == "1"
