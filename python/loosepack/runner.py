@@ -7,7 +7,6 @@ import re
 import shutil
 import subprocess
 import sys
-import tempfile
 
 from .results import load
 
@@ -89,35 +88,47 @@ def _show(line, progress):
     sys.stderr.flush()
 
 
+def scan_file_for(out):
+    """Where run() writes a scan given as a dict: beside the result, OUT.toml for OUT.h5."""
+    root, _ = os.path.splitext(os.fspath(out))
+    return root + ".toml"
+
+
 def run(scan, out, force=False, progress=True, program=None, args=()):
     """Run a scan and load its result.
 
-    scan: a dict of sections (see to_toml) or the path of a scan file. out: the result file.
-    force: replace an existing `out`. args: more command-line arguments (["--snapshots"]).
-    Raises LoosepackError when the program fails; when only members failed (exit 3) the file
-    is written, a warning printed, and the result returned."""
+    scan: a dict of sections (see to_toml) or the path of a scan file. A dict is written to
+    OUT.toml beside the result (scan_file_for), the scan file the result names and the program's
+    error messages point into; an OUT.toml of other text is replaced only with force. out: the
+    result file. force: replace an existing `out` (and OUT.toml). args: more command-line
+    arguments (["--snapshots"]). Raises LoosepackError when the program fails; when only members
+    failed (exit 3) the file is written, a warning printed, and the result returned."""
     exe = find_program(program)
-    tmp = None
     if isinstance(scan, dict):
-        tmp = tempfile.NamedTemporaryFile("w", suffix=".toml", delete=False)
-        tmp.write(to_toml(scan))
-        tmp.close()
-        path = tmp.name
+        path = scan_file_for(out)
+        if os.path.abspath(path) == os.path.abspath(os.fspath(out)):
+            raise LoosepackError("out %s would be the scan file too: give it another suffix (.h5)"
+                                 % os.fspath(out), 2, "")
+        text = to_toml(scan)
+        if os.path.exists(path) and not force:
+            with open(path) as f:
+                if f.read() != text:
+                    raise LoosepackError("%s exists with another scan: the scan dict would "
+                                         "replace it; pass force=True, or give another out" % path,
+                                         2, "")
+        with open(path, "w") as f:
+            f.write(text)
     else:
         path = os.fspath(scan)
     cmd = [exe, "run", path, "-o", os.fspath(out)] + (["--force"] if force else []) + list(args)
-    try:
-        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                bufsize=1)
-        stderr = []
-        for line in proc.stderr:
-            stderr.append(line)
-            _show(line, progress)
-        proc.stdout.read()
-        code = proc.wait()
-    finally:
-        if tmp is not None:
-            os.unlink(tmp.name)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            bufsize=1)
+    stderr = []
+    for line in proc.stderr:
+        stderr.append(line)
+        _show(line, progress)
+    proc.stdout.read()
+    code = proc.wait()
     if progress:
         sys.stderr.write("\n")
     text = "".join(stderr)

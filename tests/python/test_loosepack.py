@@ -150,11 +150,23 @@ def test_scan_dicts_become_scan_files():
 
 
 def test_bad_input_raises_with_the_programs_message(tmp_path):
+    """The message points into the scan file the dict was written to (bad.toml beside bad.h5),
+    which stays for the user to read; a bad.toml of another scan is not replaced unasked."""
     bad = {"system": {"width": 12.0, "height": 12.0, "widht": 3.0}}
     with pytest.raises(loosepack.LoosepackError) as e:
         loosepack.run(bad, tmp_path / "bad.h5", progress=False)
-    assert e.value.returncode == 2 and "system.widht" in str(e.value)
+    assert e.value.returncode == 2 and f"{tmp_path / 'bad.toml'}:4:9: key 'system.widht'" in str(
+        e.value), str(e.value)
     assert not (tmp_path / "bad.h5").exists()
+    assert (tmp_path / "bad.toml").read_text().splitlines()[3] == "widht = 3.0"
+    good = {"system": {"width": 12.0, "height": 12.0, "bond_number": "inf"}}
+    with pytest.raises(loosepack.LoosepackError) as e:
+        loosepack.run(good, tmp_path / "bad.h5", progress=False)
+    assert "bad.toml exists with another scan" in str(e.value)
+    res = loosepack.run(good, tmp_path / "bad.h5", progress=False, force=True)
+    assert res.attrs["scan_file"] == str(tmp_path / "bad.toml")
+    with pytest.raises(loosepack.LoosepackError):
+        loosepack.run(good, tmp_path / "x.toml", progress=False)
 
 
 def test_summary_prints_the_table(result):
