@@ -224,8 +224,9 @@ int RunCommand::run() {
   share_out();
   announce();
   if (const int rc = compute()) return rc;
+  const int stopped = wait_for_ranks();  // the last progress line, then the timing after it
   print_timing();
-  if (const int rc = wait_for_ranks()) return rc;
+  if (stopped) return stopped;
   return collect_and_write();
 }
 
@@ -543,13 +544,16 @@ void RunCommand::print_timing() const {
                  st.name.c_str(), st.seconds, total > 0 ? 100.0 * st.seconds / total : 0.0,
                  st.launches * per_step, st.copies * per_step);
   }
-  // The batch's steps, then the regions' (their stages are named "region ..."), so that a
-  // stage's seconds per step can be told.
+  // The batch's steps, then the regions' (their stages are named "region ..."), then the
+  // scheduler's loop between the batch's steps, so that a stage's seconds per step can be told.
+  const auto steps_of = [](const StageCost& st) {
+    if (st.name.rfind("region ", 0) == 0) return " steps of the regions";
+    return st.name == "scheduler" ? " passes of the scheduler's loop" : " steps of the batch";
+  };
   std::string over;
   for (std::size_t k = 0; k < stages.size(); ++k)
-    if (k == 0 || stages[k].steps != stages[k - 1].steps)
-      over += (over.empty() ? "" : ", ") + std::to_string(stages[k].steps) +
-              (stages[k].name.rfind("region ", 0) == 0 ? " steps of the regions" : " steps");
+    if (k == 0 || stages[k].steps != stages[k - 1].steps || stages[k].name == "scheduler")
+      over += (over.empty() ? "" : ", ") + std::to_string(stages[k].steps) + steps_of(stages[k]);
   if (!over.empty()) std::fprintf(stderr, "  over %s\n", over.c_str());
   for (const auto& st : stages) {
     if (st.slowest_sweeps == 0) continue;
