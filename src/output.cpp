@@ -967,7 +967,8 @@ void print_summary(const std::string& path, std::ostream& out) {
     }
   }
   out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', "
-      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds") << " s";
+      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds")
+      << " s of the run that wrote it";
   if (H5Aexists(file, "members_unfinished") > 0) {
     const double unfinished = double_attribute(file, "/", "members_unfinished");
     if (unfinished > 0)
