@@ -165,10 +165,15 @@ class Results:
         name = "%s_%d" % (kind, seed)
         if name not in g:
             have = sorted(k for k in g.keys() if k.startswith(kind + "_"))
+            hint = ""
+            if kind == "snapshot":
+                failures = sorted(k for k in g.keys() if k.startswith("failure_"))
+                hint = "; run with --snapshots" + (
+                    "; failed members' states at the failure: %s (failure(point, seed))"
+                    % ", ".join(failures) if failures else "")
             f.close()
             raise KeyError("%s point %s has no %s (has: %s)%s" % (
-                self.path, point, name, ", ".join(have) or "none",
-                "; run with --snapshots" if kind == "snapshot" else ""))
+                self.path, point, name, ", ".join(have) or "none", hint))
         return f, g[name]
 
     def snapshot(self, point, seed=0):
@@ -178,6 +183,17 @@ class Results:
         with f:
             df = pd.DataFrame({k: g[k][()] for k in ("x", "y_i", "y_e", "radius")})
         df["dy"] = df["y_e"] - df["y_i"]
+        return df
+
+    def failure(self, point, seed=0):
+        """A failed member's state at the failure (always written): x, y_i, y_e, radius and the
+        velocities vx, vy, w of its disks, with the attributes `failure` (the reason) and
+        `member` (its id, for `loosepack run --member`) in DataFrame.attrs."""
+        f, g = self._member_group(point, "failure", seed)
+        with f:
+            df = pd.DataFrame({k: g[k][()] for k in ("x", "y_i", "y_e", "radius", "vx", "vy", "w")})
+            df.attrs = {k: (v.decode() if isinstance(v, bytes) else np.asarray(v).item())
+                        for k, v in g.attrs.items()}
         return df
 
     def contacts(self, point, seed=0):

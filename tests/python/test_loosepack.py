@@ -169,6 +169,23 @@ def test_bad_input_raises_with_the_programs_message(tmp_path):
         loosepack.run(good, tmp_path / "x.toml", progress=False)
 
 
+def test_a_failed_members_state_is_read_and_named(tmp_path, monkeypatch):
+    """A member made to fail (LOOSEPACK_INJECT_NAN=<id>: src/fault_injection.hpp) leaves its state
+    at the failure, which failure() reads with the reason; snapshot() names it where the run
+    wrote no snapshots."""
+    monkeypatch.setenv("LOOSEPACK_INJECT_NAN", "1")
+    scan = {"scan": {"seeds": 2}, "system": {"width": 12.0, "height": 12.0, "bond_number": 30}}
+    res = loosepack.run(scan, tmp_path / "fail.h5", progress=False)
+    state = res.failure(0, 1)
+    assert len(state) > 0 and not np.isfinite(state["vy"]).all()
+    assert state.attrs == {"member": 1, "failure": "non-finite position or velocity (NaN or Inf)"}
+    with pytest.raises(KeyError, match=r"no snapshot_1 .*run with --snapshots; failed members' "
+                                       r"states at the failure: failure_1 \(failure\(point, seed\)\)"):
+        res.snapshot(0, 1)
+    with pytest.raises(KeyError, match="no failure_0"):
+        res.failure(0, 0)
+
+
 def test_summary_prints_the_table(result):
     text = loosepack.summary(result.path)
     assert "nu_lower_half" in text and "0001" in text
