@@ -870,6 +870,8 @@ int analyse_command(const FileCommands& f) {
     return kInvalid;
   }
   reanalyse(f.analyse_path, out);
+  std::cerr << "loosepack: wrote the analysis of " << f.analyse_path
+            << (in_place ? " into it" : " into " + out) << "\n";
   return kOk;
 }
 

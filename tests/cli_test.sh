@@ -242,7 +242,8 @@ with h5py.File(sys.argv[1], "r+") as f:
     g["mean"][...] = 2 * g["mean"][...]
     del g["fit"], f["analysis"]
 EOF_PY
-"$exe" analyse "$dir/an2.h5"
+"$exe" analyse "$dir/an2.h5" 2>"$dir/an2.log"
+grep -q "wrote the analysis of $dir/an2.h5 into it" "$dir/an2.log" || fail "analyse said: $(cat "$dir/an2.log")"
 /usr/bin/python3 - "$dir/an.h5" "$dir/an2.h5" <<'EOF_PY' || fail "analyse did not refit the changed data"
 import sys, h5py, numpy as np
 fit = "points/0000/avalanche_by_yi/fit"
