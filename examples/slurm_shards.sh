@@ -23,4 +23,5 @@ mkdir -p "$outdir"
 [ -f "$part" ] && exit 0  # finished by an earlier submission
 resume=()
 [ -d "$part.checkpoint" ] && resume=(--resume)
-exec "${LOOSEPACK:-loosepack}" run "$scan" --shard "$k/$n" -o "$part" "${resume[@]}"
+# ${resume[@]+...}: an empty array is "unbound" under set -u in bash before 4.4.
+exec "${LOOSEPACK:-loosepack}" run "$scan" --shard "$k/$n" -o "$part" ${resume[@]+"${resume[@]}"}
