@@ -673,9 +673,10 @@ int RunCommand::dry_run() const {
   std::printf("# scan '%s': %zu points x %d seeds = %zu members%s\n", scan.name.c_str(),
               scan.points.size(), scan.seeds, all_members.size(), selected.c_str());
   if (o.resume)
-    std::printf("# resuming from %s: %zu of %zu members finished, %zu to compute (%zu of them from "
-                "where they were)\n",
-                ck_dir.c_str(), resumed.size(), members.size(), todo.size(), started.size());
+    std::printf(
+        "# resuming from %s: %zu of %zu members finished, %zu to compute (%zu of them from "
+        "where they were)\n",
+        ck_dir.c_str(), resumed.size(), members.size(), todo.size(), started.size());
   std::printf("%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",
               "height", "members", "expected CPU s per member");
   double total = 0.0;
@@ -697,9 +698,10 @@ int RunCommand::dry_run() const {
   if (!o.force && std::filesystem::exists(o.out_path))
     std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());
   if (!o.resume && std::filesystem::exists(checkpoint_directory(o.out_path)))
-    std::printf("# a checkpoint of an interrupted run exists (%s): the run would be refused "
-                "without --resume\n",
-                checkpoint_directory(o.out_path).c_str());
+    std::printf(
+        "# a checkpoint of an interrupted run exists (%s): the run would be refused "
+        "without --resume\n",
+        checkpoint_directory(o.out_path).c_str());
   return kOk;
 }
 

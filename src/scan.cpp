@@ -68,9 +68,11 @@ std::string format_number(double v) {
 // list is a value, which its key's check refuses).
 bool sets_a_value(const toml::node& node) {
   if (auto t = node.as_table())
-    return std::any_of(t->begin(), t->end(), [](const auto& kv) { return sets_a_value(kv.second); });
+    return std::any_of(t->begin(), t->end(),
+                       [](const auto& kv) { return sets_a_value(kv.second); });
   if (auto a = node.as_array())
-    return a->empty() || std::any_of(a->begin(), a->end(), [](const toml::node& e) { return sets_a_value(e); });
+    return a->empty() ||
+           std::any_of(a->begin(), a->end(), [](const toml::node& e) { return sets_a_value(e); });
   return true;
 }
 
@@ -89,7 +91,8 @@ double as_number(const std::string& file, const toml::node& node, const std::str
   if (auto v = node.as_string()) {
     if (v->get() == "inf" || v->get() == "infinity") return INFINITY;
   }
-  fail(file, node, key, takes_infinity(key) ? "expected a number (or \"inf\")" : "expected a number");
+  fail(file, node, key,
+       takes_infinity(key) ? "expected a number (or \"inf\")" : "expected a number");
 }
 
 bool as_bool(const std::string& file, const toml::node& node, const std::string& key) {

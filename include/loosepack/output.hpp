@@ -51,8 +51,8 @@ ShardFile read_shard_file(const std::string& path);
 // ScanError for a scan text this program no longer accepts) naming the file and the object.
 void reanalyse(const std::string& in, const std::string& out);
 
-// Whether `path` is an HDF5 file at all, as a result file must be (checked first, so that a
-// wrong file is named as invalid input).
+// Whether `path` is an HDF5 file that HDF5 can open, as a result file must be (checked first, so
+// that a wrong or damaged file, such as one cut short, is named as invalid input).
 bool is_hdf5_file(const std::string& path);
 
 // One line per scan point: parameters and headline observables.
