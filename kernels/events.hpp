@@ -11,7 +11,8 @@ struct EventMeasure {
   SystemViews sys;
   ParticleViews part;
   DView<int> request;    // [S]
-  DView<double> result;  // [S*2]: disks moved beyond the threshold, summed downward displacement
+  DView<double> result;  // [S*2]: disks moved beyond the threshold, and their summed downward
+                         // displacement
   double threshold;
 
   KOKKOS_INLINE_FUNCTION void operator()(const team_member& team) const {
@@ -30,7 +31,7 @@ struct EventMeasure {
         Kokkos::TeamThreadRange(team, n),
         [&](int a, double& acc) {
           const double d = part.y(first + a) - part.y_mark(first + a);
-          if (d < 0.0) acc -= d;
+          if (d < -threshold) acc -= d;  // a disk that moved beyond the threshold, downwards
         },
         down);
     team.team_barrier();

@@ -274,7 +274,8 @@ PointResult point_result(const ScanPoint& pt, const ObservableSettings& obs,
   PointResult pr;
   pr.point = pt;
   const double H = pt.params.height;
-  const int n_strips = std::max(1, static_cast<int>(std::ceil(H / obs.strip_width)));
+  // The strips that fit below H: a last strip over H would count empty space above every disk.
+  const int n_strips = std::max(1, static_cast<int>(std::floor(H / obs.strip_width)));
   const int n_bins = std::max(1, static_cast<int>(std::ceil(H / obs.bin_width)));
   MemberSamples m;
   for (const auto& r : results)

@@ -110,6 +110,21 @@ TEST(Region, SelectionMatchesEverySeedsDistance) {
   EXPECT_LT(sel.index.size(), disks.size());
 }
 
+// An event's size counts the disks that moved beyond the threshold in y since it began, and their
+// downward displacement only: creep below the threshold (here 0.005 R) adds to neither.
+TEST(Region, AnEventCountsOnlyTheDisksThatMovedBeyondTheThreshold) {
+  Batch batch({setup(bare_params(), column(4, 10.0))}, accurate());
+  batch.close_events({1}, 0.01);  // an event begins from the heights now
+  auto d = batch.disks(0);
+  const std::vector<double> dy = {-0.5, -0.005, 0.3, -0.02};
+  for (std::size_t k = 0; k < dy.size(); ++k) d[k].y += dy[k];
+  batch.set_disks(0, {0, 1, 2, 3}, d);
+  const auto ev = batch.close_events({1}, 0.01);
+  ASSERT_EQ(ev.size(), 1u);
+  EXPECT_EQ(ev[0].moved, 3);
+  EXPECT_NEAR(ev[0].downward, 0.52, 1e-12);
+}
+
 // set_disks and set_contacts write what disks() and contacts() read back.
 TEST(Region, BatchStateRoundTrip) {
   auto p = bare_params();

@@ -24,7 +24,7 @@ struct SystemParams {
   bool floor_cohesion = true;     // the floor attracts disks like a disk does
   double friction = 0.3;          // mu (disk-disk and disk-floor)
   double rolling_friction = 0.1;  // mu_r: rolling lever arm mu_r * R_c
-  double time_step = 0.01;        // h [sqrt(R/g)]
+  double time_step = 0.01;        // h [sqrt(R/g)]; a scan sets default_time_step (geometry.hpp)
   double capture_radius = 1.0;    // r_capt >= 1 (protocol B)
 
   double reference_mass() const { return disk_density * M_PI * radius * radius; }
