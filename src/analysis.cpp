@@ -129,6 +129,30 @@ double jackknife_error(const std::vector<std::vector<double>>& reps, std::size_t
   return std::sqrt((n - 1.0) / n * ss);
 }
 
+// chi2 of a fit's residuals, each against its own jackknife error over the members, scaled so
+// that a model that fits has chi2/dof near 1:
+// - each residual's own error already holds the fit's freedom (Var r_i = sigma^2 (1 - h_ii)), so
+//   the sum of z^2 has the expectation terms, not terms - params: it is scaled by
+//   (terms - params) / terms;
+// - an error estimated from n members inflates the expectation of z^2 by (n-1)/(n-3) (normal
+//   residuals: E[1/s^2] = (n-1)/((n-3) sigma^2)): scaled by its inverse. With 3 or fewer
+//   members there is no such expectation, and no chi2 (NaN).
+// A residual whose error is zero (a bin every member fills alike) adds no term.
+struct ResidualChi2 {
+  double sum = 0.0;
+  int terms = 0;
+  void add(double residual, double error) {
+    if (!(error > 0.0)) return;
+    sum += (residual / error) * (residual / error);
+    ++terms;
+  }
+  double value(double members, std::size_t params) const {
+    const double p = static_cast<double>(params), t = terms;
+    if (!(members > 3.0) || !(t > p)) return kNaN;
+    return sum * (members - 3.0) / (members - 1.0) * (t - p) / t;
+  }
+};
+
 // An avalanche-profile fit Delta y = sum_j basis_j(y) c_j with ensemble errors. The coefficients
 // come from an unweighted fit to the pooled bin means: weighting by the bins' standard errors
 // lets the bins that barely move (the bottom at large Bond numbers, the crust), whose errors are
@@ -199,18 +223,10 @@ Fit ensemble_fit(const BinnedStat& b, double x_max, int k,
   // chi2 of the residuals against their own jackknife errors. The bins' standard errors are
   // strongly correlated (a member that moved more moved more in every bin), so chi2 against
   // them says little; the residuals' errors have the fitted common modes taken out.
-  // An error estimated from n members inflates the expectation of z^2 by (n-1)/(n-3) (normal
-  // residuals: E[1/s^2] = (n-1)/((n-3) sigma^2)); chi2 is scaled back by its inverse, so that a
-  // model that fits has chi2/dof near 1 at any n. With 3 or fewer members there is no such
-  // expectation, and no chi2 (NaN).
-  f.chi2 = 0.0;
-  for (std::size_t i = 0; i < bins.size(); ++i) {
-    const double e = jackknife_error(residuals, i);
-    if (!(e > 0.0)) continue;
-    const double z = residual(f.coef, b.position[bins[i]], b.mean[bins[i]]) / e;
-    f.chi2 += z * z;
-  }
-  f.chi2 *= n > 3.0 ? (n - 3.0) / (n - 1.0) : kNaN;
+  ResidualChi2 chi2;
+  for (std::size_t i = 0; i < bins.size(); ++i)
+    chi2.add(residual(f.coef, b.position[bins[i]], b.mean[bins[i]]), jackknife_error(residuals, i));
+  f.chi2 = chi2.value(n, f.coef.size());
   return f;
 }
 
@@ -416,14 +432,10 @@ bool member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
     residuals.push_back(std::move(res));
   }
   for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife_error(coefs, j);
-  f.chi2 = 0.0;
-  for (std::size_t i = 0; i < bins.size(); ++i) {
-    const double e = jackknife_error(residuals, i);
-    if (!(e > 0.0)) continue;
-    const double z = (n[i] - std::exp(polynomial(f, x[i]))) / e;
-    f.chi2 += z * z;
-  }
-  f.chi2 *= (m - 3.0) / (m - 1.0);  // as ensemble_fit: E[z^2] of an error from m members
+  ResidualChi2 chi2;  // as ensemble_fit's
+  for (std::size_t i = 0; i < bins.size(); ++i)
+    chi2.add(n[i] - std::exp(polynomial(f, x[i])), jackknife_error(residuals, i));
+  f.chi2 = chi2.value(m, f.coef.size());
   return true;
 }
 

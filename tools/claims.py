@@ -71,7 +71,7 @@ quantile, or the law it claims is rejected):
 The profile fits are unweighted least squares through the bins' pooled means (at least 10 disks,
 every member's disks in it), their errors a jackknife over the members (each left out in turn),
 and their chi2 that of the residuals against the residuals' own jackknife errors, scaled by
-(n-3)/(n-1), as the program's fits (docs/OUTPUT.md, "Analysis").
+(n-3)/(n-1) and by (bins - parameters)/bins, as the program's fits (docs/OUTPUT.md, "Analysis").
 
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
@@ -104,6 +104,21 @@ def chi2_quantile99(dof):
         return math.nan
     a = 2.0 / (9.0 * dof)
     return dof * (1.0 - a + Z99 * math.sqrt(a)) ** 3
+
+
+def residual_chi2(resid, resid_err, members, params):
+    """chi2 of residuals against their own jackknife errors over the members, as the program's
+    fits (src/analysis.cpp, ResidualChi2): scaled by (n-3)/(n-1) for errors from n members and by
+    (terms - params)/terms, since each residual's own error already holds the fit's freedom (the
+    sum of z^2 has the expectation of its terms, not of the degrees of freedom); NaN with 3 or
+    fewer members or no freedom left."""
+    resid, resid_err = np.asarray(resid, float), np.asarray(resid_err, float)
+    ok = resid_err > 0
+    terms = int(ok.sum())
+    if members <= 3 or terms <= params:
+        return math.nan
+    z2 = float(((resid[ok] / resid_err[ok]) ** 2).sum())
+    return z2 * (members - 3) / (members - 1) * (terms - params) / terms
 
 
 def jackknife(values):
@@ -152,10 +167,8 @@ class Profile:
             cm = np.polynomial.polynomial.polyfit(xm, ym, degree)
             loo_coef.append(cm)
             loo_resid.append(ym - np.polynomial.polynomial.polyval(xm, cm))
-        n = self.members
         err, resid_err = jackknife(loo_coef), jackknife(loo_resid)
-        chi2 = float(((resid / resid_err) ** 2).sum()) * (n - 3) / (n - 1)
-        return coef, err, chi2, dof
+        return coef, err, residual_chi2(resid, resid_err, self.members, degree + 1), dof
 
 
 def profile_shapes(point, path):
@@ -230,7 +243,7 @@ class Histogram:
     from the members' scatter, as the program's shapes (docs/OUTPUT.md, "Analysis"): ln n a
     polynomial in |Delta y| (weights n), errors a jackknife over the members (the others'
     counts scaled to the whole ensemble's), chi2 the counts' residuals against the residuals'
-    jackknife errors, scaled by (n-3)/(n-1)."""
+    jackknife errors (residual_chi2)."""
 
     def __init__(self, group, path):
         if "member_counts_cut" not in group:
@@ -264,9 +277,7 @@ class Histogram:
         coef, resid = one(self.total[use])
         loo = [one(r[use]) for r in self.replicas()]
         err, resid_err = jackknife([c for c, _ in loo]), jackknife([r for _, r in loo])
-        n, ok = self.members, resid_err > 0
-        chi2 = float(((resid[ok] / resid_err[ok]) ** 2).sum()) * (n - 3) / (n - 1)
-        return coef, err, chi2, dof
+        return coef, err, residual_chi2(resid, resid_err, self.members, degree + 1), dof
 
 
 def bo0_histogram_claims(point, path, where):
@@ -294,8 +305,8 @@ def bo0_histogram_claims(point, path, where):
         return
     diff = lambda counts: counts[band] - counts[band].mean()
     err = jackknife([diff(r) for r in hist.replicas()])
-    n, dof = hist.members, int(band.sum()) - 1
-    chi2 = float(((diff(hist.total) / err) ** 2).sum()) * (n - 3) / (n - 1)
+    dof = int(band.sum()) - 1
+    chi2 = residual_chi2(diff(hist.total), err, hist.members, 1)
     counts = ", ".join(f"{c:g}" for c in hist.total[band])
     yield (f"{where}: the |Delta y| histogram is flat between 1 and 2 R",
            chi2 <= chi2_quantile99(dof),
