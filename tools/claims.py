@@ -132,11 +132,14 @@ class Profile:
     """A binned avalanche profile's per-member rows in a band of heights: the pooled means of
     all members and of all but one, for fits with jackknife errors."""
 
-    def __init__(self, group, low, high):
+    def __init__(self, group, low, high, members=None):
+        """members: a mask of the members to take (all with disks when None)."""
         count = group["member_count"][()]
         mean = group["member_mean"][()]
         pos = group["member_position"][()]
         ok = count.sum(axis=1) > 0  # failed members have no disks
+        if members is not None:
+            ok &= members
         count, mean, pos = count[ok], np.nan_to_num(mean[ok]), np.nan_to_num(pos[ok])
         centre = group["centre"][()]
         use = (count.sum(axis=0) >= 10) & (count > 0).all(axis=0) & (centre >= low) & \

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Compares the observables of two loosepack result files, point by point, within their errors.
 
-    python3 tools/compare.py A.h5 B.h5 [--sigma 2] [--json out.jsonl] [--label TEXT]
+    python3 tools/compare.py A.h5 B.h5 [--sigma 2] [--paired] [--json out.jsonl] [--label TEXT]
 
 For two runs of the same scan points with different settings (relaxation regions against the
 whole system, two time steps, two program versions), prints per point one row per quantity:
@@ -35,6 +35,13 @@ errors, sqrt(e_A^2 + e_B^2):
                                   pooled counts (bins merged from the top until each holds 5
                                   expected events).
 
+With --paired the two files hold the same members (one scan seed, the same points and seeds),
+each started from the same drops, so a member's two results are correlated and the combined
+errors above too large. nu_lower_half and the profile fits are then compared member by member:
+the standard error of the members' differences, and the jackknife of the fits' difference (the
+same member left out of both files), over the members that finished in both. The other
+quantities stay as above (they have no per-member values, or are distributions).
+
 A scalar differs when its distance exceeds --sigma (2) combined standard errors; a profile or
 histogram when its chi2 exceeds the bound; the shapes when no shape fits both and a verdict is
 one. With n scalars compared at 2 sigma, about n/20 differ by chance. Exits with 1 when
@@ -53,7 +60,7 @@ except ImportError as e:  # pragma: no cover
     sys.exit(f"compare.py: {e}; install python3-h5py (scripts/install-deps.sh)")
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from claims import chi2_quantile99, text  # noqa: E402
+from claims import Profile, chi2_quantile99, jackknife, text  # noqa: E402
 
 
 class Row:
@@ -87,26 +94,75 @@ def chi2_row(name, a, b, chi2, dof, bound, detail):
     return Row(name, a, b, chi2, bound, f"chi2 {chi2:.1f} for {dof} (bound {bound:.1f}){detail}")
 
 
-def point_scalars(pa, pb, sigma):
+def paired_row(name, a, ea, b, eb, difference, error, sigma):
+    """Each file's value and error as stored, and their distance in standard errors of the
+    members' paired difference."""
+    z = abs(difference) / error if error > 0 else (0.0 if difference == 0 else math.inf)
+    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma (paired)")
+
+
+def members_in_both(pa, pb):
+    """The mask of the members that finished in both points, when the two hold the same members
+    (one scan seed, the same seeds); else why not."""
+    fa, fb = pa.file.attrs, pb.file.attrs
+    if fa.get("seed") != fb.get("seed") or fa.get("seeds") != fb.get("seeds"):
+        return None, "the files' scan seeds or seed counts differ"
+    ia, ib = pa["members/seed_index"][()], pb["members/seed_index"][()]
+    if not np.array_equal(ia, ib):
+        return None, "the points hold other members"
+    ok = (pa["members/failure"][()] == 0) & (pb["members/failure"][()] == 0)
+    if ok.sum() < 4:
+        return None, "fewer than 4 members finished in both"
+    return ok, ""
+
+
+def point_scalars(pa, pb, sigma, both=None):
     for key, name in (("nu_lower_half", "nu_lower_half"), ("mean_abs_dy", "mean abs(Delta y) [R]")):
-        if f"{key}_mean" in pa.attrs and f"{key}_mean" in pb.attrs:
-            yield scalar(name, float(pa.attrs[f"{key}_mean"]), float(pa.attrs[f"{key}_sem"]),
-                         float(pb.attrs[f"{key}_mean"]), float(pb.attrs[f"{key}_sem"]), sigma)
+        if f"{key}_mean" not in pa.attrs or f"{key}_mean" not in pb.attrs:
+            continue
+        a, ea = float(pa.attrs[f"{key}_mean"]), float(pa.attrs[f"{key}_sem"])
+        b, eb = float(pb.attrs[f"{key}_mean"]), float(pb.attrs[f"{key}_sem"])
+        per_member = f"members/{key}"
+        if both is not None and per_member in pa and per_member in pb:
+            d = (pb[per_member][()] - pa[per_member][()])[both]
+            yield paired_row(name, a, ea, b, eb, d.mean(), d.std(ddof=1) / math.sqrt(len(d)),
+                             sigma)
+        else:
+            yield scalar(name, a, ea, b, eb, sigma)
 
 
-def profile_fits(pa, pb, sigma):
+def paired_fit_difference(pa, pb, key, degree, both):
+    """The difference B - A of the profile fit's coefficients through every bin both ensembles'
+    members fill (as the program fits), and its jackknife error with the same member left out
+    of both."""
+    prof_a = Profile(pa[key], -math.inf, math.inf, both)
+    prof_b = Profile(pb[key], -math.inf, math.inf, both)
+    fit = lambda prof, m=None: np.polynomial.polynomial.polyfit(*prof.pooled(m), degree)
+    full = fit(prof_b) - fit(prof_a)
+    loo = [fit(prof_b, m) - fit(prof_a, m) for m in range(prof_a.members)]
+    return full, jackknife(loo)
+
+
+def profile_fits(pa, pb, sigma, both=None):
     """a, b, c of the avalanche profile against y_i and y_e (protocol A), or the line's a, b."""
     for by in ("yi", "ye"):
-        path = f"avalanche_by_{by}/fit"
+        key = f"avalanche_by_{by}"
+        path = f"{key}/fit"
         if path not in pa or path not in pb:
             continue
         fa, fb = pa[path], pb[path]
         if not (fa.attrs.get("valid", 1) and fb.attrs.get("valid", 1)):
             continue
         ca, ea, cb, eb = fa["coef"][()], fa["error"][()], fb["coef"][()], fb["error"][()]
+        name = lambda k: f"Delta y({'y_i' if by == 'yi' else 'y_e'}): {'abc'[k]}"
+        if both is not None and len(ca) == len(cb) and "member_mean" in pa[key]:
+            difference, error = paired_fit_difference(pa, pb, key, len(ca) - 1, both)
+            for k in range(len(ca)):
+                yield paired_row(name(k), ca[k], ea[k], cb[k], eb[k], difference[k], error[k],
+                                 sigma)
+            continue
         for k in range(min(len(ca), len(cb))):
-            yield scalar(f"Delta y({'y_i' if by == 'yi' else 'y_e'}): {'abc'[k]}",
-                         ca[k], ea[k], cb[k], eb[k], sigma)
+            yield scalar(name(k), ca[k], ea[k], cb[k], eb[k], sigma)
 
 
 def density_profile(pa, pb):
@@ -272,11 +328,12 @@ def events(pa, pb, sigma):
                                f"{int(cb.sum())} events", chi2, dof, chi2_quantile99(dof), "")
 
 
-def compare_point(pa, pb, sigma):
-    rows = list(point_scalars(pa, pb, sigma))
+def compare_point(pa, pb, sigma, both=None):
+    """The rows of one point; `both` (members_in_both) compares its members in pairs."""
+    rows = list(point_scalars(pa, pb, sigma, both))
     if "nu" in pa and "nu" in pb:
         rows += density_profile(pa, pb)
-    rows += profile_fits(pa, pb, sigma)
+    rows += profile_fits(pa, pb, sigma, both)
     rows += histogram(pa, pb)
     rows += events(pa, pb, sigma)
     return rows
@@ -314,6 +371,9 @@ def main():
     ap.add_argument("--sigma", type=positive, default=2.0)
     ap.add_argument("--json", help="append one JSON line per point to this file")
     ap.add_argument("--label", default="", help="a note stored with each JSON line")
+    ap.add_argument("--paired", action="store_true",
+                    help="the files hold the same members (one scan seed): compare nu_lower_half "
+                         "and the profile fits member by member")
     args = ap.parse_args()
     differ = 0
     try:
@@ -333,7 +393,13 @@ def main():
                       "not compared", file=sys.stderr)
         for name in names:
             pa, pb = fa["points"][name], fb["points"][name]
-            rows = compare_point(pa, pb, args.sigma)
+            both = None
+            if args.paired:
+                both, why = members_in_both(pa, pb)
+                if both is None:
+                    print(f"compare.py: --paired: point {name}: {why}", file=sys.stderr)
+                    sys.exit(2)
+            rows = compare_point(pa, pb, args.sigma, both)
             print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)}\n")
             if differing := scan_keys_differ(pa, pb):
                 print(f"(the two points differ in {', '.join(differing)}: compared as paired by "

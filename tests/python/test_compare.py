@@ -68,6 +68,39 @@ def test_another_bond_number_differs(runs):
     assert "differ in" not in run_tool(cohesive, cohesive).stdout
 
 
+def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
+    """--paired: a shift of every member's nu_lower_half by a third of the ensemble's standard
+    error is inside the combined errors of two independent ensembles, and far outside the
+    scatter of the members' differences; the profile fits of the same members differ by zero;
+    files of other scan seeds are refused."""
+    import shutil
+    import h5py
+    d, cohesive, _ = runs
+    shifted = tmp_path / "shifted.h5"
+    shutil.copy(cohesive, shifted)
+    rng = np.random.default_rng(11)
+    with h5py.File(shifted, "r+") as f:
+        p = f["points/0000"]
+        shift = p.attrs["nu_lower_half_sem"] / 3
+        per_member = p["members/nu_lower_half"]
+        per_member[...] = per_member[()] + shift + rng.normal(0, shift / 100, per_member.shape)
+        p.attrs["nu_lower_half_mean"] = per_member[()].mean()
+    rows = lambda *extra: {r["quantity"]: r for r in json.loads(
+        (run_tool(cohesive, shifted, "--json", tmp_path / f"{len(extra)}.jsonl", *extra),
+         open(tmp_path / f"{len(extra)}.jsonl").read())[1])["rows"]}
+    unpaired, paired = rows(), rows("--paired")
+    assert unpaired["nu_lower_half"]["within"] and unpaired["nu_lower_half"]["distance"] < 0.5
+    assert not paired["nu_lower_half"]["within"] and paired["nu_lower_half"]["distance"] > 50
+    assert paired["Delta y(y_e): c"]["distance"] == 0 and "(paired)" in paired[
+        "Delta y(y_e): c"]["detail"]
+    other = tmp_path / "other_seed.h5"
+    shutil.copy(cohesive, other)
+    with h5py.File(other, "r+") as f:
+        f.attrs["seed"] = f.attrs["seed"] + 1
+    out = run_tool(cohesive, other, "--paired")
+    assert out.returncode == 2 and "scan seeds or seed counts differ" in out.stderr, out.stderr
+
+
 def test_unusable_input_is_named():
     out = run_tool("/nonexistent/a.h5", "/nonexistent/b.h5")
     assert out.returncode == 2 and "a.h5" in out.stderr
