@@ -2,7 +2,8 @@
 # Relaxation regions against the whole-system relaxation on the same members (docs/PERFORMANCE.md,
 # "Relaxation regions"): protocol A, 40 R wide, Bo = 1e2 and 1e3, 16 members at H = 120 and 8 at
 # H = 180, each scene run once with the whole system and once with regions r = 8 checked every
-# CHECK-th disk (default 10, as the tall files), then tools/compare.py on each pair.
+# CHECK-th disk (default 10, as the tall files), then tools/compare.py --paired on each pair (the
+# two runs of a scene hold the same members, started from the same drops).
 #
 #   bench/regions_comparison.sh OUT_DIR [CHECK] [JOBS]
 #
@@ -46,7 +47,7 @@ printf '%s\n' "${names[@]}" | xargs -P "$jobs" -I{} bash -c "run_one {} $exe"
 for h in 180 120; do
   for bo in 1e3 1e2; do
     a="bo${bo}_h${h}_whole" b="bo${bo}_h${h}_regions${check}"
-    /usr/bin/python3 "$here/../tools/compare.py" "$a.h5" "$b.h5" --json comparison.jsonl \
+    /usr/bin/python3 "$here/../tools/compare.py" "$a.h5" "$b.h5" --paired --json comparison.jsonl \
       --label "whole system ($(cat "$a.time" 2>/dev/null)) against regions r = 8, region_check_every = ${check} ($(cat "$b.time" 2>/dev/null)); $("$exe" --version | head -1)" ||
       true
   done
