@@ -166,6 +166,7 @@ void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips
   pr.m_nu_lower_half.push_back(r.ok() ? nlh : kNaN);
   if (!r.ok()) {
     ++pr.failed;
+    pr.m_mean_abs_dy.push_back(kNaN);
     pr.nu_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
     pr.nu_deposition_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
     return;  // failed members are excluded from every aggregate
@@ -187,6 +188,7 @@ void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips
   pr.nu_deposition_member_rows.push_back(nud);
   m.lower_half.push_back(nlh);
   m.abs_dy_means.push_back(r.y_i.empty() ? kNaN : sum_abs / static_cast<double>(r.y_i.size()));
+  pr.m_mean_abs_dy.push_back(m.abs_dy_means.back());
   if (pt.protocol == Protocol::C) {
     const double ni = band_volume_fraction(r.y_i, r.radius, p.width, lower_half_from,
                                            0.5 * deposit_top(r.y_i, r.radius));

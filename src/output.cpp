@@ -82,6 +82,7 @@ DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
   if (name == "w") return {"sqrt(g / R)", "angular velocity"};
   if (name == "wall_time") return {"s", "seconds the member held its batch slot"};
   if (name == "nu_lower_half") return {"1", "mean volume fraction in [lower_half_from, H/2)"};
+  if (name == "mean_abs_dy") return {"R", "mean abs(Delta y) of the member's disks"};
   if (group == "events" && name == "edges")
     return {"", "logarithmic bin edges (R for displacements, disks, steps)"};
   for (const char* n : {"x", "y", "y_i", "y_e", "radius", "top", "depth", "edges"})
@@ -484,6 +485,7 @@ void write_members(hid_t m, const Scan& scan, const PointResult& pr,
   dataset(m, "disks", pr.m_disks);
   dataset(m, "top", pr.m_top);
   dataset(m, "nu_lower_half", pr.m_nu_lower_half);
+  dataset(m, "mean_abs_dy", pr.m_mean_abs_dy);
   dataset(m, "steps", pr.m_steps);
   dataset(m, "sweeps", pr.m_sweeps);
   dataset(m, "wall_time", pr.m_wall_time);

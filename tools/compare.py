@@ -37,10 +37,11 @@ errors, sqrt(e_A^2 + e_B^2):
 
 With --paired the two files hold the same members (one scan seed, the same points and seeds),
 each started from the same drops, so a member's two results are correlated and the combined
-errors above too large. nu_lower_half and the profile fits are then compared member by member:
-the standard error of the members' differences, and the jackknife of the fits' difference (the
-same member left out of both files), over the members that finished in both. The other
-quantities stay as above (they have no per-member values, or are distributions).
+errors above too large. nu_lower_half, mean abs(Delta y) (from the members' own values, in files
+from 2026-11-28 on) and the profile fits are then compared member by member: the standard error
+of the members' differences, and the jackknife of the fits' difference (the same member left out
+of both files), over the members that finished in both. The other quantities, distributions,
+stay as above.
 
 A scalar differs when its distance exceeds --sigma (2) combined standard errors; a profile or
 histogram when its chi2 exceeds the bound; the shapes when no shape fits both and a verdict is
@@ -372,8 +373,8 @@ def main():
     ap.add_argument("--json", help="append one JSON line per point to this file")
     ap.add_argument("--label", default="", help="a note stored with each JSON line")
     ap.add_argument("--paired", action="store_true",
-                    help="the files hold the same members (one scan seed): compare nu_lower_half "
-                         "and the profile fits member by member")
+                    help="the files hold the same members (one scan seed): compare nu_lower_half, "
+                         "mean abs(Delta y) and the profile fits member by member")
     args = ap.parse_args()
     differ = 0
     try:

@@ -72,8 +72,8 @@ struct PointResult {
       event_member_steps_counts;
   double events_without_motion = 0.0;
   // Per member scalars (member order).
-  std::vector<double> m_disks, m_top, m_nu_lower_half, m_steps, m_sweeps, m_wall_time, m_failure,
-      m_capped, m_seed_index;
+  std::vector<double> m_disks, m_top, m_nu_lower_half, m_mean_abs_dy, m_steps, m_sweeps,
+      m_wall_time, m_failure, m_capped, m_seed_index;
 };
 
 std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberResult>& results);

@@ -93,6 +93,8 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
     assert not paired["nu_lower_half"]["within"] and paired["nu_lower_half"]["distance"] > 50
     assert paired["Delta y(y_e): c"]["distance"] == 0 and "(paired)" in paired[
         "Delta y(y_e): c"]["detail"]
+    assert paired["mean abs(Delta y) [R]"]["distance"] == 0 and "(paired)" in paired[
+        "mean abs(Delta y) [R]"]["detail"]
     other = tmp_path / "other_seed.h5"
     shutil.copy(cohesive, other)
     with h5py.File(other, "r+") as f:

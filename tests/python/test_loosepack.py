@@ -66,6 +66,9 @@ def test_nu_profile_is_the_mean_of_its_member_rows(result):
 def test_histogram_counts_every_disk_and_members_agree(result):
     for point in (0, 1):
         members = result.members(point)
+        # The point's mean abs(Delta y) is the mean of its members' (each over its own disks).
+        assert members["mean_abs_dy"].mean() == pytest.approx(
+            result.points.loc[point, "mean_abs_dy"], rel=1e-12)
         assert members["disks"].dtype.kind == "i"
         assert list(members["seed_index"]) == [0, 1, 2]
         assert int(result.histogram(point).sum()) == int(members["disks"].sum())
