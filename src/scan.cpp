@@ -76,13 +76,11 @@ bool sets_a_value(const toml::node& node) {
   return true;
 }
 
-// Whether a key (or its range's from, to, also) takes "inf": the Bond number, for no gravity.
-// Every other key must be finite.
-bool takes_infinity(const std::string& key) { return key.find("bond_number") != std::string::npos; }
-
 // A number: integer, float, or the strings "inf" / "infinity" (which the key's own check refuses
-// where it must be finite); nan is none.
-double as_number(const std::string& file, const toml::node& node, const std::string& key) {
+// where it must be finite; `infinite`: the key takes it, and its type error says so); nan is
+// none.
+double as_number(const std::string& file, const toml::node& node, const std::string& key,
+                 bool infinite = false) {
   if (auto v = node.as_floating_point()) {
     if (std::isnan(v->get())) fail(file, node, key, "nan is not a value");
     return v->get();
@@ -91,8 +89,7 @@ double as_number(const std::string& file, const toml::node& node, const std::str
   if (auto v = node.as_string()) {
     if (v->get() == "inf" || v->get() == "infinity") return INFINITY;
   }
-  fail(file, node, key,
-       takes_infinity(key) ? "expected a number (or \"inf\")" : "expected a number");
+  fail(file, node, key, infinite ? "expected a number (or \"inf\")" : "expected a number");
 }
 
 bool as_bool(const std::string& file, const toml::node& node, const std::string& key) {
@@ -111,12 +108,12 @@ double log_range_value(double from, double to, double f) {
 
 // A scalar, an array of values, or a range table {from, to, points[, log]} (+ also = [...]).
 std::vector<double> as_axis(const std::string& file, const toml::node& node,
-                            const std::string& key) {
+                            const std::string& key, bool infinite) {
   std::vector<double> out;
   if (auto arr = node.as_array()) {
     if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
     for (const auto& e : *arr) {
-      const double v = as_number(file, e, key);
+      const double v = as_number(file, e, key, infinite);
       // The same value twice would make two scan points of one set of parameters.
       if (std::find(out.begin(), out.end(), v) != out.end())
         fail(file, e, key, "the value " + format_number(v) + " is already in this axis");
@@ -131,9 +128,9 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node,
     for (const auto& [k, v] : *tbl) {
       const std::string kk(k.str());
       if (kk == "from") {
-        from = as_number(file, v, key + ".from");
+        from = as_number(file, v, key + ".from", infinite);
       } else if (kk == "to") {
-        to = as_number(file, v, key + ".to");
+        to = as_number(file, v, key + ".to", infinite);
       } else if (kk == "points") {
         auto i = v.as_integer();
         if (!i || i->get() < 1 || i->get() > kMaxPoints)
@@ -145,7 +142,7 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node,
       } else if (kk == "also") {
         auto arr = v.as_array();
         if (!arr) fail(file, v, key + ".also", "expected an array of values");
-        for (const auto& e : *arr) out.push_back(as_number(file, e, key + ".also"));
+        for (const auto& e : *arr) out.push_back(as_number(file, e, key + ".also", infinite));
       } else {
         fail(file, v, key + "." + kk,
              "unknown key in a range (allowed: from, to, points, log, also)");
@@ -164,13 +161,14 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node,
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
-  return {as_number(file, node, key)};
+  return {as_number(file, node, key, infinite)};
 }
 
 struct SystemKey {
   const char* name;
   std::function<void(SystemParams&, double)> set;
   std::function<std::string(const SystemParams&)> check;  // empty when valid
+  bool infinite = false;  // takes "inf" (the Bond number: no gravity)
 };
 
 const std::vector<SystemKey>& system_keys() {
@@ -204,7 +202,8 @@ const std::vector<SystemKey>& system_keys() {
                     : "Bo must be 0, in (0, 1e8], or \"inf\" (the solver's tolerance, in units of "
                       "the weight m g, must stay far above the rounding of cohesive impulses, "
                       "Bo x 2.2e-16; docs/MODEL.md, supported ranges)";
-       }},
+       },
+       true},
       {"cohesion_range", [](SystemParams& p, double v) { p.cohesion_range = v; },
        [](const SystemParams& p) {
          return p.cohesion_range > 0.0 && p.cohesion_range <= 0.5 * p.radius
@@ -237,6 +236,13 @@ const std::vector<SystemKey>& system_keys() {
        [](const SystemParams&) { return std::string(); }},
   };
   return keys;
+}
+
+// The system key `name`, or nullptr.
+const SystemKey* system_key(const std::string& name) {
+  for (const auto& sk : system_keys())
+    if (name == sk.name) return &sk;
+  return nullptr;
 }
 
 template <class F>
@@ -613,9 +619,7 @@ void ScanParser::read_point_tables(const toml::node& node) {
   for (const auto& e : *arr) {
     Explicit ex{&e, {}};
     for_each_key(*e.as_table(), [&](const std::string& k, const toml::node& v) {
-      bool known = k == "protocol";
-      for (const auto& sk : system_keys()) known = known || k == sk.name;
-      if (!known)
+      if (k != "protocol" && !system_key(k))
         fail(file, v, "point." + k, "unknown key (allowed: protocol and the [system] keys)");
       if (v.is_array() || v.is_table())
         fail(file, v, "point." + k, "a point takes single values, not axes");
@@ -666,18 +670,17 @@ void ScanParser::read_scan_section(const toml::table& tbl) {
 void ScanParser::read_system_section(const toml::table& tbl) {
   for_each_key(tbl, [&](const std::string& k, const toml::node& v) {
     const std::string key = "system." + k;
-    bool known = false;
-    for (const auto& sk : system_keys()) known = known || k == sk.name;
-    if (!known) {
+    const SystemKey* sk = system_key(k);
+    if (!sk) {
       std::vector<std::string> allowed;
-      for (const auto& sk : system_keys()) allowed.emplace_back(sk.name);
+      for (const auto& known : system_keys()) allowed.emplace_back(known.name);
       fail(file, v, key, "unknown key (allowed: " + joined(allowed) + ")");
     }
     if (k == "floor_cohesion") {
       bool_keys[k] = as_bool(file, v, key);
       return;
     }
-    axes[k] = {as_axis(file, v, key), &v};
+    axes[k] = {as_axis(file, v, key, sk->infinite), &v};
   });
 }
 
@@ -730,9 +733,10 @@ std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base,
       } else if (k == "floor_cohesion") {
         sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
       } else {
-        for (const auto& sk : system_keys())
-          if (k == sk.name) sk.set(sp.params, as_number(file, *v, "point." + k));
-        axes[k] = {{as_number(file, *v, "point." + k)}, v};  // for error locations below
+        const SystemKey* sk = system_key(k);
+        const double x = as_number(file, *v, "point." + k, sk && sk->infinite);
+        if (sk) sk->set(sp.params, x);
+        axes[k] = {{x}, v};  // for error locations below
       }
     }
     if (!sets_time_step) sp.params.time_step = default_time_step(sp.params);

@@ -253,6 +253,9 @@ TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
             "bad.toml:2:28: key 'system.height.to': expected a number");
   EXPECT_EQ(error_of("[system]\nbond_number = { from = 1, to = \"x\", points = 2 }\n"),
             "bad.toml:2:32: key 'system.bond_number.to': expected a number (or \"inf\")");
+  EXPECT_EQ(error_of("[[point]]\nwidth = \"x\"\n"), "bad.toml:2:9: key 'point.width': expected a number");
+  EXPECT_EQ(error_of("[[point]]\nbond_number = \"x\"\n"),
+            "bad.toml:2:15: key 'point.bond_number': expected a number (or \"inf\")");
 }
 
 // The rest window's bound g h rest.steps >= 2 rest.speed: where the file sets no time step the
