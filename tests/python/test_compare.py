@@ -8,9 +8,11 @@ import importlib.util
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
 
+import h5py
 import numpy as np
 import pytest
 
@@ -73,8 +75,6 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
     error is inside the combined errors of two independent ensembles, and far outside the
     scatter of the members' differences; the profile fits of the same members differ by zero;
     files of other scan seeds are refused."""
-    import shutil
-    import h5py
     d, cohesive, _ = runs
     shifted = tmp_path / "shifted.h5"
     shutil.copy(cohesive, shifted)
@@ -85,10 +85,11 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
         per_member = p["members/nu_lower_half"]
         per_member[...] = per_member[()] + shift + rng.normal(0, shift / 100, per_member.shape)
         p.attrs["nu_lower_half_mean"] = per_member[()].mean()
-    rows = lambda *extra: {r["quantity"]: r for r in json.loads(
-        (run_tool(cohesive, shifted, "--json", tmp_path / f"{len(extra)}.jsonl", *extra),
-         open(tmp_path / f"{len(extra)}.jsonl").read())[1])["rows"]}
-    unpaired, paired = rows(), rows("--paired")
+    def rows(name, *extra):
+        run_tool(cohesive, shifted, "--json", tmp_path / name, *extra)
+        return {r["quantity"]: r for r in json.loads(open(tmp_path / name).read())["rows"]}
+
+    unpaired, paired = rows("unpaired.jsonl"), rows("paired.jsonl", "--paired")
     assert unpaired["nu_lower_half"]["within"] and unpaired["nu_lower_half"]["distance"] < 0.5
     assert not paired["nu_lower_half"]["within"] and paired["nu_lower_half"]["distance"] > 50
     assert paired["Delta y(y_e): c"]["distance"] == 0 and "(paired)" in paired[
