@@ -7,6 +7,7 @@
 #
 #   bench/regions_comparison.sh OUT_DIR [CHECK] [JOBS]
 #
+# HEIGHTS="120" (default "180 120") runs only the scenes of those heights.
 # Runs JOBS (default 2) scans at a time, the longest first; a scan whose result is already in
 # OUT_DIR is not run again. Appends one JSON line per pair to OUT_DIR/comparison.jsonl, with
 # each run's user CPU seconds. About 2.5 CPU hours at CHECK = 10 (the whole-system runs at
@@ -30,7 +31,7 @@ scan() {  # scan NAME BOND_NUMBER TIME_STEP HEIGHT SEEDS [regions]
   } >"$1.toml"
 }
 names=()
-for h in 180 120; do
+for h in ${HEIGHTS:-180 120}; do
   seeds=$([ "$h" = 120 ] && echo 16 || echo 8)
   for bo in 1e3 1e2; do
     if [ "$bo" = 1e3 ]; then b=1000.0 dt=0.0028; else b=100.0 dt=0.009; fi
@@ -44,7 +45,7 @@ run_one() {
 }
 export -f run_one
 printf '%s\n' "${names[@]}" | xargs -P "$jobs" -I{} bash -c "run_one {} $exe"
-for h in 180 120; do
+for h in ${HEIGHTS:-180 120}; do
   for bo in 1e3 1e2; do
     a="bo${bo}_h${h}_whole" b="bo${bo}_h${h}_regions${check}"
     /usr/bin/python3 "$here/../tools/compare.py" "$a.h5" "$b.h5" --paired --json comparison.jsonl \

@@ -8,7 +8,7 @@ packages=(
   libtomlplusplus-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libopenmpi-dev openmpi-bin
-  python3-h5py python3-matplotlib python3-numpy python3-pandas python3-xarray
+  python3-h5py python3-matplotlib python3-numpy python3-pandas python3-scipy python3-xarray
 )
 # --test: what the test suite needs beyond that (pytest; ParaView's Python and ASE, which read
 # the files `loosepack export` writes; venv and setuptools to pip-install python/ in a test; xvfb

@@ -317,31 +317,51 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
   return out;
 }
 
-// One datum of a fit across points: x, y and y's standard error.
+// One datum of a fit across points: x, y, y's standard error and the number of members that
+// error comes from (their scatter or a jackknife over them).
 struct Datum {
   double x, y, sigma;
+  std::size_t members;
 };
+// The members behind a profile fit's jackknife errors; a fit without replicas (a file without
+// per-member rows) has its errors from the residuals' scatter over many bins instead, which
+// `across_points` need not widen.
+std::size_t jackknife_members(const Fit& f) {
+  return f.replicas.empty() ? std::numeric_limits<std::size_t>::max() : f.replicas.size();
+}
 std::optional<Datum> keep_if(bool usable, const Datum& d) {
   return usable ? std::optional<Datum>(d) : std::nullopt;
 }
 
 // The fit `fit(x, y, sigma)` over the points of `protocol` that differ only in `varying`
 // (group_varying) and have a datum (`datum(k)` for point k); the fit keeps their indices.
+// A standard error estimated from n members is itself uncertain: a datum's (y - model) / sigma
+// then follows Student's t with n - 1 degrees of freedom, of variance (n - 1)/(n - 3), and chi2
+// against the estimated errors has that factor in its expectation. Each sigma is widened by the
+// t's spread, sqrt((n - 1)/(n - 3)), so that a law the points follow has chi2/dof near 1 and
+// the coefficients' errors hold the errors' own uncertainty. With 3 or fewer members behind a
+// datum that spread is unbounded: the fit keeps the errors as estimated and has no chi2 (NaN),
+// so that nothing judges the law by it.
 template <class FitFn, class DatumFn>
 Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Varying varying,
                   FitFn fit, DatumFn datum) {
   std::vector<double> x, y, sigma;
   std::vector<int> used;
+  bool few_members = false;
   for (std::size_t k : group_varying(points, protocol, varying)) {
     const std::optional<Datum> d = datum(k);
     if (!d) continue;
+    const double n = static_cast<double>(d->members);
+    few_members = few_members || n <= 3.0;
     x.push_back(d->x);
     y.push_back(d->y);
-    sigma.push_back(d->sigma);
+    sigma.push_back(n > 3.0 ? d->sigma * std::sqrt((n - 1.0) / (n - 3.0)) : d->sigma);
     used.push_back(static_cast<int>(k));
   }
   Fit f = fit(x, y, sigma);
-  if (f.valid()) f.scan_points = std::move(used);
+  if (!f.valid()) return f;
+  f.scan_points = std::move(used);
+  if (few_members) f.chi2 = kNaN;
   return f;
 }
 
@@ -592,20 +612,22 @@ ScanAnalysis analyse_across(const std::vector<PointResult>& points,
   out.increase_vs_log_height =
       across_points(points, Protocol::C, Varying::Height, line, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
-        return keep_if(std::isfinite(inc.mean),
-                       {std::log(points[k].point.params.height), inc.mean, inc.sem});
+        return keep_if(std::isfinite(inc.mean), {std::log(points[k].point.params.height), inc.mean,
+                                                 inc.sem, std::size_t(inc.n)});
       });
   // The initial density varies with the capture radius; fit against the measured nu_i.
   out.increase_vs_nu_initial =
       across_points(points, Protocol::C, Varying::CaptureRadius, power_law_fit, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
-        return keep_if(std::isfinite(inc.mean), {points[k].nu_initial.mean, inc.mean, inc.sem});
+        return keep_if(std::isfinite(inc.mean),
+                       {points[k].nu_initial.mean, inc.mean, inc.sem, std::size_t(inc.n)});
       });
   out.quadratic_vs_height =
       across_points(points, Protocol::A, Varying::Height, power_law_fit, [&](std::size_t k) {
         const Fit& f = fits[k].dy_by_ye;
         const bool curved = f.valid() && f.coef.size() >= 3 && f.coef[2] != 0.0;
-        return keep_if(curved, {points[k].point.params.height, std::fabs(coef(f, 2)), err(f, 2)});
+        return keep_if(curved, {points[k].point.params.height, std::fabs(coef(f, 2)), err(f, 2),
+                                jackknife_members(f)});
       });
   // The paper's 1/H follows from a profile H f(y/H): a slice model whose a does not change.
   const auto three_or_more = [](Data x, Data y, Data s) {
@@ -615,7 +637,8 @@ ScanAnalysis analyse_across(const std::vector<PointResult>& points,
       across_points(points, Protocol::A, Varying::Height, three_or_more, [&](std::size_t k) {
         const Fit& f = fits[k].slice_parabola;
         const bool positive = f.valid() && !f.coef.empty() && f.coef[0] > 0.0;
-        return keep_if(positive, {points[k].point.params.height, coef(f, 0), err(f, 0)});
+        return keep_if(
+            positive, {points[k].point.params.height, coef(f, 0), err(f, 0), jackknife_members(f)});
       });
   return out;
 }
