@@ -530,7 +530,14 @@ void add_identities(PointAnalysis& a) {
   a.b_prime_predicted = b / (1.0 + b);
   a.b_prime_predicted_error = sb / ((1.0 + b) * (1.0 + b));
   a.a_prime_predicted = ae / (1.0 + b);
-  a.a_prime_predicted_error = std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
+  // a and b come from one fit and are correlated (a collapse that compresses more lowers both):
+  // the jackknife of a / (1 + b) over the fit's replicas, where it has them; else first-order
+  // propagation as if they were independent (a file without per-member rows).
+  std::vector<std::vector<double>> ratio;
+  for (const auto& r : a.dy_by_ye.replicas) ratio.push_back({r[0] / (1.0 - r[1])});
+  a.a_prime_predicted_error = ratio.size() >= 2
+                                  ? jackknife_error(ratio, 0)
+                                  : std::hypot(sa / (1.0 + b), ae * sb / ((1.0 + b) * (1.0 + b)));
   a.slope_increase = b;
   a.slope_increase_error = sb;
   identity_differences(a);

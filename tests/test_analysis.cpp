@@ -405,6 +405,59 @@ lower_half_from = 8.0
   EXPECT_NEAR(std::exp(fa.coef[0]), alpha, 0.05 * alpha);
 }
 
+// The predicted intercept a/(1+b) of the y_i line comes from a and b of one fit, which are
+// correlated. Members whose collapses differ in b' but share a' (Delta y(y_i) = a' - b'_m y_i)
+// each have a/(1+b) = a', so its error is small (a fifth of the other's here), where propagating
+// a's and b's errors as if independent gives a sizeable one. Members that share b' and differ in a'
+// give a/(1+b) the scatter of a', which both ways see.
+PointAnalysis collapse_of_members(double a_spread, double b_spread) {
+  const auto scan = parse_scan(R"(
+[scan]
+protocol = "C"
+seeds = 8
+[system]
+width = 200.0
+height = 120.0
+bond_number = 1000
+[observables]
+lower_half_from = 8.0
+)",
+                               "synthetic.toml");
+  std::mt19937_64 member_rng(5);
+  std::normal_distribution<double> a_noise(0.0, a_spread), b_noise(0.0, b_spread);
+  std::vector<double> a_of, b_of;  // by member id
+  for (const Member& m : members_of(scan)) {
+    a_of.resize(m.id + 1);
+    b_of.resize(m.id + 1);
+    a_of[m.id] = 1.9 + a_noise(member_rng);
+    b_of[m.id] = 0.39 + b_noise(member_rng);
+  }
+  std::uniform_real_distribution<double> uy(1.0, 119.0);
+  const auto results = synthetic_ensemble(
+      scan, 7, [](const Member&) { return static_cast<int>(0.35 * 200.0 * 118.0 / M_PI); },
+      [&](const Member& m, std::mt19937_64& rng) {
+        const double yi = uy(rng);
+        return std::pair(yi, yi + a_of[m.id] - b_of[m.id] * yi);
+      });
+  return analyse(scan, aggregate(scan, results)).points.at(0);
+}
+
+double independent_propagation(const PointAnalysis& p) {
+  const double b = -p.dy_by_ye.coef[1], a = p.dy_by_ye.coef[0];
+  return std::hypot(p.dy_by_ye.error[0] / (1.0 + b),
+                    a * p.dy_by_ye.error[1] / ((1.0 + b) * (1.0 + b)));
+}
+
+TEST(Analysis, ThePredictedInterceptsErrorHoldsTheCorrelationOfItsFitsCoefficients) {
+  const PointAnalysis shared_a = collapse_of_members(0.0, 0.03);
+  // The pooled bins mix the members' lines, so a/(1+b) is a' only within its error.
+  EXPECT_NEAR(shared_a.a_prime_predicted, 1.9, 2.0 * shared_a.a_prime_predicted_error);
+  EXPECT_LT(shared_a.a_prime_predicted_error, 0.3 * independent_propagation(shared_a));
+  const PointAnalysis shared_b = collapse_of_members(0.3, 0.0);
+  EXPECT_NEAR(shared_b.a_prime_predicted_error, independent_propagation(shared_b),
+              0.1 * independent_propagation(shared_b));
+}
+
 // Protocol C at three capture radii, with initial densities nu_i set per point and uniform
 // collapses of relative increase b = K nu_i^s: the fit of dnu/nu_i against the measured nu_i
 // across the points (the paper's fig. 17) recovers the exponent s. The scan's first point has
