@@ -46,6 +46,22 @@ double slice_model_final_height(double yi, double alpha, double H) {
   return ((1.0 + alpha) - std::sqrt((1.0 + alpha) * (1.0 + alpha) - 4.0 * c * yi)) / (2.0 * c);
 }
 
+// Protocol C, 8 members of 200 R x 120 R at Bo = 1e3, the density band from 8 R.
+Scan collapse_scan() {
+  return parse_scan(R"(
+[scan]
+protocol = "C"
+seeds = 8
+[system]
+width = 200.0
+height = 120.0
+bond_number = 1000
+[observables]
+lower_half_from = 8.0
+)",
+                    "synthetic.toml");
+}
+
 // Protocol A in a 40 R x 80 R box with 4 R profile bins: `seeds` members at Bond number `bo`.
 Scan profile_scan(int seeds, int bo) {
   return parse_scan(
@@ -235,18 +251,7 @@ TEST(Analysis, Chi2QuantileMatchesTables) {
 // and a = a'/(1-b') (the paper's identity read backwards), the final density is nu_i (1 + b),
 // so dnu/nu_i = b = -dDelta y/dy_e, and the predicted final profile equals the measured one.
 TEST(Analysis, CollapseIdentityAndFinalDensityFromInitialDensity) {
-  const auto scan = parse_scan(R"(
-[scan]
-protocol = "C"
-seeds = 8
-[system]
-width = 200.0
-height = 120.0
-bond_number = 1000
-[observables]
-lower_half_from = 8.0
-)",
-                               "synthetic.toml");
+  const auto scan = collapse_scan();
   const double a_prime = 1.9, b_prime = 0.39;
   const double b = b_prime / (1.0 - b_prime), a = a_prime / (1.0 - b_prime);
   // Uniform random centres at volume fraction 0.35.
@@ -411,18 +416,7 @@ lower_half_from = 8.0
 // a's and b's errors as if independent gives a sizeable one. Members that share b' and differ in a'
 // give a/(1+b) the scatter of a', which both ways see.
 PointAnalysis collapse_of_members(double a_spread, double b_spread) {
-  const auto scan = parse_scan(R"(
-[scan]
-protocol = "C"
-seeds = 8
-[system]
-width = 200.0
-height = 120.0
-bond_number = 1000
-[observables]
-lower_half_from = 8.0
-)",
-                               "synthetic.toml");
+  const auto scan = collapse_scan();
   std::mt19937_64 member_rng(5);
   std::normal_distribution<double> a_noise(0.0, a_spread), b_noise(0.0, b_spread);
   std::vector<double> a_of, b_of;  // by member id

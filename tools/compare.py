@@ -51,9 +51,16 @@ of few members, follows Student's t (Welch's degrees of freedom), whose tails ar
 a normal's: summed as it is, a chi2 over ten bins of 4 members a file rejects equal ensembles
 about 17 % of the time at its 99 % bound. Each such t enters the chi2 as the normal deviate of
 the same tail probability, which rejects them about 1 % of the time (2-3 % when one file has
-four times the other's members). A scalar differs when its distance exceeds --sigma (2)
-combined standard errors; a profile or histogram when its chi2 exceeds the bound; the shapes when no shape fits both and a verdict is
-one. With n scalars compared at 2 sigma, about n/20 differ by chance, and more where the errors
+four times the other's members).
+
+Points pair up by their parameters (protocol, Bond number, box, capture radius, disk and contact
+parameters, time step). Where some have no counterpart of the same parameters and the two files
+hold the same point indices (two runs of one scan's points with a setting changed, such as the
+time step), the index pairs them, and the parameters they differ in are named. Points of
+different protocols are not compared (exit 2). A scalar without an error (a point with one
+finished member) is not judged. A scalar differs when its distance exceeds --sigma (2) combined
+standard errors; a profile or histogram when its chi2 exceeds the bound; the shapes when no shape
+fits both and a verdict is one. With n scalars compared at 2 sigma, about n/20 differ by chance, and more where the errors
 come from few members (about 9 % of them with 4 members, 6.5 % with 8: an error estimated from
 few members is itself uncertain). Exits with 1 when
 anything differs, 2 on unusable input. --json appends one JSON line per point. Uses Debian's
@@ -84,12 +91,18 @@ class Row:
         self.distance, self.bound, self.detail = distance, bound, detail
 
     @property
+    def judged(self):
+        """False where a value or its error is not a number (one member, or none finished)."""
+        return not math.isnan(self.distance)
+
+    @property
     def within(self):
-        return self.distance <= self.bound
+        return not self.judged or self.distance <= self.bound
 
     def record(self):
-        return {"quantity": self.name, "a": self.a, "b": self.b, "distance": self.distance,
-                "bound": self.bound, "within": bool(self.within), "detail": self.detail}
+        return {"quantity": self.name, "a": self.a, "b": self.b,
+                "distance": self.distance if self.judged else None, "bound": self.bound,
+                "within": bool(self.within) if self.judged else None, "detail": self.detail}
 
 
 def value(v, e):
@@ -99,6 +112,9 @@ def value(v, e):
 def scalar(name, a, ea, b, eb, sigma):
     """Two estimates with standard errors: their distance in combined standard errors."""
     combined = math.hypot(ea, eb)
+    if math.isnan(a) or math.isnan(b) or math.isnan(combined):
+        return Row(name, value(a, ea), value(b, eb), math.nan, sigma,
+                   "not judged (no value or no error: fewer than two members finished)")
     z = abs(b - a) / combined if combined > 0 else (0.0 if a == b else math.inf)
     return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma")
 
@@ -258,9 +274,13 @@ def histogram(pa, pb):
     va, vb = text(sa.attrs["preferred"]), text(sb.attrs["preferred"])
     fits = [v for v in ("gaussian", "exponential") if acceptable(sa, v) and acceptable(sb, v)]
     same = bool(fits) or (va == vb and va not in ("gaussian", "exponential"))
-    yield Row("abs(Delta y) histogram (cut): shape", va, vb, 0.0 if same else 1.0, 0.0,
-              f"{' and '.join(fits)} fit{'s' if len(fits) == 1 else ''} both" if fits else
-              ("neither fits either" if same else "no shape fits both"))
+    if not fits and "none" in (va, vb):  # a histogram of too few bins for a shape fit
+        yield Row("abs(Delta y) histogram (cut): shape", va, vb, math.nan, 0.0,
+                  "not judged (too few bins to fit a shape)")
+    else:
+        yield Row("abs(Delta y) histogram (cut): shape", va, vb, 0.0 if same else 1.0, 0.0,
+                  f"{' and '.join(fits)} fit{'s' if len(fits) == 1 else ''} both" if fits else
+                  ("neither fits either" if same else "no shape fits both"))
     if "member_counts_cut" not in ha or "member_counts_cut" not in hb:
         return
     ea, eb = ha["edges"][()], hb["edges"][()]
@@ -372,14 +392,47 @@ def describe(point):
                      for k in keys if k in a)
 
 
+POINT_KEYS = ("protocol", "bond_number", "width", "height", "capture_radius", "radius",
+              "polydispersity", "cohesion_range", "friction", "rolling_friction", "time_step")
+
+
 def scan_keys_differ(pa, pb):
     """The scan parameters two paired points differ in (the point index pairs them): a note, so
     that a comparison of unlike points is seen as one."""
-    keys = ("protocol", "bond_number", "width", "height", "capture_radius", "radius",
-            "polydispersity", "cohesion_range", "friction", "rolling_friction", "time_step")
     value = lambda v: text(v) if isinstance(v, (bytes, str)) else float(v)
-    return [k for k in keys if k in pa.attrs and k in pb.attrs and
+    return [k for k in POINT_KEYS if k in pa.attrs and k in pb.attrs and
             value(pa.attrs[k]) != value(pb.attrs[k])]
+
+
+def pair_points(fa, fb):
+    """The pairs (name in A, name in B) to compare, and a note on how they were paired.
+
+    Points of the same parameters pair up. Where that pairs every point of both files, those are
+    the pairs; else, where the two files have the same point names (two runs of one scan's
+    points with a setting changed: a time step, another program version), the index pairs them;
+    else only the points of the same parameters are compared."""
+    names_a, names_b = sorted(fa["points"]), sorted(fb["points"])
+    free = list(names_b)
+    by_parameters = []
+    for a in names_a:
+        b = next((b for b in free if not scan_keys_differ(fa["points"][a], fb["points"][b])), None)
+        if b is not None:
+            free.remove(b)
+            by_parameters.append((a, b))
+    if len(by_parameters) == len(names_a) == len(names_b):
+        return by_parameters, "by their parameters"
+    if names_a == names_b:
+        return [(n, n) for n in names_a], "by their index"
+    return by_parameters, "by their parameters (the files hold other points)"
+
+
+def result_points(f, path):
+    """The file's /points group; exits with 2 for a file that is not a loosepack result."""
+    if "points" not in f or "scan_text" not in f:
+        print(f"compare.py: {path} is not a loosepack result file (no /points or /scan_text): "
+              "give the file `loosepack run` wrote", file=sys.stderr)
+        sys.exit(2)
+    return f["points"]
 
 
 def positive(value):
@@ -391,57 +444,76 @@ def positive(value):
 
 
 def main():
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("a")
-    ap.add_argument("b")
-    ap.add_argument("--sigma", type=positive, default=2.0)
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("a", help="a result file of `loosepack run`")
+    ap.add_argument("b", help="the other result file")
+    ap.add_argument("--sigma", type=positive, default=2.0,
+                    help="a scalar differs beyond this many combined standard errors (default 2)")
     ap.add_argument("--json", help="append one JSON line per point to this file")
     ap.add_argument("--label", default="", help="a note stored with each JSON line")
     ap.add_argument("--paired", action="store_true",
                     help="the files hold the same members (one scan seed): compare nu_lower_half, "
                          "mean abs(Delta y) and the profile fits member by member")
     args = ap.parse_args()
-    differ = 0
+    differ = not_judged = 0
     try:
         fa, fb = h5py.File(args.a, "r"), h5py.File(args.b, "r")
     except OSError as e:
         print(f"compare.py: {e}", file=sys.stderr)
         sys.exit(2)
     with fa, fb:
-        in_a, in_b = set(fa.get("points", {})), set(fb.get("points", {}))
-        names = sorted(in_a & in_b)
-        if not names:
-            print(f"compare.py: {args.a} and {args.b} share no scan point", file=sys.stderr)
+        points_a, points_b = result_points(fa, args.a), result_points(fb, args.b)
+        pairs, how = pair_points(fa, fb)
+        if not pairs:
+            print(f"compare.py: {args.a} and {args.b} share no scan point of the same parameters "
+                  f"({', '.join(POINT_KEYS)}), nor the same points", file=sys.stderr)
             sys.exit(2)
-        for path, only in ((args.a, in_a - in_b), (args.b, in_b - in_a)):
-            if only:
-                print(f"compare.py: only {path} has the points {', '.join(sorted(only))}: "
-                      "not compared", file=sys.stderr)
-        for name in names:
-            pa, pb = fa["points"][name], fb["points"][name]
+        for path, names, taken in ((args.a, points_a, {a for a, _ in pairs}),
+                                   (args.b, points_b, {b for _, b in pairs})):
+            if only := sorted(set(names) - taken):
+                print(f"compare.py: the points {', '.join(only)} of {path} have no counterpart "
+                      "of the same parameters in the other file: not compared", file=sys.stderr)
+        for name_a, name_b in pairs:
+            pa, pb = points_a[name_a], points_b[name_b]
+            name = name_a if name_a == name_b else f"{name_a} / {name_b}"
+            if text(pa.attrs.get("protocol", "")) != text(pb.attrs.get("protocol", "")):
+                print(f"compare.py: point {name} is of protocol {text(pa.attrs.get('protocol'))} "
+                      f"in {args.a} and {text(pb.attrs.get('protocol'))} in {args.b}: runs of "
+                      "different protocols are not comparable", file=sys.stderr)
+                sys.exit(2)
             both = None
             if args.paired:
                 both, why = members_in_both(pa, pb)
                 if both is None:
                     print(f"compare.py: --paired: point {name}: {why}", file=sys.stderr)
                     sys.exit(2)
-            rows = compare_point(pa, pb, args.sigma, both)
-            print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)}\n")
+            try:
+                rows = compare_point(pa, pb, args.sigma, both)
+            except KeyError as e:
+                print(f"compare.py: point {name}: a dataset the comparison reads is missing from "
+                      f"{args.a} or {args.b} ({e}): a damaged file, or one not written by "
+                      "`loosepack run`", file=sys.stderr)
+                sys.exit(2)
+            print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)} (paired {how})\n")
             if differing := scan_keys_differ(pa, pb):
-                print(f"(the two points differ in {', '.join(differing)}: compared as paired by "
-                      "their index)\n")
+                print(f"(the two points differ in {', '.join(differing)})\n")
             print("| quantity | A | B | distance | within |")
             print("|---|---|---|---|---|")
             for r in rows:
-                print(f"| {r.name} | {r.a} | {r.b} | {r.detail} | {'yes' if r.within else 'NO'} |")
+                verdict = "yes" if r.within else "NO"
+                print(f"| {r.name} | {r.a} | {r.b} | {r.detail} | "
+                      f"{verdict if r.judged else '-'} |")
             differ += sum(not r.within for r in rows)
+            not_judged += sum(not r.judged for r in rows)
             if args.json:
                 with open(args.json, "a") as out:
                     out.write(json.dumps({"a": args.a, "b": args.b, "point": name,
                                           "label": args.label, "a_point": describe(pa),
                                           "b_point": describe(pb),
                                           "rows": [r.record() for r in rows]}) + "\n")
-    print(f"\n{differ} quantit{'y differs' if differ == 1 else 'ies differ'} beyond the bounds")
+    print(f"\n{differ} quantit{'y differs' if differ == 1 else 'ies differ'} beyond the bounds"
+          + (f"; {not_judged} not judged" if not_judged else ""))
     sys.exit(1 if differ else 0)
 
 

@@ -66,8 +66,50 @@ def test_another_bond_number_differs(runs):
     assert not rows["mean abs(Delta y) [R]"]["within"]  # weaker cohesion: larger avalanches
     assert "| nu_lower_half |" in out.stdout and "NO |" in out.stdout
     # Points paired by their index that differ in a scan parameter are said to.
+    assert "paired by their index" in out.stdout
     assert "(the two points differ in bond_number" in out.stdout
     assert "differ in" not in run_tool(cohesive, cohesive).stdout
+
+
+def test_points_pair_up_by_their_parameters(runs, tmp_path):
+    """A file of two points against one that holds only the second: the second pairs with the
+    other file's only point (not the first, which has the same index), and the first is named
+    as not compared. Another protocol, or a file that is not a result, is refused (exit 2)."""
+    d, cohesive, weak = runs
+    both = tmp_path / "both.h5"
+    with h5py.File(both, "w") as f, h5py.File(weak) as w, h5py.File(cohesive) as c:
+        for k, v in c.attrs.items():
+            f.attrs[k] = v
+        f.copy(c["scan_text"], "scan_text")
+        f.copy(w["points/0000"], "points/0000")  # Bo = 1 first, then Bo = 100
+        f.copy(c["points/0000"], "points/0001")
+    out = run_tool(both, cohesive)
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "point 0001 / 0000:" in out.stdout and "paired by their parameters" in out.stdout
+    assert "the points 0000 of" in out.stderr and "not compared" in out.stderr
+    ballistic = loosepack.run({"scan": {"name": "b", "seeds": 2, "protocol": "B"},
+                               "system": {"width": 16.0, "height": 24.0}},
+                              tmp_path / "b.h5", progress=False)
+    out = run_tool(ballistic.path, cohesive)
+    assert out.returncode == 2 and "protocol B" in out.stderr and "not comparable" in out.stderr
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["x"] = [1.0]
+    out = run_tool(other, cohesive)
+    assert out.returncode == 2 and "not a loosepack result file" in out.stderr
+
+
+def test_a_point_of_one_member_is_not_judged(tmp_path):
+    """One member gives no standard error: its scalars are not judged (not counted as
+    differing), and a file compared with itself exits 0."""
+    one = loosepack.run({"scan": {"name": "one", "seeds": 1, "protocol": "A"},
+                         "system": {"width": 16.0, "height": 16.0, "bond_number": 100.0}},
+                        tmp_path / "one.h5", progress=False)
+    out = run_tool(one.path, one.path, "--json", tmp_path / "one.jsonl")
+    assert out.returncode == 0, out.stdout + out.stderr
+    rows = {r["quantity"]: r for r in json.loads(open(tmp_path / "one.jsonl").read())["rows"]}
+    assert rows["nu_lower_half"]["within"] is None and "not judged" in rows["nu_lower_half"]["detail"]
+    assert "not judged" in out.stdout
 
 
 def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
