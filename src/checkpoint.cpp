@@ -347,12 +347,8 @@ std::string selection_name(const std::string& selection) {
 }
 
 void write_checkpoint_selection(const std::string& directory, const std::string& selection) {
-  replace_file(directory + "/selection", [&](const std::string& tmp) {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << selection_name(selection) << "\n";
-    f.flush();
-    if (!f) throw std::runtime_error("cannot write " + tmp);
-  });
+  replace_file(directory + "/selection",
+               [&](const std::string& tmp) { write_bytes(tmp, selection_name(selection) + "\n"); });
 }
 
 std::optional<std::string> read_checkpoint_selection(const std::string& directory) {
@@ -398,12 +394,7 @@ void write_checkpoint_part(const std::string& file, std::uint64_t fingerprint,
                            const std::vector<MemberResult>& results,
                            const std::vector<MemberSnapshot>& running) {
   const std::string bytes = checkpoint_part_bytes(fingerprint, results, running);
-  replace_file(file, [&](const std::string& tmp) {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    f.flush();
-    if (!f) throw std::runtime_error("cannot write checkpoint " + tmp);
-  });
+  replace_file(file, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
 }
 
 CheckpointPart decode_checkpoint_part(const std::string& bytes, const std::vector<Member>& members,

@@ -255,11 +255,7 @@ std::string xdmf_trajectory(hid_t file, const MemberData& m, const std::string& 
   return o.str() + "</Grid>\n";
 }
 
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream f(path);
-  f << text;
-  if (!f.flush()) throw std::runtime_error("cannot write " + path);
-}
+void write_text(const std::string& path, const std::string& text) { write_bytes(path, text); }
 
 std::string xdmf_document(const std::string& grids) {
   return "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
@@ -340,11 +336,9 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
     const std::string side_path = base + stem_name(m) + "_contacts.h5";
     const std::string side = fs::path(side_path).filename().string();
     std::string grids;
-    replace_file(side_path, [&](const std::string& tmp) {
-      H5 sidecar(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                 "create " + tmp);
-      grids = xdmf_snapshot(file, sidecar, m, h5, side);
-    });
+    const std::string bytes = hdf5_in_memory(
+        side_path, [&](hid_t sidecar) { grids = xdmf_snapshot(file, sidecar, m, h5, side); });
+    replace_file(side_path, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
     write_text(xmf, xdmf_document(grids));
     written.push_back(xmf);
     written.push_back(side_path);

@@ -32,6 +32,33 @@ inline void check(herr_t e, const std::string& what) {
   if (e < 0) throw std::runtime_error("HDF5: cannot " + what);
 }
 
+// An HDF5 file built in memory (the core driver, no backing store): `fill(file)` writes into it,
+// and its bytes come back for the caller to write, so that HDF5 never writes to a disk that may
+// fill up (HDF5 1.10 kept a file whose flush had failed open, and crashed closing it again at
+// exit). With `image` the file starts as those bytes (a file read whole), else empty; `name`
+// names it in errors.
+template <class Fill>
+std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string* image = nullptr) {
+  H5 fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "make the file access list of " + name);
+  check(H5Pset_fapl_core(fapl, std::size_t{1} << 20, 0), "build " + name + " in memory");
+  if (image)
+    check(H5Pset_file_image(fapl, const_cast<char*>(image->data()), image->size()),
+          "read " + name + " into memory");
+  // The core driver refuses to open an image under the name of a file that exists: a name no
+  // file can have.
+  H5 file(image ? H5Fopen("/proc/self/loosepack-in-memory.h5", H5F_ACC_RDWR, fapl)
+                : H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl),
+          H5Fclose, (image ? "open " : "create ") + name);
+  fill(static_cast<hid_t>(file));
+  check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + name);
+  const ssize_t size = H5Fget_file_image(file, nullptr, 0);
+  if (size < 0) throw std::runtime_error("HDF5: cannot get the bytes of " + name);
+  std::string bytes(static_cast<std::size_t>(size), '\0');
+  if (H5Fget_file_image(file, bytes.data(), bytes.size()) != size)
+    throw std::runtime_error("HDF5: cannot get the bytes of " + name);
+  return bytes;
+}
+
 inline H5 open_group(hid_t parent, const std::string& name) {
   return H5(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose, "open group " + name);
 }

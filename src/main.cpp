@@ -153,6 +153,7 @@ class RunCommand {
   void announce() const;
   RunHooks hooks();
   void save_checkpoint();
+  void write_checkpoint();
   void show(bool force);
   int compute();
   void print_timing() const;
@@ -289,6 +290,7 @@ int RunCommand::claim_output() {
   std::string why;
   if (ranks.root()) {
     why = lock.acquire(o.out_path);
+    if (!lock.warning().empty()) say(lock.warning());
     if (why.empty())
       for (const auto& f : remove_stale_temporaries(o.out_path))
         say("removed " + f + ", left by a run that ended while writing");
@@ -398,6 +400,17 @@ void RunCommand::announce() const {
 // (each member encoded once), then the snapshots of the running ones (docs/OUTPUT.md).
 void RunCommand::save_checkpoint() {
   if (fresh.empty() && running.empty()) return;
+  try {
+    write_checkpoint();
+  } catch (const std::runtime_error& e) {  // a full disk: say how to go on once there is room
+    throw std::runtime_error(std::string(e.what()) + "; " + ck_dir +
+                             " keeps what was saved before: once the cause is fixed, continue "
+                             "with: " +
+                             resume_command());
+  }
+}
+
+void RunCommand::write_checkpoint() {
   std::filesystem::create_directories(ck_dir);
   if (!selection_written) {  // by every rank, before its first part: no part lies there without it
     write_checkpoint_selection(ck_dir, selection());
@@ -849,6 +862,7 @@ std::string claim_output_path(OutputLock& lock, const std::string& out,
   if (why.empty() && !force && std::filesystem::exists(out))
     why = "the output file " + out + " exists; add --force to replace it";
   if (why.empty()) why = lock.acquire(out);
+  if (!lock.warning().empty()) std::cerr << "loosepack: " << lock.warning() << "\n";
   if (why.empty())
     for (const auto& f : remove_stale_temporaries(out))
       std::cerr << "loosepack: removed " << f << ", left by a run that ended while writing\n";

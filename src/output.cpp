@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <set>
 #include <sstream>
@@ -522,9 +523,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
                    const std::vector<PointResult>& points, const Analysis& analysis,
                    const std::vector<MemberResult>& members, bool snapshots) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
-  replace_file(path, [&](const std::string& tmp) {
-    H5 file(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-            "create " + tmp);
+  const std::string bytes = hdf5_in_memory(path, [&](hid_t file) {
     write_header(file, scan, info);
     scan_analysis(file, analysis.scan);
     H5 all = group(file, "points");
@@ -536,8 +535,8 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
     }
     if (info.shards > 0)
       bytes_dataset(file, "shard_members", checkpoint_part_bytes(scan_fingerprint(scan), members));
-    check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
   });
+  replace_file(path, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
 }
 
 void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
@@ -731,19 +730,26 @@ void reanalyse(const std::string& in, const std::string& out) {
     throw std::runtime_error(in + ": " + e.what());
   }
   const Analysis analysis = analyse(scan, points);
-  replace_file(out, [&](const std::string& tmp) {
-    std::filesystem::copy_file(in, tmp, std::filesystem::copy_options::overwrite_existing);
-    H5 file(H5Fopen(tmp.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + tmp);
-    if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
-      check(H5Ldelete(file, "analysis", H5P_DEFAULT), "remove analysis");
-    scan_analysis(file, analysis.scan);
-    for (std::size_t k = 0; k < points.size(); ++k) {
-      H5 g = open_group(file, point_name(points[k].point.index));
-      remove_point_analysis(g);
-      point_analysis(g, points[k].point.protocol, analysis.points[k]);
-    }
-    check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + tmp);
-  });
+  std::string image;
+  {
+    std::ifstream f(in, std::ios::binary);
+    image.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+    if (!f.good() && !f.eof()) throw std::runtime_error("cannot read " + in);
+  }
+  const std::string bytes = hdf5_in_memory(
+      out,
+      [&](hid_t file) {
+        if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
+          check(H5Ldelete(file, "analysis", H5P_DEFAULT), "remove analysis");
+        scan_analysis(file, analysis.scan);
+        for (std::size_t k = 0; k < points.size(); ++k) {
+          H5 g = open_group(file, point_name(points[k].point.index));
+          remove_point_analysis(g);
+          point_analysis(g, points[k].point.protocol, analysis.points[k]);
+        }
+      },
+      &image);
+  replace_file(out, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
 }
 
 std::vector<double> read_dataset(const std::string& path, const std::string& name) {

@@ -22,13 +22,22 @@ class OutputLock {
   OutputLock& operator=(const OutputLock&) = delete;
   ~OutputLock() { release(); }
 
-  // Takes the lock on `path`: "" when held now, else why not (another run holds it).
+  // Takes the lock on `path`: "" when held now, else why not (another run holds it). On a file
+  // system without locks (NFS without lockd, some Lustre mounts: flock fails with another error
+  // than EWOULDBLOCK) the run goes on unlocked, and `warning()` says so.
   std::string acquire(const std::string& path) {
     lock_path_ = path + ".lock";
+    warning_.clear();
     for (int attempt = 0; attempt < 10; ++attempt) {
       fd_ = ::open(lock_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
       if (fd_ < 0) return "cannot create the lock file " + lock_path_ + ": " + std::strerror(errno);
-      if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      const int refused = ::flock(fd_, LOCK_EX | LOCK_NB) == 0 ? 0 : errno;
+      if (refused != 0 && refused != EWOULDBLOCK) {
+        warning_ = "cannot lock " + lock_path_ + " (" + std::strerror(refused) +
+                   "): a second run writing the same output at the same time would not be refused";
+        return "";
+      }
+      if (refused == EWOULDBLOCK) {
         std::string pid;
         std::ifstream(lock_path_) >> pid;
         ::close(fd_);
@@ -52,6 +61,9 @@ class OutputLock {
     return "cannot lock " + lock_path_ + " (it keeps changing)";
   }
 
+  // Why the lock taken is none (a file system without locks), or "".
+  const std::string& warning() const { return warning_; }
+
   // Removes the lock file (while holding it) and releases the lock.
   void release() {
     if (fd_ < 0) return;
@@ -61,7 +73,7 @@ class OutputLock {
   }
 
  private:
-  std::string lock_path_;
+  std::string lock_path_, warning_;
   int fd_ = -1;
 };
 

@@ -11,6 +11,7 @@
 
 #include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <stdexcept>
 #include <string>
@@ -24,7 +25,28 @@ inline void sync_path(const std::string& path) {
   if (fd < 0) throw std::runtime_error("cannot open " + path + " to flush it");
   const int rc = ::fsync(fd);
   ::close(fd);
-  if (rc != 0) throw std::runtime_error("cannot flush " + path + " to the disk");
+  if (rc != 0)
+    throw std::runtime_error("cannot flush " + path + " to the disk: " + std::strerror(errno));
+}
+
+// Writes `bytes` to the file `path` (created or truncated); an error names the file and its
+// reason (a full disk: "No space left on device").
+inline void write_bytes(const std::string& path, const std::string& bytes) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0666);
+  if (fd < 0) throw std::runtime_error("cannot create " + path + ": " + std::strerror(errno));
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int error = n < 0 ? errno : ENOSPC;
+      ::close(fd);
+      throw std::runtime_error("cannot write " + path + ": " + std::strerror(error));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::close(fd) != 0)
+    throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
 }
 
 inline std::string directory_of_path(const std::string& path) {

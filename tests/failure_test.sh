@@ -75,3 +75,28 @@ set -e
 [ "$rc" -eq 3 ] || fail "the resumed write exited $rc, expected 3 (a failed member)"
 same serial.h5 w.h5
 [ ! -e w.h5.checkpoint ] || fail "the checkpoint was left after the resumed write"
+
+# The same on a file system that is really full: a tmpfs of 100 kB (the checkpoint, 22 kB, fits;
+# the result, 180 kB, does not), mounted in a mount namespace of the test's own where it may
+# (root). The write fails with its reason and exit 1, not a crash (HDF5 1.10 segfaulted at exit
+# after a failed flush), and --resume, once there is room, writes the file.
+mkdir full
+if unshare -m sh -c 'mount -t tmpfs -o size=100k tmpfs "$1"' sh full 2>/dev/null; then
+  unshare -m bash -c '
+    mount -t tmpfs -o size=100k tmpfs full
+    LOOSEPACK_INJECT_NAN=1 "$1" run s.toml -o full/w.h5 --batch-size 2 2>full.log
+    echo $? >full.rc
+    cp -r full/w.h5.checkpoint saved.checkpoint' bash "$exe"
+  [ "$(cat full.rc)" -eq 1 ] || fail "a write to a full disk exited $(cat full.rc): $(cat full.log)"
+  grep -q "No space left on device; the results are kept in full/w.h5.checkpoint" full.log ||
+    fail "message of a write to a full disk: $(cat full.log)"
+  mv saved.checkpoint full/w.h5.checkpoint  # the tmpfs is gone with its namespace
+  set +e
+  "$exe" run s.toml -o full/w.h5 --batch-size 2 --resume -q 2>/dev/null
+  rc=$?
+  set -e
+  [ "$rc" -eq 3 ] || fail "the write resumed after a full disk exited $rc, expected 3"
+  same serial.h5 full/w.h5
+else
+  echo "failure_test: no tmpfs in a mount namespace here (not root?): the full-disk case is left out"
+fi
