@@ -446,7 +446,8 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   }
   std::sort(files.begin(), files.end());
   const PartRemedies remedy{
-      "delete " + directory + " to start the run again",
+      "delete that part alone to keep the others (its members run again), or " + directory +
+          " to start the run again",
       "a setting of the scan file was changed, or the program rebuilt, since: restore them, or "
       "delete " +
           directory + " to start the run again"};
