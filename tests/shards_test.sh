@@ -116,16 +116,25 @@ mv selection.kept wf.h5.checkpoint/selection
 expect_rc 3 wfmerge.log "$exe" merge p0.h5 p1.h5 wf.h5 -o wfmerged.h5 --snapshots
 same whole.h5 wfmerged.h5
 # The job array example (examples/slurm_shards.sh) as SLURM would run its three tasks, then again
-# (every part finished: nothing to do), merges to the whole run's file.
-for k in 0 1 2; do
-  for round in 1 2; do
-    LOOSEPACK="$exe" SLURM_ARRAY_TASK_ID=$k SLURM_ARRAY_TASK_COUNT=3 LOOSEPACK_INJECT_NAN=1 \
-      bash "$repo/examples/slurm_shards.sh" s.toml array >/dev/null 2>&1 || true
-  done
-done
+# (every part finished: nothing to do), merges to the whole run's file; task 1 first alone, as
+# after a resubmission of one task, and first stopped with its part written --finished-only.
+array_task() {  # array_task K
+  LOOSEPACK="$exe" SLURM_ARRAY_TASK_ID=$1 SLURM_ARRAY_TASK_COUNT=1 LOOSEPACK_INJECT_NAN=1 \
+    bash "$repo/examples/slurm_shards.sh" s.toml array 3 >/dev/null 2>&1 || true
+}
+mkdir array
+LOOSEPACK_INJECT_NAN=1 LOOSEPACK_INJECT_WRITE_FAILURE=1 \
+  "$exe" run s.toml --shard 1/3 -o array/part-1.h5 -q 2>/dev/null || true
+"$exe" run s.toml --shard 1/3 -o array/part-1.h5 --resume --finished-only -q 2>/dev/null || true
+[ -f array/part-1.h5 ] && [ -d array/part-1.h5.checkpoint ] || fail "no part written --finished-only"
+for k in 1 0 1 2 0 2; do array_task $k; done
+[ ! -e array/part-1.h5.checkpoint ] || fail "the array's task 1 left its checkpoint"
 expect_rc 3 array.log "$exe" merge array/part-0.h5 array/part-1.h5 array/part-2.h5 -o array.h5 \
   --snapshots
 same whole.h5 array.h5
+expect_rc 2 task.log env SLURM_ARRAY_TASK_ID=3 bash "$repo/examples/slurm_shards.sh" s.toml array 3
+grep -q "task 3 of 3 shards: N must be a count above every task's index" task.log ||
+  fail "a task beyond the shards: $(cat task.log)"
 # Refused, with nothing written.
 refused() {  # refused MESSAGE COMMAND...
   local message=$1
