@@ -346,7 +346,11 @@ std::string selection_name(const std::string& selection) {
   return selection.empty() ? kWholeScan : selection;
 }
 
-void write_checkpoint_selection(const std::string& directory, const std::string& selection) {
+void write_checkpoint_selection(const std::string& directory, const std::string& selection,
+                                bool snapshots) {
+  if (snapshots)
+    replace_file(directory + "/snapshots",
+                 [&](const std::string& tmp) { write_bytes(tmp, "--snapshots\n"); });
   replace_file(directory + "/selection",
                [&](const std::string& tmp) { write_bytes(tmp, selection_name(selection) + "\n"); });
 }
@@ -477,6 +481,7 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   for (auto& [id, r] : finished) out.members.push_back(std::move(r));
   for (auto& [id, snap] : running)
     if (!finished.count(id)) out.running.push_back(std::move(snap.second));
+  out.snapshots = fs::exists(directory + "/snapshots");
   return out;
 }
 

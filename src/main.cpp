@@ -170,7 +170,7 @@ class RunCommand {
   std::string resume_command(bool output_written = false) const {
     const std::string flags = selection();
     return "loosepack run " + o.scan_path + " -o " + o.out_path +
-           (flags.empty() ? "" : " " + flags) + (o.snapshots ? " --snapshots" : "") + " --resume" +
+           (flags.empty() ? "" : " " + flags) + (snapshots ? " --snapshots" : "") + " --resume" +
            (o.force || output_written ? " --force" : "");
   }
   // The options that select this run's members (--member, --shard, K/N as parsed), or "" for
@@ -187,6 +187,9 @@ class RunCommand {
   const RunOptions& o;
   Ranks& ranks;
   const bool talk;  // only rank 0 talks to the user
+  // Whether the file holds the final states (--snapshots): as given, or as the run that wrote
+  // the checkpoint this one resumes asked (its checkpoint holds them either way).
+  bool snapshots = o.snapshots;
   Scan scan;
   std::vector<Member> all_members, members;
   // Members finished before (from the checkpoint), their ids; those to compute, those of them
@@ -364,6 +367,13 @@ int RunCommand::read_checkpoint() {
     if (selected.count(snap.result.member.id)) started.push_back(std::move(snap));
   part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
   fingerprint = scan_fingerprint(scan);
+  if (ck.snapshots && !snapshots) {
+    snapshots = true;
+    if (!o.quiet)
+      say("--snapshots: the run that wrote " + ck_dir +
+          " asked for the final states; this one "
+          "writes them too");
+  }
   return 0;
 }
 
@@ -413,7 +423,7 @@ void RunCommand::save_checkpoint() {
 void RunCommand::write_checkpoint() {
   std::filesystem::create_directories(ck_dir);
   if (!selection_written) {  // by every rank, before its first part: no part lies there without it
-    write_checkpoint_selection(ck_dir, selection());
+    write_checkpoint_selection(ck_dir, selection(), snapshots);
     selection_written = true;
   }
   if (!fresh.empty()) {
@@ -650,7 +660,7 @@ int RunCommand::write() {
   const int failed = report_failures(results, o.scan_path);
   try {
     inject_write_failure();
-    write_member_results(o.out_path, scan, info, results, o.snapshots);
+    write_member_results(o.out_path, scan, info, results, snapshots);
   } catch (const std::exception& e) {
     say(std::string(e.what()) + "; the results are kept in " + ck_dir +
         ": once the cause is fixed, write the file with: " + resume_command());

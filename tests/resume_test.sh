@@ -74,12 +74,22 @@ interrupt TERM sf.h5 sf.log --snapshots --force
 hint=$(sed -n 's/.*continue with: \(.*\)$/\1/p' sf.log)
 [ "$hint" = "loosepack run s.toml -o sf.h5 --snapshots --resume --force" ] || fail "hint: $hint"
 "$exe" ${hint#loosepack } -q --batch-size 1 || fail "the printed command failed"
-/usr/bin/python3 - sf.h5 <<'PY' || fail "the resumed run's snapshots: see above"
+snapshots_of() {  # snapshots_of FILE: the file holds the final state of each of the 8 members
+  /usr/bin/python3 - "$1" <<'PY' || fail "the snapshots of $1: see above"
 import sys, h5py
 with h5py.File(sys.argv[1], "r") as f:
     snaps = sum(1 for p in f["points"].values() for k in p["members"] if k.startswith("snapshot_"))
     assert snaps == 8, f"{snaps} snapshots of 8 members"
 PY
+}
+snapshots_of sf.h5
+# A resume without --snapshots of a run that asked for them writes them too (its checkpoint
+# says so), where it used to drop them and then delete the checkpoint that held them.
+interrupt TERM sn.h5 sn.log --snapshots
+"$exe" run s.toml -o sn.h5 --batch-size 1 --resume 2>sn2.log
+grep -q -- "--snapshots: the run that wrote sn.h5.checkpoint asked for the final states" sn2.log ||
+  fail "no word of the snapshots kept: $(cat sn2.log)"
+snapshots_of sn.h5
 # SIGINT (Ctrl-C) likewise, resumed to the same file.
 interrupt INT i.h5 i.log
 [ "$rc" -eq 130 ] || fail "SIGINT exit code $rc: $(cat i.log)"

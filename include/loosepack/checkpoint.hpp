@@ -43,8 +43,10 @@ std::string checkpoint_directory(const std::string& output_path);
 // (`--member N`, `--shard K/N`, or empty for the whole scan), in `<directory>/selection`,
 // written by each rank before its first part: a resume must select the same. Reading gives
 // std::nullopt where the file does not exist (a checkpoint of a build that wrote none) and
-// throws CheckpointError where it cannot be read or names no selection.
-void write_checkpoint_selection(const std::string& directory, const std::string& selection);
+// throws CheckpointError where it cannot be read or names no selection. With `snapshots` (the
+// run asked for --snapshots) the file `<directory>/snapshots` says so, and a resume writes them.
+void write_checkpoint_selection(const std::string& directory, const std::string& selection,
+                                bool snapshots = false);
 std::optional<std::string> read_checkpoint_selection(const std::string& directory);
 // A selection as the file and the messages name it: itself, or "the whole scan" where empty.
 std::string selection_name(const std::string& selection);
@@ -71,6 +73,7 @@ struct CheckpointContents {
   std::vector<MemberSnapshot> running;
   int generation = 0;
   int parts = 0;
+  bool snapshots = false;  // the run that wrote it asked for --snapshots
 };
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan);
 
