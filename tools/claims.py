@@ -51,8 +51,9 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     paper: 1.19, random close packing nu_rcp = 0.84 over nu_i ~ 0.38)
 
 and, across the points of a scan (the fits in `analysis/`, made when three or more points
-differ only in that variable; each fit must also be acceptable, its chi2 below the 99 %
-quantile, or the law it claims is rejected):
+differ only in that variable; each point's error widened for the few members it comes from, as
+docs/OUTPUT.md says; each fit must also be acceptable, its chi2 below the 99 % quantile, or the
+law it claims is rejected):
 
   A, Bond numbers   the typical avalanche size falls as Bo rises: over three or more points
                     with 0 < Bo < inf that differ only in Bo, mean |Delta y| at the smallest Bo
@@ -64,6 +65,9 @@ quantile, or the law it claims is rejected):
 
   A, heights        the curvature of Delta y(y_e) scales like 1/H: the exponent p of
                     abs(c2) = A H^p below zero and within two standard errors of -1 (fig. 7)
+  A, heights        the slice model's a stays fixed (Delta y = H f(y/H), which makes c fall
+                    like 1/H): the exponent p of a = A H^p within two standard errors of 0; a
+                    wide error passes it, so read it beside the exponent's error
   C, heights        dnu/nu_i grows with ln H: slope above zero by two standard errors (fig. 16)
   C, r_capt         dnu/nu_i falls with nu_i as a power law: exponent below zero by two
                     standard errors (fig. 17; the paper's is -1.64)
@@ -289,6 +293,12 @@ def bo0_histogram_claims(point, path, where):
     constant": the decay beyond 2 R an acceptable exponential, and the bins between 1 and 2 R
     one constant (chi2 of their mean against the jackknife errors of each bin's difference
     from it, within its 99 % quantile)."""
+    if "member_counts_cut" not in point["abs_dy_histogram"]:  # a file before 2026-11-26
+        why = ("the file has no per-member counts (`abs_dy_histogram/member_counts_cut`, in files "
+               "from 2026-11-26 on): run the scan again to judge it")
+        yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R", NOT_JUDGED, why)
+        yield (f"{where}: the |Delta y| histogram is flat between 1 and 2 R", NOT_JUDGED, why)
+        return
     hist = Histogram(point["abs_dy_histogram"], path)
     tail = hist.fit(1, hist.centre > 2.0)
     if tail is None:
@@ -401,6 +411,11 @@ def check_point(point, path):
     a = point.attrs
     protocol, bo = text(a["protocol"]), float(a["bond_number"])
     where = f"point {point.name.split('/')[-1]} ({protocol}, Bo = {bo:g}, H = {a['height']:g})"
+    finished = int(a.get("members", 2)) - int(a.get("failed", 0))
+    if finished < 2:
+        yield (f"{where}: its claims", NOT_JUDGED,
+               f"{finished} member{'' if finished == 1 else 's'} finished: no ensemble to judge")
+        return
     if protocol == "A" and 0 < bo < 1e4:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is a parabola with positive curvature", holds, detail)
@@ -432,11 +447,21 @@ def histogram_claims(point, path, where):
     which, preferred, g = histogram_verdict(point, path)
     chi2 = lambda m: (f"{g[m].attrs['chi2']:.3g}/{g[m].attrs['dof']:g} (99 % bound "
                       f"{chi2_quantile99(g[m].attrs['dof']):.3g})")
+    counted = "member_counts_cut" in point["abs_dy_histogram"]
     errors = ("the members' scatter" if g.attrs.get("member_errors", 0) else
-              "Poisson's (no per-member counts)")
-    detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
-              f"gaussian {chi2('gaussian')}, errors from {errors}")
-    yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
+              "Poisson's (" + ("fewer than 4 members with disks" if counted else
+                               "a file without per-member counts") + ")")
+    if preferred == "none":  # too few bins for any fit
+        yield (f"{where}: |Delta y| histogram is {expected}", NOT_JUDGED,
+               "too few bins (or members) for a shape fit")
+    elif counted and not g.attrs.get("member_errors", 0):
+        yield (f"{where}: |Delta y| histogram is {expected}", NOT_JUDGED,
+               "fewer than 4 members with disks: no errors from their scatter to judge a shape by "
+               "(Poisson's are far too small for counts that move together)")
+    else:
+        detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
+                  f"gaussian {chi2('gaussian')}, errors from {errors}")
+        yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
     if bo == 0:
         yield from bo0_histogram_claims(point, path, where)
 
@@ -727,8 +752,9 @@ def main():
     except OSError as e:
         unusable(f"claims.py: {path}: not a readable HDF5 file ({e})")
     with f:
-        if "points" not in f:
-            fail_missing(path, "/points")
+        if "points" not in f or "scan_text" not in f:
+            unusable(f"claims.py: {path} is not a loosepack result file (no /points or "
+                     "/scan_text): give the file `loosepack run` wrote")
         results = []
         for name in sorted(f["points"]):
             results.extend(check_point(f["points"][name], path))

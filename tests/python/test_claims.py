@@ -9,6 +9,7 @@ import math
 import os
 import subprocess
 import sys
+import tempfile
 
 import h5py
 import numpy as np
@@ -433,6 +434,31 @@ def test_trajectories_move_collectively_and_mainly_downwards(tmp_path):
     assert trajectory_point(tmp_path, "sideways", sideways) == {down: False, together: True}
 
 
+def test_a_point_without_an_ensemble_and_a_histogram_without_member_errors_are_skipped(tmp_path):
+    """A point whose members all failed but one holds no ensemble: its claims are skipped, not
+    failed. A histogram of fewer than 4 members (per-member counts, but no errors from their
+    scatter, `member_errors` 0) is not judged by Poisson's errors either."""
+    path = point_file(tmp_path, "lone", "A", 1e3, {"avalanche_by_ye": PARABOLA})
+    with h5py.File(path, "r+") as f:
+        f["points/0000"].attrs.update({"members": 4, "failed": 3})
+    (claim, (ok, detail)), = verdicts(path).items()
+    assert ok is claims.NOT_JUDGED and "1 member finished" in detail, (claim, detail)
+    path = tmp_path / "few.h5"
+    with h5py.File(path, "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update({"protocol": "A", "bond_number": 1e3, "height": H})
+        h = g.create_group("abs_dy_histogram")
+        h["member_counts_cut"] = np.ones((3, 5))
+        for which in ("shape_cut", "shape"):
+            s = h.create_group(which)
+            s.attrs.update({"preferred": "neither", "member_errors": 0})
+            for m in ("exponential", "gaussian"):
+                s.create_group(m).attrs.update({"chi2": 50.0, "dof": 3})
+    with h5py.File(path, "r") as f:
+        (claim, ok, detail), = claims.histogram_claims(f["points/0000"], str(path), "p")
+    assert ok is claims.NOT_JUDGED and "fewer than 4 members" in detail, detail
+
+
 def test_help_and_unusable_input():
     """--help prints what is checked and exits 0; a file it cannot read exits 2, as a file with
     nothing to judge does (1 is kept for claims that fail)."""
@@ -443,4 +469,9 @@ def test_help_and_unusable_input():
     assert done.returncode == 0 and "Checks the paper's qualitative claims" in done.stdout
     done = run("/nonexistent/x.h5")
     assert done.returncode == 2 and "x.h5: not a readable HDF5 file" in done.stderr
+    other = os.path.join(tempfile.mkdtemp(), "contacts.h5")  # an export's contacts, say
+    with h5py.File(other, "w") as f:
+        f.create_group("points/0000/members/snapshot_0")
+    done = run(other)
+    assert done.returncode == 2 and "not a loosepack result file" in done.stderr, done.stderr
     assert run().returncode == 2
