@@ -976,10 +976,8 @@ int merge_command(const MergeOptions& m) {
 int file_command(const FileCommands& f) {
   const std::string& in = *f.analyse ? f.analyse_path : *f.exporter ? f.export_path
                                                                     : f.summary_path;
-  if (!is_hdf5_file(in)) {
-    std::cerr << "loosepack: " << in
-              << " is not an HDF5 file that can be opened (not a loosepack result file, or "
-                 "damaged: truncated by a copy or a full disk?)\n";
+  if (const std::string problem = result_file_problem(in); !problem.empty()) {
+    std::cerr << "loosepack: " << problem << "\n";
     return kInvalid;
   }
   try {

@@ -778,13 +778,21 @@ std::string read_attribute_string(const std::string& path, const std::string& ob
   return string_attribute(file, object, name);
 }
 
-bool is_hdf5_file(const std::string& path) {
+std::string result_file_problem(const std::string& path) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  if (H5Fis_hdf5(path.c_str()) <= 0) return false;
+  const std::string not_hdf5 = path +
+                               " is not an HDF5 file that can be opened (not a loosepack result "
+                               "file, or damaged: truncated by a copy or a full disk?)";
+  if (H5Fis_hdf5(path.c_str()) <= 0) return not_hdf5;
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);  // a truncated file fails
-  if (file < 0) return false;
+  if (file < 0) return not_hdf5;
+  const bool result =
+      H5Lexists(file, "points", H5P_DEFAULT) > 0 && H5Lexists(file, "scan_text", H5P_DEFAULT) > 0;
   H5Fclose(file);
-  return true;
+  return result ? ""
+                : path +
+                      " is an HDF5 file but not a loosepack result file (no /points or "
+                      "/scan_text): give the file `loosepack run` wrote";
 }
 
 ShardFile read_shard_file(const std::string& path) {

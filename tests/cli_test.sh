@@ -324,6 +324,16 @@ for cmd in summary analyse export; do
   [ "$rc" -eq 2 ] || fail "$cmd of a truncated file: exit code $rc ($msg)"
   echo "$msg" | grep -q "cut.h5 is not an HDF5 file that can be opened" || fail "$cmd message: $msg"
 done
+# So is an HDF5 file of another kind (another program's, or an export's contacts file).
+/usr/bin/python3 -c 'import h5py, sys; h5py.File(sys.argv[1], "w")["x"] = [1.0]' "$dir/other.h5"
+for cmd in summary analyse export; do
+  set +e
+  msg=$("$exe" $cmd "$dir/other.h5" 2>&1)
+  rc=$?
+  set -e
+  [ "$rc" -eq 2 ] && echo "$msg" | grep -q "other.h5 is an HDF5 file but not a loosepack result" ||
+    fail "$cmd of another HDF5 file: exit code $rc ($msg)"
+done
 ls "$dir" | grep -q tmp && fail "analyse left a temporary file behind"
 set +e
 msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)

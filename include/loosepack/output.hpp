@@ -51,9 +51,11 @@ ShardFile read_shard_file(const std::string& path);
 // ScanError for a scan text this program no longer accepts) naming the file and the object.
 void reanalyse(const std::string& in, const std::string& out);
 
-// Whether `path` is an HDF5 file that HDF5 can open, as a result file must be (checked first, so
-// that a wrong or damaged file, such as one cut short, is named as invalid input).
-bool is_hdf5_file(const std::string& path);
+// Why `path` is not a result file that can be read, or "": not an HDF5 file HDF5 can open (a
+// wrong or damaged file, such as one cut short), or an HDF5 file without `/points` and
+// `/scan_text` (another program's, or an export's contacts file). Checked first, so that such a
+// file is named as invalid input.
+std::string result_file_problem(const std::string& path);
 
 // One line per scan point: parameters and headline observables.
 void print_summary(const std::string& path, std::ostream& out);
