@@ -44,11 +44,22 @@ def _units(dataset):
 
 class Results:
     """A result file: `points` (DataFrame), and per point the profiles, histograms, member
-    tables, snapshots and trajectories. Points are named by index (0, 1, ...) or "0001"."""
+    tables, snapshots and trajectories. Points are named by index (0, 1, ...) or "0001".
+
+    The profiles are xarray Datasets whose variables include `mean` and `count`: read them as
+    `ds["mean"]`, since `ds.mean` is the Dataset's method."""
 
     def __init__(self, path):
         self.path = str(path)
-        with h5py.File(self.path, "r") as f:
+        try:
+            f = h5py.File(self.path, "r")
+        except OSError as e:
+            raise ValueError(f"{self.path}: not an HDF5 file that can be opened (not a loosepack "
+                             f"result file, or damaged?): {e}") from None
+        with f:
+            if "points" not in f or "settings" not in f:
+                raise ValueError(f"{self.path}: an HDF5 file but not a loosepack result file (no "
+                                 "/points or /settings): give the file `loosepack run` wrote")
             self.attrs = {k: _value(v) for k, v in f.attrs.items() if k != "scan_text"}
             self.settings = {k: _value(v) for k, v in f["settings"].attrs.items()}
             if "scan_text" in f:
@@ -77,7 +88,13 @@ class Results:
         return pd.DataFrame(rows).set_index("point")
 
     def _group(self, f, point):
-        name = point if isinstance(point, str) else "%04d" % int(point)
+        if isinstance(point, str) and point.isdigit():
+            name = "%04d" % int(point)
+        elif isinstance(point, (int, np.integer)) and not isinstance(point, bool) and point >= 0:
+            name = "%04d" % point
+        else:
+            raise KeyError("a point is named by its index (0, 1, ...) or as \"0001\", not %r "
+                           "(points: %s)" % (point, ", ".join(self.point_names)))
         if name not in f["points"]:
             raise KeyError("%s has no point %s (points: %s)" %
                            (self.path, name, ", ".join(self.point_names)))
@@ -168,7 +185,7 @@ class Results:
             hint = ""
             if kind == "snapshot":
                 failures = sorted(k for k in g.keys() if k.startswith("failure_"))
-                hint = "; run with --snapshots" + (
+                hint = ("" if have else "; run with --snapshots") + (
                     "; failed members' states at the failure: %s (failure(point, seed))"
                     % ", ".join(failures) if failures else "")
             f.close()
@@ -217,20 +234,68 @@ class Results:
         return df
 
     def fits(self, point):
-        """Every fit of a point (docs/OUTPUT.md, "Analysis") as {name: {coef, error, valid,
-        reduced_chi2, ...}}, names as their paths under the point ("avalanche_by_ye/fit")."""
+        """Every result of a point's analysis (docs/OUTPUT.md, "Analysis") as {name: {...}}, names
+        as their paths under the point: each fit ("avalanche_by_ye/fit",
+        "abs_dy_histogram/shape_cut/gaussian", ...) with coef, error, valid, reduced_chi2 and its
+        other attributes; the histograms' verdicts ("abs_dy_histogram/shape_cut": preferred,
+        decay_length, gaussian_mean, gaussian_width, ...); protocol C's "collapse_identity" (b',
+        a', their predictions and differences, with errors); and "nu" (rms_deviation of the
+        final density predicted from the deposition density)."""
         out = {}
         with h5py.File(self.path, "r") as f:
             g = self._group(f, point)
 
             def visit(name, obj):
-                if isinstance(obj, h5py.Group) and "coef" in obj:
-                    entry = {k: np.asarray(v).item() for k, v in obj.attrs.items()}
-                    entry["coef"] = obj["coef"][()]
-                    entry["error"] = obj["error"][()]
-                    out[name] = entry
+                if not isinstance(obj, h5py.Group):
+                    return
+                attrs = {k: _value(v) for k, v in obj.attrs.items()}
+                if "coef" in obj:
+                    out[name] = dict(attrs, coef=obj["coef"][()], error=obj["error"][()])
+                elif attrs and (name in ("collapse_identity", "nu") or
+                                name.startswith("abs_dy_histogram/shape")):
+                    out[name] = attrs
             g.visititems(visit)
         return out
+
+    def across(self):
+        """The fits across scan points (`analysis/*`: increase_vs_log_height,
+        increase_vs_nu_initial, quadratic_vs_height, slice_vs_height) that the scan has the points
+        for, as {name: {coef, error, scan_points, valid, reduced_chi2, ...}}; scan_points are the
+        indices of the points each went through."""
+        out = {}
+        with h5py.File(self.path, "r") as f:
+            for name, g in f.get("analysis", {}).items():
+                attrs = {k: _value(v) for k, v in g.attrs.items()}
+                if not attrs.get("valid", 0) or "coef" not in g:
+                    continue
+                out[name] = dict(attrs, coef=g["coef"][()], error=g["error"][()],
+                                 scan_points=g["scan_points"][()].astype(int)
+                                 if "scan_points" in g else None)
+        return out
+
+    def events(self, point):
+        """Protocol A's deposition events as an xarray Dataset over logarithmic bins (`bin`, with
+        their lower and upper edges): `downward_counts` (by summed downward displacement, R),
+        `moved_counts` (by disks moved), `steps_counts` (by steps to rest), and per member
+        `member_*_counts` [member, bin] (files from 2026-11-26 on); attribute `without_motion`."""
+        with h5py.File(self.path, "r") as f:
+            g = self._group(f, point)
+            if "events" not in g:
+                raise KeyError(f"{self.path}: point {point} has no events (protocol A only)")
+            e = g["events"]
+            edges = e["edges"][()]
+            seeds = g["members/seed_index"][()].astype(int)
+            data = {}
+            for key, d in e.items():
+                if key == "edges":
+                    continue
+                dims = ("bin",) if d.ndim == 1 else ("member", "bin")
+                data[key] = (dims, d[()], {"long_name": _text(d.attrs.get("long_name", key))})
+            attrs = {k: _value(v) for k, v in e.attrs.items()}
+        coords = {"bin": ("bin", np.sqrt(edges[:-1] * edges[1:])),
+                  "lower_edge": ("bin", edges[:-1]), "upper_edge": ("bin", edges[1:]),
+                  "member": ("member", seeds)}
+        return xr.Dataset(data, coords=coords, attrs=dict(attrs, point=point, file=self.path))
 
     def __repr__(self):
         return "<loosepack.Results %s: %d points>" % (self.path, len(self.point_names))

@@ -110,6 +110,10 @@ def run(scan, out, force=False, progress=True, program=None, args=()):
             raise LoosepackError("out %s would be the scan file too: give it another suffix (.h5)"
                                  % os.fspath(out), 2, "")
         text = to_toml(scan)
+        directory = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(directory):
+            raise LoosepackError("the directory %s of out %s does not exist (make it first)"
+                                 % (directory, os.fspath(out)), 2, "")
         if os.path.exists(path) and not force:
             with open(path) as f:
                 if f.read() != text:

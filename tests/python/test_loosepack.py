@@ -110,9 +110,49 @@ def test_fits_are_read_with_their_errors(result):
     fits = result.fits(1)
     assert {"avalanche_by_yi/fit", "avalanche_by_ye/fit", "nu_deposition/power_law"} <= set(fits)
     for name, fit in fits.items():  # a valid fit has its parameters, an invalid one none
+        if "coef" not in fit:  # a verdict or other analysis result, not a fit
+            continue
         assert len(fit["coef"]) == len(fit["error"]), name
         assert (len(fit["coef"]) > 0) == bool(fit["valid"]), name
         assert "reduced_chi2" in fit
+
+
+def test_verdicts_events_and_fits_across_points(result):
+    """fits() holds the histograms' verdicts beside their fits; events() counts one event per
+    deposited disk (those without motion apart), in every member's row as in the pooled one."""
+    fits = result.fits(0)
+    assert fits["abs_dy_histogram/shape_cut"]["preferred"] in (
+        "gaussian", "exponential", "neither", "none")
+    assert "rms_deviation" in fits["nu"]
+    events = result.events(1)
+    disks = int(result.members(1)["disks"].sum())
+    assert int(events["steps_counts"].sum()) == disks  # every event by its steps to rest
+    assert (events["member_moved_counts"].sum("member") == events["moved_counts"]).all()
+    assert int(events["moved_counts"].sum()) + events.attrs["without_motion"] == disks
+    assert (events["lower_edge"] < events["bin"]).all() and (events["bin"] < events["upper_edge"]).all()
+    assert result.across() == {}  # two Bond numbers: no fit across points
+
+
+def test_points_are_named_by_index_and_wrong_files_are_named(result, tmp_path):
+    assert np.array_equal(result.nu("1")["mean"], result.nu(1)["mean"])
+    assert np.array_equal(result.nu(np.int64(1))["mean"], result.nu("0001")["mean"])
+    for bad in (1.5, -1, "x", True):
+        with pytest.raises(KeyError, match="a point is named by its index"):
+            result.nu(bad)
+    # A seed without a snapshot, in a file that has snapshots: no advice to run --snapshots.
+    with pytest.raises(KeyError) as e:
+        result.snapshot(1, seed=9)
+    assert "--snapshots" not in str(e.value)
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as f:
+        f["x"] = [1.0]
+    with pytest.raises(ValueError, match="not a loosepack result file"):
+        loosepack.load(other)
+    (tmp_path / "text.h5").write_text("not hdf5")
+    with pytest.raises(ValueError, match="not an HDF5 file"):
+        loosepack.load(tmp_path / "text.h5")
+    with pytest.raises(loosepack.LoosepackError, match="does not exist"):
+        loosepack.run(SCAN, tmp_path / "nodir" / "x.h5", progress=False)
 
 
 def test_file_stores_integers_units_and_strings(result):
