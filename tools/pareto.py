@@ -37,7 +37,7 @@ MEASURES = [  # (record field, noise field, axis label)
 
 def load(path):
     runs = {}
-    with open(path) as f:
+    with open(path, errors="replace") as f:  # a binary file fails below, as not JSON
         for n, line in enumerate(f, 1):
             line = line.strip()
             if not line:

@@ -419,6 +419,12 @@ def structure(g, name, s, out, written):
         vx, vy = need(s, "vx"), need(s, "vy")
         finite &= np.isfinite(vx) & np.isfinite(vy)
     top = max(y[finite].max() + 2 if finite.any() else 1.0, 1.0)
+    # A failed member's solution may have blown up: the box is drawn, and the disks that left it
+    # are counted in the title instead of stretching the picture to where they went.
+    box_top = attr(g, "height") + 4.0 * float(r[np.isfinite(r)].max() if np.isfinite(r).any() else 1.0)
+    outside = finite & ((y > box_top) | (y < 0.0))
+    if failed:
+        top = min(top, box_top)
     fig, ax = plt.subplots(figsize=(6, 6 * min(3.0, top / W)))
     ax.add_collection(PatchCollection([Circle((a, b), c) for a, b, c in
                                        zip(x[finite], y[finite], r[finite])],
@@ -428,7 +434,7 @@ def structure(g, name, s, out, written):
     good = fn[np.isfinite(fn)]
     fmax = good.max() if len(good) and good.max() > 0 else 1.0
     for i, j, f in zip(ci.astype(int), cj.astype(int), fn):
-        if not f > 0 or j < 0 or not (finite[i] and finite[j]):
+        if not f > 0 or j < 0 or not (finite[i] and finite[j]) or outside[i] or outside[j]:
             continue
         dx = x[j] - x[i]
         dx -= W * round(dx / W)  # minimum image across the periodic boundary
@@ -441,8 +447,12 @@ def structure(g, name, s, out, written):
         bad = np.where(~finite)[0]  # their place is lost: named in the title
         why = attr(s, "failure")
         why = why.decode() if isinstance(why, bytes) else str(why)
-        title = (f"{label(g)}, {name} (member {int(attr(s, 'member'))}): "
-                 f"{why}; disks with a non-finite state: {list(bad)[:10]}")
+        title = f"{label(g)}, {name} (member {int(attr(s, 'member'))}): {why}"
+        if len(bad):
+            title += f"; disks with a non-finite state: {list(bad)[:10]}"
+        if outside.any():
+            title += (f"; {int(outside.sum())} disks outside the box (y from "
+                      f"{y[outside].min():.3g} to {y[outside].max():.3g} R)")
     ax.set_xlim(0, W)
     ax.set_ylim(0, top)
     ax.set_aspect("equal")
