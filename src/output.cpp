@@ -944,12 +944,31 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
   }
 }
 
+// The scan points a fit across points went through (`scan_points`, in files from 2026-11-26 on):
+// a scan of a grid has several groups that differ only in one variable, and the fit takes one.
+std::string fitted_points(const FitReader& f, const std::string& object) {
+  if (!f.exists(object + "/scan_points")) return "";
+  std::ostringstream o;
+  o << "  [points";
+  for (double k : doubles(f.file, object + "/scan_points"))
+    o << " " << std::setw(4) << std::setfill('0') << static_cast<long>(k);
+  o << "]";
+  return o.str();
+}
+
 // The fits across scan points, where the scan has the points for them.
 void print_fits_across(const FitReader& f, std::ostream& out) {
-  const std::string log_h = f.fit_text("analysis/increase_vs_log_height", "ln H");
-  const std::string nu_i = f.power_text("analysis/increase_vs_nu_initial");
-  const std::string c_h = f.power_text("analysis/quadratic_vs_height");
-  const std::string a_h = f.power_text("analysis/slice_vs_height");
+  auto text = [&](const std::string& fit, const std::string& object) {
+    return fit.empty() ? fit : fit + fitted_points(f, object);
+  };
+  const std::string log_h = text(f.fit_text("analysis/increase_vs_log_height", "ln H"),
+                                 "analysis/increase_vs_log_height");
+  const std::string nu_i =
+      text(f.power_text("analysis/increase_vs_nu_initial"), "analysis/increase_vs_nu_initial");
+  const std::string c_h =
+      text(f.power_text("analysis/quadratic_vs_height"), "analysis/quadratic_vs_height");
+  const std::string a_h =
+      text(f.power_text("analysis/slice_vs_height"), "analysis/slice_vs_height");
   if (log_h.empty() && nu_i.empty() && c_h.empty() && a_h.empty()) return;
   out << "# fits across points\n";
   if (!log_h.empty()) out << "  dnu/nu_i = " << log_h << "\n";

@@ -190,8 +190,9 @@ printf '[scan]\nprotocol = "C"\n[system]\nwidth = 12\nheight = 12\nbond_number =
 printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = [16, 20, 24]\nbond_number = 30\n[observables]\nlower_half_from = 2\n' > "$dir/an.toml"
 "$exe" run "$dir/an.toml" -o "$dir/an.h5" -q
 # Three heights of protocol C: the summary ends with the fit of dnu/nu_i against ln H.
-"$exe" summary "$dir/an.h5" | grep -A1 "^# fits across points" | grep -q "dnu/nu_i = (.*) ln H" ||
-  fail "summary prints no fit across points"
+"$exe" summary "$dir/an.h5" | grep -A1 "^# fits across points" |
+  grep -q "dnu/nu_i = (.*) ln H  \[chi2/dof .*\]  \[points 0000 0001 0002\]" ||
+  fail "summary prints no fit across points, or not its points"
 # The fit names the points it went through (all three heights).
 /usr/bin/python3 -c 'import sys, h5py; f = h5py.File(sys.argv[1], "r")
 sys.exit(list(f["analysis/increase_vs_log_height/scan_points"][()]) != [0, 1, 2])' "$dir/an.h5" ||
