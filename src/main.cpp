@@ -196,6 +196,7 @@ class RunCommand {
   // that had started (with their snapshots), and this rank's share.
   std::vector<MemberResult> results;
   std::set<std::uint64_t> resumed;
+  long resumed_disks = 0;  // the disks of the members finished before the resume
   std::vector<Member> todo, mine;
   std::vector<MemberSnapshot> started;
   std::vector<double> shard_cost;  // expected cost of each rank's share
@@ -358,6 +359,7 @@ int RunCommand::read_checkpoint() {
   for (auto& r : ck.members)
     if (selected.count(r.member.id)) {
       resumed.insert(r.member.id);
+      resumed_disks += static_cast<long>(r.x.size());
       results.push_back(std::move(r));
     }
   for (const auto& m : members)
@@ -467,6 +469,8 @@ void RunCommand::show(bool force) {
     start_cost += latest[r].start_fraction * shard_cost[r];
     total_cost += shard_cost[r];
   }
+  p.disks_deposited += resumed_disks;  // the members the checkpoint held finished
+  p.disks_before += resumed_disks;
   p.fraction = total_cost > 0.0 ? done_cost / total_cost : 1.0;
   p.start_fraction = total_cost > 0.0 ? start_cost / total_cost : 0.0;
   const double el = seconds_since(t0);
@@ -700,19 +704,29 @@ int RunCommand::dry_run() const {
         "# resuming from %s: %zu of %zu members finished, %zu to compute (%zu of them from "
         "where they were)\n",
         ck_dir.c_str(), resumed.size(), members.size(), todo.size(), started.size());
-  std::printf("%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",
-              "height", "members", "expected CPU s per member");
+  std::printf(
+      "%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",
+      "height", "members",
+      o.resume ? "expected CPU s per member, of what is left" : "expected CPU s per member");
+  // A member that goes on from its snapshot has the share its snapshot had done behind it.
+  std::map<std::uint64_t, double> left;
+  for (const auto& snap : started) left[snap.result.member.id] = cost_left(snap);
   double total = 0.0;
   for (const auto& pt : scan.points) {
     int n = 0;
     double cost = 0.0;
     for (const auto& m : o.resume ? todo : members)
-      if (m.point == pt.index) ++n, cost = expected_cost(m) * kSecondsPerUnit;
+      if (m.point == pt.index) {
+        ++n;
+        const auto l = left.find(m.id);
+        cost += l == left.end() ? expected_cost(m) : l->second;
+      }
     if (n == 0) continue;
-    total += n * cost;
+    cost *= kSecondsPerUnit;
+    total += cost;
     std::printf("%04d   %-5s %-10g %-8g %-8g %-8g %-8d %.3g\n", pt.index,
                 protocol_name(pt.protocol).c_str(), pt.params.bond_number, pt.params.capture_radius,
-                pt.params.width, pt.params.height, n, cost);
+                pt.params.width, pt.params.height, n, cost / n);
   }
   std::printf(
       "# expected: about %.3g CPU s in all (the cost model, right within a factor of a "

@@ -24,10 +24,6 @@ constexpr int kMaxRegionRounds = 4;
 // many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).
 constexpr double kWakeFactor = 3.0;
 
-// The cost model's share of a running member (expected_cost, counting how far it got): `got` is
-// the deposit's height over H while it deposits, the steps over collapse_steps while it collapses.
-double running_cost(const Member& m, MemberPhase phase, double got);
-
 // Whether a member deposits ballistically (B, C, and A at Bo = inf): no dynamics while it fills.
 bool deposits_ballistically(const Member& m);
 

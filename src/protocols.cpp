@@ -119,6 +119,14 @@ double running_cost(const Member& m, MemberPhase phase, double got) {
   }
 }
 
+double cost_left(const MemberSnapshot& snap) {
+  const Member& m = snap.result.member;
+  const double got = snap.phase == MemberPhase::Collapse
+                         ? static_cast<double>(snap.stage.steps) / collapse_steps(m.params)
+                         : snap.stage.filled;
+  return std::max(0.0, expected_cost(m) - running_cost(m, snap.phase, got));
+}
+
 std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members, int ranks) {
   std::vector<std::vector<std::size_t>> out(static_cast<std::size_t>(std::max(1, ranks)));
   std::vector<std::size_t> order(members.size());

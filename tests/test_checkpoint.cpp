@@ -361,6 +361,31 @@ TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
   EXPECT_DOUBLE_EQ(expected_cost(doubled), expected_cost(deposit_member(1e3, 40.0, 60.0)));
 }
 
+// A member going on from its snapshot is expected to cost what is left of it: a deposit half as
+// tall as its box has (1/2)^q of a protocol-A member's cost behind it (q the height exponent, so
+// less than half), a collapse half through its expected steps the ballistic deposit and half the
+// collapse; one that has not begun, all of it.
+TEST(Checkpoint, AMemberFromItsSnapshotIsExpectedToCostWhatIsLeft) {
+  MemberSnapshot snap;
+  snap.result.member = deposit_member(1e3, 40.0, 60.0);
+  const double whole = expected_cost(snap.result.member);
+  EXPECT_DOUBLE_EQ(cost_left(snap), whole);
+  snap.stage.filled = 0.5;
+  const double left = cost_left(snap);
+  EXPECT_LT(left, whole);
+  EXPECT_GT(left, 0.5 * whole);  // the upper half of a deposit is its costlier half
+  EXPECT_NEAR(left, whole - running_cost(snap.result.member, MemberPhase::Deposit, 0.5),
+              1e-12 * whole);
+  MemberSnapshot collapse;
+  collapse.result.member = snap.result.member;
+  collapse.result.member.protocol = Protocol::C;
+  collapse.phase = MemberPhase::Collapse;
+  const Member& c = collapse.result.member;
+  collapse.stage.steps = static_cast<long>(0.5 * collapse_steps(c.params));
+  const double ballistic = running_cost(c, MemberPhase::Collapse, 0.0);
+  EXPECT_NEAR(cost_left(collapse), 0.5 * (expected_cost(c) - ballistic), 0.01 * expected_cost(c));
+}
+
 namespace {
 // Everything a finished member records but its wall time, bit for bit.
 void expect_same_member(const MemberResult& a, const MemberResult& b) {

@@ -212,6 +212,14 @@ double expected_cost(const Member& m);
 // step (docs/PERFORMANCE.md, "What a member costs").
 double collapse_steps(const SystemParams& p);
 
+// The cost model's share of a running member (expected_cost, counting how far it got): `got` is
+// the deposit's height over H while it deposits, the steps over collapse_steps while it collapses.
+double running_cost(const Member& m, MemberPhase phase, double got);
+
+// What is left of the expected cost of a member that goes on from its snapshot (`--resume`,
+// `--dry-run`): expected_cost less the share its snapshot had done.
+double cost_left(const MemberSnapshot& snap);
+
 // Splits members over `ranks` so that the expected costs balance (largest first, each to the
 // least loaded rank; ties to the lower rank). Deterministic: every rank computes the same.
 // Returns, per rank, indices into `members` in increasing order.
