@@ -62,7 +62,8 @@ std::string output_path_problem(const std::string& out, const std::string& input
   const std::string dir = directory_of_path(out);
   if (!fs::is_directory(dir, ec))
     return "the directory " + dir + " of " + out + " does not exist (make it first)";
-  if (::access(dir.c_str(), W_OK) != 0) return "cannot write into " + dir + " (for " + out + ")";
+  if (::access(dir.c_str(), W_OK) != 0)
+    return "cannot write into " + dir + " (for " + out + "): " + std::strerror(errno);
   return "";
 }
 

@@ -312,7 +312,7 @@ if [ "$(id -u)" -eq 0 ] && command -v setpriv >/dev/null && id nobody >/dev/null
   set -e
   rm -rf "$ro"
   [ "$rc" -eq 2 ] || fail "analyse in a read-only directory: exit code $rc ($msg)"
-  echo "$msg" | grep -q "cannot write into $ro (for $ro/r.h5); .*analyse FILE -o NEW.h5" ||
+  echo "$msg" | grep -q "cannot write into $ro (for $ro/r.h5): Permission denied; .*analyse FILE -o NEW.h5" ||
     fail "analyse in a read-only directory: $msg"
 fi
 # A result file cut short (a copy or a full disk) is invalid input too, for each command.
