@@ -62,9 +62,9 @@ finished member) is not judged. A scalar differs when its distance exceeds --sig
 standard errors; a profile or histogram when its chi2 exceeds the bound; the shapes when no shape
 fits both and a verdict is one. With n scalars compared at 2 sigma, about n/20 differ by chance, and more where the errors
 come from few members (about 9 % of them with 4 members, 6.5 % with 8: an error estimated from
-few members is itself uncertain). Exits with 1 when
-anything differs, 2 on unusable input. --json appends one JSON line per point. Uses Debian's
-python3-h5py, python3-numpy and python3-scipy.
+few members is itself uncertain). Exits with 1 when anything differs, 2 on unusable input.
+--json appends one JSON line per point (a scalar's values and errors also as numbers, `a_value`,
+`a_error`, `b_value`, `b_error`). Uses Debian's python3-h5py, python3-numpy and python3-scipy.
 """
 import argparse
 import json
@@ -86,9 +86,10 @@ from claims import Profile, chi2_quantile99, jackknife, text  # noqa: E402
 class Row:
     """One quantity of one point in both files: a value and error each, or a test's statistic."""
 
-    def __init__(self, name, a, b, distance, bound, detail=""):
+    def __init__(self, name, a, b, distance, bound, detail="", values=None):
         self.name, self.a, self.b = name, a, b
         self.distance, self.bound, self.detail = distance, bound, detail
+        self.values = values  # (a, error of a, b, error of b) as numbers, for a scalar
 
     @property
     def judged(self):
@@ -100,9 +101,14 @@ class Row:
         return not self.judged or self.distance <= self.bound
 
     def record(self):
-        return {"quantity": self.name, "a": self.a, "b": self.b,
-                "distance": self.distance if self.judged else None, "bound": self.bound,
-                "within": bool(self.within) if self.judged else None, "detail": self.detail}
+        record = {"quantity": self.name, "a": self.a, "b": self.b,
+                  "distance": self.distance if self.judged else None, "bound": self.bound,
+                  "within": bool(self.within) if self.judged else None, "detail": self.detail}
+        if self.values is not None:
+            number = lambda v: float(v) if math.isfinite(v) else None
+            for key, v in zip(("a_value", "a_error", "b_value", "b_error"), self.values):
+                record[key] = number(v)
+        return record
 
 
 def value(v, e):
@@ -114,9 +120,10 @@ def scalar(name, a, ea, b, eb, sigma):
     combined = math.hypot(ea, eb)
     if math.isnan(a) or math.isnan(b) or math.isnan(combined):
         return Row(name, value(a, ea), value(b, eb), math.nan, sigma,
-                   "not judged (no value or no error: fewer than two members finished)")
+                   "not judged (no value or no error: fewer than two members finished)",
+                   (a, ea, b, eb))
     z = abs(b - a) / combined if combined > 0 else (0.0 if a == b else math.inf)
-    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma")
+    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma", (a, ea, b, eb))
 
 
 def welch_as_normal(difference, var_a, n_a, var_b, n_b):
@@ -139,7 +146,8 @@ def paired_row(name, a, ea, b, eb, difference, error, sigma):
     """Each file's value and error as stored, and their distance in standard errors of the
     members' paired difference."""
     z = abs(difference) / error if error > 0 else (0.0 if difference == 0 else math.inf)
-    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma (paired)")
+    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma (paired)",
+               (a, ea, b, eb))
 
 
 def members_in_both(pa, pb):

@@ -62,6 +62,8 @@ def test_another_bond_number_differs(runs):
     assert out.returncode == 1, out.stdout + out.stderr
     rows = {r["quantity"]: r for r in json.loads(open(d / "bo.jsonl").read())["rows"]}
     assert not rows["nu_lower_half"]["within"]
+    with h5py.File(cohesive) as f:  # the scalars' numbers, not only their text
+        assert rows["nu_lower_half"]["a_value"] == f["points/0000"].attrs["nu_lower_half_mean"]
     assert not rows["nu(y)"]["within"]
     assert not rows["mean abs(Delta y) [R]"]["within"]  # weaker cohesion: larger avalanches
     assert "| nu_lower_half |" in out.stdout and "NO |" in out.stdout
