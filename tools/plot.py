@@ -4,8 +4,8 @@
     python3 tools/plot.py out/default.h5 [-o figures/]
     python3 tools/plot.py out/h400.h5 out/h800.h5 -o figures/   # the points of several files
 
-Several files are drawn as one set of points (each file's own fits on its points), e.g. the
-tall runs, one height per file: then the fits across points (c2 and a against H, dnu/nu_i
+Several files are drawn as one set of points (each file's own fits on its points, each point's
+label naming its file), e.g. the tall runs, one height per file: then the fits across points (c2 and a against H, dnu/nu_i
 against H and nu_i) are not drawn, since the program makes them within one file, nor the
 pictures of single members (snapshots, trajectories): draw those from each file alone.
 
@@ -67,8 +67,17 @@ def sem(group):
     return bars(need(group, "sem"))
 
 
+SEVERAL_FILES = False  # main(): several files drawn together, each point labelled with its file
+
+
 def text(v):
     return v.decode() if isinstance(v, bytes) else str(v)
+
+
+def file_tag(g):
+    """" [FILE]" where several files are drawn (points of the same parameters in two files would
+    look alike), else ""."""
+    return f" [{os.path.basename(g.file.filename)}]" if SEVERAL_FILES else ""
 
 
 def label(g):
@@ -78,7 +87,7 @@ def label(g):
     if attr(g, "capture_radius") != 1.0:
         s += f", r_capt={attr(g, 'capture_radius'):g}"
     s += f", H={attr(g, 'height'):g}"
-    return s
+    return s + file_tag(g)
 
 
 def fit_of(group, name):
@@ -144,8 +153,8 @@ def nu_lower_half(points, out, written):
     others = [k for k in SCAN_KEYS if k != x_key and k in points[0].attrs]
     varying = [k for k in others if len({scan_value(g, k) for g in points}) > 1]
     series = {}
-    for g in points:
-        series.setdefault(tuple(scan_value(g, k) for k in others), []).append(g)
+    for g in points:  # a series per file too, where several are drawn
+        series.setdefault(tuple(scan_value(g, k) for k in others) + (file_tag(g),), []).append(g)
     xs = sorted({float(attr(g, x_key)) for g in points})
     finite = [b for b in xs if b > 0 and not math.isinf(b)]
     lo = min(finite) / 10 if finite else 0.1
@@ -156,12 +165,12 @@ def nu_lower_half(points, out, written):
         gs = sorted(gs, key=lambda g: float(attr(g, x_key)))
         named = dict(zip(others, key))
         name = ", ".join(f"{k} {named[k]:g}" if isinstance(named[k], float) else f"{named[k]}"
-                         for k in varying)
+                         for k in varying) + key[-1]
         ax.errorbar([where(float(attr(g, x_key))) for g in gs],
                     [attr(g, "nu_lower_half_mean") for g in gs],
                     yerr=bars([attr(g, "nu_lower_half_sem") for g in gs]), fmt="o-", capsize=3,
-                    label=name or f"{named['protocol']}, {named['width']:g} R x "
-                                  f"{named['height']:g} R")
+                    label=name.strip() or f"{named['protocol']}, {named['width']:g} R x "
+                                          f"{named['height']:g} R")
     ax.set_xscale("log")
     ax.set_xticks([where(b) for b in xs],
                   ["0" if b == 0 else "inf" if math.isinf(b) else f"{b:g}" for b in xs])
@@ -505,6 +514,8 @@ def main():
     files = [open_result(path) for path in args.file]
     # One file: its fits across points too. Several: those fits belong to each file alone.
     whole = files[0] if len(files) == 1 else None
+    global SEVERAL_FILES
+    SEVERAL_FILES = len(files) > 1
     points = [f["points"][k] for f in files for k in sorted(f["points"])]
     try:
         os.makedirs(out, exist_ok=True)
