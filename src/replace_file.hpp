@@ -24,9 +24,10 @@ inline void sync_path(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDONLY);
   if (fd < 0) throw std::runtime_error("cannot open " + path + " to flush it");
   const int rc = ::fsync(fd);
+  const int error = errno;
   ::close(fd);
   if (rc != 0)
-    throw std::runtime_error("cannot flush " + path + " to the disk: " + std::strerror(errno));
+    throw std::runtime_error("cannot flush " + path + " to the disk: " + std::strerror(error));
 }
 
 // Writes `bytes` to the file `path` (created or truncated); an error names the file and its
