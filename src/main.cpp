@@ -374,8 +374,7 @@ int RunCommand::read_checkpoint() {
     snapshots = true;
     if (!o.quiet)
       say("--snapshots: the run that wrote " + ck_dir +
-          " asked for the final states; this one "
-          "writes them too");
+          " asked for the final states; this one writes them too");
   }
   return 0;
 }
