@@ -1008,7 +1008,8 @@ void print_summary(const std::string& path, std::ostream& out) {
     const double unfinished = double_attribute(file, "/", "members_unfinished");
     if (unfinished > 0)
       out << "; " << unfinished << " members not in this file ("
-          << (H5Aexists(file, "merged_from") > 0 ? "shards not merged" : "an unfinished run")
+          << (H5Aexists(file, "merged_from") > 0 ? "shards not merged, or merged unfinished"
+                                                 : "an unfinished run")
           << ")";
   }
   if (H5Aexists(file, "shards") > 0)
