@@ -5,7 +5,7 @@ identical to the run without mpirun (tests/h5_equal.py), one JSON record per run
 last record with the best time per rank count, the speed-up and the efficiency against the best
 run without mpirun.
 
-    python3 bench/mpi_scaling.py --exe build/loosepack [--ranks 1,2] [--repeat 2] [--tiny] [SCAN]
+    /usr/bin/python3 bench/mpi_scaling.py --exe build/loosepack [--ranks 1,2] [--repeat 2] [--tiny] [SCAN]
 
 Without SCAN it runs the documented ensemble (docs/PERFORMANCE.md, "MPI scaling"): 16 protocol-C
 members, 32 R x 48 R, Bo = 1e3, h = 0.003, batches of 4. --tiny (the CI run) is 4 small members.

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Summary of a paper-size member timed across runs (bench/paper_size_member.sh).
 
-    python3 bench/paper_size_member.py OUT_DIR/progress.tsv
+    /usr/bin/python3 bench/paper_size_member.py OUT_DIR/progress.tsv
 
 progress.tsv holds, once a minute and at each run's end, the run's CPU seconds and the disks
 deposited. A resumed run starts again from the member's last checkpoint, so the CPU of the runs

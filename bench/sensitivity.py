@@ -177,6 +177,8 @@ def main():
     ap.add_argument("--program", default=os.environ.get("LOOSEPACK", "build/loosepack"))
     ap.add_argument("--only", default="", help="comma-separated variant names (defaults always)")
     args = ap.parse_args()
+    if args.seeds < 4:
+        ap.error("--seeds must be 4 or more: the fits' jackknife errors and chi2 need 4 members")
     only = {s.strip() for s in args.only.split(",") if s.strip()}
     os.makedirs(args.out, exist_ok=True)
     print("| variant | nu_lower_half | c2 of Delta y(y_e) | parabola claim | mean abs(Delta y) [R] "

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Checks the paper's qualitative claims on a loosepack result file and says which hold.
 
-    python3 tools/claims.py out/claims.h5
+    /usr/bin/python3 tools/claims.py out/claims.h5
 
 For every scan point it can judge (from the fits the program stored, docs/OUTPUT.md):
 

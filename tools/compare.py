@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Compares the observables of two loosepack result files, point by point, within their errors.
 
-    python3 tools/compare.py A.h5 B.h5 [--sigma 2] [--paired] [--json out.jsonl] [--label TEXT]
+    /usr/bin/python3 tools/compare.py A.h5 B.h5 [--sigma 2] [--paired] [--json out.jsonl] [--label TEXT]
 
 For two runs of the same scan points with different settings (relaxation regions against the
 whole system, two time steps, two program versions), prints per point one row per quantity:

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Accuracy against time from `bench_study --study accuracy` records (JSON lines).
 
-    python3 tools/pareto.py bench/results/accuracy-DATE.jsonl [-o docs/figures/pareto.png]
+    /usr/bin/python3 tools/pareto.py bench/results/accuracy-DATE.jsonl [-o docs/figures/pareto.png]
                             [--cost wall|sweeps]
 
 Prints, per protocol, a Markdown table of every setting (wall time, errors against the

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Figures from a loosepack result file (PNG), with the fits the program stored.
 
-    python3 tools/plot.py out/default.h5 [-o figures/]
-    python3 tools/plot.py out/h400.h5 out/h800.h5 -o figures/   # the points of several files
+    /usr/bin/python3 tools/plot.py out/default.h5 [-o figures/]
+    /usr/bin/python3 tools/plot.py out/h400.h5 out/h800.h5 -o figures/   # the points of several files
 
 Several files are drawn as one set of points (each file's own fits on its points, each point's
 label naming its file), e.g. the tall runs, one height per file: then the fits across points (c2 and a against H, dnu/nu_i
