@@ -10,7 +10,6 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <sstream>
 #include <type_traits>
 
 #include "loosepack_git_commit.hpp"
@@ -460,11 +459,8 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   std::map<std::uint64_t, MemberResult> finished;
   std::map<std::uint64_t, std::pair<int, MemberSnapshot>> running;  // the latest generation's
   for (const auto& file : files) {
-    std::ifstream f(file, std::ios::binary);
-    std::ostringstream ss;
-    ss << f.rdbuf();
-    CheckpointPart part =
-        decode_checkpoint_part(ss.str(), members, fingerprint, "checkpoint " + file, remedy);
+    CheckpointPart part = decode_checkpoint_part(read_bytes(file), members, fingerprint,
+                                                 "checkpoint " + file, remedy);
     for (auto& r : part.finished) {
       const auto id = r.member.id;
       finished.emplace(id, std::move(r));

@@ -13,7 +13,6 @@
 #include <stdexcept>
 
 #include "hdf5.hpp"
-#include "replace_file.hpp"
 
 namespace loosepack {
 
@@ -255,8 +254,6 @@ std::string xdmf_trajectory(hid_t file, const MemberData& m, const std::string& 
   return o.str() + "</Grid>\n";
 }
 
-void write_text(const std::string& path, const std::string& text) { write_bytes(path, text); }
-
 std::string xdmf_document(const std::string& grids) {
   return "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n"
          "<Xdmf Version=\"2.0\">\n<Domain>\n" +
@@ -320,14 +317,14 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
   if (format == ExportFormat::Extxyz) {
     for (const auto& m : members) {
       written.push_back(base + stem_name(m) + ".extxyz");
-      write_text(written.back(), extxyz_member(file, m));
+      write_bytes(written.back(), extxyz_member(file, m));
     }
     return written;
   }
   for (const auto& m : members) {
     const std::string xmf = base + stem_name(m) + ".xmf";
     if (m.kind == "trajectory") {
-      write_text(xmf, xdmf_document(xdmf_trajectory(file, m, h5)));
+      write_bytes(xmf, xdmf_document(xdmf_trajectory(file, m, h5)));
       written.push_back(xmf);
       continue;
     }
@@ -336,10 +333,9 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
     const std::string side_path = base + stem_name(m) + "_contacts.h5";
     const std::string side = fs::path(side_path).filename().string();
     std::string grids;
-    const std::string bytes = hdf5_in_memory(
-        side_path, [&](hid_t sidecar) { grids = xdmf_snapshot(file, sidecar, m, h5, side); });
-    replace_file(side_path, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
-    write_text(xmf, xdmf_document(grids));
+    replace_hdf5_file(side_path,
+                      [&](hid_t sidecar) { grids = xdmf_snapshot(file, sidecar, m, h5, side); });
+    write_bytes(xmf, xdmf_document(grids));
     written.push_back(xmf);
     written.push_back(side_path);
   }

@@ -1,12 +1,14 @@
 // The HDF5 pieces the result file's writer (src/output.cpp) and its exporters (src/export.cpp)
-// share: an owning handle, the error check, opening a group, reading a dataset or an attribute
-// as doubles.
+// share: an owning handle, the error check, a file built in memory and written whole, opening a
+// group, reading a dataset or an attribute as doubles.
 #pragma once
 #include <hdf5.h>
 
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "replace_file.hpp"
 
 namespace loosepack {
 
@@ -57,6 +59,14 @@ std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string
   if (H5Fget_file_image(file, bytes.data(), bytes.size()) != size)
     throw std::runtime_error("HDF5: cannot get the bytes of " + name);
   return bytes;
+}
+
+// The HDF5 file `path` written whole or not at all: built in memory by `fill` (hdf5_in_memory,
+// from `image` where given), then put in place by replace_file.
+template <class Fill>
+void replace_hdf5_file(const std::string& path, Fill fill, const std::string* image = nullptr) {
+  const std::string bytes = hdf5_in_memory(path, fill, image);
+  replace_file(path, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
 }
 
 inline H5 open_group(hid_t parent, const std::string& name) {

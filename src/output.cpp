@@ -8,7 +8,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <set>
 #include <sstream>
@@ -18,7 +17,6 @@
 #include "loosepack/checkpoint.hpp"
 #include "loosepack/settings.hpp"
 #include "loosepack_git_commit.hpp"
-#include "replace_file.hpp"
 
 namespace loosepack {
 
@@ -523,7 +521,7 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
                    const std::vector<PointResult>& points, const Analysis& analysis,
                    const std::vector<MemberResult>& members, bool snapshots) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);  // errors become exceptions with our messages
-  const std::string bytes = hdf5_in_memory(path, [&](hid_t file) {
+  replace_hdf5_file(path, [&](hid_t file) {
     write_header(file, scan, info);
     scan_analysis(file, analysis.scan);
     H5 all = group(file, "points");
@@ -536,7 +534,6 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
     if (info.shards > 0)
       bytes_dataset(file, "shard_members", checkpoint_part_bytes(scan_fingerprint(scan), members));
   });
-  replace_file(path, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
 }
 
 void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
@@ -730,13 +727,8 @@ void reanalyse(const std::string& in, const std::string& out) {
     throw std::runtime_error(in + ": " + e.what());
   }
   const Analysis analysis = analyse(scan, points);
-  std::string image;
-  {
-    std::ifstream f(in, std::ios::binary);
-    image.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
-    if (!f.good() && !f.eof()) throw std::runtime_error("cannot read " + in);
-  }
-  const std::string bytes = hdf5_in_memory(
+  const std::string image = read_bytes(in);
+  replace_hdf5_file(
       out,
       [&](hid_t file) {
         if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
@@ -749,7 +741,6 @@ void reanalyse(const std::string& in, const std::string& out) {
         }
       },
       &image);
-  replace_file(out, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
 }
 
 std::vector<double> read_dataset(const std::string& path, const std::string& name) {
@@ -786,8 +777,10 @@ std::string result_file_problem(const std::string& path) {
   if (H5Fis_hdf5(path.c_str()) <= 0) return not_hdf5;
   const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);  // a truncated file fails
   if (file < 0) return not_hdf5;
+  // The scan text is a dataset, or in files written before 2026-11-25 a root attribute.
   const bool result =
-      H5Lexists(file, "points", H5P_DEFAULT) > 0 && H5Lexists(file, "scan_text", H5P_DEFAULT) > 0;
+      H5Lexists(file, "points", H5P_DEFAULT) > 0 &&
+      (H5Lexists(file, "scan_text", H5P_DEFAULT) > 0 || H5Aexists(file, "scan_text") > 0);
   H5Fclose(file);
   return result ? ""
                 : path +

@@ -335,6 +335,19 @@ for cmd in summary analyse export; do
   [ "$rc" -eq 2 ] && echo "$msg" | grep -q "other.h5 is an HDF5 file but not a loosepack result" ||
     fail "$cmd of another HDF5 file: exit code $rc ($msg)"
 done
+# A file of the older layout (the scan text a root attribute, before 2026-11-25) is still a result
+# file, for the program and the tools alike.
+/usr/bin/python3 - "$dir/good.h5" "$dir/older.h5" <<'EOF_PY'
+import shutil, sys, h5py
+shutil.copy(sys.argv[1], sys.argv[2])
+with h5py.File(sys.argv[2], "r+") as f:
+    text = f["scan_text"][()]
+    del f["scan_text"]
+    f.attrs["scan_text"] = text
+EOF_PY
+"$exe" summary "$dir/older.h5" >/dev/null || fail "summary of a file of the older layout"
+/usr/bin/python3 "$repo/tools/compare.py" "$dir/older.h5" "$dir/good.h5" >/dev/null ||
+  fail "compare.py of a file of the older layout against its own results"
 ls "$dir" | grep -q tmp && fail "analyse left a temporary file behind"
 set +e
 msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)

@@ -215,6 +215,14 @@ def unusable(message):
     sys.exit(2)
 
 
+def check_result_file(f, path, tool):
+    """Exits with status 2 unless `f` is a loosepack result file: /points, and the scan text (a
+    dataset, or in older files a root attribute)."""
+    if "points" not in f or ("scan_text" not in f and "scan_text" not in f.attrs):
+        unusable(f"{tool}: {path} is not a loosepack result file (no /points or /scan_text): "
+                 "give the file `loosepack run` wrote")
+
+
 def fail_missing(path, name):
     unusable(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
              f"`loosepack analyse {path}` adds the current analysis to a file of an older one)")
@@ -752,9 +760,7 @@ def main():
     except OSError as e:
         unusable(f"claims.py: {path}: not a readable HDF5 file ({e})")
     with f:
-        if "points" not in f or "scan_text" not in f:
-            unusable(f"claims.py: {path} is not a loosepack result file (no /points or "
-                     "/scan_text): give the file `loosepack run` wrote")
+        check_result_file(f, path, "claims.py")
         results = []
         for name in sorted(f["points"]):
             results.extend(check_point(f["points"][name], path))

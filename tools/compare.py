@@ -60,9 +60,10 @@ time step), the index pairs them, and the parameters they differ in are named. P
 different protocols are not compared (exit 2). A scalar without an error (a point with one
 finished member) is not judged. A scalar differs when its distance exceeds --sigma (2) combined
 standard errors; a profile or histogram when its chi2 exceeds the bound; the shapes when no shape
-fits both and a verdict is one. With n scalars compared at 2 sigma, about n/20 differ by chance, and more where the errors
-come from few members (about 9 % of them with 4 members, 6.5 % with 8: an error estimated from
-few members is itself uncertain). Exits with 1 when anything differs, 2 on unusable input.
+fits both and a verdict is one. With n scalars compared at 2 sigma, about n/20 differ by chance,
+and more where the errors come from few members (about 9 % of them with 4 members, 6.5 % with 8:
+an error estimated from few members is itself uncertain). Exits with 1 when anything differs, 2
+on unusable input.
 --json appends one JSON line per point (a scalar's values and errors also as numbers, `a_value`,
 `a_error`, `b_value`, `b_error`). Uses Debian's python3-h5py, python3-numpy and python3-scipy.
 """
@@ -80,7 +81,8 @@ except ImportError as e:  # pragma: no cover
     sys.exit(f"compare.py: {e}; install python3-h5py and python3-scipy (scripts/install-deps.sh)")
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from claims import Profile, chi2_quantile99, jackknife, text  # noqa: E402
+from claims import (Profile, check_result_file, chi2_quantile99, jackknife,  # noqa: E402
+                    text)
 
 
 class Row:
@@ -434,15 +436,6 @@ def pair_points(fa, fb):
     return by_parameters, "by their parameters (the files hold other points)"
 
 
-def result_points(f, path):
-    """The file's /points group; exits with 2 for a file that is not a loosepack result."""
-    if "points" not in f or "scan_text" not in f:
-        print(f"compare.py: {path} is not a loosepack result file (no /points or /scan_text): "
-              "give the file `loosepack run` wrote", file=sys.stderr)
-        sys.exit(2)
-    return f["points"]
-
-
 def positive(value):
     v = float(value)
     if not v > 0:
@@ -471,7 +464,9 @@ def main():
         print(f"compare.py: {e}", file=sys.stderr)
         sys.exit(2)
     with fa, fb:
-        points_a, points_b = result_points(fa, args.a), result_points(fb, args.b)
+        check_result_file(fa, args.a, "compare.py")
+        check_result_file(fb, args.b, "compare.py")
+        points_a, points_b = fa["points"], fb["points"]
         pairs, how = pair_points(fa, fb)
         if not pairs:
             print(f"compare.py: {args.a} and {args.b} share no scan point of the same parameters "

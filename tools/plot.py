@@ -4,10 +4,10 @@
     /usr/bin/python3 tools/plot.py out/default.h5 [-o figures/]
     /usr/bin/python3 tools/plot.py out/h400.h5 out/h800.h5 -o figures/   # the points of several files
 
-Several files are drawn as one set of points (each file's own fits on its points, each point's
-label naming its file), e.g. the tall runs, one height per file: then the fits across points (c2 and a against H, dnu/nu_i
-against H and nu_i) are not drawn, since the program makes them within one file, nor the
-pictures of single members (snapshots, trajectories): draw those from each file alone.
+Several files are drawn as one set of points (each file's own fits on its points, each point's label
+naming its file), e.g. the tall runs, one height per file: then the fits across points (c2 and a
+against H, dnu/nu_i against H and nu_i) are not drawn, since the program makes them within one file,
+nor the pictures of single members (snapshots, trajectories): draw those from each file alone.
 
 Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
 histograms with the Gaussian and exponential fits, deposition density with the final density
