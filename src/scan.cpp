@@ -525,11 +525,6 @@ Scan ScanParser::parse() {
       << e.description();
     throw ScanError(o.str());
   }
-  std::ostringstream content;
-  content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
-          << TOML_LIB_PATCH << "\n"
-          << identity_of(root);
-  scan.content = content.str();
   if (!sets_a_value(root))
     throw ScanError(file +
                     ": the scan file sets nothing; every default together is a 200 R x 150 R "
@@ -557,6 +552,13 @@ Scan ScanParser::parse() {
   warn_unresolved_barrier(points);
   warn_diverging_jacobi();
   check_sweeps_per_launch();
+  // The identity is written once every value is valid: toml++ 3.3's writer converts an inf or
+  // a nan in an array to an integer (undefined behaviour), and every key refuses them.
+  std::ostringstream content;
+  content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
+          << TOML_LIB_PATCH << "\n"
+          << identity_of(root);
+  scan.content = content.str();
   scan.points = std::move(points);
   return scan;
 }

@@ -233,6 +233,11 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "bad.toml:4:14: key 'observables.cut_bottom': cut_bottom + cut_top = 13 must lie below H = "
        "12"},
       {"[system]\nbond_number = -inf\n", "bad.toml:2:15: key 'system.bond_number': Bo must be 0"},
+      // An inf or a nan in an array: the key's own message (toml++'s writer, which makes the
+      // scan's identity, must not see them: fuzz/corpus/crash_toml_writer_inf_in_array.toml).
+      {"[system]\ncapture_radius = [1.0, -inf]\n",
+       "bad.toml:2:18: key 'system.capture_radius': r_capt must be in [1, 10]"},
+      {"[system]\nheight = [40, nan]\n", "bad.toml:2:15: key 'system.height': nan is not a value"},
       {"# nothing but a comment\n", "bad.toml: the scan file sets nothing"},
       {"[solver]\n", "bad.toml: the scan file sets nothing"},
       {"[system]\n[[point]]\n", "bad.toml: the scan file sets nothing"},
