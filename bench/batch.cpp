@@ -11,7 +11,8 @@
 //                   target: at most 1.2)
 //
 // Members are keyed by (scan seed, member id), so a member deposits the same disks whatever its
-// batch (the bit-identical batch tests); the records check it by their disk counts.
+// batch (the bit-identical batch tests); the records check it by their disk counts, and the
+// program exits 1 when a batch's disks differ or a member fails.
 //
 //   bench_batch [--tiny] [--full] [--sizes 1,4,16,64] [--protocol A|C] [--width W]
 //               [--height H] [--bo B]
@@ -173,6 +174,7 @@ int main(int argc, char** argv) {
   double per_member_b1 = NAN;
   int compare_size = 0;
   double compare_ratio = NAN, compare_batch = NAN, compare_separate = NAN;
+  std::vector<std::string> broken;  // the invariants a batch broke (its exit status says so)
   for (int b : sizes) {
     const std::vector<Member> members(all.begin(), all.begin() + b);
     const Run r = run(scan, b, members);
@@ -198,6 +200,13 @@ int main(int argc, char** argv) {
       << bench::json_number(per_member / per_member_b1)
       << ", \"same_disks_as_separate\": " << (same ? "true" : "false");
     print("batch", w, f.str());
+    if (!same)
+      broken.push_back("a batch of " + std::to_string(b) +
+                       " deposited other disks than "
+                       "its members' separate runs");
+    if (r.failed > 0)
+      broken.push_back(std::to_string(r.failed) + " member(s) failed in a batch of " +
+                       std::to_string(b));
     if (b <= 64) {
       compare_size = b;
       compare_batch = r.wall;
@@ -213,5 +222,6 @@ int main(int argc, char** argv) {
       << ", \"ratio\": " << bench::json_number(compare_ratio) << ", \"target_ratio_at_most\": 1.2";
     print("batch_vs_separate", w, f.str());
   }
-  return 0;
+  for (const auto& why : broken) std::cerr << "bench_batch: " << why << "\n";
+  return broken.empty() ? 0 : 1;
 }

@@ -32,7 +32,8 @@
 // protocol-A members relax in relaxation regions of radius R, the whole system checked after
 // every K-th disk (protocol.region_radius, region_check_every; docs/MODEL.md).
 // --match: the accuracy study runs only the settings whose label contains TEXT (after the
-// reference and the default, which every run has).
+// reference and the default, which every run has). With --tiny (the CI runs) a failed member
+// makes the program exit 1.
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <chrono>
@@ -168,6 +169,8 @@ double max_overlap(const MemberResult& m, double width) {
   return worst;
 }
 
+int failed_members = 0;  // over every run; a --tiny run exits 1 when one failed (a CI check)
+
 Outcome run(const Setup& s, double budget_s) {
   const Scan scan = parse_scan(s.toml(), "bench_study.toml");
   const std::vector<Member> members = members_of(scan);
@@ -195,6 +198,7 @@ Outcome run(const Setup& s, double budget_s) {
     if (m.ok()) o.max_overlap = std::max(o.max_overlap, max_overlap(m, m.member.params.width));
   }
   if (!results.empty()) o.point = aggregate(scan, results).front();
+  failed_members += o.failed;
   return o;
 }
 
@@ -521,6 +525,11 @@ int main(int argc, char** argv) {
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_study: %s\n", e.what());
+    return 1;
+  }
+  if (tiny && failed_members > 0) {
+    std::fprintf(stderr, "bench_study: %d member(s) failed (their records say which)\n",
+                 failed_members);
     return 1;
   }
   return 0;

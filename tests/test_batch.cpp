@@ -150,13 +150,16 @@ TEST_P(SweepsPerLaunch, GiveTheSameStepsBitForBit) {
     expect_same_disks(ticking.disks(s), lockstep.disks(s), s);
   }
   // The balance counts launches: every system in a launch sweeps at most 4 times in it.
+  int solves = 0;
   for (const auto& cost : ticking.stage_costs())
     if (cost.name == "solve") {
+      ++solves;
       EXPECT_EQ(cost.finished_steps, kSteps * ticking.size());
       EXPECT_GT(cost.system_steps, cost.finished_steps);
       EXPECT_LE(cost.slowest_sweeps, 4 * cost.system_steps);
       EXPECT_LE(cost.launch_sweeps, 4 * cost.steps);
     }
+  EXPECT_EQ(solves, 1) << "the stage costs hold no solve stage";
 }
 
 INSTANTIATE_TEST_SUITE_P(Batch, SweepsPerLaunch, testing::Values(0, 2));

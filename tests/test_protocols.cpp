@@ -60,32 +60,39 @@ lower_half_from = 10.0
   EXPECT_EQ(p1.mean_abs_dy.mean, 0.0);
 }
 
-// Protocol A: dense at Bo = 0, loose at Bo = 1e2, loosest at Bo = inf (ballistic deposition).
+// Protocol A: dense at Bo = 0, loose at Bo = 1e2, loosest at Bo = inf (ballistic deposition), on
+// the default job's scene (24 R x 24 R) with 8 seeds. Each step down is judged against its
+// combined standard error (one-sided, 3 of them: the 4 seeds of the default job give 0.86, 0.49
+// and 0.35 +- 0.01-0.03), and Bo = 0 is dense: within 3 standard errors of the 2D random close
+// packing of disks, 0.84, or above it (the paper: cohesionless deposits reach "densities close
+// to that of random dense packings").
 TEST(ProtocolA, DensityFallsWithBondNumber) {
   const auto scan = scan_of(R"(
 [scan]
 protocol = "A"
-seeds = 2
+seeds = 8
 batch_size = 4
 [system]
-width = 16.0
-height = 20.0
+width = 24.0
+height = 24.0
 bond_number = [0, 100, "inf"]
 [solver]
 tolerance = 1e-3
 max_sweeps = 1000
 [observables]
-lower_half_from = 3.0
+lower_half_from = 4.0
 )");
-  const auto points = run(scan);  // 2 seeds of 16 R x 20 R per Bond number
+  const auto points = run(scan);
   ASSERT_EQ(points.size(), 3u);
   for (const auto& p : points) EXPECT_EQ(p.failed, 0);
-  const double n0 = points[0].nu_lower_half.mean, n2 = points[1].nu_lower_half.mean,
-               ninf = points[2].nu_lower_half.mean;
-  std::printf("nu_lower_half: Bo=0 %.3f, Bo=1e2 %.3f, Bo=inf %.3f\n", n0, n2, ninf);
-  EXPECT_GT(n0, 0.75);  // close to the dense limit of monodisperse disks
-  EXPECT_GT(n0, n2);
-  EXPECT_GT(n2, ninf);
+  const Scalar n0 = points[0].nu_lower_half, n2 = points[1].nu_lower_half,
+               ninf = points[2].nu_lower_half;
+  std::printf("nu_lower_half: Bo=0 %.3f +- %.3f, Bo=1e2 %.3f +- %.3f, Bo=inf %.3f +- %.3f\n",
+              n0.mean, n0.sem, n2.mean, n2.sem, ninf.mean, ninf.sem);
+  constexpr double random_close_packing = 0.84;
+  EXPECT_GT(n0.mean, random_close_packing - 3.0 * n0.sem);
+  EXPECT_GT(n0.mean - n2.mean, 3.0 * std::hypot(n0.sem, n2.sem));
+  EXPECT_GT(n2.mean - ninf.mean, 3.0 * std::hypot(n2.sem, ninf.sem));
   // Bo = 0: disks move down after deposition (rolling into place); Bo = inf: nothing moves.
   // On a flat layer of touching disks, a disk dropped at a uniform offset dx in (0, R) from the
   // nearest one lands on it at sin(theta) = dx / 2R, at 2R cos(theta) above its centre, and rolls
