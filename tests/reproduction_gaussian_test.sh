@@ -3,8 +3,8 @@
 # histogram is better described by a Gaussian than by an exponential (fig. 8), judged by
 # tools/claims.py on examples/paper/claims_gaussian_reduced.toml (40 R x 180 R, 8 members),
 # together with the parabola of positive curvature that the same point shows. Run under
-# mpirun -np 2 when the build has MPI and $2 names mpirun (about 4.5 minutes), else on one core
-# (about 10).
+# mpirun -np 2 when the build has MPI and $2 names mpirun (about 6.5 minutes), else on one core
+# (about 13; 760 CPU s on an Intel Xeon VM). Labelled "long" (tests/CMakeLists.txt).
 source "$(dirname "$0")/common.sh"
 scan="$repo/examples/paper/claims_gaussian_reduced.toml"
 if [ -n "${2:-}" ]; then
