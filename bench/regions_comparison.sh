@@ -7,7 +7,8 @@
 #
 #   bench/regions_comparison.sh OUT_DIR [CHECK] [JOBS]
 #
-# HEIGHTS="120" (default "180 120") runs only the scenes of those heights.
+# HEIGHTS="120" (default "180 120") runs only the scenes of those heights, BONDS="1e3" (default
+# "1e3 1e2") only those Bond numbers.
 # Runs JOBS (default 2) scans at a time, the longest first; a scan whose result is already in
 # OUT_DIR is not run again. Appends one JSON line per pair to OUT_DIR/comparison.jsonl, with
 # each run's user CPU seconds. About 2.5 CPU hours at CHECK = 10 (the whole-system runs at
@@ -33,7 +34,7 @@ scan() {  # scan NAME BOND_NUMBER TIME_STEP HEIGHT SEEDS [regions]
 names=()
 for h in ${HEIGHTS:-180 120}; do
   seeds=$([ "$h" = 120 ] && echo 16 || echo 8)
-  for bo in 1e3 1e2; do
+  for bo in ${BONDS:-1e3 1e2}; do
     if [ "$bo" = 1e3 ]; then b=1000.0 dt=0.0028; else b=100.0 dt=0.009; fi
     scan "bo${bo}_h${h}_whole" "$b" "$dt" "$h.0" "$seeds"
     scan "bo${bo}_h${h}_regions${check}" "$b" "$dt" "$h.0" "$seeds" regions
@@ -46,7 +47,7 @@ run_one() {
 export -f run_one
 printf '%s\n' "${names[@]}" | xargs -P "$jobs" -I{} bash -c "run_one {} $exe"
 for h in ${HEIGHTS:-180 120}; do
-  for bo in 1e3 1e2; do
+  for bo in ${BONDS:-1e3 1e2}; do
     a="bo${bo}_h${h}_whole" b="bo${bo}_h${h}_regions${check}"
     /usr/bin/python3 "$here/../tools/compare.py" "$a.h5" "$b.h5" --paired --json comparison.jsonl \
       --label "whole system ($(cat "$a.time" 2>/dev/null)) against regions r = 8, region_check_every = ${check} ($(cat "$b.time" 2>/dev/null)); $("$exe" --version | head -1)" ||
