@@ -202,8 +202,7 @@ int main(int argc, char** argv) {
     print("batch", w, f.str());
     if (!same)
       broken.push_back("a batch of " + std::to_string(b) +
-                       " deposited other disks than "
-                       "its members' separate runs");
+                       " deposited other disks than its members' separate runs");
     if (r.failed > 0)
       broken.push_back(std::to_string(r.failed) + " member(s) failed in a batch of " +
                        std::to_string(b));

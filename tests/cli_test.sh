@@ -44,7 +44,6 @@ printf '[scan]\nname = "defaults"\n[system]\nwidth = 24\nheight = 24\n' > "$dir/
 msg=$("$exe" run "$dir/defaults.toml" -o "$dir/defaults.h5" 2>&1) || fail "the defaults: $msg"
 echo "$msg" | grep -qi "warning\|exceeds" && fail "the defaults warn: $msg"
 
-printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nheight = 20\n[observables]\nlower_half_from = 2\n' > "$dir/good.toml"
 # A collapse that takes the top below 2 lower_half_from leaves a member's final lower-half band
 # empty: the run says so (nu_lower_half and the relative increase not defined) and writes its file.
 # A ballistic deposit (nu about 0.38) at Bo = 1 compacts towards 0.8, so a 24 R deposit ends below
@@ -66,6 +65,7 @@ msg=$("$exe" run "$dir/empty_band.toml" -o "$dir/empty_band.h5" -q 2>&1) ||
 want="warning: point 0: the collapse took the top of 2 of 2 finished members below 2"
 echo "$msg" | grep -qF "$want lower_half_from = 20 R" || fail "no warning of the empty band: $msg"
 
+printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nheight = 20\n[observables]\nlower_half_from = 2\n' > "$dir/good.toml"
 # --dry-run lists the members with the cost model's estimate and writes nothing.
 "$exe" run "$dir/good.toml" -o "$dir/good.h5" --dry-run > "$dir/dry.txt"
 grep -qE "^0000 +B .* 2 +[0-9.e+-]+$" "$dir/dry.txt" || fail "--dry-run: $(cat "$dir/dry.txt")"

@@ -61,5 +61,6 @@ def test_paraview_is_started_again_when_it_aborts(deposit, tmp_path):
     done = render(deposit, tmp_path / "never.png", 8)
     assert done.returncode == 1
     assert done.stderr.count("starting it again") == render_deposit.ATTEMPTS - 1
-    assert f"ParaView aborted {render_deposit.ATTEMPTS} times; it needs an X display of 24-bit colour" in done.stderr
+    assert (f"ParaView aborted {render_deposit.ATTEMPTS} times; it needs an X display of 24-bit "
+            "colour") in done.stderr
     assert not (tmp_path / "never.png").exists()
