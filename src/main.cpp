@@ -14,6 +14,7 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <optional>
@@ -146,8 +147,9 @@ void report_empty_bands(const std::vector<MemberResult>& results, const Scan& sc
   }
   for (const auto& [point, c] : counts)
     if (c.first > 0)
-      std::cerr << "loosepack: warning: point " << point << ": the collapse took the top of "
-                << c.first << " of " << c.second << " finished members below 2 lower_half_from = "
+      std::cerr << "loosepack: warning: point " << std::setw(4) << std::setfill('0') << point
+                << std::setfill(' ') << ": the collapse took the top of " << c.first << " of "
+                << c.second << " finished members below 2 lower_half_from = "
                 << 2.0 * scan.observables.lower_half_from_at(scan.points.at(point).params.height)
                 << " R; their nu_lower_half and relative increase are not defined, and the "
                    "point's means leave them out (a lower observables.lower_half_from keeps "

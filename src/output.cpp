@@ -1028,6 +1028,7 @@ void print_summary(const std::string& path, std::ostream& out) {
   out << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]" << std::setw(22)
       << "dnu/nu_i"
       << "members(failed)\n";
+  std::ostringstream notes;  // said under the table: means over fewer than the finished members
   for (const auto& n : names) {
     auto d = [&](const char* a) { return double_attribute(file, n, a); };
     // A mean of one member has no error: "nan", never a zero that reads as an exact value.
@@ -1057,7 +1058,17 @@ void print_summary(const std::string& path, std::ostream& out) {
          << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members
          << "(" << failed << ")\n";
     out << line.str();
+    if (H5Aexists(g, "nu_lower_half_n") > 0) {
+      const int over = count_attribute(g, "nu_lower_half_n");
+      if (over < members - failed)
+        notes << "# point " << n.substr(7) << ": nu_lower_half"
+              << (prot == "C" ? " and dnu/nu_i" : "") << " over " << over << " of "
+              << members - failed
+              << " finished members: the others' final band was empty (a collapse below 2 "
+                 "lower_half_from; docs/MODEL.md, \"Observables\")\n";
+    }
   }
+  out << notes.str();
   print_fits(file, names, out);
 }
 

@@ -45,7 +45,8 @@ msg=$("$exe" run "$dir/defaults.toml" -o "$dir/defaults.h5" 2>&1) || fail "the d
 echo "$msg" | grep -qi "warning\|exceeds" && fail "the defaults warn: $msg"
 
 # A collapse that takes the top below 2 lower_half_from leaves a member's final lower-half band
-# empty: the run says so (nu_lower_half and the relative increase not defined) and writes its file.
+# empty: the run says so (nu_lower_half and the relative increase not defined), writes its file,
+# and the summary says its means leave those members out.
 # A ballistic deposit (nu about 0.38) at Bo = 1 compacts towards 0.8, so a 24 R deposit ends below
 # 20 R.
 cat > "$dir/empty_band.toml" <<'EOF'
@@ -62,8 +63,10 @@ lower_half_from = 10.0
 EOF
 msg=$("$exe" run "$dir/empty_band.toml" -o "$dir/empty_band.h5" -q 2>&1) ||
   fail "a collapse below the band: $msg"
-want="warning: point 0: the collapse took the top of 2 of 2 finished members below 2"
+want="warning: point 0000: the collapse took the top of 2 of 2 finished members below 2"
 echo "$msg" | grep -qF "$want lower_half_from = 20 R" || fail "no warning of the empty band: $msg"
+"$exe" summary "$dir/empty_band.h5" | grep -qF "# point 0000: nu_lower_half and dnu/nu_i over 0 of 2" ||
+  fail "summary does not say the means leave members out: $("$exe" summary "$dir/empty_band.h5")"
 
 printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nheight = 20\n[observables]\nlower_half_from = 2\n' > "$dir/good.toml"
 # --dry-run lists the members with the cost model's estimate and writes nothing.
