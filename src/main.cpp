@@ -14,7 +14,6 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
-#include <iomanip>
 #include <iostream>
 #include <map>
 #include <optional>
@@ -133,27 +132,14 @@ int report_failures(const std::vector<MemberResult>& results, const std::string&
   return failed;
 }
 
-// Warns of each point where a collapse took some members' tops below 2 lower_half_from: their
-// final lower-half band is empty (final_lower_half_band), so their nu_lower_half and relative
-// increase are not defined and the point's means leave them out. Said even with -q.
-void report_empty_bands(const std::vector<MemberResult>& results, const Scan& scan) {
-  std::map<int, std::pair<int, int>> counts;  // point: members with an empty band, finished ones
-  for (const auto& r : results) {
-    if (!r.ok()) continue;
-    auto& [empty, finished] = counts[r.member.point];
-    ++finished;
-    const auto [from, to] = final_lower_half_band(r, scan.observables);
-    if (!(to > from)) ++empty;
+// Warns of each point whose nu_lower_half is a mean over fewer than its finished members
+// (members_left_out_note). Said even with -q.
+void report_members_left_out(const std::vector<PointResult>& points) {
+  for (const auto& p : points) {
+    const std::string note = members_left_out_note(p.point.index, p.point.protocol,
+                                                   p.nu_lower_half.n, p.members - p.failed);
+    if (!note.empty()) std::cerr << "loosepack: warning: " << note << "\n";
   }
-  for (const auto& [point, c] : counts)
-    if (c.first > 0)
-      std::cerr << "loosepack: warning: point " << std::setw(4) << std::setfill('0') << point
-                << std::setfill(' ') << ": the collapse took the top of " << c.first << " of "
-                << c.second << " finished members below 2 lower_half_from = "
-                << 2.0 * scan.observables.lower_half_from_at(scan.points.at(point).params.height)
-                << " R; their nu_lower_half and relative increase are not defined, and the "
-                   "point's means leave them out (a lower observables.lower_half_from keeps "
-                   "them)\n";
 }
 
 using Clock = std::chrono::steady_clock;
@@ -686,10 +672,9 @@ int RunCommand::write() {
   info.members_unfinished = static_cast<long>(members.size() - results.size());
   info.wall_seconds = seconds_since(t0);
   const int failed = report_failures(results, o.scan_path);
-  report_empty_bands(results, scan);
   try {
     inject_write_failure();
-    write_member_results(o.out_path, scan, info, results, snapshots);
+    report_members_left_out(write_member_results(o.out_path, scan, info, results, snapshots));
   } catch (const std::exception& e) {
     say(std::string(e.what()) + "; the results are kept in " + ck_dir +
         ": once the cause is fixed, write the file with: " + resume_command());
@@ -996,9 +981,9 @@ int merge_command(const MergeOptions& m) {
     return kInvalid;
   }
   const int failed = report_failures(merged.members, merged.scan.file);
-  report_empty_bands(merged.members, merged.scan);
   try {
-    write_member_results(m.out_path, merged.scan, merged.info, merged.members, m.snapshots);
+    report_members_left_out(
+        write_member_results(m.out_path, merged.scan, merged.info, merged.members, m.snapshots));
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return kError;

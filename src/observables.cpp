@@ -38,14 +38,6 @@ double deposit_top(const std::vector<double>& y, const std::vector<double>& r) {
   return top;
 }
 
-std::pair<double, double> final_lower_half_band(const MemberResult& r,
-                                                const ObservableSettings& obs) {
-  const double H = r.member.params.height;
-  // For C the final deposit is lower than H: its bulk band ends at half its own top.
-  const double top = r.member.protocol == Protocol::C ? deposit_top(r.y_e, r.radius) : H;
-  return {obs.lower_half_from_at(H), 0.5 * top};
-}
-
 namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 }  // namespace
@@ -168,8 +160,9 @@ void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips
   pr.m_failure.push_back(static_cast<double>(r.failure));
   pr.m_capped.push_back(r.capped);
   pr.m_seed_index.push_back(r.member.seed_index);
-  const auto [band_from, band_to] = final_lower_half_band(r, obs);
-  const double nlh = band_volume_fraction(r.y_e, r.radius, p.width, band_from, band_to);
+  // For C the final deposit is lower than H: its bulk band ends at half its own top.
+  const double band_top = pt.protocol == Protocol::C ? 0.5 * top : 0.5 * H;
+  const double nlh = band_volume_fraction(r.y_e, r.radius, p.width, lower_half_from, band_top);
   pr.m_nu_lower_half.push_back(r.ok() ? nlh : kNaN);
   if (!r.ok()) {
     ++pr.failed;

@@ -536,13 +536,28 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
   });
 }
 
-void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
-                          const std::vector<MemberResult>& members, bool snapshots) {
+std::vector<PointResult> write_member_results(const std::string& path, const Scan& scan,
+                                              const RunInfo& info,
+                                              const std::vector<MemberResult>& members,
+                                              bool snapshots) {
   auto points = aggregate(scan, members);
   points.erase(std::remove_if(points.begin(), points.end(),
                                 [](const PointResult& p) { return p.members == 0; }),
                  points.end());
   write_results(path, scan, info, points, analyse(scan, points), members, snapshots);
+  return points;
+}
+
+std::string members_left_out_note(int point, Protocol protocol, int over, int finished) {
+  if (over >= finished) return "";
+  std::ostringstream o;
+  o << "point " << std::setw(4) << std::setfill('0') << point << std::setfill(' ')
+    << ": nu_lower_half" << (protocol == Protocol::C ? " and dnu/nu_i" : "") << " over " << over
+    << " of " << finished
+    << " finished members: the others' final band was empty (a collapse below 2 "
+       "lower_half_from; a lower observables.lower_half_from keeps them; docs/MODEL.md, "
+       "\"Observables\")";
+  return o.str();
 }
 
 namespace {
@@ -1059,13 +1074,10 @@ void print_summary(const std::string& path, std::ostream& out) {
          << "(" << failed << ")\n";
     out << line.str();
     if (H5Aexists(g, "nu_lower_half_n") > 0) {
-      const int over = count_attribute(g, "nu_lower_half_n");
-      if (over < members - failed)
-        notes << "# point " << n.substr(7) << ": nu_lower_half"
-              << (prot == "C" ? " and dnu/nu_i" : "") << " over " << over << " of "
-              << members - failed
-              << " finished members: the others' final band was empty (a collapse below 2 "
-                 "lower_half_from; docs/MODEL.md, \"Observables\")\n";
+      const std::string note =
+          members_left_out_note(std::stoi(n.substr(7)), prot == "C" ? Protocol::C : Protocol::A,
+                                count_attribute(g, "nu_lower_half_n"), members - failed);
+      if (!note.empty()) notes << "# " << note << "\n";
     }
   }
   out << notes.str();

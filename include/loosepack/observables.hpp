@@ -1,7 +1,6 @@
 // Observables of one member and their aggregates over the members of a scan point.
 #pragma once
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "loosepack/protocols.hpp"
@@ -17,12 +16,6 @@ double band_volume_fraction(const std::vector<double>& y, const std::vector<doub
                             double width, double a, double b);
 // Top of a deposit: max(y + r), 0 when empty.
 double deposit_top(const std::vector<double>& y, const std::vector<double>& r);
-// The band [a, b) a member's nu_lower_half is measured in: [lower_half_from, H/2), or for protocol
-// C, whose deposit collapses below H, [lower_half_from, top/2) with its final deposit's own top.
-// Empty (b <= a; nu_lower_half NaN, left out of the point's mean) where a collapse took the top
-// below 2 lower_half_from.
-std::pair<double, double> final_lower_half_band(const MemberResult& r,
-                                                const ObservableSettings& obs);
 
 // Mean, standard error (across members) and count of a binned quantity.
 struct BinnedStat {

@@ -31,9 +31,16 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
 // The one way from members to a result file: aggregates `members` (in member order), analyses
 // the points and writes `path` (write_results). The points that no member of `members` belongs
 // to are left out (a file of one member, of a shard, or of the members finished so far; a run of
-// the whole scan has every point's members, failed ones included).
-void write_member_results(const std::string& path, const Scan& scan, const RunInfo& info,
-                          const std::vector<MemberResult>& members, bool snapshots);
+// the whole scan has every point's members, failed ones included). Returns the points written.
+std::vector<PointResult> write_member_results(const std::string& path, const Scan& scan,
+                                              const RunInfo& info,
+                                              const std::vector<MemberResult>& members,
+                                              bool snapshots);
+
+// Where a point's nu_lower_half is a mean over `over` of its `finished` members, fewer than all
+// (a collapse that took a member's top below 2 lower_half_from leaves its final band empty and
+// its value NaN): a line saying so, for the run's warning and the summary; else "".
+std::string members_left_out_note(int point, Protocol protocol, int over, int finished);
 
 // What `loosepack merge` reads of a shard's file: the scan file's text and name, the run's
 // provenance and its members' bytes (a checkpoint part). Throws std::runtime_error naming the
