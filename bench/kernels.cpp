@@ -62,6 +62,9 @@ struct Config {
   int copy_reps = 10;
 };
 Config g_config;
+// The most systems that failed (contact overflow, a non-finite value) in any one benchmark: a
+// stage timed on a broken state measures nothing, so the run exits 1.
+int g_failed_systems = 0;
 
 // --- Kernel clock: Kokkos tool callbacks time every kernel by label. -------------------------
 
@@ -408,6 +411,7 @@ void stage_benchmark(benchmark::State& st, Packing packing, SolverKind kind, con
   st.counters["contacts_start"] = before.contacts;
   st.counters["contacts_end"] = after.contacts;
   st.counters["failed_systems"] = after.failed;
+  g_failed_systems = std::max(g_failed_systems, after.failed);
   st.counters["sweeps_per_step"] = sweeps / iters;
   st.counters["step_s_mean"] = step_sum / iters;
   st.counters["s_best"] = best;
@@ -535,5 +539,10 @@ int main(int argc, char** argv) {
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   g_current.reset();
+  if (g_failed_systems > 0) {
+    std::fprintf(stderr, "bench_kernels: %d system(s) of a benchmark failed (failed_systems)\n",
+                 g_failed_systems);
+    return 1;
+  }
   return 0;
 }
