@@ -55,13 +55,20 @@ using namespace loosepack;
 
 namespace {
 
+// The time step a scan gives a point of Bond number bo (SystemParams::default_time_step).
+double step_at(double bo) {
+  SystemParams p;
+  p.bond_number = bo;
+  return p.default_time_step();
+}
+
 // One ensemble: protocol, geometry, physics and solver.
 struct Setup {
   std::string label = "default";
   std::string protocol = "A";
   double width = 24.0, height = 24.0, bond_number = 1e2, capture_radius = 1.0;
-  // The program's defaults (params.hpp).
-  double rolling_friction = SystemParams{}.rolling_friction, time_step = SystemParams{}.time_step;
+  // The program's defaults (params.hpp); the time step is a scan's at this Bond number (0.009).
+  double rolling_friction = SystemParams{}.rolling_friction, time_step = step_at(bond_number);
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
   double relative_tolerance = SolverSettings{}.relative_tolerance;
   int max_sweeps = 0;  // 0: the protocol's default for the box (default_max_sweeps)

@@ -714,7 +714,7 @@ std::vector<ScanPoint> ScanParser::expand_grid() {
     points = std::move(next);
   }
   if (!axes.count("time_step"))
-    for (auto& sp : points) sp.params.time_step = default_time_step(sp.params);
+    for (auto& sp : points) sp.params.time_step = sp.params.default_time_step();
   return points;
 }
 
@@ -741,7 +741,7 @@ std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base,
         axes[k] = {{x}, v};  // for error locations below
       }
     }
-    if (!sets_time_step) sp.params.time_step = default_time_step(sp.params);
+    if (!sets_time_step) sp.params.time_step = sp.params.default_time_step();
     for (const auto& sk : system_keys()) {
       const std::string why = sk.check(sp.params);
       if (why.empty()) continue;
@@ -917,7 +917,7 @@ void ScanParser::reset_unused_capture_radius(std::vector<ScanPoint>& points) {
 void ScanParser::warn_unresolved_barrier(const std::vector<ScanPoint>& points) {
   for (const auto& sp : points) {
     const auto& p = sp.params;
-    const double scale = cohesive_barrier_time(p);
+    const double scale = p.cohesive_barrier_time();
     if (sp.protocol == Protocol::B) continue;
     if (p.time_step > scale) {
       std::ostringstream o;

@@ -441,6 +441,10 @@ TEST(Scan, DefaultTimeStepResolvesTheBarrierAtEachBondNumber) {
       "[[point]]\nbond_number = 1e4\n",
       "s.toml");
   EXPECT_EQ(set.points[0].params.time_step, 0.002);
+  // A system built in C++ from the defaults resolves the barrier too: Bo = 1e3, d_c = 0.01.
+  EXPECT_DOUBLE_EQ(SystemParams{}.time_step, 0.9 * std::sqrt(0.01 / 1e3));
+  EXPECT_DOUBLE_EQ(SystemParams{}.time_step,
+                   parse_scan("[scan]\nprotocol = \"A\"\n", "e.toml").points[0].params.time_step);
 }
 
 // Every box runs with the defaults: the observables' lengths are the paper's where they fit

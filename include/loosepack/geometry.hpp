@@ -36,24 +36,6 @@ inline double grid_margin(const SystemParams& p, double height) {
                   detection_margin(p.time_step, fall_speed(g, height), g));
 }
 
-// The time over which the pull-off barrier F_c d_c is crossed: the discrete barrier matches
-// F_c d_c only for h well below sqrt(2 m_n d_c / F_c), m_n = m/2 of two reference disks
-// (docs/MODEL.md, the parameter table); infinite without cohesion.
-inline double cohesive_barrier_time(const SystemParams& p) {
-  const double fc = p.cohesive_force();
-  if (!(fc > 0.0)) return INFINITY;
-  return std::sqrt(2.0 * 0.5 * p.reference_mass() * p.cohesion_range / fc);
-}
-
-// The default time step: 0.9 of the barrier time where cohesion needs it, at most
-// kDefaultTimeStep (the paper files' choice at every Bond number: 0.01 up to Bo = 10, 0.009 at
-// 1e2, 0.0028 at 1e3, 0.0009 at 1e4).
-constexpr double kDefaultTimeStep = 0.01;
-constexpr double kBarrierTimeFraction = 0.9;
-inline double default_time_step(const SystemParams& p) {
-  return std::min(kDefaultTimeStep, kBarrierTimeFraction * cohesive_barrier_time(p));
-}
-
 // Faster than any disk of the box can move: twice the speed of a fall from H + 4 R_max plus
 // what the cohesive pull-in of six contacts can add, m v^2 / 2 = 6 F_c d_c. A disk beyond it has
 // taken energy from no source in the model: the solution blew up (Failure::Runaway). Infinite

@@ -1,6 +1,7 @@
 // Plain parameter structs: the one home of every model parameter and its default.
 // Units: disk radius R = 1, disk mass m = 1 (at R = 1), gravity g = 1, time sqrt(R/g).
 #pragma once
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -24,8 +25,11 @@ struct SystemParams {
   bool floor_cohesion = true;     // the floor attracts disks like a disk does
   double friction = 0.3;          // mu (disk-disk and disk-floor)
   double rolling_friction = 0.1;  // mu_r: rolling lever arm mu_r * R_c
-  double time_step = 0.01;        // h [sqrt(R/g)]; a scan sets default_time_step (geometry.hpp)
-  double capture_radius = 1.0;    // r_capt >= 1 (protocol B)
+  // h [sqrt(R/g)]: the rule a scan applies at each point (default_time_step below), here at the
+  // defaults above (0.00285 at Bo = 1e3). Fields set after construction leave it as it is: a
+  // system built with another Bo or d_c sets time_step = default_time_step() again.
+  double time_step = default_time_step();
+  double capture_radius = 1.0;  // r_capt >= 1 (protocol B)
 
   double reference_mass() const { return disk_density * M_PI * radius * radius; }
   // Every field, in order (a new field belongs here: the size check below fails without it).
@@ -39,6 +43,22 @@ struct SystemParams {
   // F_c; zero for Bo = 0; infinite Bond numbers never reach the dynamics (protocol B path).
   double cohesive_force() const {
     return std::isfinite(bond_number) ? bond_number * reference_mass() * gravity : 0.0;
+  }
+  // The time over which the pull-off barrier F_c d_c is crossed: the discrete barrier matches
+  // F_c d_c only for h well below sqrt(2 m_n d_c / F_c), m_n = m/2 of two reference disks
+  // (docs/MODEL.md, the parameter table); infinite without cohesion.
+  double cohesive_barrier_time() const {
+    const double fc = cohesive_force();
+    if (!(fc > 0.0)) return INFINITY;
+    return std::sqrt(2.0 * 0.5 * reference_mass() * cohesion_range / fc);
+  }
+  // The default time step: 0.9 of the barrier time where cohesion needs it, at most 0.01 (the
+  // paper files' choice at every Bond number: 0.01 up to Bo = 10, 0.009 at 1e2, 0.0028 at 1e3,
+  // 0.0009 at 1e4).
+  static constexpr double kDefaultTimeStep = 0.01;
+  static constexpr double kBarrierTimeFraction = 0.9;
+  double default_time_step() const {
+    return std::min(kDefaultTimeStep, kBarrierTimeFraction * cohesive_barrier_time());
   }
 };
 static_assert(sizeof(SystemParams) == 14 * sizeof(double) + 2 * alignof(double),
