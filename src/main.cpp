@@ -742,6 +742,15 @@ int RunCommand::dry_run() const {
       "# expected: about %.3g CPU s in all (the cost model, right within a factor of a "
       "few: docs/PERFORMANCE.md, \"What a member costs\")\n",
       total);
+  const bool regions = scan.protocol.region_radius > 0.0 &&
+                       std::any_of(scan.points.begin(), scan.points.end(), [](const ScanPoint& p) {
+                         return p.protocol == Protocol::A && std::isfinite(p.params.bond_number);
+                       });
+  if (regions)
+    std::printf(
+        "# protocol.region_radius is set: the model prices the whole system's relaxation; "
+        "protocol-A members relaxed in regions took 0.2 to 0.8 of it in the recorded runs, the "
+        "least in narrow, tall boxes (docs/PERFORMANCE.md, \"What a member costs\")\n");
   if (!o.force && std::filesystem::exists(o.out_path))
     std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());
   if (!o.resume && std::filesystem::exists(checkpoint_directory(o.out_path)))

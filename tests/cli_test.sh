@@ -74,6 +74,11 @@ printf '[scan]\nname = "cli"\nprotocol = "B"\nseeds = 2\n[system]\nwidth = 20\nh
 grep -qE "^0000 +B .* 2 +[0-9.e+-]+$" "$dir/dry.txt" || fail "--dry-run: $(cat "$dir/dry.txt")"
 grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimate: $(cat "$dir/dry.txt")"
 [ ! -e "$dir/good.h5" ] || fail "--dry-run wrote a file"
+! grep -q "region_radius" "$dir/dry.txt" || fail "--dry-run of a scan without regions speaks of them"
+# A scan relaxing in regions is told that the model prices the whole system's relaxation.
+"$exe" run "$repo/examples/paper/fig07_scaled_profiles_tall.toml" -o "$dir/tall.h5" --dry-run |
+  grep -q "^# protocol.region_radius is set: the model prices the whole system" ||
+  fail "--dry-run of a region scan does not say what the model prices"
 "$exe" run "$dir/good.toml" -o "$dir/out.h5" --dry-run | grep -q "out.h5 exists: the run would be refused without --force" ||
   fail "--dry-run onto an existing file does not say it would be refused"
 # An output in a directory that does not exist is refused before any work, and said so.
