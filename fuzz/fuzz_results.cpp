@@ -1,12 +1,12 @@
-// libFuzzer target for the result-file readers (`loosepack summary`, `loosepack analyse` and
-// `loosepack merge`, src/output.cpp and src/shards.cpp). A valid result file of a small scan
-// (protocols A and C, three seeds), written as the one shard of its scan, is computed once; each
-// input is a list of edits applied to a copy of it through HDF5, so that the file stays a valid
-// HDF5 file (the readers' checks are fuzzed, not HDF5's own parser): remove a dataset or an
-// attribute, give a dataset another length, set an element or an attribute to any double (NaN,
-// infinities, 1e300, negative counts), or replace a string. The readers must print or write a file,
-// or refuse with std::runtime_error; any other exception, crash, sanitizer report or huge
-// allocation is a bug.
+// libFuzzer target for the result-file readers (`loosepack summary`, `loosepack analyse`,
+// `loosepack merge` and `loosepack export`, src/output.cpp, src/shards.cpp and src/export.cpp). A
+// valid result file of a small scan (protocols A and C, three seeds), written as the one shard of
+// its scan, is computed once; each input is a list of edits applied to a copy of it through HDF5,
+// so that the file stays a valid HDF5 file (the readers' checks are fuzzed, not HDF5's own parser):
+// remove a dataset or an attribute, give a dataset another length, set an element or an attribute
+// to any double (NaN, infinities, 1e300, negative counts), or replace a string. The readers must
+// print or write a file, or refuse with std::runtime_error (export also with std::invalid_argument,
+// for a selection); any other exception, crash, sanitizer report or huge allocation is a bug.
 #include <hdf5.h>
 #include <unistd.h>
 
@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "loosepack/export.hpp"
 #include "loosepack/output.hpp"
 #include "loosepack/protocols.hpp"
 #include "loosepack/scan.hpp"
@@ -215,6 +216,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     loosepack::read_shards({t.work});
   } catch (const std::runtime_error&) {
+  }
+  for (auto format : {loosepack::ExportFormat::Xdmf, loosepack::ExportFormat::Extxyz}) {
+    try {
+      loosepack::export_viewer_files(t.work, format);
+    } catch (const std::runtime_error&) {
+    } catch (const std::invalid_argument&) {
+    }
   }
   return 0;
 }

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Fuzzes, each for a bounded time, the scan-file parser and validator (fuzz/fuzz_scan.cpp), the
 # checkpoint reader (fuzz/fuzz_checkpoint.cpp) and the result-file readers of `summary`,
-# `analyse` and `merge` (fuzz/fuzz_results.cpp).
+# `analyse`, `merge` and `export` (fuzz/fuzz_results.cpp).
 #   scripts/fuzz.sh [seconds per target] [target...]     (default 60; every target)
 # Builds only the fuzz targets with clang (libFuzzer, ASan, UBSan) in build-fuzz/, runs each in
 # one process over a copy of its corpus (fuzz/corpus/ for the scan parser, fuzz/corpus-results/

@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "hdf5.hpp"
+#include "loosepack/output.hpp"
 
 namespace loosepack {
 
@@ -117,6 +118,41 @@ std::size_t length(hid_t file, const std::string& name) {
   return static_cast<std::size_t>(H5Sget_simple_extent_npoints(space));
 }
 
+std::string number(double v) {
+  std::ostringstream o;
+  o << v;
+  return o.str();
+}
+
+// Refuses a member whose datasets no run writes: lengths that differ within a set (the disks',
+// the contacts', a trajectory's samples), contact indices that name no disk.
+void check_member(hid_t file, const MemberData& m) {
+  const std::string& g = m.group;
+  auto same_lengths = [&](const std::vector<std::string>& names) {
+    const std::size_t n = length(file, g + "/" + names.front());
+    for (const auto& name : names)
+      if (const std::size_t k = length(file, g + "/" + name); k != n)
+        throw std::runtime_error(g + "/" + name + " has " + std::to_string(k) + " values, " +
+                                 names.front() + " " + std::to_string(n));
+    return n;
+  };
+  if (m.kind == "trajectory") {
+    same_lengths({"time", "x", "y", "disk"});
+    return;
+  }
+  std::vector<std::string> disks = {"x", "y_i", "y_e", "radius"};
+  if (m.kind == "failure") disks.insert(disks.end(), {"vx", "vy", "w"});
+  const std::size_t n = same_lengths(disks);
+  same_lengths(
+      {"contact_i", "contact_j", "contact_normal", "contact_tangential", "contact_moment"});
+  for (const auto& [name, lowest] : {std::pair("contact_i", 0.0), std::pair("contact_j", -1.0)})
+    for (double v : doubles(file, g + "/" + name))
+      if (!(v >= lowest && v < static_cast<double>(n) && v == std::floor(v)))
+        throw std::runtime_error(g + "/" + name + " holds " + number(v) + ", not a disk of the " +
+                                 std::to_string(n) + " (" +
+                                 (lowest < 0 ? "-1: the floor, or " : "") + "0 to n - 1)");
+}
+
 std::string stem_name(const MemberData& m) {
   std::string name = "_p" + m.point + "_s" + std::to_string(m.seed);
   if (m.kind != "snapshot") name += "_" + m.kind;
@@ -189,17 +225,29 @@ void sidecar_dataset(hid_t sidecar, const std::string& name, const std::vector<T
           "write dataset " + name);
 }
 
+// What a snapshot's sidecar file holds: its contacts as lines and their end points' indices.
+struct Sidecar {
+  std::string group;
+  std::vector<double> lines;
+  std::vector<long long> ends;
+};
+Sidecar sidecar_of(hid_t file, const MemberData& m) {
+  Sidecar out{m.group, contact_lines(file, m.group, m.width), {}};
+  out.ends.resize(out.lines.size() / 2);
+  for (std::size_t k = 0; k < out.ends.size(); ++k) out.ends[k] = static_cast<long long>(k);
+  return out;
+}
+void write_sidecar(hid_t sidecar, const Sidecar& c) {
+  sidecar_dataset(sidecar, c.group + "/lines", c.lines, 2, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE);
+  sidecar_dataset(sidecar, c.group + "/connectivity", c.ends, 2, H5T_STD_I64LE, H5T_NATIVE_LLONG);
+}
+
 // A snapshot: the disks as points (radius, y_i, y_e, Delta y, velocities at a failure) and
-// the contacts as lines with their forces.
-std::string xdmf_snapshot(hid_t file, hid_t sidecar, const MemberData& m, const std::string& h5,
+// the contacts as lines with their forces (those in the sidecar file `side`).
+std::string xdmf_snapshot(hid_t file, const MemberData& m, const std::string& h5,
                           const std::string& side) {
   const std::string& g = m.group;
   const std::size_t n = length(file, g + "/x"), nc = length(file, g + "/contact_i");
-  sidecar_dataset(sidecar, g + "/lines", contact_lines(file, g, m.width), 2, H5T_IEEE_F64LE,
-                  H5T_NATIVE_DOUBLE);
-  std::vector<long long> ends(2 * nc);
-  for (std::size_t k = 0; k < ends.size(); ++k) ends[k] = static_cast<long long>(k);
-  sidecar_dataset(sidecar, g + "/connectivity", ends, 2, H5T_STD_I64LE, H5T_NATIVE_LLONG);
   const std::string x = item(h5, g + "/x", n), ye = item(h5, g + "/y_e", n);
   std::ostringstream o;
   o << "<Grid Name=\"disks\" GridType=\"Uniform\">\n"
@@ -301,43 +349,78 @@ std::string extxyz_member(hid_t file, const MemberData& m) {
   return o.str();
 }
 
+// What one member's export writes: the viewer file's text and, for a snapshot in XDMF, its
+// sidecar file.
+struct ViewerFile {
+  std::string path, text;
+  std::string sidecar_path;  // empty: none
+  Sidecar sidecar;
+};
+
+// The files of `members`, read and checked whole before any is written (a damaged file writes
+// nothing).
+std::vector<ViewerFile> viewer_files(hid_t file, const std::vector<MemberData>& members,
+                                     ExportFormat format, const std::string& base,
+                                     const std::string& h5) {
+  std::vector<ViewerFile> out;
+  for (const auto& m : members) {
+    check_member(file, m);
+    ViewerFile v;
+    if (format == ExportFormat::Extxyz) {
+      v.path = base + stem_name(m) + ".extxyz";
+      v.text = extxyz_member(file, m);
+    } else if (m.kind == "trajectory") {
+      v.path = base + stem_name(m) + ".xmf";
+      v.text = xdmf_document(xdmf_trajectory(file, m, h5));
+    } else {
+      // A snapshot's contact lines go to a file of its own, so that exporting another selection
+      // later leaves this one's files whole.
+      v.path = base + stem_name(m) + ".xmf";
+      v.sidecar_path = base + stem_name(m) + "_contacts.h5";
+      v.sidecar = sidecar_of(file, m);
+      v.text =
+          xdmf_document(xdmf_snapshot(file, m, h5, fs::path(v.sidecar_path).filename().string()));
+    }
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<std::string> export_viewer_files(const std::string& path, ExportFormat format,
                                              const ExportSelection& selection) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
-  check_selection(file, path, selection);
-  const std::vector<MemberData> members = members_in(file, selection);
+  // Reading the file, an error that is not a selection's (std::invalid_argument) is its damage.
+  auto damaged = [&](const std::runtime_error& e) {
+    return DamagedResultFile(path + ": " + e.what() + " (the file is damaged or was edited)");
+  };
+  std::vector<MemberData> members;
+  try {
+    check_selection(file, path, selection);
+    members = members_in(file, selection);
+  } catch (const std::invalid_argument&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    throw damaged(e);
+  }
   if (members.empty()) refuse_empty_selection(file, path, selection);
   const fs::path p(path);
-  const std::string base = (p.parent_path() / p.stem()).string();
-  const std::string h5 = p.filename().string();  // the viewer files lie next to it
-  std::vector<std::string> written;
-  if (format == ExportFormat::Extxyz) {
-    for (const auto& m : members) {
-      written.push_back(base + stem_name(m) + ".extxyz");
-      write_bytes(written.back(), extxyz_member(file, m));
-    }
-    return written;
+  std::vector<ViewerFile> files;
+  try {
+    files = viewer_files(file, members, format, (p.parent_path() / p.stem()).string(),
+                         p.filename().string());  // the viewer files lie next to it
+  } catch (const std::runtime_error& e) {
+    throw damaged(e);
   }
-  for (const auto& m : members) {
-    const std::string xmf = base + stem_name(m) + ".xmf";
-    if (m.kind == "trajectory") {
-      write_bytes(xmf, xdmf_document(xdmf_trajectory(file, m, h5)));
-      written.push_back(xmf);
-      continue;
-    }
-    // A snapshot's contact lines go to a file of its own, so that exporting another selection
-    // later leaves this one's files whole.
-    const std::string side_path = base + stem_name(m) + "_contacts.h5";
-    const std::string side = fs::path(side_path).filename().string();
-    std::string grids;
-    replace_hdf5_file(side_path,
-                      [&](hid_t sidecar) { grids = xdmf_snapshot(file, sidecar, m, h5, side); });
-    write_bytes(xmf, xdmf_document(grids));
-    written.push_back(xmf);
-    written.push_back(side_path);
+  std::vector<std::string> written;
+  for (const auto& v : files) {  // each whole or not at all (replace_file)
+    if (!v.sidecar_path.empty())
+      replace_hdf5_file(v.sidecar_path, [&](hid_t sidecar) { write_sidecar(sidecar, v.sidecar); });
+    replace_file(v.path, [&](const std::string& tmp) { write_bytes(tmp, v.text); });
+    written.push_back(v.path);
+    if (!v.sidecar_path.empty()) written.push_back(v.sidecar_path);
   }
   return written;
 }

@@ -85,6 +85,20 @@ std::string space_problem(const std::string& out, const std::vector<Member>& mem
   return o.str();
 }
 
+// Why the checkpoint directory `ck_dir` cannot take this run's checkpoints ("" when it can):
+// something that is not a directory at its path, or a directory this process cannot write
+// into. Checked before any work, so that a run does not compute its members and then lose them
+// at its first checkpoint.
+std::string checkpoint_path_problem(const std::string& ck_dir) {
+  std::error_code ec;
+  if (!std::filesystem::exists(ck_dir, ec)) return "";
+  if (!std::filesystem::is_directory(ck_dir, ec))
+    return ck_dir + " is not a directory, where this run keeps its checkpoint: move it away";
+  if (::access(ck_dir.c_str(), W_OK | X_OK) != 0)
+    return "cannot write into the checkpoint " + ck_dir + ": " + std::strerror(errno);
+  return "";
+}
+
 // Set by SIGINT and SIGTERM: the run stops at the end of the step, checkpoints and exits. A
 // second signal ends the program at once.
 volatile std::sig_atomic_t g_signal = 0;
@@ -337,6 +351,10 @@ int RunCommand::other_selection() const {
 int RunCommand::read_checkpoint() {
   ck_dir = checkpoint_directory(o.out_path);
   const bool ck_exists = std::filesystem::exists(ck_dir);
+  if (const std::string why = checkpoint_path_problem(ck_dir); !why.empty()) {
+    say(why);
+    return kInvalid;
+  }
   if (ck_exists && !o.resume) {
     say("a checkpoint of an interrupted run exists: " + ck_dir +
         "; add --resume to continue it, or delete it to start afresh");
@@ -753,7 +771,10 @@ int RunCommand::dry_run() const {
         "least in narrow, tall boxes (docs/PERFORMANCE.md, \"What a member costs\")\n");
   if (!o.force && std::filesystem::exists(o.out_path))
     std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());
-  if (!o.resume && std::filesystem::exists(checkpoint_directory(o.out_path)))
+  if (const std::string why = checkpoint_path_problem(checkpoint_directory(o.out_path));
+      !why.empty())
+    std::printf("# %s: the run would be refused\n", why.c_str());
+  else if (!o.resume && std::filesystem::exists(checkpoint_directory(o.out_path)))
     std::printf(
         "# a checkpoint of an interrupted run exists (%s): the run would be refused "
         "without --resume\n",
@@ -1026,6 +1047,12 @@ int file_command(const FileCommands& f) {
     print_summary(f.summary_path, text);
     std::cout << text.str();
   } catch (const std::invalid_argument& e) {  // a selection the file does not have
+    std::cerr << "loosepack: " << e.what() << "\n";
+    return kInvalid;
+  } catch (const DamagedResultFile& e) {
+    std::cerr << "loosepack: " << e.what() << "\n";
+    return kInvalid;
+  } catch (const ScanError& e) {  // a scan_text this program does not accept
     std::cerr << "loosepack: " << e.what() << "\n";
     return kInvalid;
   } catch (const std::exception& e) {

@@ -647,6 +647,13 @@ void check_lengths(const std::string& group,
                                " (the file is damaged or was edited)");
 }
 
+// A point's per-member rows: one per member of the point (`members`, its failed ones included).
+void check_member_rows(const std::string& what, std::size_t rows, int members) {
+  if (rows != static_cast<std::size_t>(members))
+    throw std::runtime_error(what + " has " + std::to_string(rows) + " rows, one per member of " +
+                             std::to_string(members) + " (the file is damaged or was edited)");
+}
+
 // What write_results stored of a point's aggregates, as far as the analysis reads them.
 PointResult read_point(hid_t file, const ScanPoint& point) {
   const std::string n = point_name(point.index);
@@ -685,6 +692,7 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
       const std::string path = std::string(name) + "/" + field;
       if (H5Lexists(g, path.c_str(), H5P_DEFAULT) <= 0) continue;
       (*b).*member = rows(g, path);
+      check_member_rows(path, ((*b).*member).size(), pr.members);
       for (const auto& row : (*b).*member)
         check_lengths(n + "/" + name, {{"centre", b->centre.size()}, {field, row.size()}});
     }
@@ -702,6 +710,7 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
     const std::string path = std::string("abs_dy_histogram/") + name;
     if (H5Lexists(g, path.c_str(), H5P_DEFAULT) <= 0) continue;
     *member = rows(g, path);
+    check_member_rows(path, member->size(), pr.members);
     for (const auto& row : *member)
       check_lengths(n + "/abs_dy_histogram",
                     {{"counts", pr.abs_dy_counts.size()}, {name, row.size()}});
@@ -739,7 +748,7 @@ void reanalyse(const std::string& in, const std::string& out) {
   } catch (const ScanError&) {
     throw;
   } catch (const std::runtime_error& e) {
-    throw std::runtime_error(in + ": " + e.what());
+    throw DamagedResultFile(in + ": " + e.what());
   }
   const Analysis analysis = analyse(scan, points);
   const std::string image = read_bytes(in);
@@ -994,7 +1003,9 @@ static void print_fits(hid_t file, const std::vector<std::string>& names, std::o
   print_fits_across(f, out);
 }
 
-void print_summary(const std::string& path, std::ostream& out) {
+namespace {
+
+void write_summary(const std::string& path, std::ostream& out) {
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
           "open " + path + " (not an HDF5 file written by loosepack?)");
@@ -1082,6 +1093,18 @@ void print_summary(const std::string& path, std::ostream& out) {
   }
   out << notes.str();
   print_fits(file, names, out);
+}
+
+}  // namespace
+
+void print_summary(const std::string& path, std::ostream& out) {
+  try {
+    write_summary(path, out);
+  } catch (const DamagedResultFile&) {
+    throw;
+  } catch (const std::runtime_error& e) {  // the file opened as a result file (main.cpp)
+    throw DamagedResultFile(path + ": " + e.what() + " (the file is damaged or was edited)");
+  }
 }
 
 }  // namespace loosepack

@@ -178,6 +178,29 @@ msg=$(LOOSEPACK_INJECT_FREE_BYTES=1000 "$exe" run "$dir/good.toml" -o "$dir/full
 set -e
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "MiB free; this run's checkpoint and results may need" ||
   fail "no room (exit $rc): $msg"
+# Something at the checkpoint's path that cannot hold it is refused before any work, with
+# --resume or without (the run would otherwise compute its members and lose them at its first
+# checkpoint); a directory it cannot write into too (checked where not root).
+echo "not a directory" > "$dir/ck.h5.checkpoint"
+for resume in "" --resume; do
+  set +e
+  msg=$("$exe" run "$dir/good.toml" -o "$dir/ck.h5" $resume 2>&1); rc=$?
+  set -e
+  [ "$rc" -eq 2 ] && echo "$msg" | grep -q "ck.h5.checkpoint is not a directory, where this run keeps" ||
+    fail "a file at the checkpoint's path ($resume, exit $rc): $msg"
+done
+"$exe" run "$dir/good.toml" -o "$dir/ck.h5" --dry-run | grep -q "is not a directory.*: the run would be refused" ||
+  fail "--dry-run does not say a file at the checkpoint's path refuses the run"
+rm "$dir/ck.h5.checkpoint"
+if [ "$(id -u)" -ne 0 ]; then
+  mkdir "$dir/ck.h5.checkpoint" && chmod 555 "$dir/ck.h5.checkpoint"
+  set +e
+  msg=$("$exe" run "$dir/good.toml" -o "$dir/ck.h5" --resume 2>&1); rc=$?
+  set -e
+  rmdir "$dir/ck.h5.checkpoint"
+  [ "$rc" -eq 2 ] && echo "$msg" | grep -q "cannot write into the checkpoint .*ck.h5.checkpoint" ||
+    fail "a checkpoint it cannot write into (exit $rc): $msg"
+fi
 # analyse -o onto an existing file (here the scan file) is refused unless --force.
 set +e
 msg=$("$exe" analyse "$dir/good.h5" -o "$dir/good.toml" 2>&1)
@@ -364,6 +387,31 @@ for cmd in summary analyse export; do
   [ "$rc" -eq 2 ] && echo "$msg" | grep -q "other.h5 is an HDF5 file but not a loosepack result" ||
     fail "$cmd of another HDF5 file: exit code $rc ($msg)"
 done
+# A result file that lacks what a command reads, or holds rows no run writes, is invalid input
+# naming the file and the object, for each command that reads it.
+/usr/bin/python3 - "$dir/good.h5" "$dir/noattr.h5" "$dir/rows.h5" <<'EOF_PY'
+import shutil, sys, h5py
+shutil.copy(sys.argv[1], sys.argv[2])
+with h5py.File(sys.argv[2], "r+") as f:
+    del f["points/0000"].attrs["protocol"]
+shutil.copy(sys.argv[1], sys.argv[3])
+with h5py.File(sys.argv[3], "r+") as f:
+    g = f["points/0000/abs_dy_histogram"]
+    rows = g["member_counts"][:1]
+    del g["member_counts"]
+    g["member_counts"] = rows
+EOF_PY
+set +e
+msg=$("$exe" summary "$dir/noattr.h5" 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "noattr.h5: HDF5: cannot open attribute points/0000@protocol" ||
+  fail "summary of a file without a point's protocol (exit $rc): $msg"
+set +e
+msg=$("$exe" analyse "$dir/rows.h5" -o "$dir/rows2.h5" 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "rows.h5: points/0000: abs_dy_histogram/member_counts has 1 rows, one per member of 2" ||
+  fail "analyse of a file with too few member rows (exit $rc): $msg"
+[ ! -e "$dir/rows2.h5" ] || fail "analyse of a damaged file wrote its output"
 # A file of the older layout (the scan text a root attribute, before 2026-11-25) is still a result
 # file, for the program and the tools alike.
 /usr/bin/python3 - "$dir/good.h5" "$dir/older.h5" <<'EOF_PY'

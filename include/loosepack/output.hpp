@@ -54,9 +54,18 @@ ShardFile read_shard_file(const std::string& path);
 // Recomputes the analysis of result file `in` from what it stores (its scan_text, the
 // aggregated profiles, avalanche bins, histograms and scalars) and writes it with the fits
 // replaced to `out` (which may be `in`), through a temporary file and a rename: a file of an
-// older program gets the current analysis without a rerun. Throws std::runtime_error (or
-// ScanError for a scan text this program no longer accepts) naming the file and the object.
+// older program gets the current analysis without a rerun. Throws DamagedResultFile (or
+// ScanError for a scan text this program no longer accepts) naming the file and the object
+// where `in` cannot be read, std::runtime_error where `out` cannot be written.
 void reanalyse(const std::string& in, const std::string& out);
+
+// A result file that opens as one (result_file_problem says nothing) but lacks what a command
+// reads or holds what no run writes: a damaged or edited file, invalid input (exit 2). The
+// message names the file and the object.
+class DamagedResultFile : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 // Why `path` is not a result file that can be read, or "": not an HDF5 file HDF5 can open (a
 // wrong or damaged file, such as one cut short), or an HDF5 file without `/points` and

@@ -84,6 +84,49 @@ def test_a_selection_the_file_lacks_is_refused_with_its_range(exported):
         assert message in done.stderr
 
 
+def damaged_copy(res, tmp_path, name, edit):
+    """A copy of the result file with one member's datasets edited by `edit(group)`."""
+    out = tmp_path / name
+    out.write_bytes(open(res.path, "rb").read())
+    with h5py.File(out, "r+") as f:
+        edit(f["points/0000/members"])
+    return out
+
+
+def replace(group, name, values):
+    del group[name]
+    group[name] = values
+
+
+@pytest.mark.parametrize("case, edit, message", [
+    ("contact_i", lambda m: replace(m["snapshot_0"], "contact_i", np.full(
+        m["snapshot_0/contact_i"].shape, 1e9)), "contact_i holds 1e+09, not a disk of the"),
+    ("contact_j", lambda m: replace(m["snapshot_0"], "contact_j", np.full(
+        m["snapshot_0/contact_j"].shape, -7.0)), "contact_j holds -7, not a disk of the"),
+    ("y_e", lambda m: replace(m["snapshot_0"], "y_e", m["snapshot_0/y_e"][:2]),
+     "snapshot_0/y_e has 2 values, x "),
+    ("trajectory", lambda m: replace(m["trajectory_1"], "x", m["trajectory_1/x"][:1]),
+     "trajectory_1/x has 1 values, time "),
+    ("missing", lambda m: m["snapshot_1"].__delitem__("x"),
+     "cannot open dataset /points/0000/members/snapshot_1/x"),
+])
+def test_a_damaged_file_is_refused_and_nothing_is_written(exported, tmp_path, case, edit,
+                                                           message):
+    """Data no run writes (contact indices naming no disk, lengths that differ, a missing
+    dataset) is invalid input (exit 2) naming the file and the dataset, for both formats, and no
+    viewer file is written: each member's files are built before any is written."""
+    res, _ = exported
+    exe = loosepack.find_program()
+    out = damaged_copy(res, tmp_path, case + ".h5", edit)
+    for fmt in ("xdmf", "extxyz"):
+        done = subprocess.run([exe, "export", str(out), "--format", fmt], capture_output=True,
+                              text=True)
+        assert done.returncode == 2, done.stderr
+        assert str(out) + ": " in done.stderr and message in done.stderr, done.stderr
+        assert "the file is damaged or was edited" in done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == [case + ".h5"]
+
+
 def test_a_seed_a_file_of_some_members_lacks_is_refused_with_what_it_holds(tmp_path):
     """A file of some members (here `--member 1`: seed 1 of point 0) has seed 0 in its scan's
     range but no snapshot of it: refused as a selection (exit 2), naming the snapshots it has."""
