@@ -223,6 +223,17 @@ def check_result_file(f, path, tool):
                  "give the file `loosepack run` wrote")
 
 
+def read_damaged_as_unusable(read, path, where):
+    """read(), with a dataset or attribute the file lacks (KeyError) or holds in another type
+    (a string for a number: ValueError, TypeError) taken as a damaged file: exit 2, naming the
+    file and the group, not a traceback."""
+    try:
+        return read()
+    except (KeyError, ValueError, TypeError) as e:
+        unusable(f"claims.py: {path}: {where}: cannot read what the claims need ({e}): the file is "
+                 "damaged or was edited")
+
+
 def fail_missing(path, name):
     unusable(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
              f"`loosepack analyse {path}` adds the current analysis to a file of an older one)")
@@ -763,8 +774,9 @@ def main():
         check_result_file(f, path, "claims.py")
         results = []
         for name in sorted(f["points"]):
-            results.extend(check_point(f["points"][name], path))
-        results.extend(check_scan(f, path))
+            results.extend(read_damaged_as_unusable(
+                lambda: list(check_point(f["points"][name], path)), path, f"points/{name}"))
+        results.extend(read_damaged_as_unusable(lambda: list(check_scan(f, path)), path, "/"))
     if not results:
         print(f"claims.py: {path}: no scan point the claims speak about")
         sys.exit(2)

@@ -58,7 +58,8 @@ parameters, time step). Where some have no counterpart of the same parameters an
 hold the same point indices (two runs of one scan's points with a setting changed, such as the
 time step), the index pairs them, and the parameters they differ in are named. Points of
 different protocols are not compared (exit 2). A scalar without an error (a point with one
-finished member) is not judged. A scalar differs when its distance exceeds --sigma (2) combined
+finished member) is not judged, nor is a quantity one file holds and the other lacks (its row
+says which). A scalar differs when its distance exceeds --sigma (2) combined
 standard errors; a profile or histogram when its chi2 exceeds the bound; the shapes when no shape
 fits both and a verdict is one. With n scalars compared at 2 sigma, about n/20 differ by chance,
 and more where the errors come from few members (about 9 % of them with 4 members, 6.5 % with 8:
@@ -128,6 +129,16 @@ def scalar(name, a, ea, b, eb, sigma):
     return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma", (a, ea, b, eb))
 
 
+def one_sided(name, in_a, in_b):
+    """A not-judged row for a quantity one file holds and the other lacks (a damaged or edited
+    file, or one of an older program), so that it does not drop out of the comparison unseen;
+    None when both hold it or neither does."""
+    if in_a == in_b:
+        return None
+    return Row(name, "-" if not in_a else "present", "-" if not in_b else "present", math.nan,
+               0.0, f"not judged (absent from {'A' if not in_a else 'B'})")
+
+
 def welch_as_normal(difference, var_a, n_a, var_b, n_b):
     """Each difference over its combined standard error sqrt(var_a + var_b) (the variances of
     two means over n_a and n_b members) as a normal deviate: the one of the same tail
@@ -158,6 +169,9 @@ def members_in_both(pa, pb):
     fa, fb = pa.file.attrs, pb.file.attrs
     if fa.get("seed") != fb.get("seed") or fa.get("seeds") != fb.get("seeds"):
         return None, "the files' scan seeds or seed counts differ"
+    for point, which in ((pa, "A"), (pb, "B")):
+        if not all(f"members/{k}" in point for k in ("seed_index", "failure")):
+            return None, f"{which} holds no per-member datasets (members/seed_index, failure)"
     ia, ib = pa["members/seed_index"][()], pb["members/seed_index"][()]
     if not np.array_equal(ia, ib):
         return None, "the points hold other members"
@@ -170,6 +184,8 @@ def members_in_both(pa, pb):
 def point_scalars(pa, pb, sigma, both=None):
     for key, name in (("nu_lower_half", "nu_lower_half"), ("mean_abs_dy", "mean abs(Delta y) [R]")):
         if f"{key}_mean" not in pa.attrs or f"{key}_mean" not in pb.attrs:
+            if row := one_sided(name, f"{key}_mean" in pa.attrs, f"{key}_mean" in pb.attrs):
+                yield row
             continue
         a, ea = float(pa.attrs[f"{key}_mean"]), float(pa.attrs[f"{key}_sem"])
         b, eb = float(pb.attrs[f"{key}_mean"]), float(pb.attrs[f"{key}_sem"])
@@ -200,6 +216,9 @@ def profile_fits(pa, pb, sigma, both=None):
         key = f"avalanche_by_{by}"
         path = f"{key}/fit"
         if path not in pa or path not in pb:
+            if row := one_sided(f"Delta y({'y_i' if by == 'yi' else 'y_e'}): fit", path in pa,
+                                path in pb):
+                yield row
             continue
         fa, fb = pa[path], pb[path]
         if not (fa.attrs.get("valid", 1) and fb.attrs.get("valid", 1)):
@@ -279,6 +298,8 @@ def histogram(pa, pb):
     the members' fractions per bin must agree."""
     ha, hb = pa.get("abs_dy_histogram"), pb.get("abs_dy_histogram")
     if ha is None or hb is None:
+        if row := one_sided("abs(Delta y) histogram", ha is not None, hb is not None):
+            yield row
         return
     sa, sb = ha["shape_cut"], hb["shape_cut"]
     va, vb = text(sa.attrs["preferred"]), text(sb.attrs["preferred"])
@@ -363,7 +384,10 @@ def events(pa, pb, sigma):
     """The avalanche events: the mean log size, and the distributions of sizes and of steps, by
     the members' scatter where both files keep per-member counts, else as independent events."""
     ea, eb = pa.get("events"), pb.get("events")
-    if ea is None or eb is None or "moved_counts" not in ea or "moved_counts" not in eb:
+    held = lambda e: e is not None and "moved_counts" in e
+    if not (held(ea) and held(eb)):
+        if row := one_sided("avalanche events", held(ea), held(eb)):
+            yield row
         return
     per_member = "member_moved_counts" in ea and "member_moved_counts" in eb
     rows = lambda e, key: e["member_" + key][()].astype(float) if per_member else None
@@ -389,6 +413,8 @@ def compare_point(pa, pb, sigma, both=None):
     rows = list(point_scalars(pa, pb, sigma, both))
     if "nu" in pa and "nu" in pb:
         rows += density_profile(pa, pb)
+    elif row := one_sided("nu(y)", "nu" in pa, "nu" in pb):
+        rows.append(row)
     rows += profile_fits(pa, pb, sigma, both)
     rows += histogram(pa, pb)
     rows += events(pa, pb, sigma)
@@ -457,6 +483,9 @@ def main():
                     help="the files hold the same members (one scan seed): compare nu_lower_half, "
                          "mean abs(Delta y) and the profile fits member by member")
     args = ap.parse_args()
+    if args.json and not os.path.isdir(os.path.dirname(args.json) or "."):
+        print(f"compare.py: --json {args.json}: its directory does not exist", file=sys.stderr)
+        sys.exit(2)
     differ = not_judged = 0
     try:
         fa, fb = h5py.File(args.a, "r"), h5py.File(args.b, "r")

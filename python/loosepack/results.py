@@ -38,6 +38,16 @@ def _count(value):
     return int(round(float(value)))
 
 
+def _get(node, key):
+    """node[key], or a KeyError naming the file and the object it lacks (a damaged or edited
+    file), where h5py names neither."""
+    try:
+        return node[key]
+    except KeyError:
+        raise KeyError(f"{node.file.filename}: {node.name.rstrip('/')}/{key} is missing (the file "
+                       "is damaged or was edited)") from None
+
+
 def _units(dataset):
     return _text(dataset.attrs["units"]) if "units" in dataset.attrs else ""
 
@@ -57,11 +67,12 @@ class Results:
             raise ValueError(f"{self.path}: not an HDF5 file that can be opened (not a loosepack "
                              f"result file, or damaged?): {e}") from None
         with f:
-            if "points" not in f or "settings" not in f:
+            if "points" not in f or ("scan_text" not in f and "scan_text" not in f.attrs):
                 raise ValueError(f"{self.path}: an HDF5 file but not a loosepack result file (no "
-                                 "/points or /settings): give the file `loosepack run` wrote")
+                                 "/points or /scan_text): give the file `loosepack run` wrote")
             self.attrs = {k: _value(v) for k, v in f.attrs.items() if k != "scan_text"}
-            self.settings = {k: _value(v) for k, v in f["settings"].attrs.items()}
+            self.settings = ({k: _value(v) for k, v in f["settings"].attrs.items()}
+                             if "settings" in f else {})
             if "scan_text" in f:
                 self.scan_text = _text(f["scan_text"][()])
             else:
@@ -73,6 +84,10 @@ class Results:
         rows = []
         for name in self.point_names:
             a = f["points"][name].attrs
+            for k in ("protocol",) + COUNTS:
+                if k not in a:
+                    raise ValueError(f"{self.path}: /points/{name} has no attribute '{k}' (the "
+                                     "file is damaged or was edited)")
             row = {"point": int(name), "protocol": _text(a["protocol"])}
             for k in PARAMETERS:
                 if k in a:
@@ -103,9 +118,9 @@ class Results:
     def _profile(self, point, group, coord):
         """A group of [bins] fields (and [members, bins] rows) as an xarray Dataset."""
         with h5py.File(self.path, "r") as f:
-            g = self._group(f, point)[group]
-            centre = g["centre"][()]
-            seeds = self._group(f, point)["members"]["seed_index"][()].astype(int)
+            g = _get(self._group(f, point), group)
+            centre = _get(g, "centre")[()]
+            seeds = _get(self._group(f, point), "members/seed_index")[()].astype(int)
             data = {}
             for key, d in g.items():
                 if not isinstance(d, h5py.Dataset):
@@ -147,13 +162,13 @@ class Results:
         name = ("member_counts" if members else "counts") + ("_cut" if cut else "")
         with h5py.File(self.path, "r") as f:
             g = self._group(f, point)
-            h = g["abs_dy_histogram"]
+            h = _get(g, "abs_dy_histogram")
             if name not in h:
                 raise KeyError(f"{self.path}: {h.name}/{name} is missing (a file of a program "
                                "before the per-member counts)")
-            edges = h["edges"][()]
+            edges = _get(h, "edges")[()]
             counts = h[name][()]
-            seeds = g["members/seed_index"][()].astype(int) if members else None
+            seeds = _get(g, "members/seed_index")[()].astype(int) if members else None
         centres = 0.5 * (edges[1:] + edges[:-1])
         coords = {"abs_dy": ("abs_dy", centres, {"units": "R"}),
                   "lower_edge": ("abs_dy", edges[:-1], {"units": "R"})}
@@ -167,7 +182,7 @@ class Results:
         """Per-member scalars (seed_index, disks, top, nu_lower_half, steps, sweeps, wall_time,
         failure, capped), one row per member."""
         with h5py.File(self.path, "r") as f:
-            g = self._group(f, point)["members"]
+            g = _get(self._group(f, point), "members")
             cols = {k: d[()] for k, d in g.items()
                     if isinstance(d, h5py.Dataset) and d.ndim == 1}
         df = pd.DataFrame(cols)
@@ -178,7 +193,11 @@ class Results:
 
     def _member_group(self, point, kind, seed):
         f = h5py.File(self.path, "r")
-        g = self._group(f, point)["members"]
+        try:
+            g = _get(self._group(f, point), "members")
+        except KeyError:
+            f.close()
+            raise
         name = "%s_%d" % (kind, seed)
         if name not in g:
             have = sorted(k for k in g.keys() if k.startswith(kind + "_"))
@@ -198,7 +217,7 @@ class Results:
         dy = y_e - y_i, in deposition order."""
         f, g = self._member_group(point, "snapshot", seed)
         with f:
-            df = pd.DataFrame({k: g[k][()] for k in ("x", "y_i", "y_e", "radius")})
+            df = pd.DataFrame({k: _get(g, k)[()] for k in ("x", "y_i", "y_e", "radius")})
         df["dy"] = df["y_e"] - df["y_i"]
         return df
 
@@ -208,7 +227,8 @@ class Results:
         `member` (its id, for `loosepack run --member`) in DataFrame.attrs."""
         f, g = self._member_group(point, "failure", seed)
         with f:
-            df = pd.DataFrame({k: g[k][()] for k in ("x", "y_i", "y_e", "radius", "vx", "vy", "w")})
+            df = pd.DataFrame({k: _get(g, k)[()]
+                               for k in ("x", "y_i", "y_e", "radius", "vx", "vy", "w")})
             df.attrs = {k: (v.decode() if isinstance(v, bytes) else np.asarray(v).item())
                         for k, v in g.attrs.items()}
         return df
@@ -228,7 +248,7 @@ class Results:
         """Sampled positions (time, disk, x, y) of one member (observables.trajectory_every)."""
         f, g = self._member_group(point, "trajectory", seed)
         with f:
-            df = pd.DataFrame({k: g[k][()] for k in ("time", "disk", "x", "y")})
+            df = pd.DataFrame({k: _get(g, k)[()] for k in ("time", "disk", "x", "y")})
         for k in ("time", "disk"):
             df[k] = df[k].astype(np.int64)
         return df
@@ -283,8 +303,8 @@ class Results:
             if "events" not in g:
                 raise KeyError(f"{self.path}: point {point} has no events (protocol A only)")
             e = g["events"]
-            edges = e["edges"][()]
-            seeds = g["members/seed_index"][()].astype(int)
+            edges = _get(e, "edges")[()]
+            seeds = _get(g, "members/seed_index")[()].astype(int)
             data = {}
             for key, d in e.items():
                 if key == "edges":

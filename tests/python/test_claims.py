@@ -475,3 +475,17 @@ def test_help_and_unusable_input():
     done = run(other)
     assert done.returncode == 2 and "not a loosepack result file" in done.stderr, done.stderr
     assert run().returncode == 2
+    # A result file lacking a point's attribute, or holding a string where a number goes: exit 2
+    # naming the file and the point, not a traceback.
+    for edit, said in ((lambda a: a.__delitem__("protocol"), "can't locate attribute"),
+                       (lambda a: a.__setitem__("height", "tall"), "Unknown format code")):
+        damaged = os.path.join(tempfile.mkdtemp(), "damaged.h5")
+        with h5py.File(damaged, "w") as f:
+            f["scan_text"] = "[scan]\n"
+            g = f.create_group("points/0000")
+            g.attrs.update(protocol="A", bond_number=1e3, height=60.0, members=4, failed=0)
+            edit(g.attrs)
+        done = run(damaged)
+        assert done.returncode == 2, done.stderr
+        assert "damaged.h5: points/0000: cannot read" in done.stderr and said in done.stderr
+        assert "Traceback" not in done.stderr

@@ -101,6 +101,26 @@ def test_points_pair_up_by_their_parameters(runs, tmp_path):
     assert out.returncode == 2 and "not a loosepack result file" in out.stderr
 
 
+def test_a_quantity_one_file_lacks_is_said_and_damaged_input_refused(runs, tmp_path):
+    """A group one file holds and the other lacks (a damaged or edited file) is a row not
+    judged, naming the file without it, instead of dropping out of the comparison unseen;
+    --paired without per-member datasets and --json into a missing directory exit 2 with a
+    message, not a traceback."""
+    d, cohesive, _ = runs
+    lacking = tmp_path / "lacking.h5"
+    lacking.write_bytes(open(cohesive, "rb").read())
+    with h5py.File(lacking, "r+") as f:
+        del f["points/0000/nu"]
+        del f["points/0000/members"]
+    out = run_tool(cohesive, lacking)
+    assert "| nu(y) | present | - | not judged (absent from B) |" in out.stdout, out.stdout
+    assert "1 not judged" in out.stdout and out.returncode == 0, out.stdout + out.stderr
+    out = run_tool(cohesive, lacking, "--paired")
+    assert out.returncode == 2 and "B holds no per-member datasets" in out.stderr, out.stderr
+    out = run_tool(cohesive, cohesive, "--json", tmp_path / "nodir" / "x.jsonl")
+    assert out.returncode == 2 and "its directory does not exist" in out.stderr, out.stderr
+
+
 def test_a_point_of_one_member_is_not_judged(tmp_path):
     """One member gives no standard error: its scalars are not judged (not counted as
     differing), and a file compared with itself exits 0."""

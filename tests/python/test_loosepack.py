@@ -148,6 +148,20 @@ def test_points_are_named_by_index_and_wrong_files_are_named(result, tmp_path):
         f["x"] = [1.0]
     with pytest.raises(ValueError, match="not a loosepack result file"):
         loosepack.load(other)
+    # A result file lacking a group or an attribute names the file and the object.
+    damaged = tmp_path / "damaged.h5"
+    damaged.write_bytes(open(result.path, "rb").read())
+    with h5py.File(damaged, "r+") as f:
+        del f["points/0001/nu"]
+        del f["points/0001/members/seed_index"]
+    with pytest.raises(KeyError, match="damaged.h5: /points/0001/nu is missing"):
+        loosepack.load(damaged).nu(1)
+    with pytest.raises(KeyError, match="damaged.h5: /points/0001/members/seed_index is missing"):
+        loosepack.load(damaged).avalanche(1)
+    with h5py.File(damaged, "r+") as f:
+        del f["points/0000"].attrs["protocol"]
+    with pytest.raises(ValueError, match="/points/0000 has no attribute 'protocol'"):
+        loosepack.load(damaged)
     (tmp_path / "text.h5").write_text("not hdf5")
     with pytest.raises(ValueError, match="not an HDF5 file"):
         loosepack.load(tmp_path / "text.h5")
