@@ -655,6 +655,9 @@ void ScanParser::read_scan_section(const toml::table& tbl) {
         Protocol p;
         if (!s || !protocol_from_name(s->get(), p))
           fail(file, e, key, "expected \"A\", \"B\" or \"C\"");
+        // As a number axis: the same protocol twice would make two points of one system.
+        if (std::find(protocols.begin(), protocols.end(), p) != protocols.end())
+          fail(file, e, key, "the value \"" + s->get() + "\" is already in this axis");
         protocols.push_back(p);
       };
       if (auto arr = v.as_array()) {

@@ -194,6 +194,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[solver]\ntolerance = nan\n", "key 'solver.tolerance': nan is not a value"},
       {"[system]\nbond_number = [100, 1e3, 100]\n",
        "bad.toml:2:26: key 'system.bond_number': the value 100 is already in this axis"},
+      {"[scan]\nprotocol = [\"A\", \"B\", \"A\"]\n",
+       "bad.toml:2:23: key 'scan.protocol': the value \"A\" is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
       {"[system]\nbond_number = \"strong\"\n",
        "key 'system.bond_number': expected a number (or \"inf\")"},
