@@ -1074,6 +1074,11 @@ int main(int argc, char** argv) {
       "Exit codes: 0 done, 1 an error while running or writing, 2 invalid input, 3 the "
       "file is written but members failed, 128+N stopped by signal N (resume with "
       "--resume). Kokkos options (--kokkos-num-threads=N, ...) pass through."};
+  // Usage errors start with the program's name, as its own messages do (the subcommands added
+  // below inherit it).
+  app.failure_message([](const CLI::App* a, const CLI::Error& e) {
+    return "loosepack: " + CLI::FailureMessage::simple(a, e);
+  });
   app.require_subcommand(0, 1);
   bool version = false;
   app.add_flag("--version", version, "print the version, the Kokkos backend and MPI, and exit");

@@ -451,7 +451,7 @@ std::vector<std::string> scan_file_keys() {
 
 Scan load_scan(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw ScanError(path + ": cannot open the scan file");
+  if (!in) throw ScanError(path + ": cannot open the scan file: " + std::strerror(errno));
   std::stringstream ss;
   ss << in.rdbuf();
   // A result file or another binary given by mistake: said so, not a TOML syntax error deep in it.

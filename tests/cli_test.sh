@@ -18,6 +18,10 @@ msg=$("$exe" 2>&1); rc=$?
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "a subcommand is required" || fail "no subcommand (exit $rc): $msg"
 msg=$("$exe" run 2>&1); rc=$?
 [ "$rc" -eq 2 ] || fail "run without a scan file exited $rc, expected 2"
+# Usage errors name the program, as its own messages do.
+msg=$("$exe" summary "$dir" 2>&1); rc=$?
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "^loosepack: file: File is actually a directory" ||
+  fail "a directory given as the result file (exit $rc): $msg"
 msg=$("$exe" run "$repo/examples/default.toml" --checkpoint-every nan --dry-run 2>&1); rc=$?
 [ "$rc" -eq 2 ] || fail "--checkpoint-every nan exited $rc, expected 2: $msg"
 set -e
@@ -430,7 +434,7 @@ set +e
 msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)
 rc=$?
 set -e
-[ "$rc" -ne 0 ] || fail "plot.py accepted a non-HDF5 file"
+[ "$rc" -eq 2 ] || fail "plot.py of a non-HDF5 file: exit $rc, expected 2"
 # A result file lacking a dataset, or an attribute, that a figure needs: plot.py names it.
 for what in dataset attribute; do
   cp "$dir/good.h5" "$dir/lacks_$what.h5"
@@ -447,7 +451,7 @@ EOF_PY
   msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/lacks_$what.h5" -o "$dir/fig_lacks" 2>&1)
   rc=$?
   set -e
-  [ "$rc" -ne 0 ] || fail "plot.py accepted a file without a needed $what"
+  [ "$rc" -eq 2 ] || fail "plot.py of a file without a needed $what: exit $rc, expected 2"
   case $what in
     dataset) want="lacks_dataset.h5: '/points/0000/nu/mean' is missing" ;;
     attribute) want="lacks_attribute.h5: attribute 'height' of '/points/0000' is missing" ;;

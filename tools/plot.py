@@ -39,10 +39,17 @@ try:
 except ImportError as e:  # pragma: no cover
     sys.exit(f"plot.py: {e}; install python3-h5py and python3-matplotlib (scripts/install-deps.sh)")
 
+def unusable(message):
+    """Input the figures cannot be drawn from: the message, and exit status 2 (as claims.py and
+    compare.py; 1 is left for errors while writing)."""
+    print(message, file=sys.stderr)
+    sys.exit(2)
+
+
 def need(group, name):
     """A dataset (or group) that must be there; a clear message and exit otherwise."""
     if name not in group:
-        sys.exit(f"plot.py: {group.file.filename}: '{group.name}/{name}' is missing "
+        unusable(f"plot.py: {group.file.filename}: '{group.name}/{name}' is missing "
                  "(was the file written by an older loosepack?)")
     obj = group[name]
     return obj[()] if isinstance(obj, h5py.Dataset) else obj
@@ -51,7 +58,7 @@ def need(group, name):
 def attr(obj, name):
     """An attribute that must be there; a clear message and exit otherwise."""
     if name not in obj.attrs:
-        sys.exit(f"plot.py: {obj.file.filename}: attribute '{name}' of '{obj.name}' is missing "
+        unusable(f"plot.py: {obj.file.filename}: attribute '{name}' of '{obj.name}' is missing "
                  "(was the file written by an older loosepack?)")
     return obj.attrs[name]
 
@@ -320,7 +327,7 @@ def fitted_points(an, name, points):
     fit = need(an, name)
     if "scan_points" not in fit:
         path = fit.file.filename
-        sys.exit(f"plot.py: {path}: '{fit.name}/scan_points' is missing: a file of an older "
+        unusable(f"plot.py: {path}: '{fit.name}/scan_points' is missing: a file of an older "
                  f"loosepack; `loosepack analyse {path}` adds it")
     return [points[k] for k in fit["scan_points"][()]]
 
@@ -494,13 +501,15 @@ def trajectories(points, out, written):
 def open_result(path):
     """A result file, open for reading; a clear message and exit if it is not one."""
     if not os.path.exists(path):
-        sys.exit(f"plot.py: {path}: no such file")
+        unusable(f"plot.py: {path}: no such file")
     try:
         f = h5py.File(path, "r")
     except OSError as e:
-        sys.exit(f"plot.py: {path}: cannot read as HDF5 ({e})")
+        unusable(f"plot.py: {path}: cannot read as HDF5 ({e})")
     if "points" not in f:
-        sys.exit(f"plot.py: {path}: no 'points' group: not a loosepack result file")
+        unusable(f"plot.py: {path}: no 'points' group: not a loosepack result file")
+    if not len(f["points"]):
+        unusable(f"plot.py: {path}: no scan point in 'points': nothing to draw")
     return f
 
 
