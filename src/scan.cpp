@@ -481,6 +481,9 @@ class ScanParser {
   std::vector<ScanPoint> expand_grid();
   std::vector<ScanPoint> explicit_points_on(const ScanPoint& base, bool system_sets_time_step);
   void validate_point(const ScanPoint& sp);
+  const toml::node& failing_value(const toml::node& axis, const SystemKey& sk,
+                                  SystemParams p) const;
+  std::pair<const toml::node*, std::string> where_set(const std::string& key) const;
   void check_rest_window(const ScanPoint& sp);
   void check_counts(const std::vector<ScanPoint>& points);
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
@@ -509,6 +512,9 @@ class ScanParser {
     std::vector<std::pair<std::string, const toml::node*>> keys;
   };
   std::vector<Explicit> explicit_points;
+  // The [[point]] table of the point being built or validated (nullptr: a point of the grid):
+  // its own keys are where that point's errors lie.
+  const Explicit* point_table = nullptr;
   const toml::node* protocol_node = nullptr;
   const toml::node* seeds_node = nullptr;
   std::map<std::string, const toml::node*> setting_nodes;  // where the file sets each setting
@@ -543,8 +549,13 @@ Scan ScanParser::parse() {
   std::vector<ScanPoint> points = expand_grid();
   if (!explicit_points.empty())
     points = explicit_points_on(points.front(), system_sets_time_step);
-  // Validate every point; report the first offending key with its location.
-  for (const auto& sp : points) validate_point(sp);
+  // Validate every point; report the first offending key with its location (in the point's
+  // own [[point]] table where it has one).
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    point_table = explicit_points.empty() ? nullptr : &explicit_points[k];
+    validate_point(points[k]);
+  }
+  point_table = nullptr;
   for (const auto& sp : points) check_bands(sp.params.height);
   reset_unused_capture_radius(points);
   check_counts(points);
@@ -727,6 +738,7 @@ std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base,
                                                       bool system_sets_time_step) {
   std::vector<ScanPoint> points;
   for (const auto& ex : explicit_points) {
+    point_table = &ex;
     ScanPoint sp = base;
     bool sets_time_step = system_sets_time_step;
     for (const auto& [k, v] : ex.keys) {
@@ -741,29 +753,53 @@ std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base,
         const SystemKey* sk = system_key(k);
         const double x = as_number(file, *v, "point." + k, sk && sk->infinite);
         if (sk) sk->set(sp.params, x);
-        axes[k] = {{x}, v};  // for error locations below
       }
     }
     if (!sets_time_step) sp.params.time_step = sp.params.default_time_step();
     for (const auto& sk : system_keys()) {
       const std::string why = sk.check(sp.params);
       if (why.empty()) continue;
-      auto it = axes.find(sk.name);
-      if (it != axes.end()) fail(file, *it->second.second, std::string("point.") + sk.name, why);
-      fail(file, *ex.node, std::string("point.") + sk.name, why);
+      const auto [node, key] = where_set(sk.name);
+      fail(file, node ? *node : *ex.node, node ? key : "point." + std::string(sk.name), why);
     }
     points.push_back(sp);
   }
+  point_table = nullptr;
   return points;
+}
+
+// Where the file sets system key `key` for the point at hand, and the key's name there: its
+// [[point]] table's own key (point.KEY), else [system]'s (system.KEY); nullptr where neither
+// sets it (its default).
+std::pair<const toml::node*, std::string> ScanParser::where_set(const std::string& key) const {
+  if (point_table)
+    for (const auto& [k, node] : point_table->keys)
+      if (k == key) return {node, "point." + key};
+  const auto it = axes.find(key);
+  if (it != axes.end()) return {it->second.second, "system." + key};
+  return {nullptr, "system." + key};
+}
+
+// The value of an array axis that fails key sk's check with the other parameters of p (the
+// first such): where an invalid point's error is located. The axis itself for a scalar or a
+// range.
+const toml::node& ScanParser::failing_value(const toml::node& axis, const SystemKey& sk,
+                                            SystemParams p) const {
+  if (const auto* values = axis.as_array())
+    for (const auto& e : *values) {
+      sk.set(p, as_number(file, e, sk.name, sk.infinite));  // parsed once already: valid
+      if (!sk.check(p).empty()) return e;
+    }
+  return axis;
 }
 
 void ScanParser::validate_point(const ScanPoint& sp) {
   for (const auto& sk : system_keys()) {
     const std::string why = sk.check(sp.params);
     if (why.empty()) continue;
-    auto it = axes.find(sk.name);
-    if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + sk.name, why);
-    throw ScanError(file + ": default of key 'system." + sk.name + "' invalid here: " + why);
+    const auto [node, key] = where_set(sk.name);
+    if (node) fail(file, failing_value(*node, sk, sp.params), key, why);
+    throw ScanError(file + ": default of key '" + key + "' invalid here: " + why);
   }
   // The system size: member_capacity and the neighbour grid scale with it.
   const double area = (sp.params.width / sp.params.radius) * (sp.params.height / sp.params.radius);
@@ -779,10 +815,8 @@ void ScanParser::validate_point(const ScanPoint& sp) {
         {std::log(sp.params.height / d.height), "height"},
         {2.0 * std::log(d.radius / sp.params.radius), "radius"}};
     std::sort(growth.rbegin(), growth.rend());
-    for (const auto& [factor, key] : growth) {
-      const auto it = axes.find(key);
-      if (it != axes.end()) fail(file, *it->second.second, "system." + key, why.str());
-    }
+    for (const auto& [factor, key] : growth)
+      if (const auto [node, name] = where_set(key); node) fail(file, *node, name, why.str());
     throw ScanError(file + ": " + why.str());
   }
   // Contacts are detected up to 2 h (v + h g) ahead (src/batch.cpp); a disk falling through
@@ -804,17 +838,14 @@ void ScanParser::validate_point(const ScanPoint& sp) {
           << "the box moves 2 h v = " << reach << " R in two steps, beyond the "
           << kMaxDetectionMargin << " R the contact detection covers; use h <= " << h_max
           << " (docs/MODEL.md, supported ranges)";
-      for (const char* k : {"time_step", "height"}) {
-        auto it = axes.find(k);
-        if (it != axes.end()) fail(file, *it->second.second, std::string("system.") + k, why.str());
-      }
+      for (const char* k : {"time_step", "height"})
+        if (const auto [node, name] = where_set(k); node) fail(file, *node, name, why.str());
       throw ScanError(file + ": key 'system.time_step': " + why.str());
     }
   }
   if (sp.protocol == Protocol::C && std::isinf(sp.params.bond_number)) {
-    auto it = axes.find("bond_number");
     const std::string why = "protocol C with Bo = inf has no collapse; use protocol B";
-    if (it != axes.end()) fail(file, *it->second.second, "system.bond_number", why);
+    if (const auto [node, name] = where_set("bond_number"); node) fail(file, *node, name, why);
     throw ScanError(file + ": " + why);
   }
   check_rest_window(sp);
@@ -839,8 +870,7 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
       << kRestWindowSpeeds * scan.rest.speed
       << "), so rest would be declared before anything moved; set [rest] steps >= " << need
       << " (docs/SCAN.md, [rest])";
-  const auto h_node = axes.find("time_step");
-  if (h_node != axes.end()) fail(file, *h_node->second.second, "system.time_step", why.str());
+  if (const auto [node, name] = where_set("time_step"); node) fail(file, *node, name, why.str());
   const auto steps_node = setting_nodes.find("rest.steps");
   if (steps_node != setting_nodes.end()) fail(file, *steps_node->second, "rest.steps", why.str());
   throw ScanError(file + ": key 'system.time_step': " + why.str());

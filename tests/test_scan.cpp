@@ -194,6 +194,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[solver]\ntolerance = nan\n", "key 'solver.tolerance': nan is not a value"},
       {"[system]\nbond_number = [100, 1e3, 100]\n",
        "bad.toml:2:26: key 'system.bond_number': the value 100 is already in this axis"},
+      {"[system]\nbond_number = [0,\n 100,\n -5]\n",  // the value, not the axis
+       "bad.toml:4:2: key 'system.bond_number': Bo must be 0,"},
       {"[scan]\nprotocol = [\"A\", \"B\", \"A\"]\n",
        "bad.toml:2:23: key 'scan.protocol': the value \"A\" is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
@@ -238,7 +240,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       // An inf or a nan in an array: the key's own message (toml++'s writer, which makes the
       // scan's identity, must not see them: fuzz/corpus/crash_toml_writer_inf_in_array.toml).
       {"[system]\ncapture_radius = [1.0, -inf]\n",
-       "bad.toml:2:18: key 'system.capture_radius': r_capt must be in [1, 10]"},
+       "bad.toml:2:24: key 'system.capture_radius': r_capt must be in [1, 10]"},
       {"[system]\nheight = [40, nan]\n", "bad.toml:2:15: key 'system.height': nan is not a value"},
       {"# nothing but a comment\n", "bad.toml: the scan file sets nothing"},
       {"[solver]\n", "bad.toml: the scan file sets nothing"},
@@ -315,6 +317,15 @@ TEST(Scan, ExplicitPointErrors) {
             std::string::npos);
   EXPECT_NE(error_of("[[point]]\nfriction = -1\n")
                 .find("bad.toml:2:12: key 'point.friction': mu must be >= 0"),
+            std::string::npos);
+  // A point's error lies in its own table, not in the last point's that sets the key.
+  EXPECT_NE(error_of("[system]\nwidth = 12\nheight = 12\n[[point]]\nprotocol = \"C\"\n"
+                     "bond_number = \"inf\"\n[[point]]\nbond_number = 100\n")
+                .find("bad.toml:6:15: key 'point.bond_number': protocol C with Bo = inf"),
+            std::string::npos);
+  EXPECT_NE(error_of("[system]\nwidth = 12\nheight = 300\n[[point]]\ntime_step = 0.05\n"
+                     "[[point]]\ntime_step = 0.001\n")
+                .find("bad.toml:5:13: key 'point.time_step': h = 0.05 is too large for H = 300"),
             std::string::npos);
 }
 
