@@ -212,13 +212,13 @@ const std::vector<SystemKey>& system_keys() {
        }},
       {"friction", [](SystemParams& p, double v) { p.friction = v; },
        [](const SystemParams& p) {
-         return p.friction >= 0.0 && std::isfinite(p.friction) ? "" : "mu must be >= 0";
+         return p.friction >= 0.0 && std::isfinite(p.friction) ? "" : "mu must be finite and >= 0";
        }},
       {"rolling_friction", [](SystemParams& p, double v) { p.rolling_friction = v; },
        [](const SystemParams& p) {
          return p.rolling_friction >= 0.0 && std::isfinite(p.rolling_friction)
                     ? ""
-                    : "mu_r must be >= 0";
+                    : "mu_r must be finite and >= 0";
        }},
       {"time_step", [](SystemParams& p, double v) { p.time_step = v; },
        [](const SystemParams& p) {

@@ -37,7 +37,7 @@ msg=$("$exe" run "$dir/bad.toml" -o "$dir/out.h5" 2>&1)
 rc=$?
 set -e
 [ "$rc" -eq 2 ] || fail "bad scan exit code $rc, expected 2"
-echo "$msg" | grep -q "bad.toml:3:12: key 'system.friction': mu must be >= 0" || fail "message: $msg"
+echo "$msg" | grep -q "bad.toml:3:12: key 'system.friction': mu must be finite and >= 0" || fail "message: $msg"
 [ "$(cat "$dir/out.h5")" = "previous results" ] || fail "existing output was touched"
 ls "$dir" | grep -q tmp && fail "a temporary file was left behind"
 

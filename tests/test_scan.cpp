@@ -184,7 +184,7 @@ TEST(Scan, RestNeedsAConvergedSolveUnlessSet) {
 TEST(Scan, RejectsBadInputWithFileLineAndKey) {
   const std::vector<scan_errors::Case> cases = {
       {"[system]\nbond_number = -1\n", "bad.toml:2:15: key 'system.bond_number': Bo must be"},
-      {"[system]\nfriction = [0.3, -0.1]\n", "key 'system.friction': mu must be >= 0"},
+      {"[system]\nfriction = [0.3, -0.1]\n", "key 'system.friction': mu must be finite and >= 0"},
       {"[system]\ncapture_radius = 0.5\n",
        "key 'system.capture_radius': r_capt must be in [1, 10]"},
       {"[system]\nheight = 3\n", "key 'system.height': H must be finite and >= 4 R"},
@@ -316,7 +316,7 @@ TEST(Scan, ExplicitPointErrors) {
   EXPECT_NE(error_of("[[point]]\nmu = 0.3\n").find("key 'point.mu': unknown key"),
             std::string::npos);
   EXPECT_NE(error_of("[[point]]\nfriction = -1\n")
-                .find("bad.toml:2:12: key 'point.friction': mu must be >= 0"),
+                .find("bad.toml:2:12: key 'point.friction': mu must be finite and >= 0"),
             std::string::npos);
   // A point's error lies in its own table, not in the last point's that sets the key.
   EXPECT_NE(error_of("[system]\nwidth = 12\nheight = 12\n[[point]]\nprotocol = \"C\"\n"
