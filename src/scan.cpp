@@ -107,8 +107,8 @@ double log_range_value(double from, double to, double f) {
 }
 
 // A scalar, an array of values, or a range table {from, to, points[, log]} (+ also = [...]).
-std::vector<double> as_axis(const std::string& file, const toml::node& node,
-                            const std::string& key, bool infinite) {
+std::vector<double> as_axis(const std::string& file, const toml::node& node, const std::string& key,
+                            bool infinite) {
   std::vector<double> out;
   if (auto arr = node.as_array()) {
     if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
@@ -456,8 +456,9 @@ Scan load_scan(const std::string& path) {
   ss << in.rdbuf();
   // A result file or another binary given by mistake: said so, not a TOML syntax error deep in it.
   if (ss.str().find('\0') != std::string::npos)
-    throw ScanError(path + ": not a text file (a scan file is TOML; a result file is read by "
-                           "loosepack summary)");
+    throw ScanError(path +
+                    ": not a text file (a scan file is TOML; a result file is read by "
+                    "loosepack summary)");
   return parse_scan(ss.str(), path);
 }
 
@@ -547,8 +548,7 @@ Scan ScanParser::parse() {
   }
   const bool system_sets_time_step = axes.count("time_step") > 0;
   std::vector<ScanPoint> points = expand_grid();
-  if (!explicit_points.empty())
-    points = explicit_points_on(points.front(), system_sets_time_step);
+  if (!explicit_points.empty()) points = explicit_points_on(points.front(), system_sets_time_step);
   // Validate every point; report the first offending key with its location (in the point's
   // own [[point]] table where it has one).
   for (std::size_t k = 0; k < points.size(); ++k) {
@@ -907,9 +907,10 @@ void ScanParser::warn_diverging_jacobi() {
                             ": solver.mass_splitting acts in the Jacobi solver only "
                             "(solver.kind = \"jacobi\"); this scan's solver ignores it");
   if (jacobi && !scan.solver.mass_splitting && scan.solver.relaxation > 0.5)
-    scan.warnings.push_back(file + ": the Jacobi solver without mass splitting diverges at "
-                                   "relaxation > 0.5 (its members fail, their disks thrown "
-                                   "about); set solver.relaxation <= 0.5 or mass_splitting = true");
+    scan.warnings.push_back(file +
+                            ": the Jacobi solver without mass splitting diverges at "
+                            "relaxation > 0.5 (its members fail, their disks thrown "
+                            "about); set solver.relaxation <= 0.5 or mass_splitting = true");
 }
 
 // The capture radius shapes the ballistic deposits of protocols B and C; protocol A drops each

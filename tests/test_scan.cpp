@@ -262,7 +262,8 @@ TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
             "bad.toml:2:28: key 'system.height.to': expected a number");
   EXPECT_EQ(error_of("[system]\nbond_number = { from = 1, to = \"x\", points = 2 }\n"),
             "bad.toml:2:32: key 'system.bond_number.to': expected a number (or \"inf\")");
-  EXPECT_EQ(error_of("[[point]]\nwidth = \"x\"\n"), "bad.toml:2:9: key 'point.width': expected a number");
+  EXPECT_EQ(error_of("[[point]]\nwidth = \"x\"\n"),
+            "bad.toml:2:9: key 'point.width': expected a number");
   EXPECT_EQ(error_of("[[point]]\nbond_number = \"x\"\n"),
             "bad.toml:2:15: key 'point.bond_number': expected a number (or \"inf\")");
 }
@@ -420,9 +421,9 @@ TEST(Scan, ProtocolAPointsRunWithCaptureRadiusOneOnce) {
   ASSERT_EQ(alone.points.size(), 1u);
   EXPECT_EQ(alone.points[0].params.capture_radius, 1.0);
   EXPECT_EQ(alone.warnings.at(0).find("left out"), std::string::npos) << alone.warnings[0];
-  EXPECT_TRUE(parse_scan("[scan]\nprotocol = [\"B\", \"C\"]\n[system]\ncapture_radius = 2\n",
-                         "r.toml")
-                  .warnings.empty());
+  EXPECT_TRUE(
+      parse_scan("[scan]\nprotocol = [\"B\", \"C\"]\n[system]\ncapture_radius = 2\n", "r.toml")
+          .warnings.empty());
 }
 
 // The default time step resolves the cohesive barrier at each point's own Bond number:
@@ -464,8 +465,7 @@ TEST(Scan, DefaultTimeStepResolvesTheBarrierAtEachBondNumber) {
 // the box (nu_lower_half from 50 R; cuts of 20 R) and min(50, H/4), min(20, H/6) below; a
 // value the file sets holds (and is refused where it does not fit).
 TEST(Scan, ObservableLengthsFollowTheBoxUnlessSet) {
-  const auto scan = parse_scan("[scan]\nseeds = 2\n[system]\nwidth = 24\nheight = 24\n",
-                               "d.toml");
+  const auto scan = parse_scan("[scan]\nseeds = 2\n[system]\nwidth = 24\nheight = 24\n", "d.toml");
   EXPECT_TRUE(scan.warnings.empty());
   const auto& obs = scan.observables;
   EXPECT_EQ(obs.lower_half_from_at(24.0), 6.0);
