@@ -894,9 +894,13 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
   f.analyse->add_option("file", f.analyse_path, "result file (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);
-  f.analyse->add_option("-o,--output", f.analyse_out,
-                        "write here instead of replacing FILE (atomically, either way); an "
-                        "existing file is refused unless --force");
+  f.analyse
+      ->add_option("-o,--output", f.analyse_out,
+                   "write here instead of replacing FILE (atomically, either way); an "
+                   "existing file is refused unless --force")
+      ->check(CLI::Validator(  // an empty -o would mean FILE itself
+          [](std::string& path) { return path.empty() ? std::string("an empty path") : ""; },
+          "PATH"));
   f.analyse->add_flag("--force", f.analyse_force, "replace an existing -o file");
   f.exporter = app.add_subcommand(
       "export",

@@ -152,6 +152,12 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
       fail(file, node, key, "a range needs from, to and points");
     if (log && !(from > 0.0 && to > 0.0 && std::isfinite(from) && std::isfinite(to)))
       fail(file, node, key, "a logarithmic range needs finite positive from and to");
+    // Ranges that would silently give fewer values than they say.
+    if (points == 1 && from != to)
+      fail(file, node, key, "points = 1 gives `from` alone: set points >= 2 to reach `to`");
+    if (points > 1 && from == to)
+      fail(file, node, key,
+           "from equals to: the range is one value, not " + std::to_string(points));
     for (int k = 0; k < points; ++k) {
       const double f = points == 1 ? 0.0 : static_cast<double>(k) / (points - 1);
       out.push_back(log ? log_range_value(from, to, f) : from + f * (to - from));

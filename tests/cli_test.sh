@@ -205,6 +205,11 @@ if [ "$(id -u)" -ne 0 ]; then
   [ "$rc" -eq 2 ] && echo "$msg" | grep -q "cannot write into the checkpoint .*ck.h5.checkpoint" ||
     fail "a checkpoint it cannot write into (exit $rc): $msg"
 fi
+# analyse -o '' is refused (it would mean the input itself), not taken as no -o.
+set +e
+msg=$("$exe" analyse "$dir/good.h5" -o '' 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "an empty path" || fail "analyse -o '' (exit $rc): $msg"
 # analyse -o onto an existing file (here the scan file) is refused unless --force.
 set +e
 msg=$("$exe" analyse "$dir/good.h5" -o "$dir/good.toml" 2>&1)

@@ -196,6 +196,10 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "bad.toml:2:26: key 'system.bond_number': the value 100 is already in this axis"},
       {"[system]\nbond_number = [0,\n 100,\n -5]\n",  // the value, not the axis
        "bad.toml:4:2: key 'system.bond_number': Bo must be 0,"},
+      {"[system]\nheight = { from = 20, to = 40, points = 1 }\n",
+       "bad.toml:2:10: key 'system.height': points = 1 gives `from` alone"},
+      {"[system]\nheight = { from = 20, to = 20, points = 3 }\n",
+       "bad.toml:2:10: key 'system.height': from equals to: the range is one value, not 3"},
       {"[scan]\nprotocol = [\"A\", \"B\", \"A\"]\n",
        "bad.toml:2:23: key 'scan.protocol': the value \"A\" is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
