@@ -58,6 +58,13 @@ std::string where(const std::string& file, const toml::source_region& src) {
   throw ScanError(where(file, node.source()) + ": key '" + key + "': " + what);
 }
 
+bool has_control_character(const std::string& s) {
+  return std::any_of(s.begin(), s.end(), [](char c) {
+    const auto u = static_cast<unsigned char>(c);
+    return u < 0x20 || u == 0x7f;
+  });
+}
+
 std::string format_number(double v) {
   std::ostringstream o;
   o << v;
@@ -653,7 +660,10 @@ void ScanParser::read_scan_section(const toml::table& tbl) {
     const std::string key = "scan." + k;
     if (k == "name") {
       auto s = v.as_string();
-      if (!s) fail(file, v, key, "expected a string");
+      if (!s || s->get().empty() || has_control_character(s->get()))
+        fail(file, v, key,
+             "expected a non-empty string without control characters (it labels "
+             "the output's lines)");
       scan.name = s->get();
     } else if (k == "seed") {
       auto i = v.as_integer();

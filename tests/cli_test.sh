@@ -440,8 +440,9 @@ msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/bad.toml" 2>&1)
 rc=$?
 set -e
 [ "$rc" -eq 2 ] || fail "plot.py of a non-HDF5 file: exit $rc, expected 2"
-# A result file lacking a dataset, or an attribute, that a figure needs: plot.py names it.
-for what in dataset attribute; do
+# A result file lacking a dataset, or an attribute, that a figure needs: plot.py names it, and
+# writes no figure (the deposition density is drawn after four other figures).
+for what in dataset attribute late; do
   cp "$dir/good.h5" "$dir/lacks_$what.h5"
   /usr/bin/python3 - "$dir/lacks_$what.h5" "$what" <<'EOF_PY'
 import sys, h5py
@@ -449,19 +450,23 @@ with h5py.File(sys.argv[1], "r+") as f:
     g = f["points/0000"]
     if sys.argv[2] == "dataset":
         del g["nu"]["mean"]
+    elif sys.argv[2] == "late":
+        del g["nu_deposition"]["mean"]
     else:
         del g.attrs["height"]
 EOF_PY
   set +e
-  msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/lacks_$what.h5" -o "$dir/fig_lacks" 2>&1)
+  msg=$(/usr/bin/python3 "$repo/tools/plot.py" "$dir/lacks_$what.h5" -o "$dir/fig_lacks_$what" 2>&1)
   rc=$?
   set -e
   [ "$rc" -eq 2 ] || fail "plot.py of a file without a needed $what: exit $rc, expected 2"
   case $what in
     dataset) want="lacks_dataset.h5: '/points/0000/nu/mean' is missing" ;;
     attribute) want="lacks_attribute.h5: attribute 'height' of '/points/0000' is missing" ;;
+    late) want="lacks_late.h5: '/points/0000/nu_deposition/mean' is missing" ;;
   esac
   echo "$msg" | grep -qF "$want" || fail "plot.py message for a missing $what: $msg"
   echo "$msg" | grep -q "Traceback" && fail "plot.py crashed on a missing $what: $msg"
+  [ -z "$(ls -A "$dir/fig_lacks_$what" 2>/dev/null)" ] || fail "plot.py left figures of a file it refused"
 done
 echo "cli: all checks passed"

@@ -206,6 +206,9 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\nbond_number = \"strong\"\n",
        "key 'system.bond_number': expected a number (or \"inf\")"},
       {"[scan]\nseeds = 0\n", "key 'scan.seeds': expected an integer in [1,"},
+      {"[scan]\nname = \"\"\n", "bad.toml:2:8: key 'scan.name': expected a non-empty string"},
+      {"[scan]\nname = \"two\\nlines\"\n",  // it would break the summary's "# scan" line
+       "bad.toml:2:8: key 'scan.name': expected a non-empty string without control characters"},
       {"[scan]\nprotocol = \"D\"\n", "key 'scan.protocol': expected \"A\", \"B\" or \"C\""},
       {"[solver]\nkind = \"newton\"\n", "key 'solver.kind'"},
       {"[solver]\ntolerance = 2.0\n", "key 'solver.tolerance': value 2 outside the allowed range"},

@@ -434,10 +434,17 @@ POINT_KEYS = ("protocol", "bond_number", "width", "height", "capture_radius", "r
 
 def scan_keys_differ(pa, pb):
     """The scan parameters two paired points differ in (the point index pairs them): a note, so
-    that a comparison of unlike points is seen as one."""
+    that a comparison of unlike points is seen as one. A parameter one point lacks differs too:
+    two points pair by their parameters only where both say them."""
     value = lambda v: text(v) if isinstance(v, (bytes, str)) else float(v)
-    return [k for k in POINT_KEYS if k in pa.attrs and k in pb.attrs and
-            value(pa.attrs[k]) != value(pb.attrs[k])]
+    differ = []
+    for k in POINT_KEYS:
+        if k in pa.attrs and k in pb.attrs:
+            if value(pa.attrs[k]) != value(pb.attrs[k]):
+                differ.append(k)
+        elif k in pa.attrs or k in pb.attrs:
+            differ.append(f"{k} (absent from {'B' if k in pa.attrs else 'A'})")
+    return differ
 
 
 def pair_points(fa, fb):

@@ -22,6 +22,7 @@ distributions (protocol A), a picture of each snapshot with its compressive cont
 Uses Debian's python3-h5py and python3-matplotlib (scripts/install-deps.sh installs them).
 """
 import argparse
+import io
 import math
 import os
 import sys
@@ -118,10 +119,22 @@ def poly(coef, x):
 
 
 def save(fig, out, name, written):
+    """The figure, drawn in memory: `written` collects (path, PNG bytes) for write_figures, so a
+    file that fails at a later figure leaves no figure of it on disk."""
     fig.tight_layout()
-    written.append(os.path.join(out, name))
-    fig.savefig(written[-1], dpi=120)
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=120)
     plt.close(fig)
+    written.append((os.path.join(out, name), png.getvalue()))
+
+
+def write_figures(written):
+    """Each figure whole (a temporary file renamed onto its name), once all are drawn."""
+    for path, png in written:
+        with open(path + ".tmp", "wb") as f:
+            f.write(png)
+        os.replace(path + ".tmp", path)
+        print(path)
 
 
 def density_profiles(points, out, written):
@@ -544,8 +557,7 @@ def main():
         trajectories(points, out, written)
     for f in files:
         f.close()
-    for w in written:
-        print(w)
+    write_figures(written)
 
 
 if __name__ == "__main__":

@@ -101,6 +101,19 @@ def test_points_pair_up_by_their_parameters(runs, tmp_path):
     assert out.returncode == 2 and "not a loosepack result file" in out.stderr
 
 
+def test_a_parameter_one_point_lacks_does_not_pair_it_by_parameters(runs, tmp_path):
+    """A point without its Bond number attribute (an edited or damaged file) is not taken for a
+    point of the other file's Bond number: the index pairs them, and the note says what lacks."""
+    d, cohesive, weak = runs
+    unnamed = tmp_path / "unnamed.h5"
+    unnamed.write_bytes(open(weak, "rb").read())
+    with h5py.File(unnamed, "r+") as f:
+        del f["points/0000"].attrs["bond_number"]
+    out = run_tool(unnamed, cohesive)
+    assert "paired by their index" in out.stdout, out.stdout
+    assert "(the two points differ in bond_number (absent from A)" in out.stdout, out.stdout
+
+
 def test_a_quantity_one_file_lacks_is_said_and_damaged_input_refused(runs, tmp_path):
     """A group one file holds and the other lacks (a damaged or edited file) is a row not
     judged, naming the file without it, instead of dropping out of the comparison unseen;
