@@ -96,10 +96,13 @@ def test_snapshots_contacts_and_trajectories(result):
     assert contacts["i"].dtype.kind == "i"
     assert ((contacts["j"] >= -1) & (contacts["j"] < len(disks))).all()
     # Without cohesion the floor carries the whole deposit at rest: the floor contacts' normal
-    # forces sum to its weight (each disk m = 1 of radius R = 1, g = 1).
+    # forces sum to its weight (each disk m = 1 of radius R = 1, g = 1), within what the solve
+    # leaves: each contact's impulse within the tolerance [h m g] of the balance.
     bare = result.snapshot(0, seed=2)
-    floor = result.contacts(0, seed=2).query("j == -1")
-    assert floor["normal"].sum() == pytest.approx(len(bare), rel=0.02)
+    every = result.contacts(0, seed=2)
+    floor = every.query("j == -1")
+    tolerance = result.points.loc[0, "solver_tolerance"] * len(every)
+    assert abs(floor["normal"].sum() - len(bare)) <= tolerance
     trajectory = result.trajectory(1, seed=0)
     assert (trajectory["disk"] % 2 == 0).all()
     with pytest.raises(KeyError, match="snapshot_9"):
