@@ -94,13 +94,32 @@ def scan_file_for(out):
     return root + ".toml"
 
 
+def _refuse_invalid(exe, text, path, out):
+    """Raises the program's LoosepackError where it refuses `text` as a scan, before `text`
+    replaces the scan file `path` (the earlier scan stays beside its result): a dry run of a copy
+    beside it, its messages naming `path`."""
+    check = path + ".check"
+    with open(check, "w") as f:
+        f.write(text)
+    try:
+        done = subprocess.run([exe, "run", check, "-o", os.fspath(out), "--force", "--dry-run"],
+                              capture_output=True, text=True)
+    finally:
+        os.remove(check)
+    if done.returncode != 0:
+        message = done.stderr.replace(check, path)
+        raise LoosepackError("loosepack run exited with %d (%s kept its earlier scan):\n%s"
+                             % (done.returncode, path, message), done.returncode, message)
+
+
 def run(scan, out, force=False, progress=True, program=None, args=()):
     """Run a scan and load its result.
 
     scan: a dict of sections (see to_toml) or the path of a scan file. A dict is written to
     OUT.toml beside the result (scan_file_for), the scan file the result names and the program's
     error messages point into; an OUT.toml of other text is replaced only with force. out: the
-    result file. force: replace an existing `out` (and OUT.toml). args: more command-line
+    result file. force: replace an existing `out` (and OUT.toml, once the program takes the new
+    scan). args: more command-line
     arguments (["--snapshots"]). Raises LoosepackError when the program fails; when only members
     failed (exit 3) the file is written, a warning printed, and the result returned."""
     exe = find_program(program)
@@ -114,12 +133,15 @@ def run(scan, out, force=False, progress=True, program=None, args=()):
         if not os.path.isdir(directory):
             raise LoosepackError("the directory %s of out %s does not exist (make it first)"
                                  % (directory, os.fspath(out)), 2, "")
-        if os.path.exists(path) and not force:
+        if os.path.exists(path):
             with open(path) as f:
-                if f.read() != text:
-                    raise LoosepackError("%s exists with another scan: the scan dict would "
-                                         "replace it; pass force=True, or give another out" % path,
-                                         2, "")
+                other = f.read() != text
+            if other and not force:
+                raise LoosepackError("%s exists with another scan: the scan dict would "
+                                     "replace it; pass force=True, or give another out" % path,
+                                     2, "")
+            if other:
+                _refuse_invalid(exe, text, path, out)
         with open(path, "w") as f:
             f.write(text)
     else:

@@ -211,7 +211,8 @@ def test_scan_dicts_become_scan_files():
 
 def test_bad_input_raises_with_the_programs_message(tmp_path):
     """The message points into the scan file the dict was written to (bad.toml beside bad.h5),
-    which stays for the user to read; a bad.toml of another scan is not replaced unasked."""
+    which stays for the user to read; a bad.toml of another scan is not replaced unasked, nor
+    by a scan the program refuses."""
     bad = {"system": {"width": 12.0, "height": 12.0, "widht": 3.0}}
     with pytest.raises(loosepack.LoosepackError) as e:
         loosepack.run(bad, tmp_path / "bad.h5", progress=False)
@@ -225,6 +226,14 @@ def test_bad_input_raises_with_the_programs_message(tmp_path):
     assert "bad.toml exists with another scan" in str(e.value)
     res = loosepack.run(good, tmp_path / "bad.h5", progress=False, force=True)
     assert res.attrs["scan_file"] == str(tmp_path / "bad.toml")
+    # With force, a scan the program refuses does not replace the scan beside the result: the
+    # message points into the new text as it would be there.
+    with pytest.raises(loosepack.LoosepackError) as e:
+        loosepack.run(bad, tmp_path / "bad.h5", progress=False, force=True)
+    assert f"{tmp_path / 'bad.toml'}:4:9: key 'system.widht'" in str(e.value), str(e.value)
+    assert "kept its earlier scan" in str(e.value)
+    assert (tmp_path / "bad.toml").read_text() == loosepack.to_toml(good)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.h5", "bad.toml"]
     with pytest.raises(loosepack.LoosepackError):
         loosepack.run(good, tmp_path / "x.toml", progress=False)
 
