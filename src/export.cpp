@@ -48,11 +48,21 @@ std::vector<std::string> children(hid_t loc, const std::string& name) {
   return out;
 }
 
+// The number in a group's name ("0003" of points/0003, "2" of snapshot_2), as the program writes
+// them: digits only; std::runtime_error (the file's damage) naming the group otherwise.
+int group_number(const std::string& digits, const std::string& group) {
+  const bool numbered =
+      !digits.empty() && digits.size() <= 9 &&
+      std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
+  if (!numbered) throw std::runtime_error(group + ": not a group name the program writes");
+  return std::stoi(digits);
+}
+
 // A selection that names no point or seed of the file: std::invalid_argument with the file's.
 void check_selection(hid_t file, const std::string& path, const ExportSelection& sel) {
   const std::vector<std::string> points = children(file, "points");
   if (sel.point >= 0 && std::none_of(points.begin(), points.end(), [&](const std::string& p) {
-        return std::stoi(p) == sel.point;
+        return group_number(p, "/points/" + p) == sel.point;
       })) {
     std::string present;  // the points the file holds (a file of some members holds some)
     for (const auto& p : points) present += (present.empty() ? "" : ", ") + p;
@@ -68,14 +78,17 @@ void check_selection(hid_t file, const std::string& path, const ExportSelection&
 std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
   std::vector<MemberData> out;
   for (const auto& point : children(file, "points")) {
-    if (sel.point >= 0 && std::stoi(point) != sel.point) continue;
+    if (sel.point >= 0 && group_number(point, "/points/" + point) != sel.point) continue;
     const std::string pg = "points/" + point;
     for (const auto& child : children(file, pg + "/members")) {
       for (const char* kind : {"snapshot", "failure", "trajectory"}) {
         const std::string prefix = std::string(kind) + "_";
         if (child.rfind(prefix, 0) != 0) continue;
-        MemberData m{point, std::stoi(child.substr(prefix.size())), kind,
-                     "/" + pg + "/members/" + child, double_attribute(file, pg, "width"),
+        MemberData m{point,
+                     group_number(child.substr(prefix.size()), "/" + pg + "/members/" + child),
+                     kind,
+                     "/" + pg + "/members/" + child,
+                     double_attribute(file, pg, "width"),
                      double_attribute(file, pg, "height")};
         if (sel.seed < 0 || m.seed == sel.seed) out.push_back(m);
       }
@@ -87,11 +100,12 @@ std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
 // A selection with nothing to export: when the file holds snapshots or trajectories of other
 // members (a file of some members, a seed that failed without a snapshot), std::invalid_argument
 // naming them; else std::runtime_error saying how to record some.
-[[noreturn]] void refuse_empty_selection(hid_t file, const std::string& path,
+[[noreturn]] void refuse_empty_selection(const std::vector<MemberData>& every,
+                                         const std::string& path,
                                          const ExportSelection& selection) {
   std::set<std::pair<std::string, int>> held;
   bool final_snapshots = false;  // not only failures' snapshots
-  for (const auto& m : members_in(file, ExportSelection{})) {
+  for (const auto& m : every) {
     held.insert({m.point, m.seed});
     final_snapshots = final_snapshots || m.kind == "snapshot";
   }
@@ -357,33 +371,24 @@ struct ViewerFile {
   Sidecar sidecar;
 };
 
-// The files of `members`, read and checked whole before any is written (a damaged file writes
-// nothing).
-std::vector<ViewerFile> viewer_files(hid_t file, const std::vector<MemberData>& members,
-                                     ExportFormat format, const std::string& base,
-                                     const std::string& h5) {
-  std::vector<ViewerFile> out;
-  for (const auto& m : members) {
-    check_member(file, m);
-    ViewerFile v;
-    if (format == ExportFormat::Extxyz) {
-      v.path = base + stem_name(m) + ".extxyz";
-      v.text = extxyz_member(file, m);
-    } else if (m.kind == "trajectory") {
-      v.path = base + stem_name(m) + ".xmf";
-      v.text = xdmf_document(xdmf_trajectory(file, m, h5));
-    } else {
-      // A snapshot's contact lines go to a file of its own, so that exporting another selection
-      // later leaves this one's files whole.
-      v.path = base + stem_name(m) + ".xmf";
-      v.sidecar_path = base + stem_name(m) + "_contacts.h5";
-      v.sidecar = sidecar_of(file, m);
-      v.text =
-          xdmf_document(xdmf_snapshot(file, m, h5, fs::path(v.sidecar_path).filename().string()));
-    }
-    out.push_back(std::move(v));
+// What one member's export writes, read from the file (check_member has passed).
+ViewerFile viewer_file(hid_t file, const MemberData& m, ExportFormat format,
+                       const std::string& base, const std::string& h5) {
+  ViewerFile v;
+  v.path = base + stem_name(m) + (format == ExportFormat::Extxyz ? ".extxyz" : ".xmf");
+  if (format == ExportFormat::Extxyz) {
+    v.text = extxyz_member(file, m);
+  } else if (m.kind == "trajectory") {
+    v.text = xdmf_document(xdmf_trajectory(file, m, h5));
+  } else {
+    // A snapshot's contact lines go to a file of its own, so that exporting another selection
+    // later leaves this one's files whole.
+    v.sidecar_path = base + stem_name(m) + "_contacts.h5";
+    v.sidecar = sidecar_of(file, m);
+    v.text =
+        xdmf_document(xdmf_snapshot(file, m, h5, fs::path(v.sidecar_path).filename().string()));
   }
-  return out;
+  return v;
 }
 
 }  // namespace
@@ -393,29 +398,30 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
   H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
   // Reading the file, an error that is not a selection's (std::invalid_argument) is its damage.
-  auto damaged = [&](const std::runtime_error& e) {
-    return DamagedResultFile(path + ": " + e.what() + " (the file is damaged or was edited)");
-  };
-  std::vector<MemberData> members;
+  auto damaged = [&](const std::runtime_error& e) { return DamagedResultFile(path, e.what()); };
+  std::vector<MemberData> members, every;
   try {
     check_selection(file, path, selection);
     members = members_in(file, selection);
+    if (members.empty()) every = members_in(file, ExportSelection{});
+    for (const auto& m : members) check_member(file, m);  // damaged data writes nothing
   } catch (const std::invalid_argument&) {
     throw;
   } catch (const std::runtime_error& e) {
     throw damaged(e);
   }
-  if (members.empty()) refuse_empty_selection(file, path, selection);
+  if (members.empty()) refuse_empty_selection(every, path, selection);
   const fs::path p(path);
-  std::vector<ViewerFile> files;
-  try {
-    files = viewer_files(file, members, format, (p.parent_path() / p.stem()).string(),
-                         p.filename().string());  // the viewer files lie next to it
-  } catch (const std::runtime_error& e) {
-    throw damaged(e);
-  }
+  const std::string base = (p.parent_path() / p.stem()).string();  // the files lie next to it
   std::vector<std::string> written;
-  for (const auto& v : files) {  // each whole or not at all (replace_file)
+  for (const auto& m : members) {  // one member's text in memory at a time
+    ViewerFile v;
+    try {
+      v = viewer_file(file, m, format, base, p.filename().string());
+    } catch (const std::runtime_error& e) {
+      throw damaged(e);
+    }
+    // Each file whole or not at all (replace_file).
     if (!v.sidecar_path.empty())
       replace_hdf5_file(v.sidecar_path, [&](hid_t sidecar) { write_sidecar(sidecar, v.sidecar); });
     replace_file(v.path, [&](const std::string& tmp) { write_bytes(tmp, v.text); });

@@ -767,8 +767,9 @@ int RunCommand::dry_run() const {
   if (regions)
     std::printf(
         "# protocol.region_radius is set: the model prices the whole system's relaxation; "
-        "protocol-A members relaxed in regions took 0.2 to 0.8 of it in the recorded runs, the "
-        "least in narrow, tall boxes (docs/PERFORMANCE.md, \"What a member costs\")\n");
+        "protocol-A members relaxed in regions took 0.2 to 0.8 of it in the recorded runs at "
+        "Bo = 1e3, the least in narrow, tall boxes, and 0.02 at Bo = 1e4, where little moves "
+        "(docs/PERFORMANCE.md, \"What a member costs\")\n");
   if (!o.force && std::filesystem::exists(o.out_path))
     std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());
   if (const std::string why = checkpoint_path_problem(checkpoint_directory(o.out_path));

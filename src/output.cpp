@@ -643,15 +643,14 @@ void check_lengths(const std::string& group,
     if (n != sizes.front().second || n == 0)
       throw std::runtime_error(group + "/" + name + " has " + std::to_string(n) + " values, " +
                                group + "/" + sizes.front().first + " " +
-                               std::to_string(sizes.front().second) +
-                               " (the file is damaged or was edited)");
+                               std::to_string(sizes.front().second));
 }
 
 // A point's per-member rows: one per member of the point (`members`, its failed ones included).
 void check_member_rows(const std::string& what, std::size_t rows, int members) {
   if (rows != static_cast<std::size_t>(members))
     throw std::runtime_error(what + " has " + std::to_string(rows) + " rows, one per member of " +
-                             std::to_string(members) + " (the file is damaged or was edited)");
+                             std::to_string(members));
 }
 
 // What write_results stored of a point's aggregates, as far as the analysis reads them.
@@ -748,7 +747,7 @@ void reanalyse(const std::string& in, const std::string& out) {
   } catch (const ScanError&) {
     throw;
   } catch (const std::runtime_error& e) {
-    throw DamagedResultFile(in + ": " + e.what());
+    throw DamagedResultFile(in, e.what());
   }
   const Analysis analysis = analyse(scan, points);
   const std::string image = read_bytes(in);
@@ -1103,7 +1102,7 @@ void print_summary(const std::string& path, std::ostream& out) {
   } catch (const DamagedResultFile&) {
     throw;
   } catch (const std::runtime_error& e) {  // the file opened as a result file (main.cpp)
-    throw DamagedResultFile(path + ": " + e.what() + " (the file is damaged or was edited)");
+    throw DamagedResultFile(path, e.what());
   }
 }
 

@@ -467,6 +467,6 @@ EOF_PY
   esac
   echo "$msg" | grep -qF "$want" || fail "plot.py message for a missing $what: $msg"
   echo "$msg" | grep -q "Traceback" && fail "plot.py crashed on a missing $what: $msg"
-  [ -z "$(ls -A "$dir/fig_lacks_$what" 2>/dev/null)" ] || fail "plot.py left figures of a file it refused"
+  [ ! -e "$dir/fig_lacks_$what" ] || fail "plot.py left a folder or figures of a file it refused"
 done
 echo "cli: all checks passed"

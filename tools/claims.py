@@ -223,13 +223,27 @@ def check_result_file(f, path, tool):
                  "give the file `loosepack run` wrote")
 
 
+class DamagedFile(Exception):
+    """What a file holds is not what the program writes (check_attributes)."""
+
+
+def check_attributes(group):
+    """DamagedFile unless every attribute of `group` is of the type the program writes: the
+    protocol a string, every other a number."""
+    for key, value in group.attrs.items():
+        string = isinstance(value, (bytes, str))
+        if string != (key == "protocol") or (not string and np.ndim(value) != 0):
+            raise DamagedFile(f"attribute '{key}' holds {value!r}, not a "
+                              f"{'string' if key == 'protocol' else 'number'}")
+
+
 def read_damaged_as_unusable(read, path, where):
     """read(), with a dataset or attribute the file lacks (KeyError) or holds in another type
-    (a string for a number: ValueError, TypeError) taken as a damaged file: exit 2, naming the
-    file and the group, not a traceback."""
+    (DamagedFile) taken as a damaged file: exit 2, naming the file and the group, not a
+    traceback."""
     try:
         return read()
-    except (KeyError, ValueError, TypeError) as e:
+    except (KeyError, DamagedFile) as e:
         unusable(f"claims.py: {path}: {where}: cannot read what the claims need ({e}): the file is "
                  "damaged or was edited")
 
@@ -774,8 +788,10 @@ def main():
         check_result_file(f, path, "claims.py")
         results = []
         for name in sorted(f["points"]):
+            point = f["points"][name]
             results.extend(read_damaged_as_unusable(
-                lambda: list(check_point(f["points"][name], path)), path, f"points/{name}"))
+                lambda: check_attributes(point) or list(check_point(point, path)), path,
+                f"points/{name}"))
         results.extend(read_damaged_as_unusable(lambda: list(check_scan(f, path)), path, "/"))
     if not results:
         print(f"claims.py: {path}: no scan point the claims speak about")

@@ -40,11 +40,11 @@ try:
 except ImportError as e:  # pragma: no cover
     sys.exit(f"plot.py: {e}; install python3-h5py and python3-matplotlib (scripts/install-deps.sh)")
 
-def unusable(message):
-    """Input the figures cannot be drawn from: the message, and exit status 2 (as claims.py and
-    compare.py; 1 is left for errors while writing)."""
-    print(message, file=sys.stderr)
-    sys.exit(2)
+# Input the figures cannot be drawn from: the message and exit status 2, as claims.py and
+# compare.py (1 is left for errors while writing).
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from claims import check_result_file, unusable  # noqa: E402
+
 
 
 def need(group, name):
@@ -128,8 +128,12 @@ def save(fig, out, name, written):
     written.append((os.path.join(out, name), png.getvalue()))
 
 
-def write_figures(written):
+def write_figures(out, written):
     """Each figure whole (a temporary file renamed onto its name), once all are drawn."""
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as e:
+        sys.exit(f"plot.py: cannot make the folder {out} for the figures ({e})")
     for path, png in written:
         with open(path + ".tmp", "wb") as f:
             f.write(png)
@@ -519,8 +523,7 @@ def open_result(path):
         f = h5py.File(path, "r")
     except OSError as e:
         unusable(f"plot.py: {path}: cannot read as HDF5 ({e})")
-    if "points" not in f:
-        unusable(f"plot.py: {path}: no 'points' group: not a loosepack result file")
+    check_result_file(f, path, "plot.py")
     if not len(f["points"]):
         unusable(f"plot.py: {path}: no scan point in 'points': nothing to draw")
     return f
@@ -539,10 +542,6 @@ def main():
     global SEVERAL_FILES
     SEVERAL_FILES = len(files) > 1
     points = [f["points"][k] for f in files for k in sorted(f["points"])]
-    try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as e:
-        sys.exit(f"plot.py: cannot make the folder {out} for the figures ({e})")
     written = []
     density_profiles(points, out, written)
     nu_lower_half(points, out, written)
@@ -557,7 +556,7 @@ def main():
         trajectories(points, out, written)
     for f in files:
         f.close()
-    write_figures(written)
+    write_figures(out, written)
 
 
 if __name__ == "__main__":

@@ -61,10 +61,11 @@ void reanalyse(const std::string& in, const std::string& out);
 
 // A result file that opens as one (result_file_problem says nothing) but lacks what a command
 // reads or holds what no run writes: a damaged or edited file, invalid input (exit 2). The
-// message names the file and the object.
+// message names the file and, in `what`, the object.
 class DamagedResultFile : public std::runtime_error {
  public:
-  using std::runtime_error::runtime_error;
+  DamagedResultFile(const std::string& path, const std::string& what)
+      : std::runtime_error(path + ": " + what + " (the file is damaged or was edited)") {}
 };
 
 // Why `path` is not a result file that can be read, or "": not an HDF5 file HDF5 can open (a

@@ -7,6 +7,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tempfile
 
 from .results import load
 
@@ -97,9 +98,10 @@ def scan_file_for(out):
 def _refuse_invalid(exe, text, path, out):
     """Raises the program's LoosepackError where it refuses `text` as a scan, before `text`
     replaces the scan file `path` (the earlier scan stays beside its result): a dry run of a copy
-    beside it, its messages naming `path`."""
-    check = path + ".check"
-    with open(check, "w") as f:
+    beside it (a file of its own, removed after), its messages naming `path`."""
+    fd, check = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
+                                 prefix=os.path.basename(path) + ".")
+    with os.fdopen(fd, "w") as f:
         f.write(text)
     try:
         done = subprocess.run([exe, "run", check, "-o", os.fspath(out), "--force", "--dry-run"],

@@ -478,7 +478,8 @@ def test_help_and_unusable_input():
     # A result file lacking a point's attribute, or holding a string where a number goes: exit 2
     # naming the file and the point, not a traceback.
     for edit, said in ((lambda a: a.__delitem__("protocol"), "can't locate attribute"),
-                       (lambda a: a.__setitem__("height", "tall"), "Unknown format code")):
+                       (lambda a: a.__setitem__("height", "tall"),
+                        "attribute 'height' holds 'tall', not a number")):
         damaged = os.path.join(tempfile.mkdtemp(), "damaged.h5")
         with h5py.File(damaged, "w") as f:
             f["scan_text"] = "[scan]\n"

@@ -96,8 +96,10 @@ def test_snapshots_contacts_and_trajectories(result):
     assert contacts["i"].dtype.kind == "i"
     assert ((contacts["j"] >= -1) & (contacts["j"] < len(disks))).all()
     # Without cohesion the floor carries the whole deposit at rest: the floor contacts' normal
-    # forces sum to its weight (each disk m = 1 of radius R = 1, g = 1), within what the solve
-    # leaves: each contact's impulse within the tolerance [h m g] of the balance.
+    # forces sum to its weight (each disk m = 1 of radius R = 1, g = 1), within the solve's scale
+    # of error: the tolerance [h m g] on every contact (the sweeps end when no impulse changes by
+    # more in a sweep; a scale, not a strict bound, which the creep below the rest speed would
+    # loosen to 2 v_rest / h per disk).
     bare = result.snapshot(0, seed=2)
     every = result.contacts(0, seed=2)
     floor = every.query("j == -1")
