@@ -109,11 +109,13 @@ def replace(group, name, values):
      "trajectory_1/x has 1 values, time "),
     ("missing", lambda m: m["snapshot_1"].__delitem__("x"),
      "cannot open dataset /points/0000/members/snapshot_1/x"),
+    ("renamed", lambda m: m.move("snapshot_1", "snapshot_one"),
+     "/points/0000/members/snapshot_one: not a group name the program writes"),
 ])
 def test_a_damaged_file_is_refused_and_nothing_is_written(exported, tmp_path, case, edit,
                                                            message):
     """Data no run writes (contact indices naming no disk, lengths that differ, a missing
-    dataset) is invalid input (exit 2) naming the file and the dataset, for both formats, and no
+    dataset, a member's group not named as the program names them) is invalid input (exit 2) naming the file and the dataset, for both formats, and no
     viewer file is written: each member's files are built before any is written."""
     res, _ = exported
     exe = loosepack.find_program()
