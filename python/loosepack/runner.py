@@ -121,9 +121,9 @@ def run(scan, out, force=False, progress=True, program=None, args=()):
     OUT.toml beside the result (scan_file_for), the scan file the result names and the program's
     error messages point into; an OUT.toml of other text is replaced only with force. out: the
     result file. force: replace an existing `out` (and OUT.toml, once the program takes the new
-    scan). args: more command-line
-    arguments (["--snapshots"]). Raises LoosepackError when the program fails; when only members
-    failed (exit 3) the file is written, a warning printed, and the result returned."""
+    scan). args: more command-line arguments (["--snapshots"]). Raises LoosepackError when the
+    program fails; when only members failed (exit 3) the file is written, a warning printed, and
+    the result returned."""
     exe = find_program(program)
     if isinstance(scan, dict):
         path = scan_file_for(out)
