@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # `cmake --install` of the build into a scratch prefix, then a project outside loosepack
 # (tests/consumer) configured with find_package(loosepack) against it, built and run: it runs
-# two small protocol-A members through the installed library; and the Python package, installed
-# and pip-installed. Usage: install_test.sh BUILD_DIR
+# two small protocol-A members through the installed library; the Python package, installed and
+# pip-installed; and the installed tools. Usage: install_test.sh BUILD_DIR
 set -euo pipefail
 build=$(realpath "$1")
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -13,7 +13,7 @@ fail() { echo "FAIL: $*" >&2; exit 1; }
 cmake --install "$build" --prefix "$dir/prefix" >"$dir/install.log" ||
   { cat "$dir/install.log"; fail "cmake --install"; }
 for f in bin/loosepack include/loosepack/scan.hpp lib/cmake/loosepack/loosepackConfig.cmake \
-  share/loosepack/python/loosepack/__init__.py; do
+  share/loosepack/python/loosepack/__init__.py share/loosepack/tools/plot.py; do
   [ -e "$dir/prefix/$f" ] || fail "the install lacks $f"
 done
 "$dir/prefix/bin/loosepack" --version | grep -q "^loosepack " || fail "the installed program"
@@ -40,6 +40,12 @@ check_load='import sys, loosepack; p = loosepack.load(sys.argv[1]).points
 assert list(p["members"]) == [2] and p["members"].dtype.kind == "i", p'
 PYTHONPATH="$dir/prefix/share/loosepack/python" /usr/bin/python3 -c "$check_load" "$dir/s.h5" ||
   fail "the installed Python package"
+# The installed tools, away from the source tree: plot.py finds claims.py beside it.
+/usr/bin/python3 "$dir/prefix/share/loosepack/tools/plot.py" "$dir/s.h5" -o "$dir/fig" >/dev/null ||
+  fail "the installed plot.py"
+[ -s "$dir/fig/density_profiles.png" ] || fail "the installed plot.py drew no density profiles"
+/usr/bin/python3 "$dir/prefix/share/loosepack/tools/claims.py" --help >/dev/null ||
+  fail "the installed claims.py"
 cp -r "$here/../python" "$dir/python"
 /usr/bin/python3 -m venv --system-site-packages "$dir/venv" || fail "python3 -m venv (python3-venv)"
 "$dir/venv/bin/pip" install -q --no-build-isolation --no-deps --no-index "$dir/python" ||
