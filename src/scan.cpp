@@ -85,9 +85,9 @@ bool sets_a_value(const toml::node& node) {
 
 // A number: integer, float, or the strings "inf" / "infinity" (which the key's own check refuses
 // where it must be finite; `infinite`: the key takes it, and its type error says so); nan is
-// none.
+// none. `must`: what the key's values must be, for the type error (a system key's range).
 double as_number(const std::string& file, const toml::node& node, const std::string& key,
-                 bool infinite = false) {
+                 bool infinite = false, const std::string& must = "") {
   if (auto v = node.as_floating_point()) {
     if (std::isnan(v->get())) fail(file, node, key, "nan is not a value");
     return v->get();
@@ -96,6 +96,7 @@ double as_number(const std::string& file, const toml::node& node, const std::str
   if (auto v = node.as_string()) {
     if (v->get() == "inf" || v->get() == "infinity") return INFINITY;
   }
+  if (!must.empty()) fail(file, node, key, "expected a number: " + must);
   fail(file, node, key, infinite ? "expected a number (or \"inf\")" : "expected a number");
 }
 
@@ -113,14 +114,15 @@ double log_range_value(double from, double to, double f) {
   return std::abs(e - whole) < 1e-9 ? std::pow(10.0, whole) : std::pow(10.0, e);
 }
 
-// A scalar, an array of values, or a range table {from, to, points[, log]} (+ also = [...]).
+// A scalar, an array of values, or a range table {from, to, points[, log]} (+ also = [...]);
+// `infinite` and `must` as as_number's.
 std::vector<double> as_axis(const std::string& file, const toml::node& node, const std::string& key,
-                            bool infinite) {
+                            bool infinite, const std::string& must) {
   std::vector<double> out;
   if (auto arr = node.as_array()) {
     if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
     for (const auto& e : *arr) {
-      const double v = as_number(file, e, key, infinite);
+      const double v = as_number(file, e, key, infinite, must);
       // The same value twice would make two scan points of one set of parameters.
       if (std::find(out.begin(), out.end(), v) != out.end())
         fail(file, e, key, "the value " + format_number(v) + " is already in this axis");
@@ -135,9 +137,9 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
     for (const auto& [k, v] : *tbl) {
       const std::string kk(k.str());
       if (kk == "from") {
-        from = as_number(file, v, key + ".from", infinite);
+        from = as_number(file, v, key + ".from", infinite, must);
       } else if (kk == "to") {
-        to = as_number(file, v, key + ".to", infinite);
+        to = as_number(file, v, key + ".to", infinite, must);
       } else if (kk == "points") {
         auto i = v.as_integer();
         if (!i || i->get() < 1 || i->get() > kMaxPoints)
@@ -149,7 +151,7 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
       } else if (kk == "also") {
         auto arr = v.as_array();
         if (!arr) fail(file, v, key + ".also", "expected an array of values");
-        for (const auto& e : *arr) out.push_back(as_number(file, e, key + ".also", infinite));
+        for (const auto& e : *arr) out.push_back(as_number(file, e, key + ".also", infinite, must));
       } else {
         fail(file, v, key + "." + kk,
              "unknown key in a range (allowed: from, to, points, log, also)");
@@ -174,7 +176,7 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
-  return {as_number(file, node, key, infinite)};
+  return {as_number(file, node, key, infinite, must)};
 }
 
 struct SystemKey {
@@ -249,6 +251,13 @@ const std::vector<SystemKey>& system_keys() {
        [](const SystemParams&) { return std::string(); }},
   };
   return keys;
+}
+
+// What a system key's values must be: its check's message for a value that is none (nan).
+std::string value_range(const SystemKey& sk) {
+  SystemParams p;
+  sk.set(p, NAN);
+  return sk.check(p);
 }
 
 // The system key `name`, or nullptr.
@@ -712,7 +721,7 @@ void ScanParser::read_system_section(const toml::table& tbl) {
       bool_keys[k] = as_bool(file, v, key);
       return;
     }
-    axes[k] = {as_axis(file, v, key, sk->infinite), &v};
+    axes[k] = {as_axis(file, v, key, sk->infinite, value_range(*sk)), &v};
   });
 }
 
@@ -767,7 +776,8 @@ std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base,
         sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
       } else {
         const SystemKey* sk = system_key(k);
-        const double x = as_number(file, *v, "point." + k, sk && sk->infinite);
+        const double x =
+            as_number(file, *v, "point." + k, sk && sk->infinite, sk ? value_range(*sk) : "");
         if (sk) sk->set(sp.params, x);
       }
     }

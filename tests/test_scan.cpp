@@ -204,7 +204,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "bad.toml:2:23: key 'scan.protocol': the value \"A\" is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
       {"[system]\nbond_number = \"strong\"\n",
-       "key 'system.bond_number': expected a number (or \"inf\")"},
+       "key 'system.bond_number': expected a number: Bo must be 0, in (0, 1e8], or \"inf\""},
       {"[scan]\nseeds = 0\n", "key 'scan.seeds': expected an integer in [1,"},
       {"[scan]\nname = \"\"\n", "bad.toml:2:8: key 'scan.name': expected a non-empty string"},
       {"[scan]\nname = \"two\\nlines\"\n",  // it would break the summary's "# scan" line
@@ -261,18 +261,25 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
 }
 
 // "inf" is offered where it is a value (the Bond number without gravity), not for keys that must
-// be finite, nor for a range's ends of such a key.
+// be finite, nor for a range's ends of such a key; a value that is no number is told the key's
+// range.
 TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
+  const std::string bo = "expected a number: Bo must be 0, in (0, 1e8], or \"inf\" (";
   EXPECT_EQ(error_of("[system]\nwidth = \"wide\"\n"),
-            "bad.toml:2:9: key 'system.width': expected a number");
-  EXPECT_EQ(error_of("[system]\nheight = { from = 40, to = \"tall\", points = 2 }\n"),
-            "bad.toml:2:28: key 'system.height.to': expected a number");
-  EXPECT_EQ(error_of("[system]\nbond_number = { from = 1, to = \"x\", points = 2 }\n"),
-            "bad.toml:2:32: key 'system.bond_number.to': expected a number (or \"inf\")");
+            "bad.toml:2:9: key 'system.width': expected a number: L_x must be finite and >= 4 R");
+  EXPECT_EQ(
+      error_of("[system]\nheight = { from = 40, to = \"tall\", points = 2 }\n"),
+      "bad.toml:2:28: key 'system.height.to': expected a number: H must be finite and >= 4 R");
+  EXPECT_EQ(error_of("[system]\nbond_number = { from = 1, to = \"x\", points = 2 }\n")
+                .rfind("bad.toml:2:32: key 'system.bond_number.to': " + bo, 0),
+            0u);
   EXPECT_EQ(error_of("[[point]]\nwidth = \"x\"\n"),
-            "bad.toml:2:9: key 'point.width': expected a number");
-  EXPECT_EQ(error_of("[[point]]\nbond_number = \"x\"\n"),
-            "bad.toml:2:15: key 'point.bond_number': expected a number (or \"inf\")");
+            "bad.toml:2:9: key 'point.width': expected a number: L_x must be finite and >= 4 R");
+  EXPECT_EQ(error_of("[[point]]\nbond_number = \"x\"\n")
+                .rfind("bad.toml:2:15: key 'point.bond_number': " + bo, 0),
+            0u);
+  EXPECT_EQ(error_of("[system]\nfriction = [0.3, \"rough\"]\n"),
+            "bad.toml:2:18: key 'system.friction': expected a number: mu must be finite and >= 0");
 }
 
 // The rest window's bound g h rest.steps >= 2 rest.speed: where the file sets no time step the
