@@ -84,10 +84,10 @@ bool sets_a_value(const toml::node& node) {
 }
 
 // A number: integer, float, or the strings "inf" / "infinity" (which the key's own check refuses
-// where it must be finite; `infinite`: the key takes it, and its type error says so); nan is
-// none. `must`: what the key's values must be, for the type error (a system key's range).
+// where it must be finite); nan is none. `must`: what the key's values must be (a system key's
+// range, which says where "inf" is one), told with the type error.
 double as_number(const std::string& file, const toml::node& node, const std::string& key,
-                 bool infinite = false, const std::string& must = "") {
+                 const std::string& must = "") {
   if (auto v = node.as_floating_point()) {
     if (std::isnan(v->get())) fail(file, node, key, "nan is not a value");
     return v->get();
@@ -96,8 +96,7 @@ double as_number(const std::string& file, const toml::node& node, const std::str
   if (auto v = node.as_string()) {
     if (v->get() == "inf" || v->get() == "infinity") return INFINITY;
   }
-  if (!must.empty()) fail(file, node, key, "expected a number: " + must);
-  fail(file, node, key, infinite ? "expected a number (or \"inf\")" : "expected a number");
+  fail(file, node, key, "expected a number" + (must.empty() ? "" : ": " + must));
 }
 
 bool as_bool(const std::string& file, const toml::node& node, const std::string& key) {
@@ -115,14 +114,14 @@ double log_range_value(double from, double to, double f) {
 }
 
 // A scalar, an array of values, or a range table {from, to, points[, log]} (+ also = [...]);
-// `infinite` and `must` as as_number's.
+// `must` as as_number's.
 std::vector<double> as_axis(const std::string& file, const toml::node& node, const std::string& key,
-                            bool infinite, const std::string& must) {
+                            const std::string& must) {
   std::vector<double> out;
   if (auto arr = node.as_array()) {
     if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
     for (const auto& e : *arr) {
-      const double v = as_number(file, e, key, infinite, must);
+      const double v = as_number(file, e, key, must);
       // The same value twice would make two scan points of one set of parameters.
       if (std::find(out.begin(), out.end(), v) != out.end())
         fail(file, e, key, "the value " + format_number(v) + " is already in this axis");
@@ -137,9 +136,9 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
     for (const auto& [k, v] : *tbl) {
       const std::string kk(k.str());
       if (kk == "from") {
-        from = as_number(file, v, key + ".from", infinite, must);
+        from = as_number(file, v, key + ".from", must);
       } else if (kk == "to") {
-        to = as_number(file, v, key + ".to", infinite, must);
+        to = as_number(file, v, key + ".to", must);
       } else if (kk == "points") {
         auto i = v.as_integer();
         if (!i || i->get() < 1 || i->get() > kMaxPoints)
@@ -151,7 +150,7 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
       } else if (kk == "also") {
         auto arr = v.as_array();
         if (!arr) fail(file, v, key + ".also", "expected an array of values");
-        for (const auto& e : *arr) out.push_back(as_number(file, e, key + ".also", infinite, must));
+        for (const auto& e : *arr) out.push_back(as_number(file, e, key + ".also", must));
       } else {
         fail(file, v, key + "." + kk,
              "unknown key in a range (allowed: from, to, points, log, also)");
@@ -176,14 +175,13 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
-  return {as_number(file, node, key, infinite, must)};
+  return {as_number(file, node, key, must)};
 }
 
 struct SystemKey {
   const char* name;
   std::function<void(SystemParams&, double)> set;
   std::function<std::string(const SystemParams&)> check;  // empty when valid
-  bool infinite = false;  // takes "inf" (the Bond number: no gravity)
 };
 
 const std::vector<SystemKey>& system_keys() {
@@ -217,8 +215,7 @@ const std::vector<SystemKey>& system_keys() {
                     : "Bo must be 0, in (0, 1e8], or \"inf\" (the solver's tolerance, in units of "
                       "the weight m g, must stay far above the rounding of cohesive impulses, "
                       "Bo x 2.2e-16; docs/MODEL.md, supported ranges)";
-       },
-       true},
+       }},
       {"cohesion_range", [](SystemParams& p, double v) { p.cohesion_range = v; },
        [](const SystemParams& p) {
          return p.cohesion_range > 0.0 && p.cohesion_range <= 0.5 * p.radius
@@ -721,7 +718,7 @@ void ScanParser::read_system_section(const toml::table& tbl) {
       bool_keys[k] = as_bool(file, v, key);
       return;
     }
-    axes[k] = {as_axis(file, v, key, sk->infinite, value_range(*sk)), &v};
+    axes[k] = {as_axis(file, v, key, value_range(*sk)), &v};
   });
 }
 
@@ -776,8 +773,7 @@ std::vector<ScanPoint> ScanParser::explicit_points_on(const ScanPoint& base,
         sp.params.floor_cohesion = as_bool(file, *v, "point." + k);
       } else {
         const SystemKey* sk = system_key(k);
-        const double x =
-            as_number(file, *v, "point." + k, sk && sk->infinite, sk ? value_range(*sk) : "");
+        const double x = as_number(file, *v, "point." + k, sk ? value_range(*sk) : "");
         if (sk) sk->set(sp.params, x);
       }
     }
@@ -813,7 +809,7 @@ const toml::node& ScanParser::failing_value(const toml::node& axis, const System
                                             SystemParams p) const {
   if (const auto* values = axis.as_array())
     for (const auto& e : *values) {
-      sk.set(p, as_number(file, e, sk.name, sk.infinite));  // parsed once already: valid
+      sk.set(p, as_number(file, e, sk.name));  // parsed once already: valid
       if (!sk.check(p).empty()) return e;
     }
   return axis;
