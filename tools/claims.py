@@ -227,14 +227,22 @@ class DamagedFile(Exception):
     """What a file holds is not what the program writes (check_attributes)."""
 
 
+# The attributes of groups the program writes as strings (a point's protocol, a histogram's
+# preferred shape, the choices among the settings: src/settings.cpp); every other is a number.
+STRING_ATTRIBUTES = ("protocol", "preferred", "solver_kind", "stop_rule")
+
+
 def check_attributes(group):
-    """DamagedFile unless every attribute of `group` is of the type the program writes: the
-    protocol a string, every other a number."""
+    """DamagedFile unless every attribute of `group` and of the groups below it is of the type
+    the program writes: those in STRING_ATTRIBUTES strings, every other a number."""
     for key, value in group.attrs.items():
         string = isinstance(value, (bytes, str))
-        if string != (key == "protocol") or (not string and np.ndim(value) != 0):
-            raise DamagedFile(f"attribute '{key}' holds {value!r}, not a "
-                              f"{'string' if key == 'protocol' else 'number'}")
+        if string != (key in STRING_ATTRIBUTES) or (not string and np.ndim(value) != 0):
+            raise DamagedFile(f"{group.name}: attribute '{key}' holds {value!r}, not a "
+                              f"{'string' if key in STRING_ATTRIBUTES else 'number'}")
+    for sub in group.values():
+        if isinstance(sub, h5py.Group):
+            check_attributes(sub)
 
 
 def read_damaged_as_unusable(read, path, where):
@@ -786,6 +794,9 @@ def main():
         unusable(f"claims.py: {path}: not a readable HDF5 file ({e})")
     with f:
         check_result_file(f, path, "claims.py")
+        for name in ("settings", "analysis"):  # read by the points' claims and the scan's
+            if name in f:
+                read_damaged_as_unusable(lambda: check_attributes(f[name]), path, name)
         results = []
         for name in sorted(f["points"]):
             point = f["points"][name]

@@ -477,16 +477,35 @@ def test_help_and_unusable_input():
     assert run().returncode == 2
     # A result file lacking a point's attribute, or holding a string where a number goes: exit 2
     # naming the file and the point, not a traceback.
-    for edit, said in ((lambda a: a.__delitem__("protocol"), "can't locate attribute"),
-                       (lambda a: a.__setitem__("height", "tall"),
-                        "attribute 'height' holds 'tall', not a number")):
+    # The same for an attribute of a group below the point (a fit's), of /settings or of
+    # /analysis: the message names that group.
+    fit = "points/0000/avalanche_by_ye/fit"
+    for group, where, edit, said in (
+            ("points/0000", "points/0000", lambda a: a.__delitem__("protocol"),
+             "can't locate attribute"),
+            ("points/0000", "points/0000", lambda a: a.__setitem__("height", "tall"),
+             "attribute 'height' holds 'tall', not a number"),
+            (fit, "points/0000", lambda a: a.__setitem__("chi2", "x"),
+             f"(/{fit}: attribute 'chi2' holds 'x', not a number"),
+            ("points/0000/abs_dy_histogram/shape_cut", "points/0000",
+             lambda a: a.__setitem__("preferred", 1.0),
+             "attribute 'preferred' holds 1.0, not a string"),
+            ("settings", "settings", lambda a: a.__setitem__("stop_rule", 2.0),
+             "(/settings: attribute 'stop_rule' holds 2.0, not a string"),
+            ("analysis/quadratic_vs_height", "analysis", lambda a: a.__setitem__("valid", [1, 1]),
+             "(/analysis/quadratic_vs_height: attribute 'valid' holds")):
         damaged = os.path.join(tempfile.mkdtemp(), "damaged.h5")
         with h5py.File(damaged, "w") as f:
             f["scan_text"] = "[scan]\n"
             g = f.create_group("points/0000")
             g.attrs.update(protocol="A", bond_number=1e3, height=60.0, members=4, failed=0)
-            edit(g.attrs)
+            f.create_group(fit).attrs.update(chi2=1.0, dof=2.0, valid=1.0)
+            f.create_group("points/0000/abs_dy_histogram/shape_cut").attrs["preferred"] = "gaussian"
+            f.create_group("settings").attrs.update(stop_rule="first_over", relaxation=0.8)
+            f.create_group("analysis/quadratic_vs_height").attrs["valid"] = 0.0
+            edit(f[group].attrs)
         done = run(damaged)
         assert done.returncode == 2, done.stderr
-        assert "damaged.h5: points/0000: cannot read" in done.stderr and said in done.stderr
+        assert f"damaged.h5: {where}: cannot read" in done.stderr and said in done.stderr, \
+            done.stderr
         assert "Traceback" not in done.stderr
