@@ -228,8 +228,9 @@ class DamagedFile(Exception):
 
 
 # The attributes of groups the program writes as strings (a point's protocol, a histogram's
-# preferred shape, the choices among the settings: src/settings.cpp); every other is a number.
-STRING_ATTRIBUTES = ("protocol", "preferred", "solver_kind", "stop_rule")
+# preferred shape, a failed member's failure, the choices among the settings: src/settings.cpp);
+# every other is a number.
+STRING_ATTRIBUTES = ("protocol", "preferred", "failure", "solver_kind", "stop_rule")
 
 
 def check_attributes(group):

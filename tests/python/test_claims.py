@@ -480,6 +480,12 @@ def test_help_and_unusable_input():
     # The same for an attribute of a group below the point (a fit's), of /settings or of
     # /analysis: the message names that group.
     fit = "points/0000/avalanche_by_ye/fit"
+    with h5py.File(os.path.join(tempfile.mkdtemp(), "fine.h5"), "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update(protocol="A", height=60.0)
+        failed = f.create_group("points/0000/members/failure_3")  # a failed member's snapshot
+        failed.attrs.update(member=3, failure="contact overflow")
+        claims.check_attributes(g)  # the failure's reason is a string the program writes
     for group, where, edit, said in (
             ("points/0000", "points/0000", lambda a: a.__delitem__("protocol"),
              "can't locate attribute"),
