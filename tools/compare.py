@@ -66,7 +66,8 @@ and more where the errors come from few members (about 9 % of them with 4 member
 an error estimated from few members is itself uncertain). Exits with 1 when anything differs, 2
 on unusable input.
 --json appends one JSON line per point (a scalar's values and errors also as numbers, `a_value`,
-`a_error`, `b_value`, `b_error`). Uses Debian's python3-h5py, python3-numpy and python3-scipy.
+`a_error`, `b_value`, `b_error`, and with --paired the members' difference B - A and its error,
+`paired_difference`, `paired_error`). Uses Debian's python3-h5py, python3-numpy and python3-scipy.
 """
 import argparse
 import json
@@ -93,6 +94,7 @@ class Row:
         self.name, self.a, self.b = name, a, b
         self.distance, self.bound, self.detail = distance, bound, detail
         self.values = values  # (a, error of a, b, error of b) as numbers, for a scalar
+        self.paired = None  # (B - A, its error) of the members' paired difference
 
     @property
     def judged(self):
@@ -111,6 +113,8 @@ class Row:
             number = lambda v: float(v) if math.isfinite(v) else None
             for key, v in zip(("a_value", "a_error", "b_value", "b_error"), self.values):
                 record[key] = number(v)
+        if self.paired is not None:
+            record["paired_difference"], record["paired_error"] = map(number, self.paired)
         return record
 
 
@@ -159,8 +163,10 @@ def paired_row(name, a, ea, b, eb, difference, error, sigma):
     """Each file's value and error as stored, and their distance in standard errors of the
     members' paired difference."""
     z = abs(difference) / error if error > 0 else (0.0 if difference == 0 else math.inf)
-    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma (paired)",
-               (a, ea, b, eb))
+    row = Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma (paired)",
+              (a, ea, b, eb))
+    row.paired = (difference, error)
+    return row
 
 
 def members_in_both(pa, pb):

@@ -169,6 +169,11 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
     unpaired, paired = rows("unpaired.jsonl"), rows("paired.jsonl", "--paired")
     assert unpaired["nu_lower_half"]["within"] and unpaired["nu_lower_half"]["distance"] < 0.5
     assert not paired["nu_lower_half"]["within"] and paired["nu_lower_half"]["distance"] > 50
+    # The record keeps the paired difference B - A (the shift, give or take its 1 % noise) and
+    # its error (the noise's standard error over the members).
+    assert paired["nu_lower_half"]["paired_difference"] == pytest.approx(shift, rel=0.05)
+    assert 0 < paired["nu_lower_half"]["paired_error"] < shift / 20
+    assert "paired_difference" not in unpaired["nu_lower_half"]
     assert paired["Delta y(y_e): c"]["distance"] == 0 and "(paired)" in paired[
         "Delta y(y_e): c"]["detail"]
     assert paired["mean abs(Delta y) [R]"]["distance"] == 0 and "(paired)" in paired[
