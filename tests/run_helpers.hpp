@@ -66,6 +66,23 @@ inline std::pair<double, double> floor_force_and_weight(const MemberResult& r) {
   return {floor, weight};
 }
 
+// A deposit at rest: the floor contacts' forces sum to its weight (the forces between disks
+// cancel, cohesive ones too). A step's solve ends when no impulse changes by more than the step's
+// tolerance in a sweep, max(tolerance, kappa v_max / (g h)) [h m g] (SolverSettings::
+// relative_tolerance kappa; at rest v_max is below the rest speed), so a contact's force is off by
+// about that tolerance [m g] and the floor's sum by the contacts' count times it (a scale, not a
+// strict bound: a creep below the rest speed adds its momentum changes).
+inline void expect_floor_carries_the_weight(const MemberResult& r, const Scan& scan) {
+  const auto [floor, weight] = floor_force_and_weight(r);
+  const SystemParams& p = r.member.params;
+  const double per_contact =
+      std::max(scan.tolerance(r.member.protocol), scan.solver.relative_tolerance * scan.rest.speed *
+                                                      std::sqrt(p.gravity * p.radius) /
+                                                      (p.gravity * p.time_step));
+  EXPECT_NEAR(floor, weight, per_contact * static_cast<double>(r.contacts.size()))
+      << r.contacts.size() << " contacts, " << per_contact << " m g each";
+}
+
 // Protocol A with observables.trajectory_every = every: each sampled disk's trajectory starts
 // once it is deposited and ends where the disk ends.
 inline void expect_trajectories_end_at_final_positions(const MemberResult& r, std::size_t every) {

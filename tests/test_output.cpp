@@ -87,8 +87,7 @@ lower_half_from = 1.0
 )");
   const auto r = run_all(scan).at(0);
   ASSERT_TRUE(r.ok());
-  const auto [floor, weight] = floor_force_and_weight(r);
-  EXPECT_NEAR(floor, weight, 1e-3 * weight);
+  expect_floor_carries_the_weight(r, scan);
   expect_trajectories_end_at_final_positions(r, 3);
 }
 
