@@ -53,10 +53,13 @@ def main():
     records = read_records(args.records)
     by_quantity = {}
     for where, record in records:
-        for row in record.get("rows", []):
-            d, e = row.get("paired_difference"), row.get("paired_error")
-            if d is not None and e is not None and e > 0:
-                by_quantity.setdefault(row["quantity"], []).append((d, e))
+        paired = [row for row in record.get("rows", [])
+                  if row.get("paired_difference") is not None and row.get("paired_error")]
+        if not paired:
+            unusable(f"{where}: no paired quantity (give records of compare.py --paired --json)")
+        for row in paired:
+            by_quantity.setdefault(row["quantity"], []).append(
+                (row["paired_difference"], row["paired_error"]))
     print("| quantity | " + " | ".join(f"B - A, record {k + 1}" for k in range(len(records)))
           + " | pooled B - A | distance | within |")
     print("|---" * (len(records) + 4) + "|")

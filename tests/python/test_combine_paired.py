@@ -45,3 +45,8 @@ def test_the_table_pools_what_every_record_pairs(tmp_path):
     assert "nu(y)" not in out.stdout
     alone = subprocess.run([sys.executable, SCRIPT, str(first)], capture_output=True, text=True)
     assert alone.returncode == 2 and "two or more records" in alone.stderr
+    unpaired = tmp_path / "unpaired.jsonl"  # a record of compare.py without --paired
+    unpaired.write_text(json.dumps({"rows": [{"quantity": "nu_lower_half", "distance": 1.0}]}))
+    out = subprocess.run([sys.executable, SCRIPT, str(first), str(unpaired)], capture_output=True,
+                         text=True)
+    assert out.returncode == 2 and "unpaired.jsonl:1: no paired quantity" in out.stderr
