@@ -4,7 +4,6 @@ line of protocol C against a parabola, the collapse identity on lines that obey 
 that do not, the histogram shapes, the collapse densities, the deposition density's fluctuation,
 and the laws across scan points (1/H, a fixed slice model, dnu/nu_i against ln H and nu_i)."""
 
-import importlib.util
 import math
 import os
 import subprocess
@@ -15,11 +14,10 @@ import h5py
 import numpy as np
 import pytest
 
+from script_module import load_script
+
 HERE = os.path.dirname(os.path.abspath(__file__))
-spec = importlib.util.spec_from_file_location(
-    "claims", os.path.join(HERE, "..", "..", "tools", "claims.py"))
-claims = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(claims)
+claims = load_script(os.path.join(HERE, "..", "..", "tools", "claims.py"))
 
 H, BIN, MEMBERS, PER_BIN = 120.0, 4.0, 16, 12
 

@@ -1,7 +1,6 @@
 """bench/combine_paired.py: independent paired comparisons pooled by inverse-variance weights,
 the pooled error 1/sqrt(sum of 1/error^2), and only the quantities every record pairs."""
 
-import importlib.util
 import json
 import os
 import subprocess
@@ -9,11 +8,11 @@ import sys
 
 import pytest
 
+from script_module import load_script
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCRIPT = os.path.join(HERE, "..", "..", "bench", "combine_paired.py")
-spec = importlib.util.spec_from_file_location("combine_paired", SCRIPT)
-combine = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(combine)
+combine = load_script(SCRIPT)
 
 
 def test_equal_errors_average_and_shrink_by_root_two():

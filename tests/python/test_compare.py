@@ -4,7 +4,6 @@ two-sample event test on counts drawn from one distribution and from two; events
 the members' scatter, where members differ; and the histogram shapes, which agree when one
 shape fits both files."""
 
-import importlib.util
 import json
 import math
 import os
@@ -17,12 +16,11 @@ import numpy as np
 import pytest
 
 import loosepack
+from script_module import load_script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 TOOL = os.path.join(HERE, "..", "..", "tools", "compare.py")
-spec = importlib.util.spec_from_file_location("compare", TOOL)
-compare = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(compare)
+compare = load_script(TOOL)
 
 
 def scan(bond_number):

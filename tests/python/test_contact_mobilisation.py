@@ -3,18 +3,17 @@ force over the bound of docs/MODEL.md's contact law (|F_t| <= mu (F_n + F_c), |M
 (F_n + F_c) with R_c = min(R_i, R_j), R_i on the floor; F_n >= -F_c), and the counts near the
 bound follow from those ratios."""
 
-import importlib.util
 import os
 
 import h5py
 import numpy as np
 import pytest
 
+from script_module import load_script
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCRIPT = os.path.join(HERE, "..", "..", "bench", "contact_mobilisation.py")
-spec = importlib.util.spec_from_file_location("contact_mobilisation", SCRIPT)
-mob = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(mob)
+mob = load_script(SCRIPT)
 
 MU, MU_R, FC = 0.3, 0.1, 10.0
 

@@ -2,17 +2,16 @@
 and is added to the CPU of the runs before it in full, and the exponent is the slope of log CPU
 against log disks (CPU = A disks^p gives p)."""
 
-import importlib.util
 import json
 import os
 
 import pytest
 
+from script_module import load_script
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCRIPT = os.path.join(HERE, "..", "..", "bench", "paper_size_member.py")
-spec = importlib.util.spec_from_file_location("paper_size_member", SCRIPT)
-psm = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(psm)
+psm = load_script(SCRIPT)
 
 
 def test_a_resumed_run_adds_to_the_runs_before_it():

@@ -2,7 +2,6 @@
 again when it aborts (Debian's ParaView 5.11 now and then fails to open a display that is
 there; on an 8-bit screen it always aborts)."""
 
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -11,12 +10,11 @@ import sys
 import pytest
 
 import loosepack
+from script_module import load_script
 
 TOOL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools",
                     "render_deposit.py")
-spec = importlib.util.spec_from_file_location("render_deposit", TOOL)
-render_deposit = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(render_deposit)
+render_deposit = load_script(TOOL)
 SCAN = {
     "scan": {"name": "render", "seed": 5, "seeds": 1, "protocol": "A"},
     "system": {"width": 16.0, "height": 16.0, "bond_number": 1000},
