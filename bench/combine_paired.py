@@ -10,7 +10,8 @@ quantity (within --sigma, 2 by default).
 
 Only the quantities whose rows carry `paired_difference` and `paired_error` in every record are
 pooled (the scalars and the profile fits; the profiles' and histograms' chi2 are not). Exits 2
-on unusable input.
+on unusable input: fewer than two records, or a record without a paired quantity (one of
+compare.py without --paired).
 """
 import argparse
 import json

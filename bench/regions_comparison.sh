@@ -8,7 +8,8 @@
 #   bench/regions_comparison.sh OUT_DIR [CHECK] [JOBS]
 #
 # HEIGHTS="120" (default "180 120") runs only the scenes of those heights, BONDS="1e3" (default
-# "1e3 1e2") only those Bond numbers.
+# "1e3 1e2") only those Bond numbers, SEED=2028 (default 2027) other members: comparisons of
+# several seeds (each in its own OUT_DIR) pool with bench/combine_paired.py.
 # Runs JOBS (default 2) scans at a time, the longest first; a scan whose result is already in
 # OUT_DIR is not run again. Appends one JSON line per pair to OUT_DIR/comparison.jsonl, with
 # each run's user CPU seconds. About 2.5 CPU hours at CHECK = 10 (the whole-system runs at
@@ -24,7 +25,7 @@ cd "$out"
 
 scan() {  # scan NAME BOND_NUMBER TIME_STEP HEIGHT SEEDS [regions]
   {
-    printf '[scan]\nname = "%s"\nseed = 2027\nseeds = %s\nprotocol = "A"\n\n' "$1" "$5"
+    printf '[scan]\nname = "%s"\nseed = %s\nseeds = %s\nprotocol = "A"\n\n' "$1" "${SEED:-2027}" "$5"
     printf '[system]\nwidth = 40.0\nheight = %s\nbond_number = %s\ntime_step = %s\n' "$4" "$2" "$3"
     if [ "${6:-}" = regions ]; then
       printf '\n[protocol]\nregion_radius = 8.0\nregion_check_every = %s\n' "$check"

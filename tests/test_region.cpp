@@ -199,7 +199,7 @@ void column_top_relaxes_in_its_region(double radius, int moving) {
   // A step ends when no impulse changes by more than max(tolerance, kappa v_max / (g h)) [h m g]
   // in a sweep; at rest (v_max below the rest speed 1e-3) that is kappa 1e-3 / 0.01 = 1e-4 m g
   // of force (SolverSettings::relative_tolerance).
-  const double step_tolerance = SolverSettings{}.relative_tolerance * rest.speed / p.time_step * mg;
+  const double step_tolerance = accurate().relative_tolerance * rest.speed / p.time_step * mg;
   ASSERT_NEAR(step_tolerance, 1e-4 * mg, 1e-12);
   for (int k = 1; k <= moving; ++k)  // moving disks: the new load
     EXPECT_NEAR(load_below(after_region, top + 1 - k), k * mg, step_tolerance) << "k = " << k;

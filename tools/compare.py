@@ -90,11 +90,11 @@ from claims import (Profile, check_result_file, chi2_quantile99, jackknife,  # n
 class Row:
     """One quantity of one point in both files: a value and error each, or a test's statistic."""
 
-    def __init__(self, name, a, b, distance, bound, detail="", values=None):
+    def __init__(self, name, a, b, distance, bound, detail="", values=None, paired=None):
         self.name, self.a, self.b = name, a, b
         self.distance, self.bound, self.detail = distance, bound, detail
         self.values = values  # (a, error of a, b, error of b) as numbers, for a scalar
-        self.paired = None  # (B - A, its error) of the members' paired difference
+        self.paired = paired  # (B - A, its error) of the members' paired difference
 
     @property
     def judged(self):
@@ -163,10 +163,8 @@ def paired_row(name, a, ea, b, eb, difference, error, sigma):
     """Each file's value and error as stored, and their distance in standard errors of the
     members' paired difference."""
     z = abs(difference) / error if error > 0 else (0.0 if difference == 0 else math.inf)
-    row = Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma (paired)",
-              (a, ea, b, eb))
-    row.paired = (difference, error)
-    return row
+    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma (paired)",
+               (a, ea, b, eb), (difference, error))
 
 
 def members_in_both(pa, pb):
