@@ -577,7 +577,7 @@ void Batch::Impl::status_stage() {
     // This launch's sweeps: the step's so far, less those of earlier launches.
     int& earlier = sweeps_before[static_cast<std::size_t>(s)];
     const int step_sweeps = whole(s, kSweeps);
-    balance.add(step_sweeps - (st.mid_step ? earlier : 0));
+    balance.add(whole(s, kCount), step_sweeps - (st.mid_step ? earlier : 0));
     st.mid_step = whole(s, kSolving) != 0;
     if (st.mid_step) {  // nothing else of the step is done yet
       earlier = step_sweeps;
@@ -605,6 +605,7 @@ void Batch::Impl::status_stage() {
   if (timing) {
     auto& cost = timer(StepStage::Solve);
     cost.system_steps += balance.systems;
+    cost.disk_steps += balance.disks;
     cost.finished_steps += balance.finished;
     cost.sweeps += balance.sweeps;
     cost.slowest_sweeps += balance.systems * balance.slowest;

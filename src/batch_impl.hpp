@@ -114,12 +114,13 @@ struct Batch::Impl {
   // The team solver with sweeps_per_launch: the sweeps so far of each system whose step goes on
   // in the next launch (SystemStatus::mid_step).
   std::vector<int> sweeps_before;
-  // One launch of the solve: the systems in it, their sweeps in it and the most any made; the
-  // steps that ended in it.
+  // One launch of the solve: the systems in it, their disks, their sweeps in it and the most
+  // any made; the steps that ended in it.
   struct Balance {
-    long systems = 0, sweeps = 0, slowest = 0, finished = 0;
-    void add(int launch_sweeps) {
+    long systems = 0, disks = 0, sweeps = 0, slowest = 0, finished = 0;
+    void add(int count, int launch_sweeps) {
       ++systems;
+      disks += count;
       sweeps += launch_sweeps;
       slowest = std::max<long>(slowest, launch_sweeps);
     }

@@ -182,6 +182,7 @@ class RunCommand {
   void show(bool force);
   int compute();
   void print_timing() const;
+  void print_cost_per_disk(const StageCost& solve) const;
   int wait_for_ranks();
   int collect_and_write();
   int write_finished();
@@ -578,6 +579,29 @@ int RunCommand::compute() {
   return 0;
 }
 
+// A batch's stages (the whole batch's, or the regions' "region ..." when `solve` is theirs) per
+// disk of the systems they stepped: what a step costs for the size of its systems, in all and
+// outside the solve and the Newton rounds (docs/PERFORMANCE.md, "Scaling with system size").
+void RunCommand::print_cost_per_disk(const StageCost& solve) const {
+  const std::string prefix = solve.name.substr(0, solve.name.size() - std::string("solve").size());
+  const auto of_batch = [&](const std::string& name) {
+    if (!prefix.empty()) return name.rfind(prefix, 0) == 0;
+    return name.rfind("region ", 0) != 0 && name != "scheduler";
+  };
+  double all = 0.0, solving = 0.0;
+  for (const auto& st : stages) {
+    if (!of_batch(st.name)) continue;
+    all += st.seconds;
+    if (st.name == prefix + "solve" || st.name == prefix + "newton") solving += st.seconds;
+  }
+  const double disk_steps = static_cast<double>(solve.disk_steps);
+  std::fprintf(stderr,
+               "  %s: %.0f disks a system step; the step's stages %.3g microseconds a disk, "
+               "%.3g of them outside the solve and the Newton rounds\n",
+               solve.name.c_str(), disk_steps / static_cast<double>(solve.system_steps),
+               1e6 * all / disk_steps, 1e6 * (all - solving) / disk_steps);
+}
+
 void RunCommand::print_timing() const {
   if (!o.timing || !talk) return;
   double total = 0.0;
@@ -622,6 +646,8 @@ void RunCommand::print_timing() const {
     if (st.finished_steps < st.system_steps)  // solver.sweeps_per_launch
       std::fprintf(stderr, "  %s: %.1f system steps ended a launch\n", st.name.c_str(),
                    static_cast<double>(st.finished_steps) / st.steps);
+    else if (st.disk_steps > 0)
+      print_cost_per_disk(st);
   }
   for (const auto& st : stages)
     if (st.team_size > 0)

@@ -119,6 +119,13 @@ read -r systems slowest ended < <(echo "$msg" | awk '$1 == "solve:" && $3 == "sy
   END { print n + 0, w + 0, e + 0 }')
 awk -v n="$systems" -v w="$slowest" -v e="$ended" 'BEGIN { exit !(w > 0 && w <= 4 && e > 0 && e < n) }' ||
   fail "split solve's balance: $systems systems, $slowest sweeps, $ended ended a launch: $msg"
+# Whole solves: the stages' cost per disk of a system step, in all and outside the solve.
+printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[observables]\nlower_half_from = 1\n' \
+  > "$dir/timed.toml"
+msg=$("$exe" run "$dir/timed.toml" -o "$dir/timed.h5" --timing 2>&1) || fail "timed run: $msg"
+echo "$msg" | awk '$1 == "solve:" && $3 == "disks" { found = 1; all = $10; rest = $14 }
+  END { exit !(found && rest > 0 && rest < all) }' ||
+  fail "--timing gives no cost per disk, or one outside the solve that is not less: $msg"
 # An existing result file is refused before any work, and replaced with --force.
 cp "$dir/good.h5" "$dir/kept.h5"
 set +e

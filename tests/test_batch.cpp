@@ -49,15 +49,15 @@ TEST(Batch, StepStagesAreTimedInOrder) {
   EXPECT_EQ(timed, stage_names());
 }
 
-// The solve's balance: the active systems, their sweeps, the sweeps had each swept as long as
-// its step's slowest, and the slowest's, summed over the steps from the systems' own status
-// after each step.
+// The solve's balance: the active systems, their disks, their sweeps, the sweeps had each swept
+// as long as its step's slowest, and the slowest's, summed over the steps from the systems' own
+// status after each step.
 TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
   auto falling = column(4, 10.0);  // disks apart: they land on one another at different steps
   for (std::size_t k = 0; k < falling.size(); ++k) falling[k].y += 0.05 * static_cast<double>(k);
   Batch batch({setup(cohesive_params(), column(6, 10.0)), setup(cohesive_params(), falling)});
   batch.set_timing(true);
-  long system_steps = 0, sweeps = 0, slowest_sweeps = 0, launch_sweeps = 0;
+  long system_steps = 0, disk_steps = 0, sweeps = 0, slowest_sweeps = 0, launch_sweeps = 0;
   bool unequal = false;
   for (int k = 0; k < 40; ++k) {
     batch.step();
@@ -65,6 +65,7 @@ TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
     for (int s = 0; s < batch.size(); ++s) {
       if (!batch.status(s).active) continue;
       ++active;
+      disk_steps += batch.status(s).count;
       sum += batch.status(s).last_sweeps;
       slowest = std::max<long>(slowest, batch.status(s).last_sweeps);
     }
@@ -78,6 +79,8 @@ TEST(Batch, SolveBalanceSumsEachStepsSweepsAndItsSlowest) {
   for (const auto& cost : batch.stage_costs())
     if (cost.name == "solve") {
       EXPECT_EQ(cost.system_steps, system_steps);
+      EXPECT_EQ(cost.disk_steps, disk_steps);
+      EXPECT_EQ(cost.disk_steps, 10 * cost.system_steps / 2);  // 6 and 4 disks, both active
       EXPECT_EQ(cost.sweeps, sweeps);
       EXPECT_EQ(cost.slowest_sweeps, slowest_sweeps);
       EXPECT_EQ(cost.launch_sweeps, launch_sweeps);

@@ -134,8 +134,10 @@ struct StageCost {
   // (docs/PERFORMANCE.md, "Building for more cores or a GPU"). One launch is one step, except
   // with SolverSettings::sweeps_per_launch, where the steps that ended are finished_steps.
   // launch_sweeps: the slowest system's sweeps summed over the launches, which a device's solve
-  // time follows.
+  // time follows. disk_steps: the disks of the systems in each launch, summed over the launches
+  // (a stage's seconds over them: its cost per disk of a step).
   long system_steps = 0, finished_steps = 0, sweeps = 0, slowest_sweeps = 0, launch_sweeps = 0;
+  long disk_steps = 0;
   int team_size = 0;  // the team solver's solve stage: threads per system's team
 };
 
