@@ -4,8 +4,11 @@
 # threads with the host's solver (accelerated_gauss_seidel, one thread per system) and with the
 # coloured solver (one team per system; its team reductions sum in an order fixed by the team
 # size, which Kokkos OpenMP keeps at one thread here), and each file must equal the one-thread
-# file bit for bit (tests/h5_equal.py).
+# file bit for bit (tests/h5_equal.py). Given a second loosepack, built with another backend
+# (scripts/test-openmp.sh gives the Serial build's), each one-thread file must also equal that
+# one's file of the same scan, but for the backend's name (the attribute kokkos_execution_space).
 source "$(dirname "$0")/common.sh"
+other=${2:+$(realpath "$2")}
 export OMP_PROC_BIND=false
 mixed_scan "$dir/mixed.toml"
 # The thread counts take effect (else every run is the same one-thread run).
@@ -20,5 +23,9 @@ for kind in accelerated_gauss_seidel coloured_accelerated_gauss_seidel; do
   done
   same "$dir/$kind-1.h5" "$dir/$kind-2.h5"
   same "$dir/$kind-1.h5" "$dir/$kind-4.h5"
+  if [ -n "$other" ]; then
+    "$other" run "$dir/$kind.toml" -o "$dir/$kind-other.h5" -q
+    same "$dir/$kind-1.h5" "$dir/$kind-other.h5" --except kokkos_execution_space
+  fi
 done
-echo "threads_test: bit-identical on 1, 2 and 4 threads"
+echo "threads_test: bit-identical on 1, 2 and 4 threads${other:+ and with $other}"
