@@ -12,8 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/build-kokkos.sh openmp
 bash scripts/build.sh  # the Serial build of the same tree, to compare with
-# Without OMP_PROC_BIND Kokkos warns at start-up, which the command-line tests take for a
-# warning of the run.
+# Without OMP_PROC_BIND Kokkos warns at every start-up.
 export OMP_NUM_THREADS=2 OMP_PROC_BIND=false
 tests/threads_test.sh build-openmp/loosepack build/loosepack
 ./build-openmp/tests/loosepack_tests --gtest_filter='-ProtocolA.DensityDecreasesWithHeightAtIntermediateBond:ProtocolA.DenseAndFlatWithoutCohesion:Regions.SameObservablesAsTheWholeSystemWithinErrors'
