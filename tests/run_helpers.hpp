@@ -1,5 +1,5 @@
 // Helpers of the tests that run scans end to end (tests/test_protocols.cpp, test_run.cpp,
-// test_output.cpp).
+// test_output.cpp), and the step tolerance at rest that test_region.cpp shares.
 #pragma once
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -66,19 +66,25 @@ inline std::pair<double, double> floor_force_and_weight(const MemberResult& r) {
   return {floor, weight};
 }
 
+// What a step's solve may leave a contact's force off at rest [m g]: the solve ends when no
+// impulse changes by more than the step's tolerance in a sweep, max(tolerance, kappa v_max / (g h))
+// [h m g] (SolverSettings::relative_tolerance kappa), and at rest v_max is below the rest speed
+// (rest_speed, in sqrt(g R)).
+inline double step_tolerance_at_rest(double tolerance, double kappa, double rest_speed,
+                                     const SystemParams& p) {
+  const double v_rest = rest_speed * std::sqrt(p.gravity * p.radius);
+  return std::max(tolerance, kappa * v_rest / (p.gravity * p.time_step));
+}
+
 // A deposit at rest: the floor contacts' forces sum to its weight (the forces between disks
-// cancel, cohesive ones too). A step's solve ends when no impulse changes by more than the step's
-// tolerance in a sweep, max(tolerance, kappa v_max / (g h)) [h m g] (SolverSettings::
-// relative_tolerance kappa; at rest v_max is below the rest speed), so a contact's force is off by
-// about that tolerance [m g] and the floor's sum by the contacts' count times it (a scale, not a
-// strict bound: a creep below the rest speed adds its momentum changes).
+// cancel, cohesive ones too), each off by about the step's tolerance at rest, so the sum by the
+// contacts' count times it (a scale, not a strict bound: a creep below the rest speed adds its
+// momentum changes).
 inline void expect_floor_carries_the_weight(const MemberResult& r, const Scan& scan) {
   const auto [floor, weight] = floor_force_and_weight(r);
-  const SystemParams& p = r.member.params;
   const double per_contact =
-      std::max(scan.tolerance(r.member.protocol), scan.solver.relative_tolerance * scan.rest.speed *
-                                                      std::sqrt(p.gravity * p.radius) /
-                                                      (p.gravity * p.time_step));
+      step_tolerance_at_rest(scan.tolerance(r.member.protocol), scan.solver.relative_tolerance,
+                             scan.rest.speed, r.member.params);
   EXPECT_NEAR(floor, weight, per_contact * static_cast<double>(r.contacts.size()))
       << r.contacts.size() << " contacts, " << per_contact << " m g each";
 }
