@@ -61,7 +61,9 @@ std::string output_path_problem(const std::string& out, const std::string& input
   }
   const std::string dir = directory_of_path(out);
   if (!fs::is_directory(dir, ec))
-    return "the directory " + dir + " of " + out + " does not exist (make it first)";
+    return fs::exists(dir, ec)
+               ? dir + " (of " + out + ") is not a directory"
+               : "the directory " + dir + " of " + out + " does not exist (make it first)";
   if (::access(dir.c_str(), W_OK) != 0)
     return "cannot write into " + dir + " (for " + out + "): " + std::strerror(errno);
   return "";
@@ -853,8 +855,8 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
       ->capture_default_str();
   run_cmd->add_flag("--force", o.force, "replace an existing result file");
   run_cmd->add_flag("--dry-run", o.dry_run,
-                    "print the members and the cost model's estimate, run nothing (with "
-                    "--resume: those the checkpoint does not hold finished)");
+                    "print each scan point's members and the cost model's estimate, run "
+                    "nothing (with --resume: the members the checkpoint does not hold finished)");
   run_cmd->add_flag("-q,--quiet", o.quiet, "no progress on stderr");
   run_cmd->add_option("--batch-size", o.batch_size, "systems per batch (overrides scan.batch_size)")
       ->check(CLI::Range(1, 1000000));

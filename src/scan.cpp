@@ -895,6 +895,10 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
   if (const auto [node, name] = where_set("time_step"); node) fail(file, *node, name, why.str());
   const auto steps_node = setting_nodes.find("rest.steps");
   if (steps_node != setting_nodes.end()) fail(file, *steps_node->second, "rest.steps", why.str());
+  // Neither is set: h is the default time step of the point's Bond number.
+  why << "; h is the default time step at Bo = " << sp.params.bond_number
+      << " (or set system.time_step)";
+  if (const auto [node, name] = where_set("bond_number"); node) fail(file, *node, name, why.str());
   throw ScanError(file + ": key 'system.time_step': " + why.str());
 }
 

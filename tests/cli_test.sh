@@ -92,6 +92,13 @@ rc=$?
 set -e
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "the directory .*nodir of .*x.h5 does not exist" ||
   fail "output in a missing directory (exit $rc): $msg"
+# An output under a regular file: the file is named as no directory, not as missing.
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/good.toml/x.h5" 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "good.toml (of .*x.h5) is not a directory" ||
+  fail "output under a regular file (exit $rc): $msg"
 # A reader of the messages that goes away (a pipe into head) does not stop the run: it writes its
 # file and exits 0 (a run of a few tenths of a second, which writes after head has gone).
 printf '[scan]\nseeds = 2\n[system]\nwidth = 16\nheight = 16\nbond_number = 100\n' > "$dir/piped.toml"

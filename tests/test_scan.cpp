@@ -284,11 +284,22 @@ TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
 
 // The rest window's bound g h rest.steps >= 2 rest.speed: where the file sets no time step the
 // error points at rest.steps, a rest window long enough makes a tiny time step valid, and
-// ballistic points (no dynamics) are not bound by it.
+// ballistic points (no dynamics) are not bound by it. Where the file sets neither, h is the
+// default of a large Bond number, 0.9 sqrt(d_c / (Bo g)), and the error points at the Bond number.
 TEST(Scan, RestWindowMustLetAFallingDiskShow) {
   EXPECT_NE(error_of("[rest]\nspeed = 0.5\nsteps = 10\n[system]\nbond_number = 0\n")
                 .find("bad.toml:3:9: key 'rest.steps': h = 0.01 with rest.steps = 10"),
             std::string::npos);
+  const std::string large_bo = error_of("[system]\nbond_number = 1e6\n");
+  const double h = 0.9 * std::sqrt(0.01 / 1e6);
+  const long need = static_cast<long>(std::ceil(2.0 * 1e-3 / h));
+  EXPECT_EQ(large_bo.rfind("bad.toml:2:15: key 'system.bond_number': h = 9e-05 with rest.steps", 0),
+            0u)
+      << large_bo;
+  EXPECT_NE(large_bo.find("set [rest] steps >= " + std::to_string(need) +
+                          " (docs/SCAN.md, [rest]); h is the default time step at Bo = 1e+06"),
+            std::string::npos)
+      << large_bo;
   EXPECT_NO_THROW(
       parse_scan("[system]\nheight = 120\n[rest]\nsteps = 23\n[[point]]\ntime_step = "
                  "9e-5\n",
