@@ -85,20 +85,16 @@ grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimat
   fail "--dry-run of a region scan does not say what the model prices"
 "$exe" run "$dir/good.toml" -o "$dir/out.h5" --dry-run | grep -q "out.h5 exists: the run would be refused without --force" ||
   fail "--dry-run onto an existing file does not say it would be refused"
-# An output in a directory that does not exist is refused before any work, and said so.
+# An output in a directory that does not exist is refused before any work, and said so; one
+# under a regular file names that file as no directory.
 set +e
-msg=$("$exe" run "$dir/good.toml" -o "$dir/nodir/x.h5" 2>&1)
-rc=$?
-set -e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/nodir/x.h5" 2>&1); rc=$?
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "the directory .*nodir of .*x.h5 does not exist" ||
   fail "output in a missing directory (exit $rc): $msg"
-# An output under a regular file: the file is named as no directory, not as missing.
-set +e
-msg=$("$exe" run "$dir/good.toml" -o "$dir/good.toml/x.h5" 2>&1)
-rc=$?
-set -e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/good.toml/x.h5" 2>&1); rc=$?
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "good.toml (of .*x.h5) is not a directory" ||
   fail "output under a regular file (exit $rc): $msg"
+set -e
 # A reader of the messages that goes away (a pipe into head) does not stop the run: it writes its
 # file and exits 0 (a run of a few tenths of a second, which writes after head has gone).
 printf '[scan]\nseeds = 2\n[system]\nwidth = 16\nheight = 16\nbond_number = 100\n' > "$dir/piped.toml"
