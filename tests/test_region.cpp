@@ -155,6 +155,23 @@ TEST(Region, BatchStateRoundTrip) {
   EXPECT_THROW(batch.set_contacts(0, {{2, 1, 0, 1, 0, 1.0, 0, 0}}), std::out_of_range);
 }
 
+// Disks written faster than the system's last step left its disks (a region's avalanche handed
+// to the whole system) set the next step's relative tolerance, kappa v_max / (g h), as they set
+// its detection margin (the margin stage).
+TEST(Region, DisksWrittenFastSetTheNextStepsTolerance) {
+  const auto p = bare_params();
+  Batch batch({setup(p, column(4, 10.0))}, accurate());
+  for (int k = 0; k < 3; ++k) batch.step();
+  auto d = batch.disks(0);
+  const double fast = 2.0;
+  d[3].vx = fast;
+  batch.set_disks(0, {3}, {d[3]});
+  batch.step();
+  const double kappa = batch.solver().relative_tolerance;
+  ASSERT_GT(kappa * fast / (p.gravity * p.time_step), accurate().tolerance);
+  EXPECT_DOUBLE_EQ(batch.status(0).tolerance, kappa * fast / (p.gravity * p.time_step));
+}
+
 namespace {
 
 // A column of n disks at rest gets a disk on top (MODEL.md case 1: the contact below the k-th
