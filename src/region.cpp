@@ -203,7 +203,9 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   const double reach = 2.0 * rmax + pr.cohesion_range + grid_margin(pr, I.settings.max_height);
   if (!(radius > 0.0)) radius = I.settings.radius;
   const RegionSelection sel = select_region(disks, seeds, pr.width, radius, reach);
-  if (static_cast<int>(sel.index.size()) > I.settings.max_disks) return false;
+  const bool moves =
+      std::any_of(sel.moving.begin(), sel.moving.end(), [](char m) { return m != 0; });
+  if (!moves || static_cast<int>(sel.index.size()) > I.settings.max_disks) return false;
   // The floor of the small system: the whole system's floor when the region comes near it,
   // else out of everyone's reach (two radii below the lowest disk and further below every seed
   // than the radius, so that no disk reaches it without growing the region first).

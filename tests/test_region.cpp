@@ -247,6 +247,21 @@ TEST(Region, ColumnTopRelaxesInItsRegionThenTheWholeCarriesTheWeight) {
 // where the check finds motion): radius 9 moves the new disk and the four below it.
 TEST(Region, AGivenRadiusReplacesTheSettingsRadius) { column_top_relaxes_in_its_region(9.0, 5); }
 
+// A region needs a disk to move: without a seed (a check whose fastest disk is at the wake speed
+// to rounding) none starts, and the whole system goes on; a seed on a disk starts one.
+TEST(Region, NoSeedStartsNoRegion) {
+  const auto p = bare_params(20.0, 60.0);
+  Batch batch({setup(p, column(5, 10.0), 64)}, accurate());
+  RegionSettings rs;
+  rs.radius = 5.0;
+  rs.max_disks = 64;
+  rs.max_height = 60.0;
+  Regions regions(1, {p}, rs, accurate(), RestSettings{});
+  EXPECT_FALSE(regions.begin(batch, 0, {}, accurate().tolerance));
+  const auto bottom = batch.disks(0).front();
+  EXPECT_TRUE(regions.begin(batch, 0, {{bottom.x, bottom.y}}, accurate().tolerance));
+}
+
 // The pace of the Newton rounds (Batch::SolverPace) belongs to the deposit, not to one region:
 // a region starts from the whole system's pace and hands its own back, and only reset() starts
 // afresh. A column's new top disk relaxed in a region, with a sweep cap of 40 that some steps
