@@ -41,9 +41,9 @@ class Regions {
   // Starts relaxing system s of `whole` in region slot s: the disks within the radius of a seed
   // move, those within contact reach of them are held fixed. False (nothing started) when the
   // region does not fit the slot or no disk would move in it (no seed, or only fixed disks near
-  // one): the caller relaxes the whole system instead. The small system
-  // is solved to `tolerance` [h m g] (the whole system's). `radius` > 0 replaces the settings'
-  // radius for this region and the regions it grows into.
+  // one): the caller relaxes the whole system instead. The small system is solved to
+  // `tolerance` [h m g] (the whole system's). `radius` > 0 replaces the settings' radius for
+  // this region and the regions it grows into.
   bool begin(Batch& whole, int s, const std::vector<Point>& seeds, double tolerance,
              double radius = 0.0);
   // One step of every running region.
