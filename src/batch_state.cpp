@@ -354,15 +354,19 @@ void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Di
   put(I.part.vx, [](const Disk& d) { return d.vx; });
   put(I.part.vy, [](const Disk& d) { return d.vy; });
   put(I.part.w, [](const Disk& d) { return d.w; });
-  // The next step's detection margin and relative tolerance follow the fastest disk of the step
-  // before (the margin stage): disks written faster than that (a region's avalanche handed to
-  // the whole system) raise it, so that the step detects the contacts they reach.
+  // The next step's detection margin and relative tolerance follow the fastest disk (the margin
+  // stage): the system's disks as written now (a region's avalanche handed to the whole system,
+  // or a region's disks come to rest), as the integration measures it after a step.
+  const ParticleViews part = I.part;
   double fastest = 0.0;
-  for (const Disk& d : disks) fastest = std::max(fastest, loosepack::speed(d));
-  const auto stored = Kokkos::subview(I.sys.max_speed, s);
-  double before = 0.0;
-  Kokkos::deep_copy(before, stored);
-  if (fastest > before) Kokkos::deep_copy(stored, fastest);
+  Kokkos::parallel_reduce(
+      "written_speed", Kokkos::RangePolicy<ExecSpace>(range.first, range.second),
+      KOKKOS_LAMBDA(int p, double& m) {
+        const double v = kmath::sqrt(part.vx(p) * part.vx(p) + part.vy(p) * part.vy(p));
+        m = kmath::max(m, kmath::max(v, kmath::fabs(part.radius(p) * part.w(p))));
+      },
+      Kokkos::Max<double>(fastest));
+  Kokkos::deep_copy(Kokkos::subview(I.sys.max_speed, s), fastest);
 }
 
 void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
