@@ -28,6 +28,15 @@ struct FreeVelocity {
   }
 };
 
+// A disk's centre speed |v|, and its speed max(|v|, R |w|): what the rest test, the detection
+// margin and the relative tolerance read (sys.max_speed).
+KOKKOS_INLINE_FUNCTION double centre_speed(const ParticleViews& part, int p) {
+  return kmath::sqrt(part.vx(p) * part.vx(p) + part.vy(p) * part.vy(p));
+}
+KOKKOS_INLINE_FUNCTION double disk_speed(const ParticleViews& part, int p) {
+  return kmath::max(centre_speed(part, p), kmath::fabs(part.radius(p) * part.w(p)));
+}
+
 // x += h v (wrapped into [0, L_x)), theta += h w; flags non-finite state; records max speed.
 // Reads: sys.{active, solving, offset, count, failure, time_step, width}; part.{system, vx, vy,
 // w, radius}.
@@ -47,15 +56,13 @@ struct Integrate {
     part.x(p) = x;
     part.y(p) = y;
     part.theta(p) += h * part.w(p);
-    const double v2 = part.vx(p) * part.vx(p) + part.vy(p) * part.vy(p);
+    const double v = centre_speed(part, p);
     const double rw = part.radius(p) * part.w(p);
-    if (!kmath::isfinite(x) || !kmath::isfinite(y) || !kmath::isfinite(v2) ||
-        !kmath::isfinite(rw)) {
+    if (!kmath::isfinite(x) || !kmath::isfinite(y) || !kmath::isfinite(v) || !kmath::isfinite(rw)) {
       Kokkos::atomic_exchange(&sys.failure(s), int(kNonFinite));
       return;
     }
-    const double v = kmath::sqrt(v2);
-    Kokkos::atomic_fetch_max(&sys.max_speed(s), kmath::max(v, kmath::fabs(rw)));
+    Kokkos::atomic_fetch_max(&sys.max_speed(s), disk_speed(part, p));
     Kokkos::atomic_fetch_max(&sys.max_centre_speed(s), v);
   }
 };

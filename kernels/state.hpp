@@ -77,7 +77,7 @@ struct SystemViews {
   DView<int> unconverged;          // kIterating, kStoppedAtCap, or 0: converged (or not stepped)
   DView<int> failure;              // SystemFailure
   DView<double> sweep_change;      // max impulse change of the last sweep (impulse units)
-  DView<double> max_speed;         // max(|v|, R|w|) after the last step
+  DView<double> max_speed;         // max(|v|, R|w|) after the last step (or Batch::set_disks)
   DView<double> max_centre_speed;  // max |v| after the last step (RestSettings::spin false)
   DView<double> margin;            // contact detection margin of the current step
   DView<double> max_margin;        // its bound, which the grid cell leaves room for

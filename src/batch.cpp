@@ -460,8 +460,9 @@ void Batch::Impl::run_stage(StepStage stage) {
   }
 }
 
-// The detection margin and the solver tolerance from the last step's speeds; the step's
-// counters reset. A system inside a step (sys.solving) keeps its step's.
+// The detection margin and the solver tolerance from the last step's speeds (or those of the
+// disks Batch::set_disks wrote since); the step's counters reset. A system inside a step
+// (sys.solving) keeps its step's.
 void Batch::Impl::margin_stage() {
   const SystemViews sys_ = sys;
   const auto sweeps = sweeps_this_step;

@@ -356,15 +356,12 @@ void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Di
   put(I.part.w, [](const Disk& d) { return d.w; });
   // The next step's detection margin and relative tolerance follow the fastest disk (the margin
   // stage): the system's disks as written now (a region's avalanche handed to the whole system,
-  // or a region's disks come to rest), as the integration measures it after a step.
+  // or a region's disks come to rest), measured as the integration measures it after a step.
   const ParticleViews part = I.part;
   double fastest = 0.0;
   Kokkos::parallel_reduce(
       "written_speed", Kokkos::RangePolicy<ExecSpace>(range.first, range.second),
-      KOKKOS_LAMBDA(int p, double& m) {
-        const double v = kmath::sqrt(part.vx(p) * part.vx(p) + part.vy(p) * part.vy(p));
-        m = kmath::max(m, kmath::max(v, kmath::fabs(part.radius(p) * part.w(p))));
-      },
+      KOKKOS_LAMBDA(int p, double& m) { m = kmath::max(m, disk_speed(part, p)); },
       Kokkos::Max<double>(fastest));
   Kokkos::deep_copy(Kokkos::subview(I.sys.max_speed, s), fastest);
 }

@@ -210,7 +210,8 @@ class Batch {
   std::vector<Disk> disks(int s) const;
   // Overwrite position, angle and velocities of the disks index[k] (local indices) of system s
   // with disks[k] (radius, mass and y_i stay). The next step's contacts are warm-started from
-  // the impulses their pairs carried before.
+  // the impulses their pairs carried before; its detection margin and relative tolerance follow
+  // the fastest of the system's disks as written.
   void set_disks(int s, const std::vector<int>& index, const std::vector<Disk>& disks);
   std::vector<ContactForce> contacts(int s) const;
   // Replace the impulses system s's next step is warm-started from with these contacts' forces
