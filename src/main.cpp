@@ -1101,6 +1101,10 @@ int main(int argc, char** argv) {
   // A reader of stdout or stderr that goes away (`| head`) makes writes fail, not the program
   // die: a run goes on to write its file.
   std::signal(SIGPIPE, SIG_IGN);
+  // Each line of stderr goes out in one write (stdio holds it to its newline), so that what
+  // mpirun prints while the ranks start, or another rank's line, never lands inside one.
+  std::setvbuf(stderr, nullptr, _IOLBF, 1 << 14);
+  std::cerr.unsetf(std::ios::unitbuf);
   Ranks ranks(argc, argv);
   CLI::App app{
       "loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)\n"

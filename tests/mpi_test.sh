@@ -20,7 +20,7 @@ for k in 1 2 3; do
   [ "$rc" -eq 3 ] || fail "K=$k: exit code $rc with a failed member, expected 3"
   same serial.h5 k$k.h5
   [ "$(grep -c "failed: non-finite" k$k.log)" -eq 1 ] || fail "K=$k: failure printed $(grep -c "failed: non-finite" k$k.log) times"
-  [ "$(grep -c "^loosepack: scan 'mixed'" k$k.log)" -eq 1 ] || fail "K=$k: header not printed once"
+  [ "$(grep -c "^loosepack: scan 'mixed'" k$k.log)" -eq 1 ] || fail "K=$k: header not printed once: $(cat k$k.log)"
   [ "$(grep -c "9/9 members" k$k.log)" -eq 1 ] || fail "K=$k: final progress: $(cat k$k.log)"
 done
 grep -q "3 MPI ranks" k3.log || fail "rank count not reported"
