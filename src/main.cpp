@@ -481,7 +481,8 @@ void RunCommand::write_checkpoint() {
 #endif
 }
 
-// Progress of all ranks, on rank 0, at most every 2 s unless forced.
+// Progress of all ranks, on rank 0, at most every 2 s unless forced; the line of every member
+// finished only when forced.
 void RunCommand::show(bool force) {
   if (o.quiet || !talk) return;
   if (!force && seconds_since(last_shown) < 2.0) return;
@@ -506,6 +507,7 @@ void RunCommand::show(bool force) {
   p.start_fraction = total_cost > 0.0 ? start_cost / total_cost : 0.0;
   const double el = seconds_since(t0);
   const bool finished = p.members_done == static_cast<int>(todo.size());
+  if (finished && !force) return;  // the last line is wait_for_ranks', once
   // The rate counts this run's disks only: those deposited before a resume took no time here.
   const long disks_here = p.disks_deposited - p.disks_before;
   std::fprintf(stderr, "  %d/%zu members, %ld disks deposited",
