@@ -240,9 +240,10 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   std::vector<ContactForce> contacts;
   for (auto c : whole.contacts(s)) {
     if (c.j < 0 && y0 > 0.0) continue;  // the region's floor is not the real one
+    const bool floor = c.j < 0;
     c.i = local[static_cast<std::size_t>(c.i)];
-    if (c.j >= 0) c.j = local[static_cast<std::size_t>(c.j)];
-    if (c.i < 0 || c.j < -1) continue;  // a disk outside the region
+    if (!floor) c.j = local[static_cast<std::size_t>(c.j)];
+    if (c.i < 0 || (!floor && c.j < 0)) continue;  // a disk outside the region
     contacts.push_back(c);
   }
   I.batch->set_contacts(s, contacts);
