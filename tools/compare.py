@@ -195,9 +195,17 @@ def point_scalars(pa, pb, sigma, both=None):
         b, eb = float(pb.attrs[f"{key}_mean"]), float(pb.attrs[f"{key}_sem"])
         per_member = f"members/{key}"
         if both is not None and per_member in pa and per_member in pb:
+            # A finished member without a value (a band its collapse left empty) pairs with
+            # nothing, as the means leave it out.
             d = (pb[per_member][()] - pa[per_member][()])[both]
-            yield paired_row(name, a, ea, b, eb, d.mean(), d.std(ddof=1) / math.sqrt(len(d)),
-                             sigma)
+            d = d[np.isfinite(d)]
+            if len(d) < 2:
+                yield Row(name, value(a, ea), value(b, eb), math.nan, sigma,
+                          "not judged (fewer than two members with a value in both)",
+                          (a, ea, b, eb))
+            else:
+                yield paired_row(name, a, ea, b, eb, d.mean(),
+                                 d.std(ddof=1) / math.sqrt(len(d)), sigma)
         else:
             yield scalar(name, a, ea, b, eb, sigma)
 

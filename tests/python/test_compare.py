@@ -176,6 +176,17 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
         "Delta y(y_e): c"]["detail"]
     assert paired["mean abs(Delta y) [R]"]["distance"] == 0 and "(paired)" in paired[
         "mean abs(Delta y) [R]"]["detail"]
+    # A member without a value in one file (a band its collapse left empty: NaN) drops out of
+    # the pairs, as it does from the mean: the shift is still found, not an infinite distance.
+    with h5py.File(shifted, "r+") as f:
+        per_member = f["points/0000/members/nu_lower_half"]
+        values = per_member[()]
+        values[0] = math.nan
+        per_member[...] = values
+    paired = rows("paired_nan.jsonl", "--paired")
+    assert math.isfinite(paired["nu_lower_half"]["distance"])
+    assert paired["nu_lower_half"]["distance"] > 50
+    assert paired["nu_lower_half"]["paired_difference"] == pytest.approx(shift, rel=0.05)
     other = tmp_path / "other_seed.h5"
     shutil.copy(cohesive, other)
     with h5py.File(other, "r+") as f:
