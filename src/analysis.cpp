@@ -350,7 +350,9 @@ Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Var
   bool few_members = false;
   for (std::size_t k : group_varying(points, protocol, varying)) {
     const std::optional<Datum> d = datum(k);
-    if (!d) continue;
+    // A datum without an error (one member finished) the fit could not weigh: it takes no part,
+    // neither in scan_points nor in whether chi2 is judged.
+    if (!d || !(std::isfinite(d->sigma) && d->sigma > 0.0)) continue;
     const double n = static_cast<double>(d->members);
     few_members = few_members || n <= 3.0;
     x.push_back(d->x);
@@ -626,7 +628,7 @@ ScanAnalysis analyse_across(const std::vector<PointResult>& points,
   out.increase_vs_nu_initial =
       across_points(points, Protocol::C, Varying::CaptureRadius, power_law_fit, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
-        return keep_if(std::isfinite(inc.mean),
+        return keep_if(inc.mean > 0.0,  // a power law's datum
                        {points[k].nu_initial.mean, inc.mean, inc.sem, std::size_t(inc.n)});
       });
   out.quadratic_vs_height =

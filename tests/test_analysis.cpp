@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <random>
 #include <string>
 
@@ -523,6 +524,16 @@ capture_radius = 2.0
   EXPECT_NEAR(f.coef[1], s, 3.0 * f.error[1]);
   EXPECT_LT(f.error[1], 0.3);
   EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);
+  // A point of one finished member has no error: it takes no part in the fit, neither listed
+  // among its points nor switching its chi2 off (as a datum of 3 or fewer members does).
+  auto one_member = points;
+  one_member[1].relative_increase.n = 1;
+  one_member[1].relative_increase.sem = std::numeric_limits<double>::quiet_NaN();
+  const Analysis without = analyse(scan, one_member);
+  const Fit& g = without.scan.increase_vs_nu_initial;
+  ASSERT_TRUE(g.valid());
+  EXPECT_EQ(g.scan_points, (std::vector<int>{2, 3}));
+  EXPECT_TRUE(std::isfinite(g.chi2));
 }
 
 // The errors of a profile fit are a jackknife over members. When every member has its disks at
