@@ -441,12 +441,13 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   std::error_code ec;
   if (!fs::is_directory(directory, ec)) return out;
   std::vector<std::string> files;
-  for (const auto& entry : fs::directory_iterator(directory)) {
-    const std::string name = entry.path().filename().string();
+  for (fs::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
     if (name.rfind("part-", 0) == 0 && name.size() > 4 &&
         name.compare(name.size() - 4, 4, ".bin") == 0)
-      files.push_back(entry.path().string());
+      files.push_back(it->path().string());
   }
+  if (ec) throw CheckpointError("cannot list the checkpoint " + directory + ": " + ec.message());
   std::sort(files.begin(), files.end());
   const PartRemedies remedy{
       "delete that part alone to keep the others (its members run again), or " + directory +
@@ -459,8 +460,15 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   std::map<std::uint64_t, MemberResult> finished;
   std::map<std::uint64_t, std::pair<int, MemberSnapshot>> running;  // the latest generation's
   for (const auto& file : files) {
-    CheckpointPart part = decode_checkpoint_part(read_bytes(file), members, fingerprint,
-                                                 "checkpoint " + file, remedy);
+    std::string bytes;
+    try {
+      bytes = read_bytes(file);
+    } catch (const std::runtime_error& e) {  // unreadable: not ours, or the disk's error
+      throw CheckpointError(std::string(e.what()) + "; once it can be read, resume; or " +
+                            remedy.damaged);
+    }
+    CheckpointPart part =
+        decode_checkpoint_part(bytes, members, fingerprint, "checkpoint " + file, remedy);
     for (auto& r : part.finished) {
       const auto id = r.member.id;
       finished.emplace(id, std::move(r));

@@ -143,6 +143,16 @@ echo "$msg" | grep -q "corrupt or truncated.*delete that part alone to keep the 
   fail "message: $msg"
 # As the message says, the damaged part deleted alone: its members run again, the others' are kept.
 rm "$part"
+# A part that cannot be read (here a directory in its place) is named, with exit code 2.
+mkdir c.h5.checkpoint/part-9-0.bin
+set +e
+msg=$("$exe" run s.toml -o c.h5 --resume 2>&1)
+rc=$?
+set -e
+[ "$rc" -eq 2 ] || fail "an unreadable part: exit code $rc, expected 2: $msg"
+echo "$msg" | grep -q "^loosepack: cannot read c.h5.checkpoint/part-9-0.bin: Is a directory" ||
+  fail "message: $msg"
+rmdir c.h5.checkpoint/part-9-0.bin
 "$exe" run s.toml -o c.h5 --resume -q
 same full.h5 c.h5
 "$exe" run s.toml -o t.h5 --batch-size 2 --resume --force -q
