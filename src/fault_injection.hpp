@@ -4,7 +4,8 @@
 // id> starts it with two disks on the floor overlapping by 0.5 R (contact dynamics holds an
 // overlap; the member fails at its end, Failure::Overlap); LOOSEPACK_INJECT_WRITE_FAILURE=1
 // makes the final write of a run fail, as a full disk would; LOOSEPACK_INJECT_FREE_BYTES=<n>
-// stands for the free space of the output's file system.
+// stands for the free space of the output's file system; LOOSEPACK_INJECT_ERROR=<member id>
+// throws when that member starts, as an error the run cannot go on from would (memory).
 #pragma once
 #include <cmath>
 #include <cstdlib>
@@ -34,6 +35,13 @@ inline void inject_faults(const Member& m, SystemSetup& setup) {
     e.x += 1.5 * d.radius;
     setup.disks.insert(setup.disks.begin(), {d, e});
   }
+}
+
+// Where a member starts in its slot.
+inline void inject_error(const Member& m) {
+  if (injected_into("LOOSEPACK_INJECT_ERROR", m))
+    throw std::runtime_error("member " + std::to_string(m.id) +
+                             " could not start (LOOSEPACK_INJECT_ERROR)");
 }
 
 inline void inject_write_failure() {

@@ -181,6 +181,7 @@ class RunCommand {
   RunHooks hooks();
   void save_checkpoint();
   void write_checkpoint();
+  void save_after_error(const std::string& who);
   void show(bool force);
   int compute();
   void print_timing() const;
@@ -453,6 +454,19 @@ void RunCommand::save_checkpoint() {
   }
 }
 
+// After an error the run cannot go on from: the members finished since the last checkpoint
+// are saved, where the disk allows (the error of a failed save already said what was kept).
+void RunCommand::save_after_error(const std::string& who) {
+  if (fresh.empty()) return;
+  try {
+    save_checkpoint();
+  } catch (const std::exception&) {
+    return;
+  }
+  std::cerr << "loosepack: " << who << "the members it had finished are saved in " << ck_dir
+            << "; once the cause is fixed, continue with: " << resume_command() << "\n";
+}
+
 void RunCommand::write_checkpoint() {
   std::filesystem::create_directories(ck_dir);
   if (!selection_written) {  // by every rank, before its first part: no part lies there without it
@@ -573,9 +587,9 @@ int RunCommand::compute() {
     // neither a long wait for the other ranks nor a failed write (a full disk) loses it.
     save_checkpoint();
   } catch (const std::exception& e) {
-    std::cerr << "loosepack: "
-              << (ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "") << e.what()
-              << "\n";
+    const std::string who = ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "";
+    std::cerr << "loosepack: " << who << e.what() << "\n";
+    save_after_error(who);
     ranks.abort(1);  // the other ranks would wait for this one forever
     return kError;
   }

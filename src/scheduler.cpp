@@ -192,6 +192,7 @@ void MemberRun::begin(std::size_t k) {
   sl = Slot{};
   sl.member = next_++;
   const Member& m = members_[sl.member];
+  inject_error(m);
   sl.start = Clock::now();
   if (regions_) {
     sl.region_steps = regions_->steps(s);

@@ -75,6 +75,25 @@ set -e
 [ "$rc" -eq 3 ] || fail "the resumed write exited $rc, expected 3 (a failed member)"
 same serial.h5 w.h5
 [ ! -e w.h5.checkpoint ] || fail "the checkpoint was left after the resumed write"
+# An error the run cannot go on from (injected as a member that cannot start, one at a time so
+# that others finish before it) exits 1 and keeps the members finished before it, not saved yet
+# at the default checkpoint pace: --resume computes only the others, and the file is the same.
+set +e
+LOOSEPACK_INJECT_NAN=1 LOOSEPACK_INJECT_ERROR=8 "$exe" run s.toml -o x.h5 --batch-size 1 2>x.log
+rc=$?
+set -e
+[ "$rc" -eq 1 ] || fail "an error while running exited $rc, expected 1: $(cat x.log)"
+grep -q "member 8 could not start" x.log || fail "message: $(cat x.log)"
+grep -q "the members it had finished are saved in x.h5.checkpoint.*--resume" x.log ||
+  fail "message: $(cat x.log)"
+set +e
+LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml -o x.h5 --batch-size 2 --resume 2>x2.log
+rc=$?
+set -e
+[ "$rc" -eq 3 ] || fail "the run resumed after an error exited $rc, expected 3: $(cat x2.log)"
+grep -q "resuming from x.h5.checkpoint: [1-8] of 9 members finished" x2.log ||
+  fail "nothing was kept: $(cat x2.log)"
+same serial.h5 x.h5
 
 # The same on a file system that is really full: a tmpfs of 100 kB (the checkpoint, 22 kB, fits;
 # the result, 180 kB, does not), mounted in a mount namespace of the test's own where it may
