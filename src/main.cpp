@@ -69,21 +69,25 @@ std::string output_path_problem(const std::string& out, const std::string& input
   return "";
 }
 
-// Why the output's file system cannot take the run's results ("" when it can): the checkpoint
-// keeps each finished member's disks (their positions before and after, radius: about 48
-// bytes each at most) and the result file much less; a member holds at most member_capacity
-// disks. Checked before any work, so that a run of hours does not end on a full disk.
+// Why the output's file system cannot take the results of the members to compute ("" when it
+// clearly cannot): a first check, before any work, at 48 bytes for each disk a member can hold
+// (member_capacity, the hexagonal packing's count), what a finished member's disks and events
+// take in the checkpoint (x, y_i, y_e, radius; one event a disk in A) with room to spare in
+// loose deposits. Its contacts take 56 bytes each on top, up to about 170 bytes a disk in a dense
+// packing, and trajectories (observables.trajectory_every) more: a run can still fill the disk
+// later, and then it keeps what it saved and says how to go on (save_checkpoint).
 std::string space_problem(const std::string& out, const std::vector<Member>& members) {
+  constexpr double kBytesPerDisk = 48.0;
   double bytes = 0.0;
-  for (const auto& m : members) bytes += 48.0 * member_capacity(m.params);
+  for (const auto& m : members) bytes += kBytesPerDisk * member_capacity(m.params);
   std::error_code ec;
   const auto space = std::filesystem::space(directory_of_path(out), ec);
   const double free = free_bytes_or_injected(static_cast<double>(space.available));
   if (ec || free >= bytes) return "";
   std::ostringstream o;
   o << "the file system of " << out << " has " << free / 1048576.0
-    << " MiB free; this run's checkpoint and results may need up to " << bytes / 1048576.0
-    << " MiB";
+    << " MiB free; the checkpoint of the members this run computes needs at least "
+    << bytes / 1048576.0 << " MiB (more with their contacts)";
   return o.str();
 }
 
@@ -175,6 +179,7 @@ class RunCommand {
   int other_selection() const;
   int dry_run() const;
   int claim_output();
+  int claim_space();
   int read_checkpoint();
   void share_out();
   void announce() const;
@@ -255,6 +260,7 @@ int RunCommand::run() {
   if (o.dry_run) return o.resume && read_checkpoint() != 0 ? kInvalid : dry_run();
   if (const int rc = read_checkpoint()) return rc;
   if (o.finished_only) return write_finished();
+  if (claim_space() != 0) return kInvalid;
   share_out();
   announce();
   if (const int rc = compute()) return rc;
@@ -316,9 +322,8 @@ int RunCommand::select_members() {
   return 0;
 }
 
-// Rank 0 locks the output (and so its checkpoint) for the whole run, removes what a dead run
-// left of a write (`<out>.tmp.<pid>`) and checks that the output's file system has room for
-// the results and the checkpoint; every rank learns whether the run goes on.
+// Rank 0 locks the output (and so its checkpoint) for the whole run and removes what a dead
+// run left of a write (`<out>.tmp.<pid>`); every rank learns whether the run goes on.
 int RunCommand::claim_output() {
   std::string why;
   if (ranks.root()) {
@@ -327,8 +332,16 @@ int RunCommand::claim_output() {
     if (why.empty())
       for (const auto& f : remove_stale_temporaries(o.out_path))
         say("removed " + f + ", left by a run that ended while writing");
-    if (why.empty()) why = space_problem(o.out_path, members);
   }
+  if (!why.empty()) say(why);
+  return ranks.broadcast(why.empty() ? 0 : 1);
+}
+
+// Rank 0 checks that the output's file system has room for the checkpoint and the results of
+// the members left to compute (those a checkpoint holds finished have theirs); every rank
+// learns whether the run goes on.
+int RunCommand::claim_space() {
+  const std::string why = ranks.root() ? space_problem(o.out_path, todo) : "";
   if (!why.empty()) say(why);
   return ranks.broadcast(why.empty() ? 0 : 1);
 }

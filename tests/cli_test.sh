@@ -190,7 +190,7 @@ fi
 set +e
 msg=$(LOOSEPACK_INJECT_FREE_BYTES=1000 "$exe" run "$dir/good.toml" -o "$dir/full.h5" 2>&1); rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "MiB free; this run's checkpoint and results may need" ||
+[ "$rc" -eq 2 ] && echo "$msg" | grep -q "MiB free; the checkpoint of the members this run computes needs at least" ||
   fail "no room (exit $rc): $msg"
 # Something at the checkpoint's path that cannot hold it is refused before any work, with
 # --resume or without (the run would otherwise compute its members and lose them at its first
