@@ -752,7 +752,8 @@ int RunCommand::write() {
     report_members_left_out(write_member_results(o.out_path, scan, info, results, snapshots));
   } catch (const std::exception& e) {
     say(std::string(e.what()) + "; the results are kept in " + ck_dir +
-        ": once the cause is fixed, write the file with: " + resume_command());
+        ": once the cause is fixed, write the file with: " + resume_command() +
+        (o.finished_only ? " --finished-only" : ""));
     return kError;
   }
   if (o.finished_only) {
