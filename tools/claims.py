@@ -684,6 +684,8 @@ def collapse_density_claims(point, path, where):
     low = float(a.get("lower_half_from", settings.get("lower_half_from", min(50.0, h / 4))))
     cut = float(a.get("cut_top", settings.get("cut_top", min(20.0, h / 6))))
     tops = point["members/top"][()]
+    if "members/failure" in point:  # a failed member's top is where it stopped
+        tops = tops[point["members/failure"][()] == 0]
     tops = tops[np.isfinite(tops) & (tops > 0)]
     final_top = float(tops.min()) if tops.size else h
     # The bulk: from at least a quarter of the height (a ballistic deposit is denser near the

@@ -189,6 +189,23 @@ def test_collapse_densities_flat_predicted_and_below_the_limit(tmp_path):
     assert not over["dnu/nu_i stays below its limit nu_rcp/nu_i - 1"]
 
 
+def test_a_failed_members_top_does_not_narrow_the_bulk(tmp_path):
+    """nu_f's bulk reaches half the lowest finished member's top: a member that failed low (its
+    top is where it stopped) does not shrink it to nothing."""
+    flat_i, flat_f = (lambda y: 0.38 + 0 * y), (lambda y: 0.42 + 0 * y)
+    path = density_point(tmp_path, "f", flat_i, flat_f, flat_f, 0.1)
+    with h5py.File(path, "r+") as f:
+        g = f["points/0000"]
+        tops = g["members/top"][()]
+        tops[0] = 6.0
+        g["members/top"][...] = tops
+        failure = np.zeros(MEMBERS, dtype=np.int32)
+        failure[0] = 6  # an overlap at its end
+        g["members/failure"] = failure
+    verdict = density_verdicts(path)["nu_f(y) is flat in the bulk"]
+    assert verdict is not None and verdict  # judged, and flat
+
+
 def bond_scan(tmp_path, name, sizes):
     """Protocol-A points of one box differing only in Bo, with mean |Delta y| (mean, sem)."""
     path = tmp_path / f"{name}.h5"
