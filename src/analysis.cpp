@@ -277,15 +277,10 @@ double value_of(const SystemParams& p, Varying v) {
 // most distinct values of it; empty unless that is at least three.
 std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, Protocol protocol,
                                        Varying varying) {
-  auto eq = [](double u, double v) { return u == v || (std::isinf(u) && std::isinf(v)); };
-  auto same_except = [&](SystemParams a, SystemParams b) {
+  auto same_except = [&](const SystemParams& a, SystemParams b) {
     if (varying == Varying::Height) b.height = a.height;
     if (varying == Varying::CaptureRadius) b.capture_radius = a.capture_radius;
-    return eq(a.bond_number, b.bond_number) && eq(a.friction, b.friction) &&
-           eq(a.rolling_friction, b.rolling_friction) && eq(a.cohesion_range, b.cohesion_range) &&
-           eq(a.polydispersity, b.polydispersity) && eq(a.width, b.width) &&
-           eq(a.height, b.height) && eq(a.capture_radius, b.capture_radius) &&
-           eq(a.time_step, b.time_step);
+    return a == b;  // every other parameter (the disks' density and radius, gravity too)
   };
   // The points that share everything else with `ref`, and how many values of the variable
   // they hold.

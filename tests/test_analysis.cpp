@@ -534,6 +534,11 @@ capture_radius = 2.0
   ASSERT_TRUE(g.valid());
   EXPECT_EQ(g.scan_points, (std::vector<int>{2, 3}));
   EXPECT_TRUE(std::isfinite(g.chi2));
+  // Points that differ in another parameter too (here the disks' density) are no series in
+  // r_capt: two points are left, too few for the fit.
+  auto denser = points;
+  denser[1].point.params.disk_density *= 2.0;
+  EXPECT_FALSE(analyse(scan, denser).scan.increase_vs_nu_initial.valid());
 }
 
 // The errors of a profile fit are a jackknife over members. When every member has its disks at
