@@ -441,7 +441,8 @@ def describe(point):
 
 
 POINT_KEYS = ("protocol", "bond_number", "width", "height", "capture_radius", "radius",
-              "polydispersity", "cohesion_range", "friction", "rolling_friction", "time_step")
+              "polydispersity", "cohesion_range", "friction", "rolling_friction", "time_step",
+              "disk_density", "gravity", "floor_cohesion")
 
 
 def scan_keys_differ(pa, pb):
