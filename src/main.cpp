@@ -69,8 +69,8 @@ std::string output_path_problem(const std::string& out, const std::string& input
   return "";
 }
 
-// Why the output's file system cannot take the results of the members to compute ("" when it
-// clearly cannot): a first check, before any work, at 48 bytes for each disk a member can hold
+// Why the output's file system clearly cannot take the results of the members to compute (""
+// when it may): a first check, before any work, at 48 bytes for each disk a member can hold
 // (member_capacity, the hexagonal packing's count), what a finished member's disks and events
 // take in the checkpoint (x, y_i, y_e, radius; one event a disk in A) with room to spare in
 // loose deposits. Its contacts take 56 bytes each on top, up to about 170 bytes a disk in a dense
