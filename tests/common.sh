@@ -1,5 +1,5 @@
 # Sourced by the shell tests: the program's absolute path from $1, the repository $repo, a
-# scratch directory $dir removed on exit, OpenMPI's environment for mpirun, fail MESSAGE, same A.h5 B.h5 (tests/h5_equal.py:
+# scratch directory $dir removed on exit, OpenMPI's environment for mpirun, fail MESSAGE, rc_of CMD, same A.h5 B.h5 (tests/h5_equal.py:
 # equal results), and mixed_scan FILE (a small scan of three protocols).
 set -euo pipefail
 exe=$(realpath "$1")
@@ -8,6 +8,13 @@ repo=$(cd "$here/.." && pwd)
 dir=$(mktemp -d)
 trap 'rm -rf "$dir"' EXIT
 fail() { echo "FAIL: $*" >&2; exit 1; }
+# rc_of CMD...: runs CMD (which may fail) and leaves its exit status in $rc.
+rc_of() {
+  set +e
+  "$@"
+  rc=$?
+  set -e
+}
 # OpenMPI as root (CI), and more ranks than cores where a test asks for them.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 same() {  # same A.h5 B.h5 [--except NAME]...: bit for bit but for the run's own records
