@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 #include <Kokkos_Core.hpp>
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -135,6 +136,18 @@ struct RunOptions {
   std::string shard;                // "K/N": run shard K of N only (include/loosepack/shards.hpp)
 };
 
+// `s` as one word of a POSIX shell command: as it is where it is made of safe characters only,
+// else in single quotes (a command the program prints must work when pasted).
+std::string shell_word(const std::string& s) {
+  const auto safe = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || std::strchr("_./=+,:@%-", c) != nullptr;
+  };
+  if (!s.empty() && std::all_of(s.begin(), s.end(), safe)) return s;
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
 // Tells the user of each failed member of `results` and how to run it again; returns how many.
 int report_failures(const std::vector<MemberResult>& results, const std::string& scan_path) {
   int failed = 0;
@@ -146,8 +159,8 @@ int report_failures(const std::vector<MemberResult>& results, const std::string&
               << ") failed: " << failure_message(r.failure)
               << "; excluded from the aggregates, its state at the failure is in the output; "
                  "re-run it alone with: loosepack run "
-              << scan_path << " --member " << r.member.id << " -o member-" << r.member.id
-              << ".h5\n";
+              << shell_word(scan_path) << " --member " << r.member.id << " -o member-"
+              << r.member.id << ".h5\n";
   }
   return failed;
 }
@@ -203,7 +216,7 @@ class RunCommand {
   // (it was when the run began with --force, or the run wrote its finished members into it).
   std::string resume_command(bool output_written = false) const {
     const std::string flags = selection();
-    return "loosepack run " + o.scan_path + " -o " + o.out_path +
+    return "loosepack run " + shell_word(o.scan_path) + " -o " + shell_word(o.out_path) +
            (flags.empty() ? "" : " " + flags) + (snapshots ? " --snapshots" : "") + " --resume" +
            (o.force || output_written ? " --force" : "");
   }

@@ -74,6 +74,18 @@ rc_of env LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml -o x.h5 --batch-size 2 --resu
 grep -q "resuming from x.h5.checkpoint: [1-8] of 9 members finished" x2.log ||
   fail "nothing was kept: $(cat x2.log)"
 same serial.h5 x.h5
+# The commands the program prints work when pasted into a shell, whatever the paths hold (a
+# space and a quote here).
+mkdir paste
+cp s.toml "paste/s p.toml"
+(
+  cd paste
+  rc_of env LOOSEPACK_INJECT_NAN=1 "$exe" run "s p.toml" -o "o'p.h5" --batch-size 2 2>p.log
+  rerun=$(sed -n 's/.*re-run it alone with: loosepack //p' p.log)
+  [ -n "$rerun" ] || fail "no re-run command: $(cat p.log)"
+  eval "\"\$exe\" $rerun -q" || fail "the printed command failed: $rerun"
+  [ -s member-1.h5 ] || fail "the printed command wrote no member-1.h5: $rerun"
+)
 
 # The same on a file system that is really full: a tmpfs of 100 kB (the checkpoint, 22 kB, fits;
 # the result, 180 kB, does not), mounted in a mount namespace of the test's own where it may
