@@ -447,6 +447,9 @@ struct AcceleratedGaussSeidel {
       sys.unconverged(s) = 0;
       return true;
     }
+    // At the cap the step ends on the sweeps' impulses, each an exact local solve within its
+    // bounds: NNCG's step is an extrapolation that nothing projects after it.
+    if (sweeps(s) >= sys.max_sweeps(s)) return false;
     double g2 = 0.0;
     for_contacts(con, first, end, [&](int c) { g2 += nncg_change2(con, c); });
     const double previous = sys.gradient2(s);
@@ -546,7 +549,9 @@ struct ColouredAcceleratedGaussSeidel {
           [&](int a, double& sum) { sum += nncg_change2(packed, a); }, g2);
       const double beta = nncg_beta(previous, g2);
       previous = g2;
-      nncg_steps(team, base, n_colours, first, end, beta);
+      // At the cap the step ends on the sweeps' impulses, within their bounds
+      // (AcceleratedGaussSeidel::iterate).
+      if (sweep + 2 < cap) nncg_steps(team, base, n_colours, first, end, beta);
     }
     // Capped (the step ends unconverged), or paused until the next launch.
     unpack(team, first, end);

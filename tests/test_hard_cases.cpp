@@ -183,6 +183,49 @@ TEST(HardCase, BallisticDepositsHoldAtBo1e6) {
               static_cast<double>(sweeps) / (S * hold), seconds_since(t0));
 }
 
+// A step whose solve reaches its sweep cap ends within the contact law too: every impulse is
+// that of an exact local solve, projected onto its bounds, where the accelerated solvers' last
+// move could be an extrapolation (NNCG's step) that nothing projects. A cohesive hexagonal
+// packing 10 disks wide and 6 rows high, its disks thrown in random directions at up to 2
+// sqrt(gR), stepped 40 times with a cap of 6 sweeps and a tolerance no solve reaches, with both
+// accelerated solvers.
+TEST(HardCase, CappedStepsStayWithinTheContactLaw) {
+  SystemParams p = bare_params(20.0, 30.0);
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  p.bond_number = 10.0;
+  p.time_step = 0.005;
+  std::vector<Disk> disks = hexagonal(10, 6);
+  std::uint64_t state = 12345;
+  const auto uniform = [&]() {  // in [-1, 1)
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) * 0x1.0p-52 - 1.0;
+  };
+  for (auto& d : disks) {
+    d.vx = 2.0 * uniform();
+    d.vy = 2.0 * uniform();
+    d.w = 2.0 * uniform();
+  }
+  for (SolverKind kind :
+       {SolverKind::AcceleratedGaussSeidel, SolverKind::ColouredAcceleratedGaussSeidel}) {
+    SolverSettings solver;
+    solver.kind = kind;
+    solver.tolerance = 1e-14;
+    solver.max_sweeps = 6;
+    Batch batch({setup(p, disks)}, solver);
+    int capped = 0;
+    for (int k = 0; k < 40; ++k) {
+      batch.step();
+      ASSERT_EQ(batch.status(0).failure, Failure::None);
+      capped += batch.status(0).converged ? 0 : 1;
+      expect_within_contact_law(
+          batch.contacts(0), batch.disks(0), p,
+          std::string(solver_kind_name(kind)) + ", step " + std::to_string(k));
+    }
+    EXPECT_GE(capped, 20) << solver_kind_name(kind) << ": too few capped steps to tell";
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // 2. Bo = 0: a column of 200 disks in exact alignment (the existing column tests stop at 50 and
 // 80 disks and check the floor only), loaded from zero impulses in one step by the default
