@@ -346,7 +346,8 @@ def fitted_points(an, name, points):
         path = fit.file.filename
         unusable(f"plot.py: {path}: '{fit.name}/scan_points' is missing: a file of an older "
                  f"loosepack; `loosepack analyse {path}` adds it")
-    return [points[k] for k in fit["scan_points"][()]]
+    held = {int(g.name.rsplit("/", 1)[1]): g for g in points if g.file == fit.file}
+    return [held[int(k)] for k in fit["scan_points"][()] if int(k) in held]
 
 
 def collapse_increase(f, points, out, written):
@@ -458,7 +459,7 @@ def structure(g, name, s, out, written):
     outside = finite & ((y > box_top) | (y < 0.0))
     if failed:
         top = min(top, box_top)
-    fig, ax = plt.subplots(figsize=(6, 6 * min(3.0, top / W)))
+    fig, ax = plt.subplots(figsize=(6, max(2.0, 6 * min(3.0, top / W))))  # room for the title
     ax.add_collection(PatchCollection([Circle((a, b), c) for a, b, c in
                                        zip(x[finite], y[finite], r[finite])],
                                       facecolor="0.85", edgecolor="0.5", lw=0.2))

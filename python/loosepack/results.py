@@ -1,5 +1,7 @@
 """Reading a loosepack result file (docs/OUTPUT.md) into pandas and xarray objects."""
 
+import os
+
 import h5py
 import numpy as np
 import pandas as pd
@@ -61,6 +63,8 @@ class Results:
 
     def __init__(self, path):
         self.path = str(path)
+        if not os.path.exists(self.path):
+            raise FileNotFoundError(f"{self.path}: no such file")
         try:
             f = h5py.File(self.path, "r")
         except OSError as e:
@@ -156,9 +160,10 @@ class Results:
 
     def histogram(self, point, cut=False, members=False):
         """The |Delta y| histogram (counts per bin; `cut`: without the bottom and top of the
-        deposit) as a DataArray over the bin centres, with the edges as a coordinate too;
-        `members`: one row per member (dims member, abs_dy; files from 2026-11-26 on), whose
-        scatter gives the shapes' errors."""
+        deposit) as a DataArray over the bin centres, with each bin's lower edge as a coordinate
+        too; `members`: one row per member (dims member, abs_dy; files from 2026-11-26 on), whose
+        scatter gives the shapes' errors (a failed member's row is zeros: members(point)'s
+        `failure` tells which)."""
         name = ("member_counts" if members else "counts") + ("_cut" if cut else "")
         with h5py.File(self.path, "r") as f:
             g = self._group(f, point)

@@ -37,6 +37,8 @@ def find_program(program=None):
 
 
 def _toml_value(v):
+    if type(v).__module__ == "numpy":  # a numpy scalar or array: as Python's own values
+        v = v.tolist()
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, (int, float)):

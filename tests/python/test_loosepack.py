@@ -209,6 +209,12 @@ def test_scan_dicts_become_scan_files():
     assert back["system"]["bond_number"] == scan["system"]["bond_number"]
     assert back["system"]["capture_radius"] == "inf"
     assert back["point"] == scan["point"]
+    # numpy's values (a linspace of heights, a count) are written as the numbers they hold.
+    heights = np.linspace(8.0, 12.0, 3)
+    back = tomllib.loads(loosepack.to_toml({"scan": {"seeds": np.int64(2)},
+                                            "system": {"height": heights, "width": heights[0]}}))
+    assert back["scan"]["seeds"] == 2 and back["system"]["width"] == 8.0
+    assert back["system"]["height"] == [8.0, 10.0, 12.0]
 
 
 def test_bad_input_raises_with_the_programs_message(tmp_path):
