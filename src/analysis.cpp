@@ -353,7 +353,7 @@ Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Var
     x.push_back(d->x);
     y.push_back(d->y);
     sigma.push_back(n > 3.0 ? d->sigma * std::sqrt((n - 1.0) / (n - 3.0)) : d->sigma);
-    used.push_back(static_cast<int>(k));
+    used.push_back(points[k].point.index);  // K of points/K, not the position among those held
   }
   Fit f = fit(x, y, sigma);
   if (!f.valid()) return f;

@@ -53,8 +53,9 @@ DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
   if (name == "time")
     return {"", "disks deposited (protocol A) or step of the collapse (C) at the sample", true};
   if (is_count(name)) {
-    if (name == "contact_i" || name == "contact_j" || name == "disk")
+    if (name == "contact_i" || name == "contact_j")
       return {"", "disk index in deposition order (-1: the floor)", true};
+    if (name == "disk") return {"", "disk index in deposition order", true};
     if (name == "failure") return {"", "0 finished; else the failure (docs/OUTPUT.md)", true};
     if (name == "scan_points")
       return {"", "the scan points the fit went through (K of points/K)", true};
@@ -74,8 +75,8 @@ DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
     return {"R", profile + ": " + name};
   if (name == "centre" || name == "position" || name == "member_position")
     return {"R", group + " " + name + " (height)"};
-  if (name == "contact_normal" || name == "contact_tangential")
-    return {"m g", name.substr(8) + " contact force (normal > 0 compressive)"};
+  if (name == "contact_normal") return {"m g", "normal contact force (> 0 compressive)"};
+  if (name == "contact_tangential") return {"m g", "tangential contact force"};
   if (name == "contact_moment") return {"m g R", "rolling moment of the contact"};
   if (name == "vx" || name == "vy") return {"sqrt(g R)", "velocity component"};
   if (name == "w") return {"sqrt(g / R)", "angular velocity"};

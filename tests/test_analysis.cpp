@@ -524,6 +524,11 @@ capture_radius = 2.0
   EXPECT_NEAR(f.coef[1], s, 3.0 * f.error[1]);
   EXPECT_LT(f.error[1], 0.3);
   EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);
+  // The fit names the points by their index (K of points/K), also where a file holds only some
+  // of the scan's points (a shard, a run stopped early): here without point 0.
+  const std::vector<PointResult> held(points.begin() + 1, points.end());
+  EXPECT_EQ(analyse(scan, held).scan.increase_vs_nu_initial.scan_points,
+            (std::vector<int>{1, 2, 3}));
   // A point of one finished member has no error: it takes no part in the fit, neither listed
   // among its points nor switching its chi2 off (as a datum of 3 or fewer members does).
   auto one_member = points;
