@@ -187,8 +187,8 @@ TEST(HardCase, BallisticDepositsHoldAtBo1e6) {
 // that of an exact local solve, projected onto its bounds, where the accelerated solvers' last
 // move could be an extrapolation (NNCG's step) that nothing projects. A cohesive hexagonal
 // packing 10 disks wide and 6 rows high, its disks thrown in random directions at up to 2
-// sqrt(gR), stepped 40 times with a cap of 6 sweeps and a tolerance no solve reaches, with both
-// accelerated solvers.
+// sqrt(gR), stepped 40 times with a cap of 6 sweeps and a tolerance of 1e-14 (at least half of
+// the steps capped), with both accelerated solvers.
 TEST(HardCase, CappedStepsStayWithinTheContactLaw) {
   SystemParams p = bare_params(20.0, 30.0);
   p.friction = 0.3;
