@@ -58,8 +58,9 @@ def main():
     xmf = [f for f in files.stdout.splitlines()  # one path a line, which may hold spaces
            if f.endswith("_s%d.xmf" % args.seed) or f.endswith("_s%d_failure.xmf" % args.seed)]
     if not xmf:
-        sys.exit("render_deposit.py: %s: no snapshot of point %d, seed %d to draw (export wrote: %s)"
-                 % (args.result, args.point, args.seed, ", ".join(files.stdout.splitlines()) or "nothing"))
+        wrote = ", ".join(files.stdout.splitlines()) or "nothing"
+        sys.exit("render_deposit.py: %s: no snapshot of point %d, seed %d to draw (export wrote: "
+                 "%s)" % (args.result, args.point, args.seed, wrote))
     xmf = xmf[0]
     command = [sys.executable, os.path.abspath(__file__), args.result, args.png, "--xmf", xmf,
                "--size", str(args.size[0]), str(args.size[1])]
