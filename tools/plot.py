@@ -280,7 +280,8 @@ def deposition_density(points, out, written):
 
 # The parameters that must agree for profiles of different heights to be compared.
 SAME_BUT_HEIGHT = ("bond_number", "capture_radius", "cohesion_range", "friction",
-                   "rolling_friction", "polydispersity", "width", "floor_cohesion", "time_step")
+                   "rolling_friction", "polydispersity", "width", "floor_cohesion", "time_step",
+                   "radius", "disk_density", "gravity")  # as the program's fits across points
 
 
 def scaled_avalanche_profiles(f, points, out, written):
