@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <random>
 #include <string>
 
 #include "loosepack/batch.hpp"
@@ -196,15 +197,12 @@ TEST(HardCase, CappedStepsStayWithinTheContactLaw) {
   p.bond_number = 10.0;
   p.time_step = 0.005;
   std::vector<Disk> disks = hexagonal(10, 6);
-  std::uint64_t state = 12345;
-  const auto uniform = [&]() {  // in [-1, 1)
-    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-    return static_cast<double>(state >> 11) * 0x1.0p-52 - 1.0;
-  };
+  std::mt19937_64 rng(12345);
+  std::uniform_real_distribution<double> uniform(-2.0, 2.0);
   for (auto& d : disks) {
-    d.vx = 2.0 * uniform();
-    d.vy = 2.0 * uniform();
-    d.w = 2.0 * uniform();
+    d.vx = uniform(rng);
+    d.vy = uniform(rng);
+    d.w = uniform(rng);
   }
   for (SolverKind kind :
        {SolverKind::AcceleratedGaussSeidel, SolverKind::ColouredAcceleratedGaussSeidel}) {
