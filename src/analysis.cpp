@@ -129,27 +129,28 @@ double jackknife_error(const std::vector<std::vector<double>>& reps, std::size_t
   return std::sqrt((n - 1.0) / n * ss);
 }
 
-// chi2 of a fit's residuals, each against its own jackknife error over the members, scaled so
-// that a model that fits has chi2/dof near 1:
+// chi2 of a fit's residuals, each against its own jackknife error over the members, so that a
+// model that fits has chi2 distributed as chi2 with dof degrees of freedom:
+// - an error estimated from n members makes z = residual / error follow Student's t with n - 1
+//   degrees of freedom, whose tails are heavier than the normal's; each z is mapped to the
+//   normal deviate of the same tail probability (chi2_term_of_t), so that each term is a chi2
+//   of one degree of freedom in its tail as well as in its mean. With 3 or fewer members the
+//   t's tails are too heavy to judge by (NaN).
 // - each residual's own error already holds the fit's freedom (Var r_i = sigma^2 (1 - h_ii)), so
-//   the sum of z^2 has the expectation terms, not terms - params: it is scaled by
-//   (terms - params) / terms;
-// - an error estimated from n members inflates the expectation of z^2 by (n-1)/(n-3) (normal
-//   residuals: E[1/s^2] = (n-1)/((n-3) sigma^2)): scaled by its inverse. With 3 or fewer
-//   members there is no such expectation, and no chi2 (NaN).
+//   the sum of the terms has the expectation terms, not terms - params: it is scaled by
+//   (terms - params) / terms.
 // A residual whose error is zero (a bin every member fills alike) adds no term.
 struct ResidualChi2 {
-  double sum = 0.0;
-  int terms = 0;
+  std::vector<double> z;
   void add(double residual, double error) {
-    if (!(error > 0.0)) return;
-    sum += (residual / error) * (residual / error);
-    ++terms;
+    if (error > 0.0) z.push_back(residual / error);
   }
   double value(double members, std::size_t params) const {
-    const double p = static_cast<double>(params), t = terms;
+    const double p = static_cast<double>(params), t = static_cast<double>(z.size());
     if (!(members > 3.0) || !(t > p)) return kNaN;
-    return sum * (members - 3.0) / (members - 1.0) * (t - p) / t;
+    double sum = 0.0;
+    for (double v : z) sum += chi2_term_of_t(v, members - 1.0);
+    return sum * (t - p) / t;
   }
 };
 
@@ -395,6 +396,11 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
     if (!sigma.empty()) ls.push_back(sigma[i] / y[i]);
   }
   return polynomial_fit(lx, ly, ls, 1);
+}
+
+double chi2_term_of_t(double t, double nu) {
+  const double c = (8.0 * nu + 1.0) / (8.0 * nu + 3.0);
+  return c * c * nu * std::log1p(t * t / nu);
 }
 
 double chi2_quantile99(double dof) {

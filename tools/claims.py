@@ -74,8 +74,9 @@ law it claims is rejected):
 
 The profile fits are unweighted least squares through the bins' pooled means (at least 10 disks,
 every member's disks in it), their errors a jackknife over the members (each left out in turn),
-and their chi2 that of the residuals against the residuals' own jackknife errors, scaled by
-(n-3)/(n-1) and by (bins - parameters)/bins, as the program's fits (docs/OUTPUT.md, "Analysis").
+and their chi2 that of the residuals against the residuals' own jackknife errors, each such t of
+n - 1 degrees of freedom mapped to the chi2 term of its tail probability, scaled by
+(bins - parameters)/bins, as the program's fits (docs/OUTPUT.md, "Analysis").
 
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
@@ -110,19 +111,28 @@ def chi2_quantile99(dof):
     return dof * (1.0 - a + Z99 * math.sqrt(a)) ** 3
 
 
+def chi2_term_of_t(t, nu):
+    """The square of the normal deviate with the tail probability of Student's t with nu degrees
+    of freedom at t (Wallace 1959), as the program's (src/analysis.cpp, chi2_term_of_t): a
+    deviation against an error estimated from nu + 1 members is such a t, and these terms sum to
+    chi2's distribution, tail included."""
+    c = (8 * nu + 1) / (8 * nu + 3)
+    return c * c * nu * np.log1p(np.square(t) / nu)
+
+
 def residual_chi2(resid, resid_err, members, params):
     """chi2 of residuals against their own jackknife errors over the members, as the program's
-    fits (src/analysis.cpp, ResidualChi2): scaled by (n-3)/(n-1) for errors from n members and by
-    (terms - params)/terms, since each residual's own error already holds the fit's freedom (the
-    sum of z^2 has the expectation of its terms, not of the degrees of freedom); NaN with 3 or
-    fewer members or no freedom left."""
+    fits (src/analysis.cpp, ResidualChi2): each z a t with members - 1 degrees of freedom, mapped
+    to its chi2 term (chi2_term_of_t), and the sum scaled by (terms - params)/terms, since each
+    residual's own error already holds the fit's freedom (the sum has the expectation of its
+    terms, not of the degrees of freedom); NaN with 3 or fewer members or no freedom left."""
     resid, resid_err = np.asarray(resid, float), np.asarray(resid_err, float)
     ok = resid_err > 0
     terms = int(ok.sum())
     if members <= 3 or terms <= params:
         return math.nan
-    z2 = float(((resid[ok] / resid_err[ok]) ** 2).sum())
-    return z2 * (members - 3) / (members - 1) * (terms - params) / terms
+    z2 = float(chi2_term_of_t(resid[ok] / resid_err[ok], members - 1).sum())
+    return z2 * (terms - params) / terms
 
 
 def jackknife(values):
@@ -708,10 +718,10 @@ def collapse_density_claims(point, path, where):
         use = np.isfinite(pred) & (centre >= low) & (centre <= final_top - cut) & (sem > 0)
         k, n = int(use.sum()), int(a["members"]) - int(a.get("failed", 0))
         if k >= 3 and n > 3:
-            chi2 = float((((pred - mean) / sem)[use] ** 2).sum())
-            # Strips share disks: chi2 as 3 chi2 of k/3 degrees of freedom; errors from n
-            # members inflate each term by (n-1)/(n-3).
-            bound = 3 * chi2_quantile99(k / 3) * (n - 1) / (n - 3)
+            # Each strip's deviation is a t of n - 1 degrees of freedom (errors from n
+            # members); strips share disks: chi2 as 3 chi2 of k/3 degrees of freedom.
+            chi2 = float(chi2_term_of_t(((pred - mean) / sem)[use], n - 1).sum())
+            bound = 3 * chi2_quantile99(k / 3)
             yield (f"{where}: the final density predicted from the initial one matches",
                    chi2 <= bound, f"chi2 {chi2:.3g} over {k} strips (bound {bound:.3g})")
     inc, inc_err = float(a["relative_increase_mean"]), float(a["relative_increase_sem"])

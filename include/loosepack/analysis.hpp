@@ -54,7 +54,7 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
 // variance of ln n is 1/n). With the members' own counts (`member_counts`, one row per member, a
 // failed member's row 0; at least 4 members with disks) each fit's errors come from a jackknife
 // over the members and its chi2 is that of the counts' residuals against the residuals' own
-// jackknife errors, scaled by (n-3)/(n-1), as the avalanche-profile fits do: the disks one
+// jackknife errors, each t mapped to its chi2 term, as the avalanche-profile fits do: the disks one
 // avalanche moves together land in the same bins, so the counts scatter far more than Poisson's
 // sqrt(n). Without them, chi2 is Pearson's (counts against the model). The preferred shape has
 // the lower Akaike criterion chi2 + 2 k (k parameters); it must also fit (chi2 at most the 99 %
@@ -73,6 +73,13 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
 // The 99 % quantile of chi2 with `dof` degrees of freedom (Wilson and Hilferty; within 1 % of
 // the exact quantile from 3 degrees of freedom on).
 double chi2_quantile99(double dof);
+
+// The square of the standard normal deviate with the tail probability of Student's t with nu
+// degrees of freedom at t (Wallace 1959: z = (8 nu + 1)/(8 nu + 3) sqrt(nu ln(1 + t^2/nu)),
+// within 2 % of the exact deviate up to |t| = 10 from nu = 3 on). A deviation measured against an
+// error estimated from nu + 1 members is such a t; its term in a chi2 is this, so that the sum
+// has chi2's distribution, tail included, and chi2_quantile99 bounds it at any number of members.
+double chi2_term_of_t(double t, double nu);
 
 struct PointAnalysis {
   // Avalanche profiles: parabolas (protocol A) or lines (C): Delta y = c0 + c1 y (+ c2 y^2).

@@ -74,6 +74,25 @@ def test_chi2_quantile_matches_known_values():
     assert math.isnan(claims.chi2_quantile99(0))
 
 
+def test_a_student_t_maps_to_the_normal_deviate_of_its_tail_probability():
+    # Two-sided 1 % quantiles of t (5.8409 at 3 dof, 3.4995 at 7, 2.9467 at 15) and the normal's
+    for nu, t in ((3, 5.8409), (7, 3.4995), (15, 2.9467)):
+        assert math.sqrt(claims.chi2_term_of_t(t, nu)) == pytest.approx(2.5758, rel=0.02)
+
+
+def test_residual_chi2_with_errors_from_8_members_exceeds_its_bound_once_in_a_hundred():
+    # 20 000 sums of 38 terms, each z a t of 7 degrees of freedom (no parameter fitted): about 200
+    # above chi2's 99 % bound of 38 dof (99.9 % binomial range 158-246); the sum of t^2 scaled by
+    # 5/7, which has the same mean, about 900.
+    rng = np.random.default_rng(8)
+    z = rng.standard_t(7, size=(20000, 38))
+    bound = claims.chi2_quantile99(38)
+    over = sum(claims.residual_chi2(row, np.ones(38), 8, 0) > bound for row in z)
+    assert 158 <= over <= 246
+    scaled = ((z ** 2).sum(axis=1) * 5 / 7 > bound).sum()
+    assert scaled > 246
+
+
 def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_path):
     claim = "Delta y(y_e) is a parabola with positive curvature"
     with pytest.raises(SystemExit):  # the per-member rows are needed, and said so
