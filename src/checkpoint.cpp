@@ -489,9 +489,10 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   return out;
 }
 
-void remove_checkpoint(const std::string& directory) {
+std::string remove_checkpoint(const std::string& directory) {
   std::error_code ec;
   fs::remove_all(directory, ec);
+  return ec ? "cannot remove " + directory + ": " + ec.message() : "";
 }
 
 }  // namespace loosepack

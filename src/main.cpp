@@ -335,8 +335,9 @@ int RunCommand::select_members() {
   return 0;
 }
 
-// Rank 0 locks the output (and so its checkpoint) for the whole run and removes what a dead
-// run left of a write (`<out>.tmp.<pid>`); every rank learns whether the run goes on.
+// Rank 0 locks the output (and so its checkpoint) for the whole run and removes what a dead run
+// on this host left of a write (`<out>.tmp.<host>.<pid>`); every rank learns whether the run
+// goes on.
 int RunCommand::claim_output() {
   std::string why;
   if (ranks.root()) {
@@ -776,10 +777,17 @@ int RunCommand::write() {
                 << " failed); the checkpoint " << ck_dir << " stays: continue with "
                 << resume_command(true) << "\n";
   } else {
-    remove_checkpoint(ck_dir);
+    const std::string left = remove_checkpoint(ck_dir);
     if (!o.quiet)
       std::cerr << "loosepack: wrote " << o.out_path << " (" << info.wall_seconds << " s, "
                 << failed << " failed members)\n";
+    // The file is complete; a checkpoint left beside it would make the next run of this output
+    // take it for an interrupted run's.
+    if (!left.empty())
+      say(left +
+          ": the result file is complete and holds everything the checkpoint did; delete "
+          "the checkpoint by hand before the next run that writes " +
+          o.out_path);
   }
   return failed > 0 ? kMembersFailed : kOk;
 }

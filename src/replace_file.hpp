@@ -1,14 +1,17 @@
 // Writing a file so that nothing half-written is ever left at its path: `write(tmp)` fills a
-// temporary file beside it (`<path>.tmp.<pid>`), which is flushed to the disk, renamed over the
-// path, and the directory flushed, so that after a crash the path holds the old file or the new
-// one, whole. On any error the temporary is removed, the path is left as it was, and the error
-// propagates. A temporary of a run that died (kill -9 during a write) is removed by the next
-// run that writes the same path (remove_stale_temporaries).
+// temporary file beside it (`<path>.tmp.<host>.<pid>`), which is flushed to the disk, renamed
+// over the path, and the directory flushed, so that after a crash the path holds the old file or
+// the new one, whole. On any error the temporary is removed, the path is left as it was, and the
+// error propagates. The host in the name keeps apart the temporaries of processes on different
+// nodes of a shared file system whose pids are equal (MPI ranks that each write a checkpoint's
+// `selection`). A temporary of a run that died on this host (kill -9 during a write) is removed
+// by the next run that writes the same path (remove_stale_temporaries).
 #pragma once
 #include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -76,9 +79,25 @@ inline std::string directory_of_path(const std::string& path) {
   return dir.empty() ? "." : dir;
 }
 
+// This host's name as a temporary's name holds it: characters other than letters, digits, '-'
+// and '_' replaced by '_' (so that the pid after the last '.' is found again).
+inline std::string host_tag() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0 || name[0] == '\0') return "host";
+  std::string tag(name);
+  for (char& c : tag)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_')) c = '_';
+  return tag;
+}
+
+// The temporary that replace_file writes `path` through, for this process.
+inline std::string temporary_of(const std::string& path) {
+  return path + ".tmp." + host_tag() + "." + std::to_string(::getpid());
+}
+
 template <class Write>
 void replace_file(const std::string& path, Write write) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const std::string tmp = temporary_of(path);
   try {
     write(tmp);
     sync_path(tmp);
@@ -91,17 +110,23 @@ void replace_file(const std::string& path, Write write) {
   }
 }
 
-// The temporaries `<path>.tmp.<pid>` of `path` whose process no longer runs: removed; returns
-// their names (for a message).
+// The temporaries of `path` written on this host (`<path>.tmp.<host>.<pid>`, or
+// `<path>.tmp.<pid>` as programs before the host was in the name wrote them) whose process no
+// longer runs: removed; returns their names (for a message). Another host's are left alone:
+// whether their process runs cannot be told from here.
 inline std::vector<std::string> remove_stale_temporaries(const std::string& path) {
   namespace fs = std::filesystem;
   std::vector<std::string> removed;
   const std::string prefix = fs::path(path).filename().string() + ".tmp.";
+  const std::string host = host_tag();
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(directory_of_path(path), ec)) {
     const std::string name = e.path().filename().string();
     if (name.rfind(prefix, 0) != 0) continue;
-    const std::string pid = name.substr(prefix.size());
+    const std::string rest = name.substr(prefix.size());
+    const std::size_t dot = rest.rfind('.');
+    if (dot != std::string::npos && rest.substr(0, dot) != host) continue;
+    const std::string pid = dot == std::string::npos ? rest : rest.substr(dot + 1);
     if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
     if (::kill(static_cast<pid_t>(std::stol(pid)), 0) == 0 || errno != ESRCH) continue;
     if (fs::remove(e.path(), ec)) removed.push_back(e.path().string());

@@ -167,12 +167,21 @@ pkill -P "$holder" sleep; wait "$holder" 2>/dev/null || true
 [ "$rc" -eq 2 ] && echo "$msg" | grep -q "being written by another run (pid 4242" || fail "held lock (exit $rc): $msg"
 [ "$rc2" -eq 2 ] && echo "$msg2" | grep -q "being written by another run" || fail "held lock, analyse (exit $rc2): $msg2"
 [ -e "$dir/held.h5" ] && fail "a refused run wrote the held output"
-# A temporary left by a run that died while writing is removed by the next run of that output.
+# A temporary left by a run that died while writing on this host is removed by the next run of
+# that output (named with the host, and as programs before the host was in the name wrote it);
+# another host's, whose process cannot be seen from here, is left alone.
 sleep 0 & dead=$!; wait "$dead"
+host=$(hostname | sed 's/[^A-Za-z0-9_-]/_/g')
 echo "half a file" > "$dir/held.h5.tmp.$dead"
+echo "half a file" > "$dir/held.h5.tmp.$host.$dead"
+echo "half a file" > "$dir/held.h5.tmp.other-node.$dead"
 msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q 2>&1)
-echo "$msg" | grep -q "removed .*held.h5.tmp.$dead, left by a run" || fail "stale temporary: $msg"
-[ -e "$dir/held.h5.tmp.$dead" ] && fail "the stale temporary is still there"
+for stale in "held.h5.tmp.$dead" "held.h5.tmp.$host.$dead"; do
+  echo "$msg" | grep -q "removed .*$stale, left by a run" || fail "stale temporary $stale: $msg"
+  [ -e "$dir/$stale" ] && fail "the stale temporary $stale is still there"
+done
+[ -e "$dir/held.h5.tmp.other-node.$dead" ] || fail "another host's temporary was removed: $msg"
+rm "$dir/held.h5.tmp.other-node.$dead"
 [ -e "$dir/held.h5.lock" ] && fail "the lock file outlived its run"
 # On a file system without locks (flock fails with ENOLCK: NFS without lockd), the run goes on
 # unlocked and says so, where it used to take the error for another run's lock and refuse.
@@ -185,6 +194,28 @@ if command -v cc >/dev/null; then
   echo "$msg" | grep -q "cannot lock .*nolock.h5.lock (No locks available): a second run" ||
     fail "no warning of the missing lock: $msg"
   [ -s "$dir/nolock.h5" ] && [ ! -e "$dir/nolock.h5.lock" ] || fail "no file, or a lock file left"
+fi
+# A checkpoint that cannot be removed after the file is written (remove() fails with EBUSY for
+# it) is named, with what to do; the file is complete and the run succeeds.
+if command -v cc >/dev/null; then
+  cat >"$dir/keepck.c" <<'EOF'
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <errno.h>
+#include <string.h>
+int remove(const char* path) {
+  size_t n = strlen(path), k = strlen(".checkpoint");
+  if (n >= k && strcmp(path + n - k, ".checkpoint") == 0) { errno = EBUSY; return -1; }
+  return ((int (*)(const char*))dlsym(RTLD_NEXT, "remove"))(path);
+}
+EOF
+  cc -shared -fPIC -o "$dir/keepck.so" "$dir/keepck.c" -ldl
+  msg=$(LD_PRELOAD="$dir/keepck.so" "$exe" run "$dir/good.toml" -o "$dir/keepck.h5" -q 2>&1) ||
+    fail "a run whose checkpoint cannot be removed: $msg"
+  echo "$msg" | grep -q "cannot remove .*keepck.h5.checkpoint: .*the result file is complete" ||
+    fail "no word of the checkpoint left: $msg"
+  "$exe" summary "$dir/keepck.h5" >/dev/null || fail "the file beside the checkpoint left"
+  rm -r "$dir/keepck.h5.checkpoint"
 fi
 # A file system without room for the run's checkpoint and results is refused before any work.
 set +e

@@ -15,9 +15,10 @@ predicted from it. When the file has them: nu_lower_half against the Bond number
 the capture radius where all points share one Bond number (several points), protocol-A
 profiles of several heights scaled by H with c2 and the slice model's a against H (the paper's
 fig. 7), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
-distributions (protocol A), a picture of each snapshot with its compressive contact forces
-(run with --snapshots; the paper's fig. 1) and the trajectories of every k-th disk
-(observables.trajectory_every; the paper's fig. 5).
+distributions (protocol A), a picture of each finished member's snapshot with its compressive
+contact forces (run with --snapshots; the paper's fig. 1), of each failed member's state at its
+failure, and the trajectories of every k-th disk (observables.trajectory_every; the paper's
+fig. 5).
 
 Uses Debian's python3-h5py and python3-matplotlib (scripts/install-deps.sh installs them).
 """
@@ -230,6 +231,19 @@ def avalanche_profiles(points, out, written):
     save(fig, out, "avalanche_profiles.png", written)
 
 
+# The histogram shapes are fitted to the bins with at least this many disks, each at its centre
+# (histogram_shape, src/analysis.cpp).
+SHAPE_MIN_COUNT = 5
+
+
+def fitted_range(edges, counts):
+    """(first, last) centre of the bins a histogram shape was fitted to: a fit is drawn there
+    only."""
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    fitted = centres[counts >= SHAPE_MIN_COUNT]
+    return fitted.min(), fitted.max()
+
+
 def abs_dy_histograms(points, out, written):
     fig, ax = plt.subplots(figsize=(6, 4.5))
     for g in points:
@@ -248,12 +262,13 @@ def abs_dy_histograms(points, out, written):
                 f = fit_of(shape, model)
                 if f is None:
                     continue
-                x = np.linspace(0, edges[-1], 200)
+                x = np.linspace(*fitted_range(edges, counts), 200)
                 lw = 1.5 if model == pref else 0.7
                 ax.semilogy(x, np.exp(poly(f[0], x)) / norm, style, color=line.get_color(), lw=lw)
     ax.set_xlabel("|Delta y| [R] (bottom and top cut)")
     ax.set_ylabel("fraction of disks")
-    ax.set_title("solid: Gaussian fit, dashed: exponential; bold: preferred", fontsize=9)
+    ax.set_title("solid: Gaussian fit, dashed: exponential, over the bins of at least "
+                 f"{SHAPE_MIN_COUNT} disks they fit; bold: preferred", fontsize=9)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7)
         ax.set_ylim(bottom=1e-5)
@@ -352,19 +367,37 @@ def fitted_points(an, name, points):
 
 
 def collapse_increase(f, points, out, written):
+    """dnu/nu_i of the protocol-C points against H and, on log axes, against nu_i. There an error
+    bar that reaches 0 or below is cut at a floor under every other point and ends in a "v"; a
+    point at 0 or below is left out; the panel's title says so where it happens."""
     c = [g for g in points if text(attr(g, "protocol")) == "C"]
     if len(c) < 2:
         return
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
+    increase = np.array([attr(g, "relative_increase_mean") for g in c], dtype=float)
+    lower = increase - bars([attr(g, "relative_increase_sem") for g in c])
+    floor = 0.5 * min(np.concatenate([increase[increase > 0], lower[lower > 0]]), default=1.0)
     for rc in sorted({attr(g, "capture_radius") for g in c}):
         g_rc = [g for g in c if attr(g, "capture_radius") == rc]
-        inc = [attr(g, "relative_increase_mean") for g in g_rc]
+        inc = np.array([attr(g, "relative_increase_mean") for g in g_rc], dtype=float)
         err = bars([attr(g, "relative_increase_sem") for g in g_rc])
+        nu_i = np.array([attr(g, "nu_initial_mean") for g in g_rc], dtype=float)
         lab = f"r_capt = {rc:g}"
         axes[0].errorbar([attr(g, "height") for g in g_rc], inc, yerr=err, fmt="o", capsize=3,
                          label=lab)
-        axes[1].errorbar([attr(g, "nu_initial_mean") for g in g_rc], inc, yerr=err, fmt="o",
-                         capsize=3, label=lab)
+        on = inc > 0  # a log axis has no place for the others
+        cut = on & (inc - err <= 0)
+        down = np.where(cut, inc - floor, err)
+        line = axes[1].errorbar(nu_i[on], inc[on], yerr=[down[on], err[on]], fmt="o", capsize=3,
+                                label=lab)
+        axes[1].plot(nu_i[cut], np.full(cut.sum(), floor), "v", color=line[0].get_color())
+    notes = []
+    if ((increase > 0) & (lower <= 0)).any():
+        notes.append("v: error bar down to 0 or below, cut")
+    left_out = int((increase <= 0).sum())
+    if left_out:
+        notes.append(f"{left_out} point{'s' if left_out > 1 else ''} at dnu/nu_i <= 0 left out")
+    axes[1].set_title("; ".join(notes), fontsize=9)
     axes[0].set_xscale("log")
     axes[0].set_xlabel("H [R]")
     axes[1].set_xscale("log")
@@ -437,12 +470,21 @@ def member_groups(points, prefix):
 
 
 def snapshots(points, out, written):
-    """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force; and
-    the state of every failed member at its failure (velocities as arrows; disks with a
-    non-finite state are named in the title)."""
+    """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force, of
+    every finished member; and the state of every failed member at its failure (velocities as
+    arrows; disks with a non-finite state are named in the title). A failed member's snapshot_K
+    (--snapshots writes one for every member) is no deposit and is not drawn: its failure_K is."""
     for prefix in ("snapshot_", "failure_"):
         for g, name, s in member_groups(points, prefix):
+            if prefix == "snapshot_" and member_failed(g, int(name[len(prefix):])):
+                continue
             structure(g, name, s, out, written)
+
+
+def member_failed(g, seed):
+    """Whether the member of seed index `seed` of point `g` failed (members/failure not 0)."""
+    m = need(g, "members")
+    return bool((need(m, "failure")[need(m, "seed_index") == seed] != 0).any())
 
 
 def structure(g, name, s, out, written):

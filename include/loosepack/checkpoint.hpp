@@ -93,7 +93,8 @@ CheckpointPart decode_checkpoint_part(const std::string& bytes, const std::vecto
                                       std::uint64_t fingerprint, const std::string& what,
                                       const PartRemedies& remedy);
 
-// Removes the directory's part files and the directory (after a complete result was written).
-void remove_checkpoint(const std::string& directory);
+// Removes the directory's part files and the directory (after a complete result was written);
+// returns what failed ("cannot remove DIR: reason"), or "".
+std::string remove_checkpoint(const std::string& directory);
 
 }  // namespace loosepack

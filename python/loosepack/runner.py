@@ -26,14 +26,30 @@ class LoosepackError(RuntimeError):
 
 def find_program(program=None):
     """The loosepack executable: `program`, else $LOOSEPACK, else `loosepack` on the PATH, else
-    the build of the checkout this package lies in (build/loosepack)."""
+    the build of the checkout this package lies in (build/loosepack), else PREFIX/bin/loosepack
+    where this package is installed under PREFIX (in PREFIX/share/loosepack/python by
+    `cmake --install`; in PREFIX/lib/pythonX.Y/site-packages or lib/python3/dist-packages by
+    pip)."""
     candidates = [program, os.environ.get("LOOSEPACK"), shutil.which("loosepack"),
-                  os.path.join(os.path.dirname(__file__), "..", "..", "build", "loosepack")]
+                  os.path.join(os.path.dirname(__file__), "..", "..", "build", "loosepack"),
+                  _installed_program()]
     for c in candidates:
         if c and os.path.isfile(c) and os.access(c, os.X_OK):
             return os.path.abspath(c)
     raise FileNotFoundError("no loosepack program: build it (./scripts/build.sh), put it on the "
                             "PATH, or set LOOSEPACK=/path/to/loosepack")
+
+
+# A package installed under PREFIX: by `cmake --install` (PREFIX/share/loosepack/python) or by
+# pip (PREFIX/lib/pythonX.Y/site-packages, Debian's PREFIX/lib/python3/dist-packages).
+_INSTALLED = re.compile(r"(.*)/(share/loosepack/python|lib(64)?/python3(\.\d+)?/"
+                        r"(site|dist)-packages)/loosepack")
+
+
+def _installed_program():
+    """PREFIX/bin/loosepack where this package lies installed under PREFIX, else None."""
+    m = _INSTALLED.fullmatch(os.path.abspath(os.path.dirname(__file__)))
+    return os.path.join(m.group(1) or "/", "bin", "loosepack") if m else None
 
 
 def _toml_value(v):

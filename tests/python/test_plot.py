@@ -1,0 +1,99 @@
+"""tools/plot.py: what its figures draw, read back from the matplotlib figures before they are
+written (plot.save replaced), on small result files written with h5py or by the program."""
+
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+import pytest
+from matplotlib.collections import LineCollection
+
+import loosepack
+from script_module import load_script
+
+TOOL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools", "plot.py")
+plot = load_script(TOOL)
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures the plotting functions draw, by file name, kept open instead of written."""
+    drawn = {}
+    monkeypatch.setattr(plot, "save", lambda fig, out, name, written: drawn.update({name: fig}))
+    return drawn
+
+
+def point(f, k, protocol="C", height=16.0, **attrs):
+    """Point k of a result file, with the attributes its label needs and `attrs`."""
+    g = f.create_group(f"points/{k:04d}")
+    g.attrs.update(protocol=protocol, bond_number=30.0, capture_radius=1.0, height=height,
+                   **attrs)
+    return g
+
+
+def test_collapse_increase_on_a_log_axis_cuts_bars_that_reach_zero(tmp_path, figures):
+    """dnu/nu_i against nu_i on log axes: a bar down to 0 or below ends at a positive floor under
+    every point, marked "v"; a point at or below 0 is left out; the title says both."""
+    mean = [0.02, 0.01, 0.05, -0.01]
+    sem = [0.005, 0.015, 0.01, 0.02]  # the second reaches -0.005
+    with h5py.File(tmp_path / "c.h5", "w") as f:
+        points = [point(f, k, height=16.0 * (k + 1), relative_increase_mean=m,
+                        relative_increase_sem=s, nu_initial_mean=0.3 + 0.05 * k)
+                  for k, (m, s) in enumerate(zip(mean, sem))]
+        plot.collapse_increase(None, points, str(tmp_path), [])
+    ax = figures["collapse_increase.png"].axes[1]
+    bars = [seg for c in ax.collections if isinstance(c, LineCollection)
+            for seg in c.get_segments()]
+    assert len(bars) == 3
+    lows = sorted(min(seg[:, 1]) for seg in bars)
+    assert lows[0] > 0
+    drawn = np.concatenate([line.get_ydata() for line in ax.lines if line.get_marker() == "o"])
+    assert sorted(drawn) == [0.01, 0.02, 0.05]
+    cut = [line for line in ax.lines if line.get_marker() == "v"]
+    assert [list(line.get_ydata()) for line in cut] == [[lows[0]]]
+    assert lows[0] < min(0.01, 0.02 - 0.005, 0.05 - 0.01)
+    assert ax.get_title() == ("v: error bar down to 0 or below, cut; "
+                              "1 point at dnu/nu_i <= 0 left out")
+
+
+def test_histogram_fits_are_drawn_over_the_bins_they_fit(tmp_path, figures):
+    """The |Delta y| histogram's fits go through the bins with at least 5 disks (src/analysis.cpp,
+    histogram_shape): each curve runs from the first such bin's centre to the last's."""
+    edges = np.arange(11) * 0.5
+    counts = np.array([3, 50, 30, 20, 10, 6, 2, 5, 1, 0])  # fitted: bins 1 to 5 and 7
+    with h5py.File(tmp_path / "h.h5", "w") as f:
+        g = point(f, 0, protocol="A")
+        h = g.create_group("abs_dy_histogram")
+        h["edges"], h["counts_cut"] = edges, counts
+        shape = h.create_group("shape_cut")
+        shape.attrs["preferred"] = "exponential"
+        for model, coef in (("exponential", [4.0, -0.8]), ("gaussian", [4.0, -0.5, -0.05])):
+            fit = shape.create_group(model)
+            fit.attrs["valid"] = 1.0
+            fit["coef"], fit["error"] = coef, np.full(len(coef), 0.1)
+        plot.abs_dy_histograms([g], str(tmp_path), [])
+    ax = figures["abs_dy_histograms.png"].axes[0]
+    curves = [line for line in ax.lines if line.get_linestyle() in ("-", "--")]
+    assert len(curves) == 2
+    for line in curves:
+        assert (line.get_xdata().min(), line.get_xdata().max()) == (0.75, 3.75)
+
+
+def test_a_failed_members_snapshot_is_not_drawn_as_a_deposit(tmp_path, monkeypatch):
+    """With --snapshots a failed member (LOOSEPACK_INJECT_NAN=1: member 1) has a snapshot_1 too;
+    plot.py draws its state at the failure (failure_1), and only the finished member's
+    snapshot as a deposit."""
+    monkeypatch.setenv("LOOSEPACK_INJECT_NAN", "1")
+    scan = {"scan": {"seeds": 2}, "system": {"width": 12.0, "height": 12.0, "bond_number": 30}}
+    res = loosepack.run(scan, tmp_path / "fail.h5", progress=False, args=["--snapshots"])
+    with h5py.File(res.path, "r") as f:
+        members = f["points/0000/members"]
+        assert {"snapshot_0", "snapshot_1", "failure_1"} <= set(members)
+        assert list(members["failure"][()]) == [0, 1]
+    done = subprocess.run([sys.executable, TOOL, res.path, "-o", str(tmp_path / "fig")],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    structures = sorted(p for p in os.listdir(tmp_path / "fig") if p.startswith("structure_"))
+    assert structures == ["structure_0000_failure_1.png", "structure_0000_snapshot_0.png"]
