@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -75,15 +76,21 @@ void check_selection(hid_t file, const std::string& path, const ExportSelection&
                                 " has the seeds 0 to " + std::to_string(std::lround(seeds) - 1));
 }
 
+// The snapshots, failure snapshots and trajectories of the selection. A failed member's
+// snapshot_K (--snapshots writes one for every member) is no deposit: its failure_K is exported.
 std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
   std::vector<MemberData> out;
   for (const auto& point : children(file, "points")) {
     if (sel.point >= 0 && group_number(point, "/points/" + point) != sel.point) continue;
     const std::string pg = "points/" + point;
-    for (const auto& child : children(file, pg + "/members")) {
+    const std::vector<std::string> held = children(file, pg + "/members");
+    const std::set<std::string> names(held.begin(), held.end());
+    for (const auto& child : held) {
       for (const char* kind : {"snapshot", "failure", "trajectory"}) {
         const std::string prefix = std::string(kind) + "_";
         if (child.rfind(prefix, 0) != 0) continue;
+        if (prefix == "snapshot_" && names.count("failure_" + child.substr(prefix.size())))
+          continue;
         MemberData m{point,
                      group_number(child.substr(prefix.size()), "/" + pg + "/members/" + child),
                      kind,
@@ -287,6 +294,10 @@ std::string xdmf_snapshot(hid_t file, const MemberData& m, const std::string& h5
          "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n" + o.str() + "</Grid>\n";
 }
 
+// A time as written, to the last digit stored: a trajectory's time counts disks deposited or
+// steps, which pass a million in a long collapse (6 digits would write 1.23457e+06).
+constexpr int kTimeDigits = std::numeric_limits<double>::max_digits10;
+
 // The samples of a trajectory: [first, end) of each time.
 std::vector<std::pair<std::size_t, std::size_t>> samples(const std::vector<double>& time) {
   std::vector<std::pair<std::size_t, std::size_t>> out;
@@ -302,6 +313,7 @@ std::string xdmf_trajectory(hid_t file, const MemberData& m, const std::string& 
   const std::vector<double> time = doubles(file, g + "/time");
   const std::size_t total = time.size();
   std::ostringstream o;
+  o << std::setprecision(kTimeDigits);
   o << "<Grid Name=\"point " << m.point << " seed " << m.seed
     << " trajectory\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const auto& [first, end] : samples(time)) {
@@ -329,6 +341,7 @@ std::string xdmf_document(const std::string& grids) {
 void extxyz_frame(std::ostream& o, const MemberData& m, double time,
                   const std::vector<std::vector<double>>& columns, const std::string& properties) {
   const std::size_t n = columns.front().size();
+  o << std::setprecision(kTimeDigits);
   o << n << "\nLattice=\"" << m.width << " 0 0 0 " << m.height << " 0 0 0 1\" pbc=\"T F F\" "
     << "Time=" << time << " Properties=species:S:1:pos:R:3" << properties << "\n";
   o << std::setprecision(10);

@@ -225,3 +225,39 @@ def test_a_file_without_snapshots_is_refused(tmp_path):
     done = subprocess.run([loosepack.find_program(), "export", str(out)], capture_output=True,
                           text=True)
     assert done.returncode == 1 and "--snapshots" in done.stderr
+
+
+def test_the_exported_times_are_the_stored_ones_to_the_last_digit(exported, tmp_path):
+    """A trajectory's time counts disks deposited (A) or steps (C), which reach millions in a
+    long collapse: both formats write each time as stored, to its seventh digit and beyond, so
+    that no two samples share one."""
+    res, _ = exported
+    out = tmp_path / "late.h5"
+    out.write_bytes(open(res.path, "rb").read())
+    with h5py.File(out, "r+") as f:
+        t = f["points/0000/members/trajectory_0/time"]
+        t[...] = t[()] + 1234567.0
+        times = list(np.unique(t[()]))
+    exe = loosepack.find_program()
+    for fmt, pattern in (("xdmf", r'<Time Value="([^"]+)"'), ("extxyz", r"Time=(\S+)")):
+        names = subprocess.run([exe, "export", str(out), "--format", fmt, "--point", "0",
+                                "--seed", "0"], capture_output=True, text=True,
+                               check=True).stdout.split()
+        name = [n for n in names if "trajectory" in n][0]
+        assert [float(v) for v in re.findall(pattern, open(name).read())] == times, fmt
+
+
+def test_a_failed_members_snapshot_is_exported_as_its_failure_only(tmp_path, monkeypatch):
+    """With --snapshots a failed member (LOOSEPACK_INJECT_NAN=1: member 1) has a snapshot_1 too,
+    which is no deposit: export writes its failure snapshot, and the finished member's deposit."""
+    monkeypatch.setenv("LOOSEPACK_INJECT_NAN", "1")
+    scan = {"scan": {"seeds": 2}, "system": {"width": 12.0, "height": 12.0, "bond_number": 30}}
+    res = loosepack.run(scan, tmp_path / "fail.h5", progress=False, args=["--snapshots"])
+    with h5py.File(res.path, "r") as f:
+        assert {"snapshot_0", "snapshot_1", "failure_1"} <= set(f["points/0000/members"])
+    stem = res.path[:-len(".h5")]
+    for fmt, ext in (("xdmf", ".xmf"), ("extxyz", ".extxyz")):
+        names = subprocess.run([loosepack.find_program(), "export", res.path, "--format", fmt],
+                               capture_output=True, text=True, check=True).stdout.split()
+        assert sorted(n for n in names if n.endswith(ext)) == [
+            stem + "_p0000_s0" + ext, stem + "_p0000_s1_failure" + ext], fmt
