@@ -13,7 +13,12 @@ xvfb-run with the screen above (Debian's default; ParaView aborts on an 8-bit sc
 default of some other xvfb-run).
 ParaView renders in a process of its own, started again up to ATTEMPTS times when it aborts:
 Debian's ParaView 5.11 now and then fails to open a display that is there (on a busy machine),
-and a second process renders."""
+and a second process renders.
+
+A failed member (members/failure not 0) left no deposit: its snapshot_K (--snapshots writes one
+for every member) is not drawn, but its state at the failure (failure_K, the export's
+`_sK_failure.xmf`), with the title "FAILED member ...: state at the failure" and the reason in the
+picture, and a line on stderr that says so."""
 
 import argparse
 import os
@@ -44,26 +49,20 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--size", type=int, nargs=2, default=[900, 900], help="pixels")
     ap.add_argument("--xmf", help=argparse.SUPPRESS)  # the ParaView process: render this file
+    ap.add_argument("--title", help=argparse.SUPPRESS)  # ... with this title
     args = ap.parse_args()
     if args.xmf:
-        render(args.xmf, args.png, args.size)
+        render(args.xmf, args.png, args.size, args.title)
         return
 
-    files = subprocess.run([loosepack.find_program(), "export", args.result, "--point",
-                            str(args.point), "--seed", str(args.seed)],
-                           capture_output=True, text=True)
-    if files.returncode != 0:
-        sys.exit(files.stderr.strip())
-    # The snapshot's picture: the member's final state, or its state at a failure.
-    xmf = [f for f in files.stdout.splitlines()  # one path a line, which may hold spaces
-           if f.endswith("_s%d.xmf" % args.seed) or f.endswith("_s%d_failure.xmf" % args.seed)]
-    if not xmf:
-        wrote = ", ".join(files.stdout.splitlines()) or "nothing"
-        sys.exit("render_deposit.py: %s: no snapshot of point %d, seed %d to draw (export wrote: "
-                 "%s)" % (args.result, args.point, args.seed, wrote))
-    xmf = xmf[0]
+    xmf, title = member_file(args.result, args.point, args.seed)
     command = [sys.executable, os.path.abspath(__file__), args.result, args.png, "--xmf", xmf,
                "--size", str(args.size[0]), str(args.size[1])]
+    if title:
+        print("render_deposit.py: %s: point %d, seed %d failed (%s): drawing its state at the "
+              "failure (failure_%d), not a deposit" % (args.result, args.point, args.seed,
+                                                        title[1], args.seed), file=sys.stderr)
+        command += ["--title", "\n".join(title)]
     for attempt in range(1, ATTEMPTS + 1):
         run = subprocess.run(command, capture_output=True, text=True)
         if run.returncode not in ABORTED:
@@ -81,8 +80,46 @@ def main():
              "(xvfb-run -s \"-screen 0 1280x1024x24\")" % ATTEMPTS)
 
 
-def render(xmf, png, size):
-    """The picture of one snapshot's XDMF file, written to png at size pixels."""
+def member_file(result, point, seed):
+    """The XDMF file `loosepack export` writes of one member of the result file, and None for a
+    finished member's deposit or, for a failed member's state at the failure, the picture's title
+    as two lines (what it is, and the reason). Exits with the export's message, or with what it
+    wrote where it wrote no file of that state."""
+    files = subprocess.run([loosepack.find_program(), "export", result, "--point", str(point),
+                            "--seed", str(seed)], capture_output=True, text=True)
+    if files.returncode != 0:
+        sys.exit(files.stderr.strip())
+    failure = failure_reason(result, point, seed)
+    ending = "_s%d_failure.xmf" % seed if failure is not None else "_s%d.xmf" % seed
+    # One path a line, which may hold spaces.
+    xmf = [f for f in files.stdout.splitlines() if f.endswith(ending)]
+    if not xmf:
+        wrote = ", ".join(files.stdout.splitlines()) or "nothing"
+        sys.exit("render_deposit.py: %s: no %s of point %d, seed %d to draw (export wrote: %s)"
+                 % (result, "state at the failure" if failure is not None else "snapshot", point,
+                    seed, wrote))
+    if failure is None:
+        return xmf[0], None
+    return xmf[0], ("FAILED member (point %d, seed %d): state at the failure" % (point, seed),
+                    failure)
+
+
+def failure_reason(result, point, seed):
+    """The reason member `seed` of point `point` failed (members/failure not 0), or None when it
+    finished; "unknown reason" where the file holds no failure_K to name it."""
+    res = loosepack.load(result)
+    members = res.members(point)
+    if not (members["failure"][members["seed_index"] == seed] != 0).any():
+        return None
+    try:
+        return str(res.failure(point, seed).attrs.get("failure", "unknown reason"))
+    except KeyError:
+        return "unknown reason"
+
+
+def render(xmf, png, size, title=None):
+    """The picture of one snapshot's XDMF file, written to png at size pixels, with `title` (a
+    failed member's) at its top left."""
     from paraview import simple as pv
     reader = pv.XDMFReader(FileNames=[xmf])
     view = pv.CreateRenderView()
@@ -118,6 +155,11 @@ def render(xmf, png, size):
     lines.LineWidth = 2.0
     lines.SetScalarBarVisibility(view, True)
     label(pv.GetScalarBar(forces, view), "normal force [m g]")
+    if title:
+        text = pv.Show(pv.Text(Text=title), view)
+        text.WindowLocation = "Upper Left Corner"
+        text.Color = [0.8, 0, 0]
+        text.FontSize = 12
     view.InteractionMode = "2D"
     pv.ResetCamera(view)
     pv.SaveScreenshot(png, view, ImageResolution=size)

@@ -62,3 +62,28 @@ def test_paraview_is_started_again_when_it_aborts(deposit, tmp_path):
     assert (f"ParaView aborted {render_deposit.ATTEMPTS} times; it needs an X display of 24-bit "
             "colour") in done.stderr
     assert not (tmp_path / "never.png").exists()
+
+
+@pytest.fixture(scope="module")
+def failed(tmp_path_factory):
+    """A run with --snapshots whose member 1 (seed 1) fails (LOOSEPACK_INJECT_NAN=1): it has a
+    snapshot_1 beside its failure_1."""
+    os.environ["LOOSEPACK_INJECT_NAN"] = "1"
+    try:
+        scan = {"scan": {"seeds": 2}, "system": {"width": 12.0, "height": 12.0, "bond_number": 30}}
+        out = tmp_path_factory.mktemp("failed") / "fail.h5"
+        return loosepack.run(scan, out, progress=False, args=["--snapshots"])
+    finally:
+        del os.environ["LOOSEPACK_INJECT_NAN"]
+
+
+def test_a_failed_member_is_its_state_at_the_failure_not_its_snapshot(failed):
+    """The failed member has a snapshot_1 beside its failure_1: the tool draws the failure's
+    export, with the title and reason of a failure; the finished member's deposit, untitled."""
+    xmf, title = render_deposit.member_file(failed.path, 0, 1)
+    assert xmf.endswith("fail_p0000_s1_failure.xmf") and os.path.exists(xmf)
+    assert title == ("FAILED member (point 0, seed 1): state at the failure",
+                     "non-finite position or velocity (NaN or Inf)")
+    xmf, title = render_deposit.member_file(failed.path, 0, 0)
+    assert xmf.endswith("fail_p0000_s0.xmf") and title is None
+
