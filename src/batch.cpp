@@ -518,7 +518,9 @@ Batch::KernelEffects Batch::Impl::needed_effects() const {
     const SystemParams& pr = params[static_cast<std::size_t>(s)];
     e.cohesion = e.cohesion || pr.cohesive_force() > 0.0;
     e.friction = e.friction || pr.friction > 0.0;
-    e.rolling = e.rolling || (pr.friction > 0.0 && pr.rolling_friction > 0.0);
+    // The rolling bound mu_r R_c P_n holds without sliding friction too; the rolling kernel is
+    // the one with every effect, whose sliding bound is then zero.
+    e.rolling = e.rolling || pr.rolling_friction > 0.0;
   }
   return e;
 }

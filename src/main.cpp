@@ -166,12 +166,16 @@ int report_failures(const std::vector<MemberResult>& results, const std::string&
 }
 
 // Warns of each point whose nu_lower_half is a mean over fewer than its finished members
-// (members_left_out_note). Said even with -q.
+// (members_left_out_note), and of each protocol-C point with collapses stopped while still moving
+// (capped_collapses_note). Said even with -q.
 void report_members_left_out(const std::vector<PointResult>& points) {
   for (const auto& p : points) {
     const std::string note = members_left_out_note(p.point.index, p.point.protocol,
                                                    p.nu_lower_half.n, p.members - p.failed);
     if (!note.empty()) std::cerr << "loosepack: warning: " << note << "\n";
+    if (p.point.protocol != Protocol::C) continue;
+    const std::string capped = capped_collapses_note(p.point.index, p.m_failure, p.m_capped);
+    if (!capped.empty()) std::cerr << "loosepack: warning: " << capped << "\n";
   }
 }
 

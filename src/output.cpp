@@ -561,6 +561,24 @@ std::string members_left_out_note(int point, Protocol protocol, int over, int fi
   return o.str();
 }
 
+std::string capped_collapses_note(int point, const std::vector<double>& failure,
+                                  const std::vector<double>& capped) {
+  int finished = 0, stopped = 0;
+  for (std::size_t k = 0; k < failure.size() && k < capped.size(); ++k) {
+    if (failure[k] != 0.0) continue;
+    ++finished;
+    stopped += capped[k] > 0.0 ? 1 : 0;
+  }
+  if (stopped == 0) return "";
+  std::ostringstream o;
+  o << "point " << std::setw(4) << std::setfill('0') << point << std::setfill(' ')
+    << ": the collapse of " << stopped << " of " << finished
+    << " finished members was stopped at protocol.max_collapse_time while still moving; their "
+       "final states enter nu_lower_half, dnu/nu_i and the profiles as they were (a larger "
+       "max_collapse_time lets them come to rest)";
+  return o.str();
+}
+
 namespace {
 
 // A 2-D dataset as its rows.
@@ -1088,6 +1106,12 @@ void write_summary(const std::string& path, std::ostream& out) {
       const std::string note =
           members_left_out_note(std::stoi(n.substr(7)), prot == "C" ? Protocol::C : Protocol::A,
                                 count_attribute(g, "nu_lower_half_n"), members - failed);
+      if (!note.empty()) notes << "# " << note << "\n";
+    }
+    if (prot == "C") {
+      const std::string note =
+          capped_collapses_note(std::stoi(n.substr(7)), doubles(file, n + "/members/failure"),
+                                doubles(file, n + "/members/capped"));
       if (!note.empty()) notes << "# " << note << "\n";
     }
   }

@@ -160,8 +160,12 @@ struct Regions::Impl {
   }
 };
 
+namespace {
+constexpr double kRegionHeadroom = 4.0;  // [R] above the tallest system a region slot holds
+}  // namespace
+
 double region_slot_height(double radius, double tallest) {
-  return std::min(tallest, 4.0 * radius + 40.0) + 4.0;
+  return std::min(tallest, 4.0 * radius + 40.0) + kRegionHeadroom;
 }
 
 Regions::Regions(int n, const std::vector<SystemParams>& systems, const RegionSettings& settings,
@@ -199,8 +203,11 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   const SystemParams& pr = whole.params(s);
   double rmax = pr.radius;
   for (const auto& d : disks) rmax = std::max(rmax, d.radius);
-  // Contact reach of a moving disk: the largest detection margin a region's grid allows.
-  const double reach = 2.0 * rmax + pr.cohesion_range + grid_margin(pr, I.settings.max_height);
+  // Contact reach of a moving disk: the largest detection margin a region of this system's grid
+  // allows, from its own height (region_slot_height of it: the slots' height, or less in a lower
+  // system), so that the scan's other points do not change its regions.
+  const double own_height = std::min(I.settings.max_height, pr.height + kRegionHeadroom);
+  const double reach = 2.0 * rmax + pr.cohesion_range + grid_margin(pr, own_height);
   if (!(radius > 0.0)) radius = I.settings.radius;
   const RegionSelection sel = select_region(disks, seeds, pr.width, radius, reach);
   const bool moves =

@@ -217,6 +217,15 @@ EOF
   "$exe" summary "$dir/keepck.h5" >/dev/null || fail "the file beside the checkpoint left"
   rm -r "$dir/keepck.h5.checkpoint"
 fi
+# A protocol-C collapse stopped at protocol.max_collapse_time while still moving (0.2 sqrt(R/g),
+# a twentieth of a free fall through two thirds of the box) is said at the end of the run and by
+# summary.
+printf '[scan]\nname = "cut"\nprotocol = "C"\nseeds = 2\n[system]\nwidth = 20\nheight = 30\nbond_number = 1000\ncapture_radius = 2.0\n[protocol]\nmax_collapse_time = 0.2\n[observables]\nlower_half_from = 2\n' >"$dir/cut.toml"
+msg=$("$exe" run "$dir/cut.toml" -o "$dir/cut.h5" -q 2>&1) || fail "a run with capped collapses: $msg"
+echo "$msg" | grep -q "warning: point 0000: the collapse of [12] of 2 finished members was stopped at protocol.max_collapse_time while still moving" ||
+  fail "no warning of the capped collapses: $msg"
+"$exe" summary "$dir/cut.h5" | grep -q "^# point 0000: the collapse of [12] of 2 finished members was stopped" ||
+  fail "summary does not note the capped collapses: $("$exe" summary "$dir/cut.h5")"
 # A file system without room for the run's checkpoint and results is refused before any work.
 set +e
 msg=$(LOOSEPACK_INJECT_FREE_BYTES=1000 "$exe" run "$dir/good.toml" -o "$dir/full.h5" 2>&1); rc=$?

@@ -162,6 +162,37 @@ TEST(Pile, SettlesAndIsBitIdenticalInsideABatch) {
   }
 }
 
+// Rolling friction without sliding friction (mu = 0, mu_r = 0.1): the rolling bound mu_r R_c P_n
+// does not involve mu (docs/MODEL.md), so a pile alone holds rolling moments, and holds the same
+// ones bit for bit as a member of a batch whose other member has sliding friction (the batch
+// picks its solver kernel from its members' effects).
+TEST(Pile, RollingFrictionWithoutSlidingFrictionIsTheSameAloneAndInABatch) {
+  auto p = bare_params(16.0, 40.0);
+  p.friction = 0.0;
+  p.rolling_friction = 0.1;
+  const auto drop = random_drop(50, p.width, 21);
+  SolverSettings s;
+  s.tolerance = 1e-3;
+  Batch alone({setup(p, drop)}, s);
+  alone.run_to_rest(20000);
+  double largest_moment = 0.0;
+  for (const auto& c : alone.contacts(0))
+    largest_moment = std::max(largest_moment, std::fabs(c.moment));
+  EXPECT_GT(largest_moment, 0.0) << "no rolling moment held alone";
+  auto q = bare_params(16.0, 40.0);
+  q.friction = 0.3;
+  q.rolling_friction = 0.1;
+  Batch batch({setup(p, drop), setup(q, random_drop(30, q.width, 22))}, s);
+  batch.run_to_rest(20000);
+  const auto a = alone.disks(0), b = batch.disks(0);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(batch.status(0).steps, alone.status(0).steps);
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(std::memcmp(&a[k].x, &b[k].x, sizeof(double)), 0) << "disk " << k;
+    EXPECT_EQ(std::memcmp(&a[k].w, &b[k].w, sizeof(double)), 0) << "disk " << k;
+  }
+}
+
 // 10. Jacobi converges on a dense hexagonal packing under load; Jacobi and Gauss-Seidel agree
 // where the forces are determinate.
 namespace {

@@ -54,6 +54,39 @@ lower_half_from = 2.0
     }
 }
 
+// A member's relaxation regions do not depend on the scan's other points: the reach of a region's
+// moving disks comes from the member's own height, not the tallest of the scan. Member 0 (H =
+// 40 R) alone in its scan and in one with a point at H = 90 R gives the same results; the time
+// step 0.045 makes the fall speed set the detection margin (above its floor of R/2) at both
+// heights.
+TEST(Reproducibility, RegionsDoNotDependOnTheScansOtherPoints) {
+  auto scan_of = [](const std::string& heights) {
+    return parse_scan(R"(
+[scan]
+protocol = "A"
+seed = 4
+[system]
+width = 12.0
+height = )" + heights + R"(
+bond_number = 0
+time_step = 0.045
+[protocol]
+region_radius = 5.0
+[observables]
+lower_half_from = 2.0
+)",
+                      "regions.toml");
+  };
+  const Scan low = scan_of("40.0"), mixed = scan_of("[40.0, 90.0]");
+  const auto a = run_members(low, {members_of(low).at(0)});
+  const auto b = run_members(mixed, {members_of(mixed).at(0)});
+  ASSERT_EQ(a.size(), 1u);
+  ASSERT_EQ(b.size(), 1u);
+  EXPECT_EQ(a[0].steps, b[0].steps);
+  EXPECT_EQ(a[0].y_e, b[0].y_e);
+  EXPECT_EQ(a[0].x, b[0].x);
+}
+
 // A step's solve split over launches (solver.sweeps_per_launch) gives every member the same
 // steps as whole solves: the slowest system no longer holds the others in a launch, and the
 // scheduler acts on a member only once its step has ended. Protocol A with relaxation regions

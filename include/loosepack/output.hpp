@@ -41,6 +41,11 @@ std::vector<PointResult> write_member_results(const std::string& path, const Sca
 // (a collapse that took a member's top below 2 lower_half_from leaves its final band empty and
 // its value NaN): a line saying so, for the run's warning and the summary; else "".
 std::string members_left_out_note(int point, Protocol protocol, int over, int finished);
+// The note for a protocol-C point some of whose finished members' collapses were stopped at
+// protocol.max_collapse_time while still moving (members' `failure` and `capped`, in the file's
+// order), or "" when none was.
+std::string capped_collapses_note(int point, const std::vector<double>& failure,
+                                  const std::vector<double>& capped);
 
 // What `loosepack merge` reads of a shard's file: the scan file's text and name, the run's
 // provenance and its members' bytes (a checkpoint part). Throws std::runtime_error naming the
