@@ -190,8 +190,12 @@ void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips
   m.abs_dy_means.push_back(r.y_i.empty() ? kNaN : sum_abs / static_cast<double>(r.y_i.size()));
   pr.m_mean_abs_dy.push_back(m.abs_dy_means.back());
   if (pt.protocol == Protocol::C) {
-    const double ni = band_volume_fraction(r.y_i, r.radius, p.width, lower_half_from,
-                                           0.5 * deposit_top(r.y_i, r.radius));
+    // nu_i only where dnu/nu_i is defined (the final band not empty), so that nu_initial, nu_final
+    // and dnu/nu_i are means over the same members, as the fit of dnu/nu_i against nu_i pairs them.
+    const double ni = std::isfinite(nlh)
+                          ? band_volume_fraction(r.y_i, r.radius, p.width, lower_half_from,
+                                                 0.5 * deposit_top(r.y_i, r.radius))
+                          : kNaN;
     m.nu_i.push_back(ni);
     m.rel.push_back((nlh - ni) / ni);
   }

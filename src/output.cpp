@@ -81,7 +81,10 @@ DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
   if (name == "vx" || name == "vy") return {"sqrt(g R)", "velocity component"};
   if (name == "w") return {"sqrt(g / R)", "angular velocity"};
   if (name == "wall_time") return {"s", "seconds the member held its batch slot"};
-  if (name == "nu_lower_half") return {"1", "mean volume fraction in [lower_half_from, H/2)"};
+  if (name == "nu_lower_half")
+    return {
+        "1",
+        "mean volume fraction in [lower_half_from, H/2) (A, B) or [lower_half_from, top/2) (C)"};
   if (name == "mean_abs_dy") return {"R", "mean abs(Delta y) of the member's disks"};
   if (group == "events" && name == "edges")
     return {"", "logarithmic bin edges (R for displacements, disks, steps)"};
@@ -553,8 +556,8 @@ std::string members_left_out_note(int point, Protocol protocol, int over, int fi
   if (over >= finished) return "";
   std::ostringstream o;
   o << "point " << std::setw(4) << std::setfill('0') << point << std::setfill(' ')
-    << ": nu_lower_half" << (protocol == Protocol::C ? " and dnu/nu_i" : "") << " over " << over
-    << " of " << finished
+    << ": nu_lower_half" << (protocol == Protocol::C ? ", nu_initial and dnu/nu_i" : "") << " over "
+    << over << " of " << finished
     << " finished members: the others' final band was empty (a collapse below 2 "
        "lower_half_from; a lower observables.lower_half_from keeps them; docs/MODEL.md, "
        "\"Observables\")";

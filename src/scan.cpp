@@ -593,10 +593,17 @@ Scan ScanParser::parse() {
   return scan;
 }
 
-// The observables' bands within a point of height H: nu_lower_half from lower_half_from to H/2, and
-// the cut histogram and profile fits between the bottom and the top cut.
+// The observables' bands within a point of height H: nu_lower_half from lower_half_from to H/2,
+// the cut histogram and profile fits between the bottom and the top cut, and at least one strip
+// of nu(y) below H (a strip reaching over H would count the empty space above the box).
 void ScanParser::check_bands(double height) const {
   const auto& obs = scan.observables;
+  if (!(obs.strip_width <= height)) {
+    std::ostringstream o;
+    o << obs.strip_width << " must be at most H = " << height
+      << " of every point (nu(y) is measured in the strips that fit below H)";
+    fail_setting("observables.strip_width", o.str());
+  }
   if (!(obs.lower_half_from_at(height) < 0.5 * height)) {
     std::ostringstream o;
     o << obs.lower_half_from << " must lie below H/2 = " << 0.5 * height

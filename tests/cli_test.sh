@@ -67,8 +67,12 @@ lower_half_from = 10.0
 EOF
 msg=$("$exe" run "$dir/empty_band.toml" -o "$dir/empty_band.h5" -q 2>&1) ||
   fail "a collapse below the band: $msg"
-want="point 0000: nu_lower_half and dnu/nu_i over 0 of 2 finished members: the others' final band"
+want="point 0000: nu_lower_half, nu_initial and dnu/nu_i over 0 of 2 finished members: the others' final band"
 echo "$msg" | grep -qF "warning: $want" || fail "no warning of the empty band: $msg"
+# nu_initial is a mean over the same members as dnu/nu_i (none here), not over every member.
+counts=$(/usr/bin/python3 -c "import h5py; a = h5py.File('$dir/empty_band.h5')['points/0000'].attrs
+print(*(int(a[k + '_n']) for k in ('nu_initial', 'nu_final', 'relative_increase')))")
+[ "$counts" = "0 0 0" ] || fail "nu_initial, nu_final, dnu/nu_i over $counts members"
 "$exe" summary "$dir/empty_band.h5" | grep -qF "# $want" ||
   fail "summary does not say the means leave members out: $("$exe" summary "$dir/empty_band.h5")"
 

@@ -238,6 +238,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system\nwidth = 3\n", "bad.toml:1:"},
       {"[system]\nheight = 40\n[observables]\nlower_half_from = 30\n",
        "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
+      {"[system]\nheight = [40, 8]\n[observables]\nstrip_width = 16\nlower_half_from = 1\n",
+       "bad.toml:4:15: key 'observables.strip_width': 16 must be at most H = 8"},
       {"[system]\nheight = 12\n[observables]\ncut_bottom = 8\ncut_top = 8\n",
        "bad.toml:5:11: key 'observables.cut_top': cut_bottom + cut_top = 16 must lie below H = 12"},
       {"[system]\nheight = [12, 60]\n[observables]\ncut_bottom = 11\n",
