@@ -245,13 +245,6 @@ static bool escaped(const std::vector<Disk>& disks, const SystemParams& p) {
                      [&](const Disk& d) { return !(d.y <= top) || d.y < 0.0; });
 }
 
-// Whether a finished member holds an overlap beyond kMaxFinalOverlap R: its failure too.
-static bool overlapping(const std::vector<ContactForce>& contacts, const SystemParams& p) {
-  return std::any_of(contacts.begin(), contacts.end(), [&](const ContactForce& c) {
-    return c.gap < -kMaxFinalOverlap * p.radius;
-  });
-}
-
 // The member of slot k has finished (or failed): its result is collected and handed to the
 // hooks, and the slot takes the next member.
 void MemberRun::finish(std::size_t k) {
@@ -270,7 +263,11 @@ void MemberRun::finish(std::size_t k) {
   const std::vector<Disk> disks = batch_->disks(s);
   r.contacts = batch_->contacts(s);
   if (r.failure == Failure::None && escaped(disks, batch_->params(s))) r.failure = Failure::Escaped;
-  if (r.failure == Failure::None && overlapping(r.contacts, batch_->params(s)))
+  // An overlap beyond kMaxFinalOverlap R is a failure too. It is measured on the disks as they
+  // ended: a member whose last region hit its time cap ends without a whole-system step, and
+  // the contacts' gaps are then those of an earlier step.
+  if (r.failure == Failure::None &&
+      batch_->max_overlap(s) > kMaxFinalOverlap * batch_->params(s).radius)
     r.failure = Failure::Overlap;
   for (const auto& d : disks) {
     r.x.push_back(d.x);
