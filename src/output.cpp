@@ -1111,7 +1111,8 @@ void write_summary(const std::string& path, std::ostream& out) {
                                 count_attribute(g, "nu_lower_half_n"), members - failed);
       if (!note.empty()) notes << "# " << note << "\n";
     }
-    if (prot == "C") {
+    if (prot == "C" && H5Lexists(g, "members", H5P_DEFAULT) > 0 &&
+        H5Lexists(g, "members/capped", H5P_DEFAULT) > 0) {
       const std::string note =
           capped_collapses_note(std::stoi(n.substr(7)), doubles(file, n + "/members/failure"),
                                 doubles(file, n + "/members/capped"));
