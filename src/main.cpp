@@ -575,15 +575,19 @@ RunHooks RunCommand::hooks() {
   RunHooks h;
   h.stop = &g_signal;
   if (o.timing) h.stage_costs = &stages;
+  // A signal that reaches one rank stops the run on every rank (wait_for_ranks): rank 0 learns
+  // of another rank's stop from its final message, the others of rank 0's stop notice.
   h.progress = [this](const Progress& p) {
     own = p;
     if (talk) {
       latest[0] = p;
-      ranks.receive_progress(latest, final, false);
+      if (const int stopped = ranks.receive_progress(latest, final, false); stopped && !g_signal)
+        g_signal = stopped;
       show(false);
     } else if (seconds_since(last_sent) >= 1.0) {
       last_sent = Clock::now();
       ranks.send_progress(p, false);
+      if (const int stopped = ranks.poll_stop(); stopped && !g_signal) g_signal = stopped;
     }
   };
   h.finished = [this](const MemberResult& r) {
@@ -703,28 +707,41 @@ void RunCommand::print_timing() const {
       std::fprintf(stderr, "  %s: %d threads a team\n", st.name.c_str(), st.team_size);
 }
 
-// Rank 0 shows progress until every rank has finished; at a signal, what was saved and how to
-// go on (the exit code then 128 + the signal).
+// Rank 0 shows progress until every rank is done, finished or stopped. A rank stopped by a
+// signal stops the run: rank 0 tells the ranks still computing to stop, and waits until each
+// has saved its checkpoint and said so, so that no rank waits for another that has gone.
+// Then every rank learns whether the run stopped; at a stop rank 0 says what was saved and how
+// to go on, and the exit code is 128 + the signal on every rank.
 int RunCommand::wait_for_ranks() {
+  int stop = g_signal;
   if (talk) {
     final[0] = 1;
-    while (!g_signal && std::find(final.begin(), final.end(), 0) != final.end()) {
-      ranks.receive_progress(latest, final, true);
-      show(false);
+    bool told = false;
+    while (std::find(final.begin(), final.end(), 0) != final.end()) {
+      if (const int stopped = ranks.receive_progress(latest, final, true); stopped && !stop)
+        stop = stopped;
+      if (stop && !told) {
+        ranks.send_stop(stop, final);
+        told = true;
+      }
+      if (!stop) show(false);
     }
-    if (!g_signal) show(true);
-  } else if (!g_signal) {
-    ranks.send_progress(own, true);
+    if (!stop) show(true);
+  } else {
+    ranks.send_progress(own, true, g_signal);
   }
-  if (!g_signal) return 0;
-  const std::string by = g_signal == SIGINT ? "SIGINT" : "SIGTERM";
+  stop = ranks.broadcast(stop);
+  ranks.poll_stop();  // a stop notice that crossed this rank's final message
+  if (!stop) return 0;
+  if (!talk) return 128 + stop;
+  const std::string by = stop == SIGINT ? "SIGINT" : "SIGTERM";
   if (ranks.size() == 1 && !std::filesystem::exists(ck_dir))
     say("interrupted by " + by + " before anything could be saved; start the run again");
   else
     say("interrupted by " + by +
         ": finished members, and where the running ones were, are saved in " + ck_dir +
         "; continue with: " + resume_command());
-  return 128 + static_cast<int>(g_signal);
+  return 128 + stop;
 }
 
 // Rank 0 collects every rank's members, reports the failed ones and writes the file.

@@ -15,12 +15,13 @@ namespace loosepack {
 #ifdef LOOSEPACK_WITH_MPI
 
 namespace {
-constexpr int kTagProgress = 1, kTagSize = 2, kTagChunk = 3;
+constexpr int kTagProgress = 1, kTagSize = 2, kTagChunk = 3, kTagStop = 4;
 constexpr std::uint64_t kChunk = 1ull << 30;
 
 struct ProgressMessage {
   Progress progress;
   int final = 0;
+  int stopped = 0;  // the signal that stopped the rank, with its final message
 };
 }  // namespace
 
@@ -75,7 +76,7 @@ void Ranks::abort(int code) const {
   if (size_ > 1) MPI_Abort(MPI_COMM_WORLD, code);
 }
 
-void Ranks::send_progress(const Progress& p, bool final) {
+void Ranks::send_progress(const Progress& p, bool final, int stopped) {
   if (root()) return;
   if (pending_->request != MPI_REQUEST_NULL) {
     int done = 0;
@@ -85,28 +86,47 @@ void Ranks::send_progress(const Progress& p, bool final) {
   }
   pending_->message.progress = p;
   pending_->message.final = final ? 1 : 0;
+  pending_->message.stopped = stopped;
   MPI_Isend(&pending_->message, sizeof(ProgressMessage), MPI_BYTE, 0, kTagProgress, MPI_COMM_WORLD,
             &pending_->request);
 }
 
-void Ranks::receive_progress(std::vector<Progress>& latest, std::vector<char>& final,
-                             bool wait) const {
+int Ranks::receive_progress(std::vector<Progress>& latest, std::vector<char>& final,
+                            bool wait) const {
+  int stopped = 0;
   for (;;) {
     int flag = 0;
     MPI_Status st;
     MPI_Iprobe(MPI_ANY_SOURCE, kTagProgress, MPI_COMM_WORLD, &flag, &st);
     if (!flag) {
-      if (!wait) return;
       // Poll rather than block, so that the caller's timer and stop flag stay live.
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      return;
+      if (wait) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      return stopped;
     }
     ProgressMessage m;
     MPI_Recv(&m, sizeof m, MPI_BYTE, st.MPI_SOURCE, kTagProgress, MPI_COMM_WORLD,
              MPI_STATUS_IGNORE);
     latest.at(static_cast<std::size_t>(st.MPI_SOURCE)) = m.progress;
     if (m.final) final.at(static_cast<std::size_t>(st.MPI_SOURCE)) = 1;
+    if (m.stopped && !stopped) stopped = m.stopped;
     wait = false;  // something arrived: drain the rest without waiting
+  }
+}
+
+void Ranks::send_stop(int signal, const std::vector<char>& final) const {
+  for (int r = 1; r < size_; ++r)
+    if (!final.at(static_cast<std::size_t>(r)))
+      MPI_Send(&signal, 1, MPI_INT, r, kTagStop, MPI_COMM_WORLD);
+}
+
+int Ranks::poll_stop() const {
+  if (root()) return 0;
+  int signal = 0;
+  for (;;) {  // every stop notice that has arrived (one at most, by send_stop)
+    int flag = 0;
+    MPI_Iprobe(0, kTagStop, MPI_COMM_WORLD, &flag, MPI_STATUS_IGNORE);
+    if (!flag) return signal;
+    MPI_Recv(&signal, 1, MPI_INT, 0, kTagStop, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
   }
 }
 
@@ -119,8 +139,10 @@ std::vector<std::string> Ranks::gather(const std::string& mine) const { return {
 void Ranks::barrier() const {}
 int Ranks::broadcast(int value) const { return value; }
 void Ranks::abort(int) const {}
-void Ranks::send_progress(const Progress&, bool) {}
-void Ranks::receive_progress(std::vector<Progress>&, std::vector<char>&, bool) const {}
+void Ranks::send_progress(const Progress&, bool, int) {}
+int Ranks::receive_progress(std::vector<Progress>&, std::vector<char>&, bool) const { return 0; }
+void Ranks::send_stop(int, const std::vector<char>&) const {}
+int Ranks::poll_stop() const { return 0; }
 
 #endif
 

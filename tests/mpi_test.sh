@@ -24,6 +24,33 @@ for k in 1 2 3; do
   [ "$(grep -c "9/9 members" k$k.log)" -eq 1 ] || fail "K=$k: final progress: $(cat k$k.log)"
 done
 grep -q "3 MPI ranks" k3.log || fail "rank count not reported"
+# A signal that reaches one rank only (rank 1, then rank 0) stops the whole run: every rank saves
+# its checkpoint and ends with 128 + the signal, rank 0 says how to go on, and the checkpoint
+# resumes; before, the other rank waited for the stopped one for ever.
+printf '[scan]\nname = "long"\nseeds = 8\nprotocol = "A"\n[system]\nwidth = 30\nheight = 60\nbond_number = 1000\n[observables]\nlower_half_from = 2\n' >long.toml
+for victim in 1 0; do
+  mpirun --oversubscribe -np 2 "$exe" run long.toml -o stop$victim.h5 --checkpoint-every 1 \
+    2>stop$victim.log &
+  job=$!
+  for _ in $(seq 300); do grep -q "members," stop$victim.log && break; sleep 0.1; done
+  for p in $(pgrep -P $job); do
+    tr '\0' '\n' </proc/$p/environ | grep -qx "OMPI_COMM_WORLD_RANK=$victim" && kill -TERM $p
+  done
+  for _ in $(seq 600); do kill -0 $job 2>/dev/null || break; sleep 0.1; done
+  if kill -0 $job 2>/dev/null; then
+    kill -KILL $job
+    fail "SIGTERM to rank $victim: the run did not end within 60 s: $(cat stop$victim.log)"
+  fi
+  set +e
+  wait $job
+  rc=$?
+  set -e
+  [ "$rc" -eq 143 ] || fail "SIGTERM to rank $victim: exit code $rc: $(cat stop$victim.log)"
+  grep -q "interrupted by SIGTERM: .* continue with: loosepack run long.toml -o stop$victim.h5 --resume" stop$victim.log ||
+    fail "SIGTERM to rank $victim: no word of the resume: $(cat stop$victim.log)"
+  "$exe" run long.toml -o stop$victim.h5 --resume --dry-run >/dev/null ||
+    fail "SIGTERM to rank $victim: the checkpoint does not resume"
+done
 # The comparison itself can fail: another scan seed gives other datasets.
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > seed2.toml
 "$exe" run seed2.toml -o seed2.h5 -q

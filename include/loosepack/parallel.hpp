@@ -32,11 +32,17 @@ class Ranks {
   void abort(int code) const;
 
   // Not rank 0: tells rank 0 how far this rank got. A progress message still in flight makes
-  // this one be dropped, except the final one, which is always delivered.
-  void send_progress(const Progress& p, bool final);
+  // this one be dropped, except the final one, which is always delivered; the final one carries
+  // the signal that stopped this rank (`stopped`, 0 when it finished its share).
+  void send_progress(const Progress& p, bool final, int stopped = 0);
   // Rank 0: takes the progress messages that have arrived (waiting for one when `wait`);
-  // latest[r] holds rank r's latest, final[r] whether rank r finished its share.
-  void receive_progress(std::vector<Progress>& latest, std::vector<char>& final, bool wait) const;
+  // latest[r] holds rank r's latest, final[r] whether rank r is done (finished or stopped).
+  // Returns the signal that stopped a rank whose final message arrived, else 0.
+  int receive_progress(std::vector<Progress>& latest, std::vector<char>& final, bool wait) const;
+  // A stop of the whole run, whichever rank the signal reached: rank 0 tells each rank not yet
+  // done to stop (`signal`); the others poll for that notice (the signal, or 0).
+  void send_stop(int signal, const std::vector<char>& final) const;
+  int poll_stop() const;
 
  private:
   int rank_ = 0, size_ = 1;
