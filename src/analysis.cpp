@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <set>
 #include <utility>
 
 namespace loosepack {
@@ -356,6 +357,9 @@ Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Var
     sigma.push_back(n > 3.0 ? d->sigma * std::sqrt((n - 1.0) / (n - 3.0)) : d->sigma);
     used.push_back(points[k].point.index);  // K of points/K, not the position among those held
   }
+  // A law through fewer than three values of the varying parameter has no degree of freedom
+  // left to be tested by (group_varying asks for three; a datum may have dropped out): no fit.
+  if (std::set<double>(x.begin(), x.end()).size() < 3) return Fit{};
   Fit f = fit(x, y, sigma);
   if (!f.valid()) return f;
   f.scan_points = std::move(used);

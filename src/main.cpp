@@ -746,7 +746,8 @@ int RunCommand::wait_for_ranks() {
 
 // Rank 0 collects every rank's members, reports the failed ones and writes the file.
 int RunCommand::collect_and_write() {
-  const auto shares = ranks.gather(encode_members(computed));
+  // Rank 0 takes its own members as they are: only the others' travel encoded.
+  const auto shares = ranks.gather(talk ? std::string() : encode_members(computed));
   if (!talk) return 0;
   try {
     for (std::size_t r = 0; r < shares.size(); ++r) {

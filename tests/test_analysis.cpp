@@ -500,9 +500,13 @@ capture_radius = 1.5
 [[point]]
 height = 120.0
 capture_radius = 2.0
+[[point]]
+height = 120.0
+capture_radius = 1.25
 )",
                                "synthetic.toml");
-  const double nu_i[4] = {0.40, 0.40, 0.33, 0.27}, height[4] = {60.0, 120.0, 120.0, 120.0};
+  const double nu_i[5] = {0.40, 0.40, 0.33, 0.27, 0.37};
+  const double height[5] = {60.0, 120.0, 120.0, 120.0, 120.0};
   const double K = 0.1, s = -1.64;
   const auto results = synthetic_ensemble(
       scan, 13,
@@ -520,7 +524,7 @@ capture_radius = 2.0
   const Analysis an = analyse(scan, points);
   const Fit& f = an.scan.increase_vs_nu_initial;
   ASSERT_TRUE(f.valid());
-  EXPECT_EQ(f.scan_points, (std::vector<int>{1, 2, 3}));  // not point 0, of another height
+  EXPECT_EQ(f.scan_points, (std::vector<int>{1, 2, 3, 4}));  // not point 0, of another height
   EXPECT_NEAR(f.coef[1], s, 3.0 * f.error[1]);
   EXPECT_LT(f.error[1], 0.3);
   EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);
@@ -528,7 +532,7 @@ capture_radius = 2.0
   // of the scan's points (a shard, a run stopped early): here without point 0.
   const std::vector<PointResult> held(points.begin() + 1, points.end());
   EXPECT_EQ(analyse(scan, held).scan.increase_vs_nu_initial.scan_points,
-            (std::vector<int>{1, 2, 3}));
+            (std::vector<int>{1, 2, 3, 4}));
   // A point of one finished member has no error: it takes no part in the fit, neither listed
   // among its points nor switching its chi2 off (as a datum of 3 or fewer members does).
   auto one_member = points;
@@ -537,12 +541,18 @@ capture_radius = 2.0
   const Analysis without = analyse(scan, one_member);
   const Fit& g = without.scan.increase_vs_nu_initial;
   ASSERT_TRUE(g.valid());
-  EXPECT_EQ(g.scan_points, (std::vector<int>{2, 3}));
+  EXPECT_EQ(g.scan_points, (std::vector<int>{2, 3, 4}));
   EXPECT_TRUE(std::isfinite(g.chi2));
+  // With two such points only two data are left: a law of two parameters through two points has
+  // no degree of freedom to be tested by, and is not fitted.
+  one_member[4].relative_increase.n = 1;
+  one_member[4].relative_increase.sem = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(analyse(scan, one_member).scan.increase_vs_nu_initial.valid());
   // Points that differ in another parameter too (here the disks' density) are no series in
   // r_capt: two points are left, too few for the fit.
   auto denser = points;
   denser[1].point.params.disk_density *= 2.0;
+  denser[4].point.params.disk_density *= 2.0;
   EXPECT_FALSE(analyse(scan, denser).scan.increase_vs_nu_initial.valid());
 }
 
