@@ -53,6 +53,12 @@ about 17 % of the time at its 99 % bound. Each such t enters the chi2 as the nor
 the same tail probability, which rejects them about 1 % of the time (2-3 % when one file has
 four times the other's members).
 
+The strips and bins are summed as independent. Neighbouring histogram bins and profile bins are
+correlated through the members (a member that moved more did so over a range of heights), so
+those chi2 reject equal ensembles more often than their nominal 1 %; a strip of nu(y) shares
+disks only with its neighbours, and the bound of three times a third of its degrees of freedom
+is loose for it: a real difference of nu(y) must be larger to be marked.
+
 Points pair up by their parameters (protocol, Bond number, box, capture radius, disk and contact
 parameters, time step). Where some have no counterpart of the same parameters and the two files
 hold the same point indices (two runs of one scan's points with a setting changed, such as the
