@@ -2,7 +2,8 @@
 # MPI: a scan sharded over K = 1, 2 and 3 ranks (mpirun --oversubscribe) gives output identical
 # to a run without mpirun (tests/h5_equal.py: every dataset and attribute but the run's times
 # and rank count), with a failed member (injected NaN) among them, and progress and failures
-# are printed once. (The failed member itself: tests/failure_test.sh.)
+# are printed once; a signal to one rank stops them all. (The failed member itself:
+# tests/failure_test.sh.)
 source "$(dirname "$0")/common.sh"
 cd "$dir"
 mixed_scan s.toml
@@ -26,7 +27,7 @@ done
 grep -q "3 MPI ranks" k3.log || fail "rank count not reported"
 # A signal that reaches one rank only (rank 1, then rank 0) stops the whole run: every rank saves
 # its checkpoint and ends with 128 + the signal, rank 0 says how to go on, and the checkpoint
-# resumes; before, the other rank waited for the stopped one for ever.
+# resumes (no rank waits for the stopped one).
 printf '[scan]\nname = "long"\nseeds = 8\nprotocol = "A"\n[system]\nwidth = 30\nheight = 60\nbond_number = 1000\n[observables]\nlower_half_from = 2\n' >long.toml
 for victim in 1 0; do
   mpirun --oversubscribe -np 2 "$exe" run long.toml -o stop$victim.h5 --checkpoint-every 1 \
