@@ -41,6 +41,11 @@ def test_the_deposit_is_drawn_on_a_white_background(deposit, tmp_path):
     import matplotlib.image
     png = tmp_path / "deposit.png"
     done = render(deposit, png, 24)
+    if done.returncode != 0 and "ParaView aborted" in done.stderr:
+        # Every ParaView process on one X server aborted (seen once on a machine busy with two
+        # other tests): the picture is this test's subject, so once more on a fresh X server.
+        print("first X server: " + done.stderr[:1500])
+        done = render(deposit, png, 24)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.split()[-1] == str(png)
     image = matplotlib.image.imread(str(png))
