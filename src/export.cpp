@@ -77,7 +77,8 @@ void check_selection(hid_t file, const std::string& path, const ExportSelection&
 }
 
 // The snapshots, failure snapshots and trajectories of the selection. A failed member's
-// snapshot_K (--snapshots writes one for every member) is no deposit: its failure_K is exported.
+// snapshot_K (in files written before 2026-12-02, the same state as its failure_K) is no deposit:
+// its failure_K is exported.
 std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
   std::vector<MemberData> out;
   for (const auto& point : children(file, "points")) {

@@ -506,7 +506,9 @@ void write_members(hid_t m, const Scan& scan, const PointResult& pr,
   }
   for (const auto& r : members) {
     if (r.member.point != pr.point.index) continue;
-    if (snapshots) snapshot(group(m, "snapshot_" + std::to_string(r.member.seed_index)), r);
+    // A failed member left no deposit: its state is the failure snapshot below, written once.
+    if (snapshots && r.ok())
+      snapshot(group(m, "snapshot_" + std::to_string(r.member.seed_index)), r);
     if (r.ok()) continue;
     // A failed member's state at the failure, always: its diagnostic snapshot.
     H5 f = group(m, "failure_" + std::to_string(r.member.seed_index));

@@ -473,7 +473,8 @@ def snapshots(points, out, written):
     """The paper's fig. 1: disks and compressive contact forces as lines of width ~ force, of
     every finished member; and the state of every failed member at its failure (velocities as
     arrows; disks with a non-finite state are named in the title). A failed member's snapshot_K
-    (--snapshots writes one for every member) is no deposit and is not drawn: its failure_K is."""
+    (in files written before 2026-12-02, the same state as its failure_K) is no deposit and is not
+    drawn: its failure_K is."""
     for prefix in ("snapshot_", "failure_"):
         for g, name, s in member_groups(points, prefix):
             if prefix == "snapshot_" and member_failed(g, int(name[len(prefix):])):

@@ -15,9 +15,8 @@ ParaView renders in a process of its own, started again up to ATTEMPTS times whe
 Debian's ParaView 5.11 now and then fails to open a display that is there (on a busy machine),
 and a second process renders.
 
-A failed member (members/failure not 0) left no deposit: its snapshot_K (--snapshots writes one
-for every member) is not drawn, but its state at the failure (failure_K, the export's
-`_sK_failure.xmf`), with the title "FAILED member ...: state at the failure" and the reason in the
+A failed member (members/failure not 0) left no deposit: its state at the failure is drawn
+(failure_K, the export's `_sK_failure.xmf`), with the title "FAILED member ...: state at the failure" and the reason in the
 picture, and a line on stderr that says so."""
 
 import argparse

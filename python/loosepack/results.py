@@ -217,18 +217,13 @@ class Results:
                 self.path, point, name, ", ".join(have) or "none", hint))
         return f, g[name]
 
-    def snapshot(self, point, seed=0, allow_failed=False):
+    def snapshot(self, point, seed=0):
         """The final disks of one member (written with --snapshots): x, y_i, y_e, radius and
-        dy = y_e - y_i, in deposition order. A failed member (members(point)'s `failure` not 0)
-        left no deposit: its snapshot (--snapshots writes one for every member) raises a
-        ValueError that names failure(point, seed), its state at the failure, unless
-        `allow_failed`; then it comes with DataFrame.attrs `failure` (the reason) and `member`
-        (its id), which are empty for a finished member."""
-        f, g, failure = self._final_group(point, seed, allow_failed, "snapshot")
+        dy = y_e - y_i, in deposition order."""
+        f, g = self._member_group(point, "snapshot", seed)
         with f:
             df = pd.DataFrame({k: _get(g, k)[()] for k in ("x", "y_i", "y_e", "radius")})
         df["dy"] = df["y_e"] - df["y_i"]
-        df.attrs = failure
         return df
 
     def failure(self, point, seed=0):
@@ -243,47 +238,16 @@ class Results:
                         for k, v in g.attrs.items()}
         return df
 
-    def contacts(self, point, seed=0, allow_failed=False):
+    def contacts(self, point, seed=0):
         """The final contacts of one member: disk indices i, j (j = -1: the floor) and the
-        normal, tangential forces and rolling moment. A failed member's are refused, or marked,
-        as by snapshot()."""
-        f, g, failure = self._final_group(point, seed, allow_failed, "contacts")
+        normal, tangential forces and rolling moment."""
+        f, g = self._member_group(point, "snapshot", seed)
         with f:
             df = pd.DataFrame({k[len("contact_"):]: g[k][()] for k in g.keys()
                                if k.startswith("contact_")})
         for k in ("i", "j"):
             df[k] = df[k].astype(np.int64)
-        df.attrs = failure
         return df
-
-    def _final_group(self, point, seed, allow_failed, method):
-        """The open file and the snapshot_K group of member `seed`, and {} for a finished member
-        or the attributes of its failure_K (`failure`, `member`) for a failed one, which is a
-        ValueError naming the failure unless `allow_failed` (`method`: the caller's name)."""
-        f, g = self._member_group(point, "snapshot", seed)
-        failure = self._failure_of(g.parent, seed)
-        if failure and not allow_failed:
-            f.close()
-            raise ValueError(
-                "%s point %s seed %d failed (%s): its snapshot_%d is no deposit; its state at the "
-                "failure is failure(point, seed), and %s(point, seed, allow_failed=True) reads "
-                "the snapshot regardless" % (self.path, point, seed, failure["failure"], seed,
-                                             method))
-        return f, g, failure
-
-    @staticmethod
-    def _failure_of(members, seed):
-        """{} when member `seed` of the members group finished (its `failure` 0), else the
-        attributes of its failure_K (the reason `failure`, `member`: its id), or its failure
-        code as `failure` where the file holds no failure_K."""
-        codes = _get(members, "failure")[()][_get(members, "seed_index")[()] == seed]
-        failed = codes[codes != 0]
-        if not len(failed):
-            return {}
-        name = "failure_%d" % seed
-        if name in members and "failure" in members[name].attrs:
-            return {k: _value(v) for k, v in members[name].attrs.items()}
-        return {"failure": "failure code %d" % failed[0]}
 
     def trajectory(self, point, seed=0):
         """Sampled positions (time, disk, x, y) of one member (observables.trajectory_every)."""

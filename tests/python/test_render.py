@@ -71,8 +71,8 @@ def test_paraview_is_started_again_when_it_aborts(deposit, tmp_path):
 
 @pytest.fixture(scope="module")
 def failed(tmp_path_factory):
-    """A run with --snapshots whose member 1 (seed 1) fails (LOOSEPACK_INJECT_NAN=1): it has a
-    snapshot_1 beside its failure_1."""
+    """A run with --snapshots whose member 1 (seed 1) fails (LOOSEPACK_INJECT_NAN=1): its state
+    is failure_1."""
     os.environ["LOOSEPACK_INJECT_NAN"] = "1"
     try:
         scan = {"scan": {"seeds": 2}, "system": {"width": 12.0, "height": 12.0, "bond_number": 30}}
@@ -83,8 +83,8 @@ def failed(tmp_path_factory):
 
 
 def test_a_failed_member_is_its_state_at_the_failure_not_its_snapshot(failed):
-    """The failed member has a snapshot_1 beside its failure_1: the tool draws the failure's
-    export, with the title and reason of a failure; the finished member's deposit, untitled."""
+    """The tool draws the failed member's failure export, with the title and reason of a
+    failure; the finished member's deposit, untitled."""
     xmf, title = render_deposit.member_file(failed.path, 0, 1)
     assert xmf.endswith("fail_p0000_s1_failure.xmf") and os.path.exists(xmf)
     assert title == ("FAILED member (point 0, seed 1): state at the failure",
