@@ -430,15 +430,19 @@ Fit log_count_fit(const std::vector<double>& x, const std::vector<double>& n, in
 // The histogram fit's chi2 and errors from the members' scatter (HistogramShape): each member
 // with disks left out in turn, the rest's counts scaled to the whole ensemble's and refitted;
 // errors the jackknife of the coefficients, chi2 the residuals against their jackknife errors.
-// Leaves `f` unchanged (Pearson's chi2) and returns false with fewer than 4 members with disks.
+// Leaves `f` unchanged (Pearson's chi2) and returns false with fewer than 4 members that did not
+// fail: those whose `member_failure` is 0 or, where it does not give one per row, the rows with
+// disks (a failed member's row is 0; a member that finished may have none in the cut band).
 bool member_scatter(Fit& f, int degree, const std::vector<double>& x, const std::vector<double>& n,
                     const std::vector<std::size_t>& bins,
-                    const std::vector<std::vector<double>>& member_counts) {
+                    const std::vector<std::vector<double>>& member_counts,
+                    const std::vector<double>& member_failure) {
+  const bool flagged = member_failure.size() == member_counts.size();
   std::vector<const std::vector<double>*> rows;
-  for (const auto& row : member_counts) {
+  for (std::size_t k = 0; k < member_counts.size(); ++k) {
     double samples = 0.0;
-    for (double c : row) samples += c;
-    if (samples > 0.0) rows.push_back(&row);  // 0: a failed member, not in the counts
+    for (double c : member_counts[k]) samples += c;
+    if (flagged ? member_failure[k] == 0.0 : samples > 0.0) rows.push_back(&member_counts[k]);
   }
   const auto m = static_cast<double>(rows.size());
   if (rows.size() < 4 || !f.valid()) return false;
@@ -459,6 +463,7 @@ bool member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
     residuals.push_back(std::move(res));
   }
   for (std::size_t j = 0; j < f.coef.size(); ++j) f.error[j] = jackknife_error(coefs, j);
+  f.replicas = coefs;
   ResidualChi2 chi2;  // as ensemble_fit's
   for (std::size_t i = 0; i < bins.size(); ++i)
     chi2.add(n[i] - std::exp(polynomial(f, x[i])), jackknife_error(residuals, i));
@@ -470,7 +475,7 @@ bool member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
 
 HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
                                const std::vector<std::vector<double>>& member_counts,
-                               double min_count) {
+                               const std::vector<double>& member_failure, double min_count) {
   HistogramShape h;
   h.preferred = "none";
   std::vector<double> x, n;
@@ -498,8 +503,10 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
   bool rows_ok = !member_counts.empty();
   for (const auto& row : member_counts) rows_ok = rows_ok && row.size() == counts.size();
   if (rows_ok) {
-    const bool exp_scatter = member_scatter(h.exponential, 1, x, n, bins, member_counts);
-    const bool gauss_scatter = member_scatter(h.gaussian, 2, x, n, bins, member_counts);
+    const bool exp_scatter =
+        member_scatter(h.exponential, 1, x, n, bins, member_counts, member_failure);
+    const bool gauss_scatter =
+        member_scatter(h.gaussian, 2, x, n, bins, member_counts, member_failure);
     h.member_errors = exp_scatter || gauss_scatter;
   }
   const double beta = coef(h.exponential, 1);
@@ -595,9 +602,10 @@ PointAnalysis analyse_point(const PointResult& pr, const ObservableSettings& obs
   const double H = pr.point.params.height;
   const bool moves =
       prot == Protocol::C || (prot == Protocol::A && std::isfinite(pr.point.params.bond_number));
-  a.abs_dy = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts, pr.abs_dy_member_counts);
-  a.abs_dy_cut =
-      histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut, pr.abs_dy_member_counts_cut);
+  a.abs_dy =
+      histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts, pr.abs_dy_member_counts, pr.m_failure);
+  a.abs_dy_cut = histogram_shape(pr.abs_dy_edges, pr.abs_dy_counts_cut, pr.abs_dy_member_counts_cut,
+                                 pr.m_failure);
   a.nu_predicted.assign(pr.nu.centre.size(), kNaN);
   a.nu_deviation.assign(pr.nu.centre.size(), kNaN);
   a.nu_rms_deviation = kNaN;

@@ -260,6 +260,36 @@ TEST(Analysis, HistogramShapeNeedsAFitWithinTheMembersScatter) {
   EXPECT_EQ(sb.preferred, "neither");
 }
 
+// A member that finished with no disk in the histogram's band (its row all zero) is a member of
+// the ensemble, and the jackknife has a replica for it; a failed member's row (also zero) has
+// none. The failure flags tell them apart where the rows cannot.
+TEST(Analysis, HistogramJackknifeCountsAFinishedMemberWithoutDisksInTheBand) {
+  std::mt19937_64 rng(7);
+  const int n_bins = 30;
+  std::vector<double> edges;
+  for (int k = 0; k <= n_bins; ++k) edges.push_back(0.5 * k);
+  std::exponential_distribution<double> expo(1.0 / 3.0);
+  std::vector<std::vector<double>> rows(6, std::vector<double>(n_bins, 0.0));
+  std::vector<double> total(n_bins, 0.0);
+  for (std::size_t m = 0; m < 5; ++m)  // row 5 stays empty
+    for (int d = 0; d < 400; ++d) {
+      const int b = std::min(n_bins - 1, static_cast<int>(expo(rng) / 0.5));
+      rows[m][static_cast<std::size_t>(b)] += 1.0;
+      total[static_cast<std::size_t>(b)] += 1.0;
+    }
+  const HistogramShape finished = histogram_shape(edges, total, rows, {0, 0, 0, 0, 0, 0});
+  const HistogramShape failed = histogram_shape(edges, total, rows, {0, 0, 0, 0, 0, 2});
+  const HistogramShape unflagged = histogram_shape(edges, total, rows);
+  EXPECT_EQ(finished.exponential.replicas.size(), 6u);
+  EXPECT_EQ(failed.exponential.replicas.size(), 5u);
+  EXPECT_EQ(unflagged.exponential.replicas.size(), 5u);
+  // Without the empty row the other members' counts are scaled to the six members' total,
+  // which moves ln n by ln(6/5) and leaves the decay as the whole ensemble's.
+  const auto& empty_out = finished.exponential.replicas.back();
+  EXPECT_NEAR(empty_out[0], finished.exponential.coef[0] + std::log(6.0 / 5.0), 1e-9);
+  EXPECT_NEAR(empty_out[1], finished.exponential.coef[1], 1e-9);
+}
+
 // The 99 % quantile of chi2: Wilson and Hilferty's approximation against tabulated values.
 TEST(Analysis, Chi2QuantileMatchesTables) {
   EXPECT_NEAR(chi2_quantile99(5), 15.086, 0.1);

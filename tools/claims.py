@@ -309,7 +309,11 @@ class Histogram:
             fail_missing(path, f"{group.name}/member_counts_cut")
         edges = group["edges"][()]
         rows = group["member_counts_cut"][()]
-        self.rows = rows[rows.sum(axis=1) > 0]  # failed members have no disks
+        failure = group.parent.get("members/failure")
+        if failure is not None and len(failure) == len(rows):
+            self.rows = rows[failure[()] == 0]  # a member may finish with no disk in the band
+        else:
+            self.rows = rows[rows.sum(axis=1) > 0]  # failed members have no disks
         self.centre = 0.5 * (edges[1:] + edges[:-1])
         self.total = self.rows.sum(axis=0)
         self.members = len(self.rows)

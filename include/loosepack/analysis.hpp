@@ -19,9 +19,10 @@ namespace loosepack {
 // and chi2 of the residuals against their jackknife errors (src/analysis.cpp, ensemble_fit).
 struct Fit {
   std::vector<double> coef, error;
-  // Avalanche-profile fits: the coefficients refitted with each member left out in turn (the
-  // members with disks, in member order), for the jackknife of quantities derived from several
-  // fits of the same members. Not stored in the file.
+  // Avalanche-profile and histogram fits with errors from the members: the coefficients refitted
+  // with each member left out in turn (the members that did not fail, in member order), for the
+  // jackknife of quantities derived from several fits of the same members. Not stored in the
+  // file.
   std::vector<std::vector<double>> replicas;
   double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
   int points = 0;     // data points used
@@ -52,8 +53,9 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
 // as ln n = alpha + beta x (exponential, decay length -1/beta) and ln n = alpha + beta x +
 // gamma x^2 (Gaussian: mean -beta / (2 gamma), width sqrt(-1 / (2 gamma))), weights n (the
 // variance of ln n is 1/n). With the members' own counts (`member_counts`, one row per member, a
-// failed member's row 0; at least 4 members with disks) each fit's errors come from a jackknife
-// over the members and its chi2 is that of the counts' residuals against the residuals' own
+// failed member's row 0) and at least 4 members that did not fail (`member_failure` 0 where it
+// has a value per row, else the rows with disks) each fit's errors come from a jackknife over
+// the members and its chi2 is that of the counts' residuals against the residuals' own
 // jackknife errors, each t mapped to its chi2 term, as the avalanche-profile fits do: the disks one
 // avalanche moves together land in the same bins, so the counts scatter far more than Poisson's
 // sqrt(n). Without them, chi2 is Pearson's (counts against the model). The preferred shape has
@@ -68,6 +70,7 @@ struct HistogramShape {
 };
 HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
                                const std::vector<std::vector<double>>& member_counts = {},
+                               const std::vector<double>& member_failure = {},
                                double min_count = 5.0);
 
 // The 99 % quantile of chi2 with `dof` degrees of freedom (Wilson and Hilferty; within 1 % of

@@ -370,6 +370,25 @@ def test_bo0_histogram_tail_and_plateau(tmp_path):
     assert not bad[tail][0], bad
 
 
+
+def test_histogram_jackknife_keeps_a_finished_member_without_disks_in_the_band(tmp_path):
+    """A member that finished with no disk in the cut band is a member of the ensemble (its
+    row all zero); a failed member's row, zero too, is not: the failure flags tell them apart."""
+    path = tmp_path / "empty_row.h5"
+    rows = np.vstack([np.arange(10.0, 0.0, -1.0)] * 4 + [np.zeros(10)])
+    with h5py.File(path, "w") as f:
+        p = f.create_group("points/0000")
+        p["abs_dy_histogram/edges"] = np.arange(0.0, 5.01, 0.5)
+        p["abs_dy_histogram/member_counts_cut"] = rows
+        p["members/failure"] = np.zeros(5, dtype=np.int32)
+    with h5py.File(path, "r+") as f:
+        g = f["points/0000/abs_dy_histogram"]
+        assert claims.Histogram(g, str(path)).members == 5
+        f["points/0000/members/failure"][4] = 2
+        assert claims.Histogram(g, str(path)).members == 4
+        del f["points/0000/members/failure"]  # a file without the flags: rows with disks
+        assert claims.Histogram(g, str(path)).members == 4
+
 def deposition_file(tmp_path, name, rels, width=200.0, height=240.0, seed=5):
     """Protocol-A points at Bo = 1e2 and 1e3 (one per entry of `rels`), nu_d(y_i) of 16 members in
     strips of 3.97 R: a rising line with relative Gaussian noise rels[bo]."""
