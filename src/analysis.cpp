@@ -514,19 +514,32 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
   const double g = coef(h.gaussian, 2);
   h.gaussian_mean = g < 0.0 ? -coef(h.gaussian, 1) / (2.0 * g) : kNaN;
   h.gaussian_width = g < 0.0 ? std::sqrt(-1.0 / (2.0 * g)) : kNaN;
-  if (h.exponential.valid() && h.gaussian.valid() && h.gaussian.dof > 0) {
-    const double aic_exp = h.exponential.chi2 + 2.0 * 2.0;
-    const double aic_gauss = h.gaussian.chi2 + 2.0 * 3.0;
-    const Fit& best = aic_exp <= aic_gauss ? h.exponential : h.gaussian;
-    // A shape that does not fit describes nothing, however much better than the other; nor
-    // does a quadratic without a maximum (a tail heavier than exponential).
-    if (!(best.chi2 <= chi2_quantile99(best.dof)))
-      h.preferred = "neither";
-    else if (aic_exp <= aic_gauss)
+  if (!h.exponential.valid() || !h.gaussian.valid() || h.gaussian.dof <= 0) return h;
+  auto fits = [](const Fit& f) { return f.chi2 <= chi2_quantile99(f.dof); };
+  if (h.member_errors) {
+    // Akaike's criterion with the quadratic term's share of chi2 from its t (NaN judges nothing).
+    h.t_quadratic = g / err(h.gaussian, 2);
+    h.quadratic_chi2 =
+        chi2_term_of_t(h.t_quadratic, static_cast<double>(h.gaussian.replicas.size()) - 1.0);
+    if (h.quadratic_chi2 <= 2.0 && fits(h.exponential))
       h.preferred = "exponential";
+    else if (h.quadratic_chi2 > 2.0 && g < 0.0 && fits(h.gaussian))
+      h.preferred = "gaussian";
     else
-      h.preferred = g < 0.0 ? "gaussian" : "neither";
+      h.preferred = "neither";
+    return h;
   }
+  const double aic_exp = h.exponential.chi2 + 2.0 * 2.0;
+  const double aic_gauss = h.gaussian.chi2 + 2.0 * 3.0;
+  const Fit& best = aic_exp <= aic_gauss ? h.exponential : h.gaussian;
+  // A shape that does not fit describes nothing, however much better than the other; nor
+  // does a quadratic without a maximum (a tail heavier than exponential).
+  if (!fits(best))
+    h.preferred = "neither";
+  else if (aic_exp <= aic_gauss)
+    h.preferred = "exponential";
+  else
+    h.preferred = g < 0.0 ? "gaussian" : "neither";
   return h;
 }
 

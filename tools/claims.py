@@ -7,11 +7,14 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
 
   A, 0 < Bo < inf   the avalanche profile Delta y(y_e) is a parabola with positive curvature
                     (paper figs. 6, 7, 11): fitted to the bins between the bottom and top cuts
-                    (`cut_bottom`, `cut_top`), the parabola is acceptable (chi2 below its 99 %
-                    quantile), c2 > 0 by two standard errors, its vertex lies inside the band,
-                    and a constant and a straight line are both rejected (chi2 above it)
+                    (`cut_bottom`, `cut_top`), the parabola is acceptable (its cubic term within
+                    the 99 % bound, below), its curvature c2 > 0 beyond that bound (which rejects
+                    the straight line, and with it the constant), and its vertex lies inside
+                    the band
   A, Bo = 0         no parabola: in the same band a constant Delta y is acceptable (the paper:
-                    about 1.5 R at every height) and the parabola claim fails
+                    about 1.5 R at every height: neither the line's slope nor the parabola's
+                    curvature beyond its 99.75 % bound, both together 1 %) and the parabola claim
+                    fails
   A, Bo = 0         the |Delta y| histogram is exponential (fig. 9)
   A, Bo = 1e3       the |Delta y| histogram is Gaussian (fig. 8; the paper says it of Bo = 1e3,
                     not of larger Bond numbers): the program's verdict (`preferred`), which
@@ -25,13 +28,15 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     disks' paths (their displacements at every later deposition as one vector)
                     is larger for neighbours than for disks at the same height (within 3 R) at
                     least 12 R apart sideways, by two standard errors (jackknife over members)
-  C                 Delta y is a straight line in y_e and in y_i (each line acceptable), and
+  C                 Delta y is a straight line in y_e and in y_i (each line acceptable: its
+                    quadratic term within the 99 % bound), and
                     the coefficient identity b' = b/(1+b), a' = a/(1+b) holds: each difference
                     within two standard errors of zero, its error a jackknife of the difference
                     itself (figs. 14, 15)
 
   A, Bo = 0         beyond 2 R the cut histogram decays exponentially (an acceptable fit with
-                    errors from the members' scatter), and between 1 and 2 R its probability is
+                    errors from the members' scatter, its quadratic term within the 99 % bound),
+                    and between 1 and 2 R its probability is
                     about constant (one constant acceptable through those bins): the paper's
                     "exponential decay" with its stated deviation (fig. 9)
   A, Bo = 1e2, 1e3  (H >= 220, the paper's width of 200 R) the deposition density's fluctuation
@@ -76,7 +81,13 @@ The profile fits are unweighted least squares through the bins' pooled means (at
 every member's disks in it), their errors a jackknife over the members (each left out in turn),
 and their chi2 that of the residuals against the residuals' own jackknife errors, each such t of
 n - 1 degrees of freedom mapped to the chi2 term of its tail probability, scaled by
-(bins - parameters)/bins, as the program's fits (docs/OUTPUT.md, "Analysis").
+(bins - parameters)/bins, as the program's fits (docs/OUTPUT.md, "Analysis"). That chi2 counts
+neighbouring bins, which move together, as independent, and rejects a right model more often
+than 1 %; so a profile model is judged by the term it lacks instead: the highest coefficient of
+the fit one degree higher over its jackknife error, a Student's t with n - 1 degrees of freedom,
+within its two-sided 99 % quantile (t_quantile) for the model to be acceptable, beyond it for the
+term to be there. The histograms' shapes keep the chi2 test besides (a shape outside the
+polynomials of ln n, two humps, has no large next term).
 
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
@@ -118,6 +129,19 @@ def chi2_term_of_t(t, nu):
     chi2's distribution, tail included."""
     c = (8 * nu + 1) / (8 * nu + 3)
     return c * c * nu * np.log1p(np.square(t) / nu)
+
+
+Z995, Z9975 = 2.5758, 2.8070  # the standard normal's 99.5 % and 99.75 % quantiles
+
+
+def t_quantile(nu, z=Z995):
+    """Student's t with nu degrees of freedom at the tail probability of the normal deviate z
+    (chi2_term_of_t inverted; at Z995 the two-sided 99 % quantile, as the program's
+    t_quantile995: 3.51 at nu = 7 against the exact 3.50); NaN for nu < 3."""
+    if not nu >= 3:
+        return math.nan
+    c = (8 * nu + 1) / (8 * nu + 3)
+    return math.sqrt(nu * math.expm1(z * z / (c * c * nu)))
 
 
 def residual_chi2(resid, resid_err, members, params):
@@ -171,7 +195,7 @@ class Profile:
 
     def fit(self, degree):
         """Coefficients (c0, c1, ...), their jackknife errors, chi2 and dof; None when the band
-        has too few bins or members."""
+        has too few bins or members (4)."""
         dof = self.bins - degree - 1
         if dof < 1 or self.members < 4:
             return None
@@ -189,8 +213,8 @@ class Profile:
 
 
 def profile_shapes(point, path):
-    """The avalanche profile Delta y(y_e) in the band between the cuts: the fits of a constant,
-    a line and a parabola (Profile.fit), or None where the file lacks the per-member rows."""
+    """The avalanche profile Delta y(y_e) in the band between the cuts: the polynomial fits of
+    degrees 0 to 3 (Profile.fit) and the members behind them."""
     group = point.get("avalanche_by_ye")
     if group is None or "member_mean" not in group:
         fail_missing(path, f"{point.name}/avalanche_by_ye/member_mean")
@@ -199,24 +223,44 @@ def profile_shapes(point, path):
     cut = lambda k, default: float(a[k]) if k in a else float(settings.get(k, default))
     low, high = cut("cut_bottom", min(20.0, h / 6)), h - cut("cut_top", min(20.0, h / 6))
     prof = Profile(group, low, high)
-    return (low, high), [prof.fit(d) for d in (0, 1, 2)]
+    return (low, high), [prof.fit(d) for d in range(4)], prof.members
 
 
-def parabola_verdict(band, fits):
-    """(parabola holds, constant acceptable, detail) from the band's three fits."""
-    if any(f is None for f in fits):
+def top_t(fit):
+    """The t of a fit's highest coefficient (its value over its jackknife error): the term the
+    polynomial of one degree less lacks."""
+    coef, err = fit[0], fit[1]
+    return coef[-1] / err[-1]
+
+
+def parabola_verdict(band, fits, members):
+    """(parabola holds, constant acceptable, detail) from the band's fits of degrees 0 to 3.
+    Each model is judged by the term it lacks, the t of the next degree's highest coefficient,
+    against Student's t with members - 1 degrees of freedom: the jackknife over whole members
+    carries the bins' correlation, which a chi2 of the residuals counts as independent. The
+    parabola holds when its curvature c2 is positive and beyond the two-sided 99 % bound, its
+    vertex inside the band and its cubic term within the bound (not judged where the band has too
+    few bins for a cubic); the constant is acceptable when neither the line's slope nor the
+    parabola's curvature is beyond the bound at 99.75 % (both together within 1 %)."""
+    if any(f is None for f in fits[:3]):
         return NOT_JUDGED, NOT_JUDGED, "too few bins or members in the band between the cuts"
-    (c0, e0, x0, d0), (c1, e1, x1, d1), (c2, e2, x2, d2) = fits
-    accept = lambda chi2, dof: chi2 <= chi2_quantile99(dof)
+    nu = members - 1
+    bound, bound2 = t_quantile(nu), t_quantile(nu, Z9975)
+    t1, t2 = top_t(fits[1]), top_t(fits[2])
+    t3 = top_t(fits[3]) if fits[3] is not None else math.nan
+    (c0, e0, _, _), (c2, e2, x2, d2) = fits[0], fits[2]
     curv, curv_err = c2[2], e2[2]
     vertex = -c2[1] / (2 * curv) if curv != 0 else math.inf
-    holds = (accept(x2, d2) and curv > 2 * curv_err and band[0] < vertex < band[1]
-             and not accept(x0, d0) and not accept(x1, d1))
+    holds = t2 > bound and band[0] < vertex < band[1]
+    if holds:
+        holds = abs(t3) <= bound if fits[3] is not None else NOT_JUDGED
+    constant = abs(t1) <= bound2 and abs(t2) <= bound2
+    cubic = f"{t3:.3g}" if fits[3] is not None else "not fitted (too few bins)"
     detail = (f"band {band[0]:g}-{band[1]:g} R: c2 = {curv:.3g} +- {curv_err:.2g}, vertex "
-              f"{vertex:.3g} R; chi2/dof constant {x0:.3g}/{d0}, line {x1:.3g}/{d1}, parabola "
-              f"{x2:.3g}/{d2} (99 % bounds {chi2_quantile99(d0):.3g}, {chi2_quantile99(d1):.3g}, "
-              f"{chi2_quantile99(d2):.3g}); constant {c0[0]:.3g} +- {e0[0]:.2g} R")
-    return holds, accept(x0, d0), detail
+              f"{vertex:.3g} R; t of the line's slope {t1:.3g}, of the parabola's c2 {t2:.3g}, of "
+              f"the cubic's c3 {cubic} (99 % bound {bound:.3g}, 99.75 % {bound2:.3g}; {members} "
+              f"members); parabola chi2/dof {x2:.3g}/{d2}; constant {c0[0]:.3g} +- {e0[0]:.2g} R")
+    return holds, constant, detail
 
 
 def unusable(message):
@@ -356,16 +400,18 @@ def bo0_histogram_claims(point, path, where):
         yield (f"{where}: the |Delta y| histogram is flat between 1 and 2 R", NOT_JUDGED, why)
         return
     hist = Histogram(point["abs_dy_histogram"], path)
-    tail = hist.fit(1, hist.centre > 2.0)
-    if tail is None:
+    tail, curved = hist.fit(1, hist.centre > 2.0), hist.fit(2, hist.centre > 2.0)
+    if tail is None or curved is None:
         yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R", NOT_JUDGED,
                "too few bins or members beyond 2 R")
     else:
-        coef, err, chi2, dof = tail
+        (coef, err, chi2, dof), bound = tail, t_quantile(hist.members - 1)
         yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R",
-               coef[1] < -2 * err[1] and chi2 <= chi2_quantile99(dof),
+               coef[1] < -2 * err[1] and chi2 <= chi2_quantile99(dof)
+               and abs(top_t(curved)) <= bound,
                f"decay length {-1 / coef[1]:.3g} R (slope {coef[1]:.3g} +- {err[1]:.2g} per R), "
-               f"chi2/dof {chi2:.3g}/{dof} (99 % bound {chi2_quantile99(dof):.3g}), "
+               f"chi2/dof {chi2:.3g}/{dof} (99 % bound {chi2_quantile99(dof):.3g}), t of the "
+               f"quadratic term {top_t(curved):.3g} (99 % bound {bound:.3g}), "
                f"{hist.members} members")
     band = (hist.centre > 1.0) & (hist.centre < 2.0)
     if band.sum() < 2 or hist.members < 4:
@@ -485,7 +531,7 @@ def check_point(point, path):
     if protocol == "A" and bo == 0:
         holds, constant, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is constant in the bulk, no parabola",
-               constant and not holds, detail)
+               NOT_JUDGED if holds is NOT_JUDGED else constant and not holds, detail)
     if protocol == "A" and bo in (0.0, 1e3):  # the two Bond numbers the paper says it of
         yield from histogram_claims(point, path, where)
     if protocol == "A" and bo in PAPER_FLUCTUATION and float(a["height"]) >= 220.0:
@@ -515,8 +561,10 @@ def histogram_claims(point, path, where):
                "fewer than 4 members with disks: no errors from their scatter to judge a shape by "
                "(Poisson's are far too small for counts that move together)")
     else:
+        t = g.attrs.get("t_quadratic", math.nan)  # files from 2026-12-02 on
         detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
-                  f"gaussian {chi2('gaussian')}, errors from {errors}")
+                  f"gaussian {chi2('gaussian')}, errors from {errors}"
+                  + (f"; t of the quadratic term {t:.3g}" if math.isfinite(t) else ""))
         yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
     if bo == 0:
         yield from bo0_histogram_claims(point, path, where)
@@ -637,8 +685,8 @@ def trajectory_claims(point, where):
 
 
 def collapse_claims(point, path, where):
-    """Protocol C: Delta y is a straight line in y_e and in y_i (each acceptable, chi2 below its
-    99 % quantile), and the identity b' = b/(1+b), a' = a/(1+b) between the two lines, each
+    """Protocol C: Delta y is a straight line in y_e and in y_i (each acceptable: the quadratic
+    term's t within its two-sided 99 % bound, as parabola_verdict judges), and the identity b' = b/(1+b), a' = a/(1+b) between the two lines, each
     difference with the jackknife error of the difference itself (the two lines come from the
     same members)."""
     profiles = {}
@@ -646,14 +694,15 @@ def collapse_claims(point, path, where):
         if key not in point or "member_mean" not in point[key]:
             fail_missing(path, f"{point.name}/{key}/member_mean")
         profiles[key] = Profile(point[key], -math.inf, math.inf)
-    fits = {k: p.fit(1) for k, p in profiles.items()}
+    fits = {k: p.fit(2) for k, p in profiles.items()}
     if any(f is None for f in fits.values()):
         yield (f"{where}: Delta y is a straight line in y_e and y_i", NOT_JUDGED, "too few bins")
         return
-    lines_ok = all(f[2] <= chi2_quantile99(f[3]) for f in fits.values())
+    bound = t_quantile(profiles["avalanche_by_ye"].members - 1)
+    lines_ok = all(abs(top_t(f)) <= bound for f in fits.values())
     yield (f"{where}: Delta y is a straight line in y_e and y_i", lines_ok,
-           ", ".join(f"{k} chi2/dof {f[2]:.3g}/{f[3]} (99 % bound {chi2_quantile99(f[3]):.3g})"
-                     for k, f in fits.items()))
+           ", ".join(f"{k} t of the quadratic term {top_t(f):.3g}" for k, f in fits.items())
+           + f" (99 % bound {bound:.3g})")
 
     def identity(ye, yi):  # b' - b/(1+b), a' - a/(1+b) from the lines' coefficients
         a, b = ye[0], -ye[1]

@@ -93,6 +93,39 @@ def test_residual_chi2_with_errors_from_8_members_exceeds_its_bound_once_in_a_hu
     assert scaled > 246
 
 
+def test_students_quantile_from_the_normal_deviate():
+    # The two-sided 1 % quantiles of t: 3.4995 at 7 dof, 2.9467 at 15; 3.5 % above at 3 (5.8409).
+    assert claims.t_quantile(7) == pytest.approx(3.4995, rel=0.004)
+    assert claims.t_quantile(15) == pytest.approx(2.9467, rel=0.001)
+    assert claims.t_quantile(3) == pytest.approx(5.8409 * 1.035, rel=0.005)
+    assert math.isnan(claims.t_quantile(2))
+
+
+def test_a_line_is_judged_by_its_quadratic_term_about_once_in_a_hundred():
+    """8 members whose deviations from a true line follow one another from bin to bin (13 bins,
+    correlation 0.93 between neighbours, as in protocol C's profiles): the line's quadratic term
+    is beyond its 99 % bound in about 1 % of 2 000 ensembles (1.35 % for this seed; at most 2 %),
+    where the line's chi2 exceeds its 99 % quantile in about 5 % (more than 3 %)."""
+    rng, members, n_bins, rho = np.random.default_rng(2), 8, 13, 0.93
+    centre = np.linspace(20.0, 140.0, n_bins)
+    bound = claims.t_quantile(members - 1)
+    curved = chi2_rejects = 0
+    for _ in range(2000):
+        e = np.empty((members, n_bins))
+        e[:, 0] = rng.normal(size=members)
+        for b in range(1, n_bins):
+            e[:, b] = rho * e[:, b - 1] + math.sqrt(1 - rho * rho) * rng.normal(size=members)
+        group = {"member_count": np.full((members, n_bins), 20.0),
+                 "member_mean": LINE(centre) + 0.3 * e,
+                 "member_position": np.tile(centre, (members, 1)), "centre": centre}
+        profile = claims.Profile(group, -math.inf, math.inf)
+        curved += abs(claims.top_t(profile.fit(2))) > bound
+        _, _, chi2, dof = profile.fit(1)
+        chi2_rejects += chi2 > claims.chi2_quantile99(dof)
+    assert curved <= 40, curved
+    assert chi2_rejects > 60, chi2_rejects
+
+
 def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_path):
     claim = "Delta y(y_e) is a parabola with positive curvature"
     with pytest.raises(SystemExit):  # the per-member rows are needed, and said so
