@@ -686,9 +686,9 @@ def trajectory_claims(point, where):
 
 def collapse_claims(point, path, where):
     """Protocol C: Delta y is a straight line in y_e and in y_i (each acceptable: the quadratic
-    term's t within its two-sided 99 % bound, as parabola_verdict judges), and the identity b' = b/(1+b), a' = a/(1+b) between the two lines, each
-    difference with the jackknife error of the difference itself (the two lines come from the
-    same members)."""
+    term's t within its two-sided 99 % bound, as parabola_verdict judges), and the identity
+    b' = b/(1+b), a' = a/(1+b) between the two lines, each difference with the jackknife error of
+    the difference itself (the two lines come from the same members)."""
     profiles = {}
     for key in ("avalanche_by_ye", "avalanche_by_yi"):
         if key not in point or "member_mean" not in point[key]:
