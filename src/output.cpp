@@ -981,10 +981,10 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
     const std::string h = n + "/abs_dy_histogram/" + which, pref = f.verdict(n, which);
     if (pref == "none") continue;
     out << "  |Delta y| histogram" << (which == std::string("shape") ? "" : " (top and bottom cut)")
-        << ": " << pref;
-    out << " (chi2/dof gaussian " << f.attribute(h + "/gaussian", "reduced_chi2")
+        << ": " << pref << " (chi2/dof gaussian " << f.attribute(h + "/gaussian", "reduced_chi2")
         << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2");
-    // With errors from the members' scatter (files from 2026-12-02 on): the t that chose.
+    // With errors from the members' scatter (files from 2026-12-02 on): the quadratic term's t,
+    // which chose between the shapes.
     const bool judged = H5Aexists_by_name(f.file, h.c_str(), "t_quadratic", H5P_DEFAULT) > 0;
     const double t = judged ? f.attribute(h, "t_quadratic") : NAN;
     if (std::isfinite(t)) out << "; t of the quadratic term " << t;

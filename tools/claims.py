@@ -29,16 +29,15 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     is larger for neighbours than for disks at the same height (within 3 R) at
                     least 12 R apart sideways, by two standard errors (jackknife over members)
   C                 Delta y is a straight line in y_e and in y_i (each line acceptable: its
-                    quadratic term within the 99 % bound), and
-                    the coefficient identity b' = b/(1+b), a' = a/(1+b) holds: each difference
-                    within two standard errors of zero, its error a jackknife of the difference
-                    itself (figs. 14, 15)
+                    quadratic term within the 99 % bound), and the coefficient identity
+                    b' = b/(1+b), a' = a/(1+b) holds: each difference within two standard errors
+                    of zero, its error a jackknife of the difference itself (figs. 14, 15)
 
   A, Bo = 0         beyond 2 R the cut histogram decays exponentially (an acceptable fit with
                     errors from the members' scatter, its quadratic term within the 99 % bound),
-                    and between 1 and 2 R its probability is
-                    about constant (one constant acceptable through those bins): the paper's
-                    "exponential decay" with its stated deviation (fig. 9)
+                    and between 1 and 2 R its probability is about constant (one constant
+                    acceptable through those bins): the paper's "exponential decay" with its
+                    stated deviation (fig. 9)
   A, Bo = 1e2, 1e3  (H >= 220, the paper's width of 200 R) the deposition density's fluctuation
                     at y = 200: 15 % and 20 % (sec. V), the relative standard deviation of the
                     strips of 4 R between 180 and 220 R about a line in each member, within a
@@ -52,8 +51,9 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     and the line Delta y(y_e) matches the measured one up to `cut_top` below
                     the lowest member's top (the deviation's mean over the strips and its slope
                     each within its 99.75 % bound, errors a jackknife over the members; the
-                    prediction's own error is not counted); and dnu/nu_i stays below its upper limit nu_rcp/nu_i - 1 (the
-                    paper: 1.19, random close packing nu_rcp = 0.84 over nu_i ~ 0.38)
+                    prediction's own error is not counted); and dnu/nu_i stays below its upper
+                    limit nu_rcp/nu_i - 1 (the paper: 1.19, random close packing nu_rcp = 0.84
+                    over nu_i ~ 0.38)
 
 and, across the points of a scan (the fits in `analysis/`, made when three or more points
 differ only in that variable; each point's error widened for the few members it comes from, as
@@ -136,8 +136,8 @@ Z995, Z9975 = 2.5758, 2.8070  # the standard normal's 99.5 % and 99.75 % quantil
 
 def t_quantile(nu, z=Z995):
     """Student's t with nu degrees of freedom at the tail probability of the normal deviate z
-    (chi2_term_of_t inverted; at Z995 the two-sided 99 % quantile, as the program's
-    t_quantile995: 3.51 at nu = 7 against the exact 3.50); NaN for nu < 3."""
+    (chi2_term_of_t inverted; at Z995 the two-sided 99 % quantile: 6.05 at nu = 3 against the
+    exact 5.84, 3.51 at 7 against 3.50, 2.948 at 15 against 2.947); NaN for nu < 3."""
     if not nu >= 3:
         return math.nan
     c = (8 * nu + 1) / (8 * nu + 3)
