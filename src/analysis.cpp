@@ -261,12 +261,20 @@ std::function<double(double, int)> slice_basis(double H) {
   return [H](double y, int) { return -y * (1.0 - y / H); };
 }
 
-Fit profile_fit(const BinnedStat& b, int degree) {
-  return ensemble_fit(b, std::numeric_limits<double>::infinity(), degree + 1, power);
-}
-
 double coef(const Fit& f, std::size_t k) { return k < f.coef.size() ? f.coef[k] : 0.0; }
 double err(const Fit& f, std::size_t k) { return k < f.error.size() ? f.error[k] : kNaN; }
+
+// A polynomial profile fit of `degree`, with the t of the term it lacks from the fit one degree
+// higher (where that fit has errors from the members).
+Fit profile_fit(const BinnedStat& b, int degree) {
+  constexpr double kAll = std::numeric_limits<double>::infinity();
+  Fit f = ensemble_fit(b, kAll, degree + 1, power);
+  const Fit next = ensemble_fit(b, kAll, degree + 2, power);
+  const auto k = static_cast<std::size_t>(degree + 1);
+  if (f.valid() && next.valid() && !next.replicas.empty())
+    f.next_term_t = coef(next, k) / err(next, k);
+  return f;
+}
 
 // The scan parameter a fit across points varies.
 enum class Varying { Height, CaptureRadius };

@@ -275,6 +275,7 @@ void fit(hid_t parent, const std::string& name, const Fit& f) {
   attribute(g, "dof", static_cast<double>(f.dof));
   attribute(g, "points", static_cast<double>(f.points));
   attribute(g, "reduced_chi2", f.valid() ? f.reduced_chi2() : NAN);
+  attribute(g, "next_term_t", f.valid() ? f.next_term_t : NAN);
 }
 
 void histogram_shape(hid_t parent, const std::string& name, const HistogramShape& h) {
@@ -889,6 +890,11 @@ struct FitReader {
   double attribute(const std::string& object, const char* name) const {
     return double_attribute(file, object, name);
   }
+  // An attribute that files of older programs lack: NaN there.
+  double newer_attribute(const std::string& object, const char* name) const {
+    return H5Aexists_by_name(file, object.c_str(), name, H5P_DEFAULT) > 0 ? attribute(object, name)
+                                                                          : NAN;
+  }
   // A valid fit's coefficients and errors, at least `n` of each (else the file is refused).
   std::pair<std::vector<double>, std::vector<double>> coefficients(const std::string& object,
                                                                    std::size_t n) const {
@@ -914,7 +920,10 @@ struct FitReader {
       if (k == 1) o << " " << var;
       if (k > 1) o << " " << var << "^" << k;
     }
-    o << "  [chi2/dof " << attribute(object, "reduced_chi2") << "]";
+    o << "  [chi2/dof " << attribute(object, "reduced_chi2");
+    const double t = newer_attribute(object, "next_term_t");  // files from 2026-12-02 on
+    if (std::isfinite(t)) o << ", next term t " << t;
+    o << "]";
     return o.str();
   }
   // A power law A x^p, fitted as ln A + p ln x: the error of A is A times that of ln A.
@@ -985,8 +994,7 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
         << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2");
     // With errors from the members' scatter (files from 2026-12-02 on): the quadratic term's t,
     // which chose between the shapes.
-    const bool judged = H5Aexists_by_name(f.file, h.c_str(), "t_quadratic", H5P_DEFAULT) > 0;
-    const double t = judged ? f.attribute(h, "t_quadratic") : NAN;
+    const double t = f.newer_attribute(h, "t_quadratic");
     if (std::isfinite(t)) out << "; t of the quadratic term " << t;
     out << ")\n";
   }

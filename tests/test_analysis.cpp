@@ -693,14 +693,16 @@ TEST(Analysis, ProfileErrorsAreAJackknifeOverMembers) {
 // hundred: 200 ensembles of 8 members of 1 000 disks, Delta y = -alpha y_e (1 - y_e/H) plus disk
 // noise. The sum of each residual's term against its own jackknife error has the expectation of
 // the bins (20), not of the degrees of freedom (17): without the factor 17/20 the mean here is
-// 1.14 and 5 of the 200 fits are rejected (2 with it).
+// 1.14 and 5 of the 200 fits are rejected (2 with it). The term the parabola lacks, the cubic's
+// coefficient over its jackknife error, is beyond Student's two-sided 99 % quantile for 7 degrees
+// of freedom (3.4995) about as often.
 TEST(Analysis, AProfileFitOfTheTrueModelHasChi2PerDegreeOfFreedomNearOne) {
   const auto scan = profile_scan(8, 1000);
   const double H = 80.0, alpha = 0.3;
   std::normal_distribution<double> noise(0.0, 0.3);
   std::uniform_real_distribution<double> uy(1.0, H - 1.0);
   double sum = 0.0;
-  int rejected = 0, fits = 0;
+  int rejected = 0, next_term = 0, fits = 0;
   for (int e = 0; e < 200; ++e) {
     const auto results = synthetic_ensemble(
         scan, 7000 + e, [](const Member&) { return 1000; },
@@ -713,6 +715,8 @@ TEST(Analysis, AProfileFitOfTheTrueModelHasChi2PerDegreeOfFreedomNearOne) {
     ASSERT_EQ(fit.dof, 17);
     sum += fit.reduced_chi2();
     rejected += fit.chi2 > chi2_quantile99(fit.dof) ? 1 : 0;
+    ASSERT_TRUE(std::isfinite(fit.next_term_t));
+    next_term += std::fabs(fit.next_term_t) > 3.4995 ? 1 : 0;
     ++fits;
   }
   const double mean = sum / fits;
@@ -721,6 +725,26 @@ TEST(Analysis, AProfileFitOfTheTrueModelHasChi2PerDegreeOfFreedomNearOne) {
   // 0.1 is four of them.
   EXPECT_NEAR(mean, 1.0, 4.0 * std::sqrt(2.0 / 17.0 / 200.0));
   EXPECT_LE(rejected, binomial_quantile(200, 0.01, 0.999));  // 8 (2 expected)
+  std::printf("next term beyond its 99 %% bound %d of %d\n", next_term, fits);
+  EXPECT_LE(next_term, binomial_quantile(200, 0.01, 0.999));
+}
+
+// The term a model lacks shows where the profile has it: 8 members whose Delta y(y_e) has a cubic
+// part of 1.5 R at the top of the box give the parabola's next term a t beyond its 99 % bound
+// (-6.0 here).
+TEST(Analysis, AProfileFitShowsTheTermItLacks) {
+  const auto scan = profile_scan(8, 1000);
+  const double H = 80.0, alpha = 0.3;
+  std::normal_distribution<double> noise(0.0, 0.3);
+  std::uniform_real_distribution<double> uy(1.0, H - 1.0);
+  const auto results = synthetic_ensemble(
+      scan, 99, [](const Member&) { return 1000; },
+      [&](const Member&, std::mt19937_64& rng) {
+        const double ye = uy(rng), u = ye / H;
+        return std::pair(ye + alpha * ye * (1.0 - u) + 1.5 * u * u * u + noise(rng), ye);
+      });
+  const Fit fit = analyse(scan, aggregate(scan, results)).points.at(0).dy_by_ye;
+  EXPECT_GT(std::fabs(fit.next_term_t), 3.4995);
 }
 
 // Student's t quantiles (two-sided 1 %: t = 5.8409 at 3 degrees of freedom, 3.4995 at 7, 2.9467
