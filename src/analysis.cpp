@@ -525,10 +525,13 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
   if (!h.exponential.valid() || !h.gaussian.valid() || h.gaussian.dof <= 0) return h;
   auto fits = [](const Fit& f) { return f.chi2 <= chi2_quantile99(f.dof); };
   if (h.member_errors) {
-    // Akaike's criterion with the quadratic term's share of chi2 from its t (NaN judges nothing).
-    h.t_quadratic = g / err(h.gaussian, 2);
-    h.quadratic_chi2 =
-        chi2_term_of_t(h.t_quadratic, static_cast<double>(h.gaussian.replicas.size()) - 1.0);
+    // Akaike's criterion with the quadratic term's share of chi2 from its t, where the Gaussian
+    // has jackknife errors (a member without whom its bins fit nothing leaves none: "neither").
+    const auto members = static_cast<double>(h.gaussian.replicas.size());
+    if (members >= 4.0) {
+      h.t_quadratic = g / err(h.gaussian, 2);
+      h.quadratic_chi2 = chi2_term_of_t(h.t_quadratic, members - 1.0);
+    }
     if (h.quadratic_chi2 <= 2.0 && fits(h.exponential))
       h.preferred = "exponential";
     else if (h.quadratic_chi2 > 2.0 && g < 0.0 && fits(h.gaussian))

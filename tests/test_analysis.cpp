@@ -260,14 +260,14 @@ TEST(Analysis, HistogramShapeNeedsAFitWithinTheMembersScatter) {
   EXPECT_EQ(sb.preferred, "neither");
 }
 
-// The choice between the shapes is calibrated where the chi2 are not: in ensembles of 16
-// members whose |Delta y| are exponential disk by disk but come in lumps of nearby values (a
-// lump's disks at probabilities within about 0.02 of one another, so neighbouring bins move
-// together, as an avalanche's disks do), the quadratic term's chi2 exceeds Akaike's 2 in about
-// 16 % of the ensembles (a chi2 of one degree of freedom does in 15.7 %; 15.5-19.7 % for three
-// seeds of the generator: here between 12.5 and 21 % of 1 000), where the difference of the two
-// shapes' chi2 does in about 30 % (more than 25 %), and the exponential's chi2 exceeds its 99 %
-// quantile in 4.4-4.7 % (more than 3 %), not 1 %.
+// The choice between the shapes is calibrated where the chi2 are not: in ensembles of 16 members
+// whose |Delta y| are exponential disk by disk but come in lumps of nearby values (a lump's disks
+// at probabilities within about 0.02 of one another, so neighbouring bins move together, as an
+// avalanche's disks do), the quadratic term's chi2 exceeds Akaike's 2 (the Gaussian where c2 < 0,
+// "neither" where it is positive) in about 16 % of the ensembles (a chi2 of one degree of freedom
+// does in 15.7 %; 15.5-19.7 % for three seeds of the generator: here between 12.5 and 21 % of
+// 1 000), where the difference of the two shapes' chi2 does in about 30 % (more than 25 %), and the
+// exponential's chi2 exceeds its 99 % quantile in 4.4-4.7 % (more than 3 %), not 1 %.
 TEST(Analysis, HistogramShapeChoosesTheGaussianForAnExponentialAsAkaikeSays) {
   std::mt19937_64 rng(11);
   const int members = 16, lumps = 150, n_bins = 60, ensembles = 1000;
