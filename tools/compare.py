@@ -60,9 +60,10 @@ therefore the 99 % quantile of the same chi2 over 1 999 random splits of the two
 seeded, so a comparison is reproducible): whole members move, so every correlation between the
 bins goes with them, and equal ensembles cross it about once in a hundred. Where the members
 allow fewer than 200 distinct splits (4 and 4 members: 70) the bound is the nominal one, 99 %
-of chi2 (for nu(y) three times that of a third of its strips' degrees of freedom, which a
-strip's sharing of disks with its neighbours calls for), and the row does not say "bound from
-splits of the members". So are nu(y) rows of files without per-member rows (`nu/member_mean`).
+of chi2 (for nu(y) three times that of a third of its strips' degrees of freedom), which marks
+equal ensembles more often than 1 % where neighbouring bins move together strongly, and the row
+does not say "bound from splits of the members". So are nu(y) rows of files without per-member
+rows (`nu/member_mean`).
 
 Points pair up by their parameters (protocol, Bond number, box, capture radius, disk and contact
 parameters, time step). Where some have no counterpart of the same parameters and the two files
