@@ -581,41 +581,147 @@ void add_identities(PointAnalysis& a) {
   identity_differences(a);
 }
 
+// The deposition density's power law nu_d = A y_i^p, fitted over the strips from lower_half_from
+// to 1.5 strips below H (weights their standard errors); `x` gets the strips' centres.
+Fit deposition_law(const EnsembleProfile& nu_d, double from, double H, double strip,
+                   std::vector<double>& x) {
+  std::vector<double> y, s;
+  x.clear();
+  for (std::size_t k = 0; k < nu_d.centre.size(); ++k) {
+    const double c = nu_d.centre[k];
+    if (c < from || c + 1.5 * strip > H) continue;
+    x.push_back(c);
+    y.push_back(nu_d.mean[k]);
+    s.push_back(nu_d.sem[k]);
+  }
+  return power_law_fit(x, y, s);
+}
+
+// nu_d(y_i(y_e)) (1 - dDelta y/dy_e) at the strips' centres y_e within [y_lo, y_hi] whose y_i
+// lies in [x_lo, x_hi], from the power law and the coefficients of Delta y(y_e); NaN elsewhere.
+std::vector<double> predicted_density(const std::vector<double>& centre, const Fit& law,
+                                      const std::vector<double>& dy, double y_lo, double y_hi,
+                                      double x_lo, double x_hi) {
+  std::vector<double> out(centre.size(), kNaN);
+  const double lnA = coef(law, 0), p = coef(law, 1);
+  for (std::size_t k = 0; k < centre.size(); ++k) {
+    const double ye = centre[k];
+    if (ye < y_lo || ye > y_hi) continue;
+    double shift = 0.0, slope = 0.0;
+    for (std::size_t j = 0; j < dy.size(); ++j) {
+      shift += dy[j] * std::pow(ye, static_cast<double>(j));
+      if (j > 0) slope += static_cast<double>(j) * dy[j] * std::pow(ye, j - 1.0);
+    }
+    const double yi = ye - shift;
+    if (yi < x_lo || yi > x_hi) continue;
+    out[k] = std::exp(lnA) * std::pow(yi, p) * (1.0 - slope);
+  }
+  return out;
+}
+
+// The mean over the strips `use` of the deviation and its least-squares slope in y.
+std::pair<double, double> deviation_terms(const std::vector<double>& centre,
+                                          const std::vector<double>& predicted,
+                                          const std::vector<double>& measured,
+                                          const std::vector<std::size_t>& use) {
+  double sx = 0.0, sd = 0.0;
+  for (std::size_t k : use) {
+    sx += centre[k];
+    sd += predicted[k] - measured[k];
+  }
+  const double n = static_cast<double>(use.size()), mx = sx / n, md = sd / n;
+  double sxx = 0.0, sxd = 0.0;
+  for (std::size_t k : use) {
+    sxx += (centre[k] - mx) * (centre[k] - mx);
+    sxd += (centre[k] - mx) * (predicted[k] - measured[k] - md);
+  }
+  return {md, sxx > 0.0 ? sxd / sxx : kNaN};
+}
+
+// The deviation's terms (PointAnalysis::DeviationTerms) with their jackknife over the members
+// that did not fail: each left out of the deposition density, of Delta y(y_e) (its fit's
+// replica) and of the measured density in turn.
+void add_deviation_terms(const PointResult& pr, const ObservableSettings& obs, double x_lo,
+                         double x_hi, double y_lo, double y_hi, PointAnalysis& a) {
+  const double H = pr.point.params.height;
+  std::vector<std::size_t> ok;  // the members that did not fail, in member order
+  double top = kNaN;
+  for (std::size_t m = 0; m < pr.m_failure.size(); ++m)
+    if (pr.m_failure[m] == 0.0) {
+      ok.push_back(m);
+      top = std::isnan(top) ? pr.m_top[m] : std::min(top, pr.m_top[m]);
+    }
+  const auto& reps = a.dy_by_ye.replicas;
+  if (ok.size() < 4 || reps.size() != ok.size() ||
+      pr.nu_member_rows.size() != pr.m_failure.size() ||
+      pr.nu_deposition_member_rows.size() != pr.m_failure.size())
+    return;
+  const std::vector<double>& centre = pr.nu.centre;
+  std::vector<std::vector<double>> predicted, measured;  // per member left out
+  for (std::size_t r = 0; r < ok.size(); ++r) {
+    auto without = [&](const std::vector<std::vector<double>>& rows) {
+      std::vector<std::vector<double>> rest;
+      for (std::size_t m = 0; m < rows.size(); ++m)
+        if (m != ok[r]) rest.push_back(rows[m]);  // a failed member's row is NaN: not counted
+      return rest;
+    };
+    std::vector<double> x;
+    const Fit law =
+        deposition_law(ensemble(without(pr.nu_deposition_member_rows), pr.nu_deposition.centre),
+                       obs.lower_half_from_at(H), H, obs.strip_width, x);
+    if (!law.valid()) return;
+    predicted.push_back(predicted_density(centre, law, reps[r], y_lo, y_hi, x_lo, x_hi));
+    measured.push_back(ensemble(without(pr.nu_member_rows), centre).mean);
+  }
+  auto& t = a.nu_deviation_terms;
+  const double to = top - obs.cut_top_at(H);
+  std::vector<std::size_t> use;
+  for (std::size_t k = 0; k < centre.size(); ++k) {
+    bool finite = std::isfinite(a.nu_deviation[k]);
+    for (std::size_t r = 0; r < ok.size(); ++r)
+      finite = finite && std::isfinite(predicted[r][k] - measured[r][k]);
+    if (finite && centre[k] >= obs.lower_half_from_at(H) && centre[k] <= to) use.push_back(k);
+  }
+  if (use.size() < 3) return;
+  std::vector<std::vector<double>> terms;
+  for (std::size_t r = 0; r < ok.size(); ++r) {
+    const auto [mean, slope] = deviation_terms(centre, predicted[r], measured[r], use);
+    terms.push_back({mean, slope});
+  }
+  std::tie(t.mean, t.slope) = deviation_terms(centre, a.nu_predicted, pr.nu.mean, use);
+  t.mean_error = jackknife_error(terms, 0);
+  t.slope_error = jackknife_error(terms, 1);
+  t.from = centre[use.front()];
+  t.to = centre[use.back()];
+  t.strips = static_cast<int>(use.size());
+  t.members = static_cast<int>(ok.size());
+}
+
 // The final density from the deposition density: a power law fitted to nu_d(y_i), carried to
 // y_e by the fit of Delta y(y_e), against the measured nu(y_e).
 void add_final_density(const PointResult& pr, const ObservableSettings& obs, PointAnalysis& a) {
   const double H = pr.point.params.height;
-  std::vector<double> x, y, s;
-  for (std::size_t k = 0; k < pr.nu_deposition.centre.size(); ++k) {
-    const double c = pr.nu_deposition.centre[k];
-    if (c < obs.lower_half_from_at(H) || c + 1.5 * obs.strip_width > H) continue;
-    x.push_back(c);
-    y.push_back(pr.nu_deposition.mean[k]);
-    s.push_back(pr.nu_deposition.sem[k]);
-  }
-  a.deposition_power_law = power_law_fit(x, y, s);
+  std::vector<double> x;
+  a.deposition_power_law =
+      deposition_law(pr.nu_deposition, obs.lower_half_from_at(H), H, obs.strip_width, x);
   const std::vector<std::size_t> bins =
       profile_bins(pr.dy_by_ye, std::numeric_limits<double>::infinity());
   if (!a.deposition_power_law.valid() || !a.dy_by_ye.valid() || x.empty() || bins.empty()) return;
   const double y_lo = pr.dy_by_ye.position[bins.front()];
   const double y_hi = pr.dy_by_ye.position[bins.back()];
-  const double lnA = coef(a.deposition_power_law, 0), p = coef(a.deposition_power_law, 1);
+  a.nu_predicted = predicted_density(pr.nu.centre, a.deposition_power_law, a.dy_by_ye.coef, y_lo,
+                                     y_hi, x.front(), x.back());
   double sum2 = 0.0;
   int n = 0;
   for (std::size_t k = 0; k < pr.nu.centre.size(); ++k) {
-    const double ye = pr.nu.centre[k];
-    if (ye < y_lo || ye > y_hi) continue;
-    const double yi = ye - polynomial(a.dy_by_ye, ye);
-    if (yi < x.front() || yi > x.back()) continue;
-    const double slope = coef(a.dy_by_ye, 1) + 2.0 * coef(a.dy_by_ye, 2) * ye;
-    a.nu_predicted[k] = std::exp(lnA) * std::pow(yi, p) * (1.0 - slope);
     a.nu_deviation[k] = a.nu_predicted[k] - pr.nu.mean[k];
-    if (ye >= obs.lower_half_from_at(H) && std::isfinite(a.nu_deviation[k])) {
+    if (pr.nu.centre[k] >= obs.lower_half_from_at(H) && std::isfinite(a.nu_deviation[k])) {
       sum2 += a.nu_deviation[k] * a.nu_deviation[k];
       ++n;
     }
   }
   a.nu_rms_deviation = n > 0 ? std::sqrt(sum2 / n) : kNaN;
+  add_deviation_terms(pr, obs, x.front(), x.back(), y_lo, y_hi, a);
 }
 
 // The fits of one point: histogram shapes, the avalanche profiles, the slice model (A) or the

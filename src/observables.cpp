@@ -61,9 +61,6 @@ Scalar mean_sem(const std::vector<double>& v) {
   return s;
 }
 
-namespace {
-
-// Columns of per-member profiles -> mean, standard error, relative fluctuation per entry.
 EnsembleProfile ensemble(const std::vector<std::vector<double>>& rows,
                          const std::vector<double>& centre) {
   EnsembleProfile e;
@@ -80,6 +77,8 @@ EnsembleProfile ensemble(const std::vector<std::vector<double>>& rows,
   }
   return e;
 }
+
+namespace {
 
 // Avalanche profile: Delta y binned by `key` (y_i or y_e), pooled over the members that did not
 // fail, with the standard error of the bin mean estimated from the scatter of the member means,

@@ -299,6 +299,17 @@ void point_analysis(hid_t g, Protocol protocol, const PointAnalysis& an) {
     dataset(nu, "predicted", an.nu_predicted);
     dataset(nu, "deviation", an.nu_deviation);
     attribute(nu, "rms_deviation", an.nu_rms_deviation);
+    const auto& t = an.nu_deviation_terms;
+    H5 d = group(nu, "deviation_terms");
+    for (const auto& [name, v] : {std::pair("mean", t.mean),
+                                  {"mean_error", t.mean_error},
+                                  {"slope", t.slope},
+                                  {"slope_error", t.slope_error},
+                                  {"from", t.from},
+                                  {"to", t.to}})
+      attribute(d, name, v);
+    attribute(d, "strips", static_cast<double>(t.strips));
+    attribute(d, "members", static_cast<double>(t.members));
   }
   fit(open_group(g, "nu_deposition"), "power_law", an.deposition_power_law);
   fit(open_group(g, "avalanche_by_yi"), "fit", an.dy_by_yi);
@@ -335,9 +346,9 @@ void point_analysis(hid_t g, Protocol protocol, const PointAnalysis& an) {
 // lack some). HDF5 does not give the freed space back; the file keeps its size.
 void remove_point_analysis(hid_t g) {
   for (const char* name :
-       {"nu/predicted", "nu/deviation", "nu_deposition/power_law", "avalanche_by_yi/fit",
-        "avalanche_by_ye/fit", "avalanche_by_ye/slice_parabola", "abs_dy_histogram/shape",
-        "abs_dy_histogram/shape_cut", "collapse_identity"})
+       {"nu/predicted", "nu/deviation", "nu/deviation_terms", "nu_deposition/power_law",
+        "avalanche_by_yi/fit", "avalanche_by_ye/fit", "avalanche_by_ye/slice_parabola",
+        "abs_dy_histogram/shape", "abs_dy_histogram/shape_cut", "collapse_identity"})
     if (H5Lexists(g, name, H5P_DEFAULT) > 0)
       check(H5Ldelete(g, name, H5P_DEFAULT), std::string("remove ") + name);
   if (H5Aexists_by_name(g, "nu", "rms_deviation", H5P_DEFAULT) > 0)
@@ -746,6 +757,22 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
     pr.nu_final = scalar_of("nu_final");
     pr.relative_increase = scalar_of("relative_increase");
   }
+  // What the analysis takes per member where a file has it (older programs' files may not): the
+  // members that did not fail and their tops, and their density profiles.
+  for (auto [path, member] :
+       {std::pair("nu/member_mean", &pr.nu_member_rows),
+        std::pair("nu_deposition/member_mean", &pr.nu_deposition_member_rows)})
+    if (H5Lexists(g, path, H5P_DEFAULT) > 0) {
+      *member = rows(g, path);
+      check_member_rows(std::string(n) + "/" + path, member->size(), pr.members);
+    }
+  if (H5Lexists(g, "members", H5P_DEFAULT) > 0)
+    for (auto [path, member] :
+         {std::pair("members/failure", &pr.m_failure), std::pair("members/top", &pr.m_top)})
+      if (H5Lexists(g, path, H5P_DEFAULT) > 0) {
+        *member = doubles(g, path);
+        check_member_rows(std::string(n) + "/" + path, member->size(), pr.members);
+      }
   return pr;
 }
 

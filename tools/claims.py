@@ -49,8 +49,8 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     jackknife errors of zero); the final density predicted from the initial one
                     and the line Delta y(y_e) matches the measured one up to `cut_top` below
                     the lowest member's top (the deviation's mean over the strips and its slope
-                    each within its 99.5 % bound, errors the measured density's jackknife over
-                    the members, which overstates the deviation's: lenient); and dnu/nu_i stays
+                    each within its 99.5 % bound, errors the program's jackknife of each over
+                    the members, `nu/deviation_terms`); and dnu/nu_i stays
                     below its upper limit nu_rcp/nu_i - 1 (the paper: 1.19, random close packing
                     nu_rcp = 0.84 over nu_i ~ 0.38)
 
@@ -737,37 +737,29 @@ def density_slope(group, low, high):
     return slope(rows), float(jackknife(loo)), x[0], x[-1]
 
 
-def predicted_density_claim(nu, low, high, where):
+def predicted_density_claim(nu, where):
     """The final density predicted from the initial one (`nu/predicted`) against the measured
-    nu(y) over the strips from `low` to `high`: the deviation predicted - measured judged by its
-    two lowest terms, its mean over the strips and its slope in y, each over its jackknife error
-    over the members (Student's t with n - 1 degrees of freedom) within the two-sided 99.5 %
-    bound (both together within 1 %). A chi2 over the strips would count neighbouring strips,
-    which share disks and move together, as independent. The prediction comes from fits of the
-    same members, so its error moves with the measured density's and the measured density's
-    error alone overstates the deviation's: the test is a lenient one."""
+    nu(y): the deviation predicted - measured judged by its two lowest terms, its mean over the
+    strips and its slope in y, each over its jackknife error (the program's `nu/deviation_terms`:
+    the prediction refitted without each member as the measured density is averaged without it),
+    Student's t with n - 1 degrees of freedom, each within its two-sided 99.5 % bound (both
+    together within 1 %). A chi2 over the strips would count neighbouring strips, which share
+    disks and move together, as independent."""
     claim = f"{where}: the final density predicted from the initial one matches"
-    centre, pred = nu["centre"][()], nu["predicted"][()]
-    rows = nu["member_mean"][()]
-    rows = rows[np.isfinite(rows).any(axis=1)]  # a failed member's row is NaN
-    use = (np.isfinite(pred) & (centre >= low) & (centre <= high)
-           & np.isfinite(rows).all(axis=0))
-    n = len(rows)
-    if use.sum() < 3 or n < 4:
-        return claim, NOT_JUDGED, "too few strips or members"
-    x = centre[use]
-
-    def terms(r):  # mean and slope of the deviation from the members' mean
-        deviation = pred[use] - r[:, use].mean(axis=0)
-        return np.array([deviation.mean(), np.polynomial.polynomial.polyfit(x, deviation, 1)[1]])
-
-    full = terms(rows)
-    err = jackknife([terms(np.delete(rows, m, axis=0)) for m in range(n)])
+    if "deviation_terms" not in nu:
+        return (claim, NOT_JUDGED, "the file has no `nu/deviation_terms` (files from 2026-12-02 "
+                "on; `loosepack analyse` adds them)")
+    a = nu["deviation_terms"].attrs
+    n = int(a["members"])
+    full = np.array([float(a["mean"]), float(a["slope"])])
+    err = np.array([float(a["mean_error"]), float(a["slope_error"])])
+    if n < 4 or not np.all(np.isfinite(full)) or not np.all(err > 0):
+        return claim, NOT_JUDGED, "too few strips or members (or no per-member rows)"
     t, bound = full / err, t_quantile(n - 1, Z9975)
     return (claim, bool(np.all(np.abs(t) <= bound)),
-            f"deviation over {int(use.sum())} strips ({x[0]:g}-{x[-1]:g} R): mean {full[0]:.3g} "
-            f"+- {err[0]:.2g} (t {t[0]:.3g}), slope {full[1]:.3g} +- {err[1]:.2g} per R (t "
-            f"{t[1]:.3g}); 99.5 % bound {bound:.3g}")
+            f"deviation over {int(a['strips'])} strips ({float(a['from']):g}-{float(a['to']):g} "
+            f"R): mean {full[0]:.3g} +- {err[0]:.2g} (t {t[0]:.3g}), slope {full[1]:.3g} +- "
+            f"{err[1]:.2g} per R (t {t[1]:.3g}); 99.5 % bound {bound:.3g}, {n} members")
 
 
 def collapse_density_claims(point, path, where):
@@ -780,7 +772,6 @@ def collapse_density_claims(point, path, where):
     settings = point.file["settings"].attrs if "settings" in point.file else {}
     h = float(a["height"])
     low = float(a.get("lower_half_from", settings.get("lower_half_from", min(50.0, h / 4))))
-    cut = float(a.get("cut_top", settings.get("cut_top", min(20.0, h / 6))))
     tops = point["members/top"][()]
     if "members/failure" in point:  # a failed member's top is where it stopped
         tops = tops[point["members/failure"][()] == 0]
@@ -800,7 +791,7 @@ def collapse_density_claims(point, path, where):
         yield (f"{where}: {label}(y) is flat in the bulk", abs(slope) <= 2 * err,
                f"slope {slope:.3g} +- {err:.2g} per R over {lo:g}-{hi:g} R")
     if "predicted" in point["nu"]:
-        yield predicted_density_claim(point["nu"], low, final_top - cut, where)
+        yield predicted_density_claim(point["nu"], where)
     inc, inc_err = float(a["relative_increase_mean"]), float(a["relative_increase_sem"])
     nu_i = float(a["nu_initial_mean"])
     limit = RCP / nu_i - 1

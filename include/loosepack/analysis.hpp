@@ -124,6 +124,17 @@ struct PointAnalysis {
   Fit deposition_power_law;
   std::vector<double> nu_predicted, nu_deviation;
   double nu_rms_deviation = 0.0;
+  // The deviation's two lowest terms over the strips from lower_half_from to cut_top below the
+  // lowest member's top (`from`, `to` their centres): its mean and its slope in y, each with its
+  // jackknife error over the members, the prediction refitted without each member as the
+  // measured density is averaged without it (both come from the same members and move together,
+  // so the measured density's error alone would overstate the deviation's). NaN without per-member
+  // rows or with fewer than 4 members.
+  struct DeviationTerms {
+    double mean = kNone, mean_error = kNone, slope = kNone, slope_error = kNone, from = kNone,
+           to = kNone;
+    int strips = 0, members = 0;
+  } nu_deviation_terms;
   HistogramShape abs_dy, abs_dy_cut;
 };
 

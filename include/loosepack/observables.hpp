@@ -47,6 +47,11 @@ struct Scalar {
 // error when there are none, NaN error when there is one).
 Scalar mean_sem(const std::vector<double>& v);
 
+// Columns of per-member profiles (a failed member's row NaN): mean, standard error, members and
+// relative fluctuation per entry (mean_sem of each column).
+EnsembleProfile ensemble(const std::vector<std::vector<double>>& rows,
+                         const std::vector<double>& centre);
+
 struct PointResult {
   ScanPoint point;
   int members = 0, failed = 0;
