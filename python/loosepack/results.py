@@ -264,8 +264,9 @@ class Results:
         "abs_dy_histogram/shape_cut/gaussian", ...) with coef, error, valid, reduced_chi2 and its
         other attributes; the histograms' verdicts ("abs_dy_histogram/shape_cut": preferred,
         decay_length, gaussian_mean, gaussian_width, ...); protocol C's "collapse_identity" (b',
-        a', their predictions and differences, with errors); and "nu" (rms_deviation of the
-        final density predicted from the deposition density)."""
+        a', their predictions and differences, with errors); "nu" (rms_deviation of the final
+        density predicted from the deposition density) and "nu/deviation_terms" (that
+        deviation's mean and slope with their jackknife errors)."""
         out = {}
         with h5py.File(self.path, "r") as f:
             g = self._group(f, point)
@@ -276,7 +277,7 @@ class Results:
                 attrs = {k: _value(v) for k, v in obj.attrs.items()}
                 if "coef" in obj:
                     out[name] = dict(attrs, coef=obj["coef"][()], error=obj["error"][()])
-                elif attrs and (name in ("collapse_identity", "nu") or
+                elif attrs and (name in ("collapse_identity", "nu", "nu/deviation_terms") or
                                 name.startswith("abs_dy_histogram/shape")):
                     out[name] = attrs
             g.visititems(visit)

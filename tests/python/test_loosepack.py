@@ -129,6 +129,7 @@ def test_verdicts_events_and_fits_across_points(result):
     assert fits["abs_dy_histogram/shape_cut"]["preferred"] in (
         "gaussian", "exponential", "neither", "none")
     assert "rms_deviation" in fits["nu"]
+    assert {"mean", "mean_error", "slope", "slope_error"} <= set(fits["nu/deviation_terms"])
     events = result.events(1)
     disks = int(result.members(1)["disks"].sum())
     assert int(events["steps_counts"].sum()) == disks  # every event by its steps to rest
