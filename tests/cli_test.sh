@@ -13,14 +13,14 @@ source "$(dirname "$0")/common.sh"
 # Usage errors exit 2 with a message: an unknown subcommand is named, a missing one said.
 set +e
 msg=$("$exe" runn x.toml 2>&1); rc=$?
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "unknown subcommand 'runn'" || fail "unknown subcommand (exit $rc): $msg"
+[ "$rc" -eq 2 ] && grep -q "unknown subcommand 'runn'" <<< "$msg" || fail "unknown subcommand (exit $rc): $msg"
 msg=$("$exe" 2>&1); rc=$?
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "a subcommand is required" || fail "no subcommand (exit $rc): $msg"
+[ "$rc" -eq 2 ] && grep -q "a subcommand is required" <<< "$msg" || fail "no subcommand (exit $rc): $msg"
 msg=$("$exe" run 2>&1); rc=$?
 [ "$rc" -eq 2 ] || fail "run without a scan file exited $rc, expected 2"
 # Usage errors name the program, as its own messages do.
 msg=$("$exe" summary "$dir" 2>&1); rc=$?
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "^loosepack: file: File is actually a directory" ||
+[ "$rc" -eq 2 ] && grep -q "^loosepack: file: File is actually a directory" <<< "$msg" ||
   fail "a directory given as the result file (exit $rc): $msg"
 msg=$("$exe" run "$repo/examples/default.toml" --checkpoint-every nan --dry-run 2>&1); rc=$?
 [ "$rc" -eq 2 ] || fail "--checkpoint-every nan exited $rc, expected 2: $msg"
@@ -37,7 +37,7 @@ msg=$("$exe" run "$dir/bad.toml" -o "$dir/out.h5" 2>&1)
 rc=$?
 set -e
 [ "$rc" -eq 2 ] || fail "bad scan exit code $rc, expected 2"
-echo "$msg" | grep -q "bad.toml:3:12: key 'system.friction': mu must be finite and >= 0" || fail "message: $msg"
+grep -q "bad.toml:3:12: key 'system.friction': mu must be finite and >= 0" <<< "$msg" || fail "message: $msg"
 [ "$(cat "$dir/out.h5")" = "previous results" ] || fail "existing output was touched"
 ls "$dir" | grep -q tmp && fail "a temporary file was left behind"
 
@@ -46,7 +46,7 @@ ls "$dir" | grep -q tmp && fail "a temporary file was left behind"
 # warning.
 printf '[scan]\nname = "defaults"\n[system]\nwidth = 24\nheight = 24\n' > "$dir/defaults.toml"
 msg=$("$exe" run "$dir/defaults.toml" -o "$dir/defaults.h5" 2>&1) || fail "the defaults: $msg"
-echo "$msg" | grep -qi "warning\|exceeds" && fail "the defaults warn: $msg"
+grep -qi "warning\|exceeds" <<< "$msg" && fail "the defaults warn: $msg"
 
 # A collapse that takes the top below 2 lower_half_from leaves a member's final lower-half band
 # empty: the run says so (nu_lower_half and the relative increase not defined), writes its file,
@@ -68,7 +68,7 @@ EOF
 msg=$("$exe" run "$dir/empty_band.toml" -o "$dir/empty_band.h5" -q 2>&1) ||
   fail "a collapse below the band: $msg"
 want="point 0000: nu_lower_half, nu_initial and dnu/nu_i over 0 of 2 finished members: the others' final band"
-echo "$msg" | grep -qF "warning: $want" || fail "no warning of the empty band: $msg"
+grep -qF "warning: $want" <<< "$msg" || fail "no warning of the empty band: $msg"
 # nu_initial is a mean over the same members as dnu/nu_i (none here), not over every member.
 counts=$(/usr/bin/python3 -c "import h5py; a = h5py.File('$dir/empty_band.h5')['points/0000'].attrs
 print(*(int(a[k + '_n']) for k in ('nu_initial', 'nu_final', 'relative_increase')))")
@@ -93,10 +93,10 @@ grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimat
 # under a regular file names that file as no directory.
 set +e
 msg=$("$exe" run "$dir/good.toml" -o "$dir/nodir/x.h5" 2>&1); rc=$?
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "the directory .*nodir of .*x.h5 does not exist" ||
+[ "$rc" -eq 2 ] && grep -q "the directory .*nodir of .*x.h5 does not exist" <<< "$msg" ||
   fail "output in a missing directory (exit $rc): $msg"
 msg=$("$exe" run "$dir/good.toml" -o "$dir/good.toml/x.h5" 2>&1); rc=$?
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "good.toml (of .*x.h5) is not a directory" ||
+[ "$rc" -eq 2 ] && grep -q "good.toml (of .*x.h5) is not a directory" <<< "$msg" ||
   fail "output under a regular file (exit $rc): $msg"
 set -e
 # A reader of the messages that goes away (a pipe into head) does not stop the run: it writes its
@@ -116,10 +116,10 @@ printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[solver]\nkind = "%s
   coloured_accelerated_gauss_seidel "sweeps_per_launch = 4" "[observables]
 lower_half_from = 1" > "$dir/split.toml"
 msg=$("$exe" run "$dir/split.toml" -o "$dir/split.h5" --timing 2>&1) || fail "split solve: $msg"
-echo "$msg" | grep -q "coloured_accelerated_gauss_seidel (at most 4 sweeps a launch)" ||
+grep -q "coloured_accelerated_gauss_seidel (at most 4 sweeps a launch)" <<< "$msg" ||
   fail "the first line does not name the split: $msg"
 for stage in margin grid free_velocity contacts solve integrate status scheduler; do
-  echo "$msg" | grep -qE "^  $stage +[0-9.]+ s" || fail "--timing lists no stage $stage: $msg"
+  grep -qE "^  $stage +[0-9.]+ s" <<< "$msg" || fail "--timing lists no stage $stage: $msg"
 done
 read -r systems slowest ended < <(echo "$msg" | awk '$1 == "solve:" && $3 == "systems" { n = $2 }
   $1 == "solve:" && $3 == "sweeps" { w = $2 } $1 == "solve:" && $4 == "steps" { e = $2 }
@@ -138,7 +138,7 @@ cp "$dir/good.h5" "$dir/kept.h5"
 set +e
 msg=$("$exe" run "$dir/good.toml" -o "$dir/good.h5" -q 2>&1); rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "exists; add --force to replace it" || fail "existing output (exit $rc): $msg"
+[ "$rc" -eq 2 ] && grep -q "exists; add --force to replace it" <<< "$msg" || fail "existing output (exit $rc): $msg"
 cmp -s "$dir/good.h5" "$dir/kept.h5" || fail "a refused run touched the existing output"
 "$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --force
 # Output paths that cannot take a result file are refused before any work, even with --force:
@@ -168,8 +168,8 @@ msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q --force 2>&1); rc=$?
 msg2=$("$exe" analyse "$dir/good.h5" -o "$dir/held.h5" --force 2>&1); rc2=$?
 set -e
 pkill -P "$holder" sleep; wait "$holder" 2>/dev/null || true
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "being written by another run (pid 4242" || fail "held lock (exit $rc): $msg"
-[ "$rc2" -eq 2 ] && echo "$msg2" | grep -q "being written by another run" || fail "held lock, analyse (exit $rc2): $msg2"
+[ "$rc" -eq 2 ] && grep -q "being written by another run (pid 4242" <<< "$msg" || fail "held lock (exit $rc): $msg"
+[ "$rc2" -eq 2 ] && grep -q "being written by another run" <<< "$msg2" || fail "held lock, analyse (exit $rc2): $msg2"
 [ -e "$dir/held.h5" ] && fail "a refused run wrote the held output"
 # A temporary left by a run that died while writing on this host is removed by the next run of
 # that output (named with the host, and as programs before the host was in the name wrote it);
@@ -181,7 +181,7 @@ echo "half a file" > "$dir/held.h5.tmp.$host.$dead"
 echo "half a file" > "$dir/held.h5.tmp.other-node.$dead"
 msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q 2>&1)
 for stale in "held.h5.tmp.$dead" "held.h5.tmp.$host.$dead"; do
-  echo "$msg" | grep -q "removed .*$stale, left by a run" || fail "stale temporary $stale: $msg"
+  grep -q "removed .*$stale, left by a run" <<< "$msg" || fail "stale temporary $stale: $msg"
   [ -e "$dir/$stale" ] && fail "the stale temporary $stale is still there"
 done
 [ -e "$dir/held.h5.tmp.other-node.$dead" ] || fail "another host's temporary was removed: $msg"
@@ -195,7 +195,7 @@ if command -v cc >/dev/null; then
   cc -shared -fPIC -o "$dir/nolock.so" "$dir/nolock.c"
   msg=$(LD_PRELOAD="$dir/nolock.so" "$exe" run "$dir/good.toml" -o "$dir/nolock.h5" -q 2>&1) ||
     fail "a run on a file system without locks: $msg"
-  echo "$msg" | grep -q "cannot lock .*nolock.h5.lock (No locks available): a second run" ||
+  grep -q "cannot lock .*nolock.h5.lock (No locks available): a second run" <<< "$msg" ||
     fail "no warning of the missing lock: $msg"
   [ -s "$dir/nolock.h5" ] && [ ! -e "$dir/nolock.h5.lock" ] || fail "no file, or a lock file left"
 fi
@@ -216,7 +216,7 @@ EOF
   cc -shared -fPIC -o "$dir/keepck.so" "$dir/keepck.c" -ldl
   msg=$(LD_PRELOAD="$dir/keepck.so" "$exe" run "$dir/good.toml" -o "$dir/keepck.h5" -q 2>&1) ||
     fail "a run whose checkpoint cannot be removed: $msg"
-  echo "$msg" | grep -q "cannot remove .*keepck.h5.checkpoint: .*the result file is complete" ||
+  grep -q "cannot remove .*keepck.h5.checkpoint: .*the result file is complete" <<< "$msg" ||
     fail "no word of the checkpoint left: $msg"
   "$exe" summary "$dir/keepck.h5" >/dev/null || fail "the file beside the checkpoint left"
   rm -r "$dir/keepck.h5.checkpoint"
@@ -226,7 +226,7 @@ fi
 # summary.
 printf '[scan]\nname = "cut"\nprotocol = "C"\nseeds = 2\n[system]\nwidth = 20\nheight = 30\nbond_number = 1000\ncapture_radius = 2.0\n[protocol]\nmax_collapse_time = 0.2\n[observables]\nlower_half_from = 2\n' >"$dir/cut.toml"
 msg=$("$exe" run "$dir/cut.toml" -o "$dir/cut.h5" -q 2>&1) || fail "a run with capped collapses: $msg"
-echo "$msg" | grep -q "warning: point 0000: the collapse of [12] of 2 finished members was stopped at protocol.max_collapse_time while still moving" ||
+grep -q "warning: point 0000: the collapse of [12] of 2 finished members was stopped at protocol.max_collapse_time while still moving" <<< "$msg" ||
   fail "no warning of the capped collapses: $msg"
 "$exe" summary "$dir/cut.h5" | grep -q "^# point 0000: the collapse of [12] of 2 finished members was stopped" ||
   fail "summary does not note the capped collapses: $("$exe" summary "$dir/cut.h5")"
@@ -234,7 +234,7 @@ echo "$msg" | grep -q "warning: point 0000: the collapse of [12] of 2 finished m
 set +e
 msg=$(LOOSEPACK_INJECT_FREE_BYTES=1000 "$exe" run "$dir/good.toml" -o "$dir/full.h5" 2>&1); rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "MiB free; the checkpoint of the members this run computes needs at least" ||
+[ "$rc" -eq 2 ] && grep -q "MiB free; the checkpoint of the members this run computes needs at least" <<< "$msg" ||
   fail "no room (exit $rc): $msg"
 # Something at the checkpoint's path that cannot hold it is refused before any work, with
 # --resume or without (the run would otherwise compute its members and lose them at its first
@@ -244,7 +244,7 @@ for resume in "" --resume; do
   set +e
   msg=$("$exe" run "$dir/good.toml" -o "$dir/ck.h5" $resume 2>&1); rc=$?
   set -e
-  [ "$rc" -eq 2 ] && echo "$msg" | grep -q "ck.h5.checkpoint is not a directory, where this run keeps" ||
+  [ "$rc" -eq 2 ] && grep -q "ck.h5.checkpoint is not a directory, where this run keeps" <<< "$msg" ||
     fail "a file at the checkpoint's path ($resume, exit $rc): $msg"
 done
 "$exe" run "$dir/good.toml" -o "$dir/ck.h5" --dry-run | grep -q "is not a directory.*: the run would be refused" ||
@@ -256,20 +256,20 @@ if [ "$(id -u)" -ne 0 ]; then
   msg=$("$exe" run "$dir/good.toml" -o "$dir/ck.h5" --resume 2>&1); rc=$?
   set -e
   rmdir "$dir/ck.h5.checkpoint"
-  [ "$rc" -eq 2 ] && echo "$msg" | grep -q "cannot write into the checkpoint .*ck.h5.checkpoint" ||
+  [ "$rc" -eq 2 ] && grep -q "cannot write into the checkpoint .*ck.h5.checkpoint" <<< "$msg" ||
     fail "a checkpoint it cannot write into (exit $rc): $msg"
 fi
 # analyse -o '' is refused (it would mean the input itself), not taken as no -o.
 set +e
 msg=$("$exe" analyse "$dir/good.h5" -o '' 2>&1); rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "an empty path" || fail "analyse -o '' (exit $rc): $msg"
+[ "$rc" -eq 2 ] && grep -q "an empty path" <<< "$msg" || fail "analyse -o '' (exit $rc): $msg"
 # analyse -o onto an existing file (here the scan file) is refused unless --force.
 set +e
 msg=$("$exe" analyse "$dir/good.h5" -o "$dir/good.toml" 2>&1)
 rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "exists; add --force" || fail "analyse -o existing (exit $rc): $msg"
+[ "$rc" -eq 2 ] && grep -q "exists; add --force" <<< "$msg" || fail "analyse -o existing (exit $rc): $msg"
 cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "analyse -o overwrote the scan file"
 "$exe" summary "$dir/good.h5" | grep -q "scan 'cli'" || fail "summary header"
 "$exe" summary "$dir/good.h5" | grep -qE "^0000 +B " || fail "summary row"
@@ -288,7 +288,7 @@ set +e
 msg=$("$exe" run "$dir/good.h5" -o "$dir/never.h5" --dry-run 2>&1)
 rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "good.h5: not a text file" || fail "binary scan file: $msg"
+[ "$rc" -eq 2 ] && grep -q "good.h5: not a text file" <<< "$msg" || fail "binary scan file: $msg"
 set -e
 # Figures from the result file (Debian's python3 with h5py and matplotlib).
 /usr/bin/python3 "$repo/tools/plot.py" "$dir/good.h5" -o "$dir/fig" >/dev/null
@@ -335,7 +335,7 @@ set +e
 msg=$(/usr/bin/python3 "$repo/tools/claims.py" "$dir/inf.h5" 2>&1)
 rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "no scan point the claims speak about" ||
+[ "$rc" -eq 2 ] && grep -q "no scan point the claims speak about" <<< "$msg" ||
   fail "claims.py on a ballistic deposit (exit code $rc): $msg"
 # Protocol A at two heights: the profiles scaled by H (the paper's fig. 7).
 printf '[scan]\nprotocol = "A"\nseeds = 2\n[system]\nwidth = 12\nheight = [12, 16]\nbond_number = 50\n[observables]\nlower_half_from = 2\n' > "$dir/ah.toml"
@@ -410,7 +410,7 @@ msg=$("$exe" analyse "$dir/bad_copy.toml" 2>&1)
 rc=$?
 set -e
 [ "$rc" -eq 2 ] || fail "analyse of a non-HDF5 file: exit code $rc"
-echo "$msg" | grep -q "bad_copy.toml is not an HDF5 file" || fail "analyse message: $msg"
+grep -q "bad_copy.toml is not an HDF5 file" <<< "$msg" || fail "analyse message: $msg"
 cmp -s "$dir/bad.toml" "$dir/bad_copy.toml" || fail "analyse touched a file it refused"
 # A file in a directory the user cannot write: analyse in place says why and how to write a copy
 # (run as the unprivileged user nobody, for whom the permissions hold; root bypasses them; where
@@ -427,7 +427,7 @@ if [ "$(id -u)" -eq 0 ] && command -v setpriv >/dev/null && id nobody >/dev/null
   set -e
   rm -rf "$ro"
   [ "$rc" -eq 2 ] || fail "analyse in a read-only directory: exit code $rc ($msg)"
-  echo "$msg" | grep -q "cannot write into $ro (for $ro/r.h5): Permission denied; .*analyse FILE -o NEW.h5" ||
+  grep -q "cannot write into $ro (for $ro/r.h5): Permission denied; .*analyse FILE -o NEW.h5" <<< "$msg" ||
     fail "analyse in a read-only directory: $msg"
 fi
 # A result file cut short (a copy or a full disk) is invalid input too, for each command.
@@ -438,7 +438,7 @@ for cmd in summary analyse export; do
   rc=$?
   set -e
   [ "$rc" -eq 2 ] || fail "$cmd of a truncated file: exit code $rc ($msg)"
-  echo "$msg" | grep -q "cut.h5 is not an HDF5 file that can be opened" || fail "$cmd message: $msg"
+  grep -q "cut.h5 is not an HDF5 file that can be opened" <<< "$msg" || fail "$cmd message: $msg"
 done
 # So is an HDF5 file of another kind (another program's, or an export's contacts file).
 /usr/bin/python3 -c 'import h5py, sys; h5py.File(sys.argv[1], "w")["x"] = [1.0]' "$dir/other.h5"
@@ -447,7 +447,7 @@ for cmd in summary analyse export; do
   msg=$("$exe" $cmd "$dir/other.h5" 2>&1)
   rc=$?
   set -e
-  [ "$rc" -eq 2 ] && echo "$msg" | grep -q "other.h5 is an HDF5 file but not a loosepack result" ||
+  [ "$rc" -eq 2 ] && grep -q "other.h5 is an HDF5 file but not a loosepack result" <<< "$msg" ||
     fail "$cmd of another HDF5 file: exit code $rc ($msg)"
 done
 # A result file that lacks what a command reads, or holds rows no run writes, is invalid input
@@ -467,12 +467,12 @@ EOF_PY
 set +e
 msg=$("$exe" summary "$dir/noattr.h5" 2>&1); rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "noattr.h5: HDF5: cannot open attribute points/0000@protocol" ||
+[ "$rc" -eq 2 ] && grep -q "noattr.h5: HDF5: cannot open attribute points/0000@protocol" <<< "$msg" ||
   fail "summary of a file without a point's protocol (exit $rc): $msg"
 set +e
 msg=$("$exe" analyse "$dir/rows.h5" -o "$dir/rows2.h5" 2>&1); rc=$?
 set -e
-[ "$rc" -eq 2 ] && echo "$msg" | grep -q "rows.h5: points/0000: abs_dy_histogram/member_counts has 1 rows, one per member of 2" ||
+[ "$rc" -eq 2 ] && grep -q "rows.h5: points/0000: abs_dy_histogram/member_counts has 1 rows, one per member of 2" <<< "$msg" ||
   fail "analyse of a file with too few member rows (exit $rc): $msg"
 [ ! -e "$dir/rows2.h5" ] || fail "analyse of a damaged file wrote its output"
 # A file of the older layout (the scan text a root attribute, before 2026-11-25) is still a result
@@ -519,8 +519,8 @@ EOF_PY
     attribute) want="lacks_attribute.h5: attribute 'height' of '/points/0000' is missing" ;;
     late) want="lacks_late.h5: '/points/0000/nu_deposition/mean' is missing" ;;
   esac
-  echo "$msg" | grep -qF "$want" || fail "plot.py message for a missing $what: $msg"
-  echo "$msg" | grep -q "Traceback" && fail "plot.py crashed on a missing $what: $msg"
+  grep -qF "$want" <<< "$msg" || fail "plot.py message for a missing $what: $msg"
+  grep -q "Traceback" <<< "$msg" && fail "plot.py crashed on a missing $what: $msg"
   [ ! -e "$dir/fig_lacks_$what" ] || fail "plot.py left a folder or figures of a file it refused"
 done
 echo "cli: all checks passed"

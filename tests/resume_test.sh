@@ -40,7 +40,7 @@ interrupt KILL k.h5 k.log
 # With a checkpoint after every member, each finished member is in a part of its own.
 finished_parts=$(ls k.h5.checkpoint | grep -c '^part-1-0-[0-9]*\.bin$' || true)
 msg=$("$exe" run s.toml -o k.h5 --batch-size 1 2>&1) && fail "a run over a checkpoint did not refuse"
-echo "$msg" | grep -q "add --resume" || fail "message: $msg"
+grep -q "add --resume" <<< "$msg" || fail "message: $msg"
 "$exe" run s.toml -o k.h5 --batch-size 1 --resume >resume.log 2>&1
 grep -q "resuming from k.h5.checkpoint" resume.log || fail "no resume message: $(cat resume.log)"
 done_before=$(sed -n 's/.*: \([0-9]*\) of 8 members finished.*/\1/p' resume.log)
@@ -104,7 +104,7 @@ same full.h5 i.h5
 # The members finished so far, written without computing anything; the checkpoint stays, and
 # the run then goes on from it (over the partial file, with --force) to the same file.
 msg=$("$exe" run s.toml -o t.h5 --finished-only 2>&1) && fail "--finished-only without --resume ran"
-echo "$msg" | grep -q "requires --resume" || fail "message: $msg"
+grep -q "requires --resume" <<< "$msg" || fail "message: $msg"
 "$exe" run s.toml -o t.h5 --resume --finished-only 2>fin.log ||
   fail "--finished-only: $(cat fin.log)"
 grep -q "members finished so far" fin.log || fail "message: $(cat fin.log)"
@@ -121,7 +121,7 @@ PY
   fail "summary does not say the run is unfinished"
 msg=$("$exe" run s.toml -o t.h5 --resume 2>&1) &&
   fail "the partial file was replaced without --force"
-echo "$msg" | grep -q "add --force" || fail "message: $msg"
+grep -q "add --force" <<< "$msg" || fail "message: $msg"
 # A checkpoint of another scan is refused (a setting edited), and so is a corrupt one; an edit of
 # the scan file's comments and layout leaves its checkpoint usable.
 cp s.toml edited.toml
@@ -134,12 +134,12 @@ same full.h5 e.h5 --except scan_text --except scan_file
 sed -i 's/seeds = 4 # edited/seeds = 5/' edited.toml
 cp -r t.h5.checkpoint e5.h5.checkpoint
 msg=$("$exe" run edited.toml -o e5.h5 --resume 2>&1) && fail "a checkpoint of another scan was used"
-echo "$msg" | grep -q "belongs to a scan of other settings" || fail "message: $msg"
+grep -q "belongs to a scan of other settings" <<< "$msg" || fail "message: $msg"
 cp -r t.h5.checkpoint c.h5.checkpoint
 part=$(ls c.h5.checkpoint/*.bin | head -1)
 truncate -s -9 "$part"
 msg=$("$exe" run s.toml -o c.h5 --resume 2>&1) && fail "a truncated checkpoint was used"
-echo "$msg" | grep -q "corrupt or truncated.*delete that part alone to keep the others" ||
+grep -q "corrupt or truncated.*delete that part alone to keep the others" <<< "$msg" ||
   fail "message: $msg"
 # As the message says, the damaged part deleted alone: its members run again, the others' are kept.
 rm "$part"
@@ -150,7 +150,7 @@ msg=$("$exe" run s.toml -o c.h5 --resume 2>&1)
 rc=$?
 set -e
 [ "$rc" -eq 2 ] || fail "an unreadable part: exit code $rc, expected 2: $msg"
-echo "$msg" | grep -q "^loosepack: cannot read c.h5.checkpoint/part-9-0.bin: Is a directory" ||
+grep -q "^loosepack: cannot read c.h5.checkpoint/part-9-0.bin: Is a directory" <<< "$msg" ||
   fail "message: $msg"
 rmdir c.h5.checkpoint/part-9-0.bin
 "$exe" run s.toml -o c.h5 --resume -q
