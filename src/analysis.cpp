@@ -529,8 +529,8 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
     // has jackknife errors (a member without whom its bins fit nothing leaves none: "neither").
     const auto members = static_cast<double>(h.gaussian.replicas.size());
     if (members >= 4.0) {
-      h.t_quadratic = g / err(h.gaussian, 2);
-      h.quadratic_chi2 = chi2_term_of_t(h.t_quadratic, members - 1.0);
+      h.exponential.next_term_t = g / err(h.gaussian, 2);
+      h.quadratic_chi2 = chi2_term_of_t(h.exponential.next_term_t, members - 1.0);
     }
     if (h.quadratic_chi2 <= 2.0 && fits(h.exponential))
       h.preferred = "exponential";

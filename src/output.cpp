@@ -285,7 +285,6 @@ void histogram_shape(hid_t parent, const std::string& name, const HistogramShape
   attribute(g, "decay_length", h.decay_length);
   attribute(g, "gaussian_mean", h.gaussian_mean);
   attribute(g, "gaussian_width", h.gaussian_width);
-  attribute(g, "t_quadratic", h.t_quadratic);
   attribute(g, "quadratic_chi2", h.quadratic_chi2);
   fit(g, "exponential", h.exponential);
   fit(g, "gaussian", h.gaussian);
@@ -1021,7 +1020,7 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
         << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2");
     // With errors from the members' scatter (files from 2026-12-02 on): the quadratic term's t,
     // which chose between the shapes.
-    const double t = f.newer_attribute(h, "t_quadratic");
+    const double t = f.newer_attribute(h + "/exponential", "next_term_t");
     if (std::isfinite(t)) out << "; t of the quadratic term " << t;
     out << ")\n";
   }

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <regex>
 #include <sstream>
 
 #define TOML_EXCEPTIONS 1
@@ -458,6 +459,25 @@ toml::table identity_of(const toml::table& root) {
   return identity;
 }
 
+// The dotted key that `line` (1-based) of a scan file's text sets, "section.key", where that line
+// is a plain `key = value` (else ""): toml++'s syntax errors name the bare key only ("cannot
+// redefine existing floating-point 'width'"), and the same key is in several sections.
+std::string key_on_line(const std::string& text, long line) {
+  static const std::regex header(R"(^\s*\[\[?\s*([A-Za-z0-9_.-]+)\s*\]\]?\s*(#.*)?$)");
+  static const std::regex key_value(R"(^\s*([A-Za-z0-9_-]+)\s*=)");
+  std::istringstream in(text);
+  std::string row, section;
+  std::smatch m;
+  for (long k = 1; std::getline(in, row); ++k) {
+    if (k == line)
+      return std::regex_search(row, m, key_value)
+                 ? (section.empty() ? "" : section + ".") + m[1].str()
+                 : "";
+    if (std::regex_match(row, m, header)) section = m[1].str();
+  }
+  return "";
+}
+
 }  // namespace
 
 std::vector<std::string> scan_file_keys() {
@@ -547,8 +567,11 @@ Scan ScanParser::parse() {
     root = toml::parse(scan.text, file);
   } catch (const toml::parse_error& e) {
     std::ostringstream o;
-    o << file << ":" << e.source().begin.line << ":" << e.source().begin.column << ": "
-      << e.description();
+    const long line = static_cast<long>(e.source().begin.line);
+    o << file << ":" << line << ":" << e.source().begin.column << ": ";
+    const std::string key = key_on_line(scan.text, line);
+    if (!key.empty()) o << "key '" << key << "': ";
+    o << e.description();
     throw ScanError(o.str());
   }
   if (!sets_a_value(root))

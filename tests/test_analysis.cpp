@@ -260,6 +260,22 @@ TEST(Analysis, HistogramShapeNeedsAFitWithinTheMembersScatter) {
   EXPECT_EQ(sb.preferred, "neither");
 }
 
+// A histogram whose tail bins hold one member's disks alone: without that member the Gaussian has
+// two bins for three parameters, so its jackknife, and with it the quadratic term's t, does not
+// exist. The shapes cannot be told apart: "neither", not the exponential by default.
+TEST(Analysis, HistogramShapeWithoutTheGaussiansJackknifeIsNeither) {
+  const std::vector<double> edges = {0.0, 1.0, 2.0, 3.0, 4.0};
+  const std::vector<std::vector<double>> rows = {
+      {10.0, 8.0, 12.0, 6.0}, {10.0, 8.0, 0.0, 0.0}, {10.0, 8.0, 0.0, 0.0}, {10.0, 8.0, 0.0, 0.0}};
+  const std::vector<double> total = {40.0, 32.0, 12.0, 6.0};
+  const HistogramShape h = histogram_shape(edges, total, rows);
+  ASSERT_TRUE(h.gaussian.valid());  // the whole ensemble's four bins determine it
+  EXPECT_TRUE(h.member_errors);
+  EXPECT_TRUE(std::isnan(h.gaussian.chi2));
+  EXPECT_TRUE(std::isnan(h.exponential.next_term_t));
+  EXPECT_TRUE(std::isnan(h.quadratic_chi2));
+  EXPECT_EQ(h.preferred, "neither");
+}
 // The choice between the shapes is calibrated where the chi2 are not: in ensembles of 16 members
 // whose |Delta y| are exponential disk by disk but come in lumps of nearby values (a lump's disks
 // at probabilities within about 0.02 of one another, so neighbouring bins move together, as an
@@ -359,7 +375,7 @@ TEST(Analysis, PredictedFinalDensityDeviationHasJackknifeErrors) {
             const double b_prime = 0.39 + spread * std::sin(1.0 + 7.3 * m.seed_index + 0.37 * e);
             return std::pair(yi, yi + a_prime - b_prime * yi);
           });
-      const auto& t = analyse(scan, aggregate(scan, results)).points.at(0).nu_deviation_terms;
+      const auto t = analyse(scan, aggregate(scan, results)).points.at(0).nu_deviation_terms;
       ASSERT_EQ(t.members, 8);
       ASSERT_GE(t.strips, 3);
       const double tm = t.mean / t.mean_error, ts = t.slope / t.slope_error;

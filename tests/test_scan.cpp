@@ -236,6 +236,10 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[scan]\nprotocol = \"C\"\n[system]\nbond_number = \"inf\"\n",
        "protocol C with Bo = inf has no collapse"},
       {"[system\nwidth = 3\n", "bad.toml:1:"},
+      // toml++'s own errors name the bare key; the section is added where the line sets a key.
+      {"[system]\nwidth = 24\n[box]\n[protocol]\n# [scan]\nkind = \"A\"\nkind = \"C\"\n",
+       "bad.toml:7:8: key 'protocol.kind': Error while parsing key-value pair: cannot redefine"},
+      {"[system]\nwidth = 24\n[system]\n", "bad.toml:3:1: Error while parsing table header"},
       {"[system]\nheight = 40\n[observables]\nlower_half_from = 30\n",
        "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
       {"[system]\nheight = [40, 8]\n[observables]\nstrip_width = 16\nlower_half_from = 1\n",

@@ -563,7 +563,8 @@ def histogram_claims(point, path, where):
                "fewer than 4 members with disks: no errors from their scatter to judge a shape by "
                "(Poisson's are far too small for counts that move together)")
     else:
-        t = g.attrs.get("t_quadratic", math.nan)  # files from 2026-12-02 on
+        # the exponential's next term (files from 2026-12-02 on)
+        t = g["exponential"].attrs.get("next_term_t", math.nan) if "exponential" in g else math.nan
         detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
                   f"gaussian {chi2('gaussian')}, errors from {errors}"
                   + (f"; t of the quadratic term {t:.3g}" if math.isfinite(t) else ""))

@@ -283,8 +283,9 @@ def profile_fits(pa, pb, sigma, both=None):
 
 
 def density_profile(pa, pb):
-    """nu(y) strip by strip where both ensembles have two or more members in the strip; the
-    bound from splits of the members where both files keep their rows (permuted_bound)."""
+    """nu(y) strip by strip where both ensembles have two or more members in the strip; where both
+    files keep the members' rows, chi2 from them and its bound from splits of the members
+    (permuted_bound), else from the files' means and standard errors."""
     na, nb = pa["nu"], pb["nu"]
     strips = min(len(na["mean"]), len(nb["mean"]))
     ma, mb = na["mean"][:strips], nb["mean"][:strips]
@@ -314,6 +315,7 @@ def density_profile(pa, pb):
         with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a strip one split leaves empty
             bound = permuted_bound(statistic, ra, rb)
+            chi2 = float(statistic(ra, rb))  # the same statistic as the splits', from the rows
         how = ", bound from splits of the members"
     if math.isnan(bound):  # a disk spans neighbouring strips: a third of the strips' freedom
         bound, how = 3 * chi2_quantile99(max(dof / 3, 1)), ", bound 3 chi2_99(strips/3)"

@@ -67,20 +67,20 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
 // also fit (chi2 at most the 99 % quantile of chi2 with its degrees of freedom), and the Gaussian
 // needs a maximum (gamma < 0): otherwise "neither". With the members' counts the difference of the
 // two shapes' chi2 is taken from the term the exponential lacks, gamma over its jackknife error
-// (`t_quadratic`, Student's t with members - 1 degrees of freedom: the jackknife over whole
-// members carries the bins' correlation), as its chi2 term (`quadratic_chi2`, chi2_term_of_t):
-// the quadratic term counts where that exceeds 2 (NaN without the Gaussian's jackknife: neither).
-// The difference of the chi2 themselves counts neighbouring bins, which move together, as
-// independent, and took the quadratic term for real more often than Akaike's 16 %; those chi2
-// still reject a right shape more often than 1 % (docs/OUTPUT.md). With counts near Poisson's the
-// 5-disk cut biases gamma upwards (the tail's last bins are those that fluctuated up). Without
-// the members' counts chi2 is Pearson's (counts against the model).
+// (the exponential's `next_term_t`, Student's t with members - 1 degrees of freedom: the jackknife
+// over whole members carries the bins' correlation), as its chi2 term (`quadratic_chi2`,
+// chi2_term_of_t): the quadratic term counts where that exceeds 2 (NaN without the Gaussian's
+// jackknife: neither). The difference of the chi2 themselves counts neighbouring bins, which move
+// together, as independent, and took the quadratic term for real more often than Akaike's 16 %;
+// those chi2 still reject a right shape more often than 1 % (docs/OUTPUT.md). With counts near
+// Poisson's the 5-disk cut biases gamma upwards (the tail's last bins are those that fluctuated
+// up). Without the members' counts chi2 is Pearson's (counts against the model).
 struct HistogramShape {
   Fit exponential, gaussian;
   double decay_length = 0.0, gaussian_mean = 0.0, gaussian_width = 0.0;
   bool member_errors = false;  // chi2 and errors from the members' scatter (else Pearson's chi2)
   static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
-  double t_quadratic = kNone, quadratic_chi2 = kNone;  // with member_errors
+  double quadratic_chi2 = kNone;  // with member_errors
   std::string preferred;  // "gaussian", "exponential", "neither", or "none" (too few bins)
 };
 HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,

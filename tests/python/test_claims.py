@@ -162,10 +162,18 @@ def test_too_little_to_judge_is_skipped_not_failed(tmp_path):
     assert claims.report([(claim, True, "")])[1] == 0
 
 
-def test_bo0_passes_a_constant_and_fails_a_parabola(tmp_path):
+def test_bo0_passes_a_constant_and_fails_a_parabola(tmp_path, monkeypatch):
     claim = "Delta y(y_e) is constant in the bulk, no parabola"
     assert verdicts(point_file(tmp_path, "c", "A", 0.0, {"avalanche_by_ye": CONSTANT}))[claim][0]
     assert not verdicts(point_file(tmp_path, "p", "A", 0.0, {"avalanche_by_ye": PARABOLA}))[claim][0]
+    assert not verdicts(point_file(tmp_path, "l", "A", 0.0, {"avalanche_by_ye": LINE}))[claim][0]
+    # A band too short for the cubic leaves the parabola not judged: a constant that is rejected
+    # still fails the claim, one that is acceptable leaves it not judged.
+    path = point_file(tmp_path, "short", "A", 0.0, {"avalanche_by_ye": CONSTANT})
+    for constant, expected in ((False, False), (True, claims.NOT_JUDGED)):
+        monkeypatch.setattr(claims, "parabola_verdict",
+                            lambda *_, c=constant: (claims.NOT_JUDGED, c, "short band"))
+        assert verdicts(path)[claim][0] is expected
 
 
 def test_collapse_lines_and_identity(tmp_path):
