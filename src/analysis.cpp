@@ -516,6 +516,12 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
     const bool gauss_scatter =
         member_scatter(h.gaussian, 2, x, n, bins, member_counts, member_failure);
     h.member_errors = exp_scatter || gauss_scatter;
+    // The Gaussian's next term: the cubic's c3 over its jackknife error, for the summary.
+    Fit cubic = log_count_fit(x, n, 3);
+    if (gauss_scatter && cubic.valid() && cubic.dof > 0 &&
+        member_scatter(cubic, 3, x, n, bins, member_counts, member_failure) &&
+        cubic.replicas.size() >= 4)
+      h.gaussian.next_term_t = coef(cubic, 3) / err(cubic, 3);
   }
   const double beta = coef(h.exponential, 1);
   h.decay_length = beta < 0.0 ? -1.0 / beta : kNaN;

@@ -1019,9 +1019,11 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
         << ": " << pref << " (chi2/dof gaussian " << f.attribute(h + "/gaussian", "reduced_chi2")
         << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2");
     // With errors from the members' scatter (files from 2026-12-02 on): the quadratic term's t,
-    // which chose between the shapes.
-    const double t = f.newer_attribute(h + "/exponential", "next_term_t");
-    if (std::isfinite(t)) out << "; t of the quadratic term " << t;
+    // which chose between the shapes, and the cubic's, the Gaussian's next term.
+    const double t2 = f.newer_attribute(h + "/exponential", "next_term_t");
+    const double t3 = f.newer_attribute(h + "/gaussian", "next_term_t");
+    if (std::isfinite(t2)) out << "; t of the quadratic term " << t2;
+    if (std::isfinite(t3)) out << ", of the cubic " << t3;
     out << ")\n";
   }
 }

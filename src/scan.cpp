@@ -3,12 +3,12 @@
 #include "loosepack/scan.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <functional>
 #include <map>
-#include <regex>
 #include <sstream>
 
 #define TOML_EXCEPTIONS 1
@@ -461,19 +461,38 @@ toml::table identity_of(const toml::table& root) {
 
 // The dotted key that `line` (1-based) of a scan file's text sets, "section.key", where that line
 // is a plain `key = value` (else ""): toml++'s syntax errors name the bare key only ("cannot
-// redefine existing floating-point 'width'"), and the same key is in several sections.
+// redefine existing floating-point 'width'"), and the same key is in several sections. A plain
+// reading of the lines (no std::regex, whose recursion a long line can overflow).
 std::string key_on_line(const std::string& text, long line) {
-  static const std::regex header(R"(^\s*\[\[?\s*([A-Za-z0-9_.-]+)\s*\]\]?\s*(#.*)?$)");
-  static const std::regex key_value(R"(^\s*([A-Za-z0-9_-]+)\s*=)");
+  auto name_at = [](const std::string& row, std::size_t& i) {  // a bare name from row[i] on
+    const std::size_t from = i;
+    while (i < row.size() && (std::isalnum(static_cast<unsigned char>(row[i])) || row[i] == '_' ||
+                              row[i] == '-' || row[i] == '.'))
+      ++i;
+    return row.substr(from, i - from);
+  };
+  auto skip_blanks = [](const std::string& row, std::size_t& i) {
+    while (i < row.size() && (row[i] == ' ' || row[i] == '\t')) ++i;
+  };
   std::istringstream in(text);
   std::string row, section;
-  std::smatch m;
-  for (long k = 1; std::getline(in, row); ++k) {
-    if (k == line)
-      return std::regex_search(row, m, key_value)
-                 ? (section.empty() ? "" : section + ".") + m[1].str()
-                 : "";
-    if (std::regex_match(row, m, header)) section = m[1].str();
+  for (long k = 1; k <= line && std::getline(in, row); ++k) {
+    std::size_t i = 0;
+    skip_blanks(row, i);
+    if (k < line) {  // a table header [name] or [[name]] sets the section of the lines below
+      if (i >= row.size() || row[i] != '[') continue;
+      while (i < row.size() && row[i] == '[') ++i;
+      skip_blanks(row, i);
+      const std::string name = name_at(row, i);
+      skip_blanks(row, i);
+      if (!name.empty() && i < row.size() && row[i] == ']') section = name;
+      continue;
+    }
+    const std::string key = name_at(row, i);
+    skip_blanks(row, i);
+    if (key.empty() || key.find('.') != std::string::npos || i >= row.size() || row[i] != '=')
+      return "";
+    return section.empty() ? key : section + "." + key;
   }
   return "";
 }

@@ -563,11 +563,13 @@ def histogram_claims(point, path, where):
                "fewer than 4 members with disks: no errors from their scatter to judge a shape by "
                "(Poisson's are far too small for counts that move together)")
     else:
-        # the exponential's next term (files from 2026-12-02 on)
-        t = g["exponential"].attrs.get("next_term_t", math.nan) if "exponential" in g else math.nan
+        # each shape's next term, the quadratic and the cubic (files from 2026-12-02 on)
+        t2, t3 = (g[s].attrs.get("next_term_t", math.nan) if s in g else math.nan
+                  for s in ("exponential", "gaussian"))
         detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
                   f"gaussian {chi2('gaussian')}, errors from {errors}"
-                  + (f"; t of the quadratic term {t:.3g}" if math.isfinite(t) else ""))
+                  + (f"; t of the quadratic term {t2:.3g}" if math.isfinite(t2) else "")
+                  + (f", of the cubic {t3:.3g}" if math.isfinite(t3) else ""))
         yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
     if bo == 0:
         yield from bo0_histogram_claims(point, path, where)

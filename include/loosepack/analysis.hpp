@@ -25,8 +25,9 @@ struct Fit {
   // file.
   std::vector<std::vector<double>> replicas;
   double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
-  // Avalanche-profile fits with errors from the members: the term the model lacks, the highest
-  // coefficient of the fit one degree higher over its jackknife error (Student's t with members
+  // Avalanche-profile and histogram fits with errors from the members: the term the model lacks,
+  // the highest coefficient of the fit one degree higher over its jackknife error (Student's t with
+  // members
   // - 1 degrees of freedom whatever the bins' correlation, for members whose coefficients scatter
   // about normally); NaN where there is none.
   double next_term_t = std::numeric_limits<double>::quiet_NaN();
@@ -74,7 +75,10 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
 // together, as independent, and took the quadratic term for real more often than Akaike's 16 %;
 // those chi2 still reject a right shape more often than 1 % (docs/OUTPUT.md). With counts near
 // Poisson's the 5-disk cut biases gamma upwards (the tail's last bins are those that fluctuated
-// up). Without the members' counts chi2 is Pearson's (counts against the model).
+// up). The Gaussian's `next_term_t` is the cubic's c3 over its jackknife error, a smooth departure
+// from the Gaussian that the chi2, summed over bins, need not show (and does not judge the shape:
+// `preferred` is as above). Without the members' counts chi2 is Pearson's (counts against the
+// model).
 struct HistogramShape {
   Fit exponential, gaussian;
   double decay_length = 0.0, gaussian_mean = 0.0, gaussian_width = 0.0;
