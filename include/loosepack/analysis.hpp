@@ -26,10 +26,9 @@ struct Fit {
   std::vector<std::vector<double>> replicas;
   double chi2 = 0.0;  // weighted residual sum of squares (Pearson chi2 for histogram fits)
   // Avalanche-profile and histogram fits with errors from the members: the term the model lacks,
-  // the highest coefficient of the fit one degree higher over its jackknife error (Student's t with
-  // members
-  // - 1 degrees of freedom whatever the bins' correlation, for members whose coefficients scatter
-  // about normally); NaN where there is none.
+  // the highest coefficient of the fit one degree higher over its jackknife error (Student's t
+  // with members - 1 degrees of freedom whatever the bins' correlation, for members whose
+  // coefficients scatter about normally); NaN where there is none.
   double next_term_t = std::numeric_limits<double>::quiet_NaN();
   int points = 0;     // data points used
   int dof = 0;        // points - parameters
