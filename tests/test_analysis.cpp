@@ -85,6 +85,42 @@ int binomial_quantile(int n, double p, double q) {
   return k;
 }
 
+// A lumpy |Delta y| histogram ensemble, as avalanches make one: `members` rows of 150 lumps of 1 to
+// 40 disks each (geometric, mean 8; an avalanche's disks), in 60 bins of 0.5 R. Each lump draws
+// its value `lump()`, then each of its disks lands at `disk(value)` (the lump's value, or values
+// near it); disks beyond the last bin are left out.
+constexpr int kLumpyBins = 60;
+constexpr double kLumpyBin = 0.5;
+std::vector<double> lumpy_edges() {
+  std::vector<double> edges;
+  for (int k = 0; k <= kLumpyBins; ++k) edges.push_back(k * kLumpyBin);
+  return edges;
+}
+struct LumpyHistograms {
+  std::vector<double> total;
+  std::vector<std::vector<double>> rows;
+};
+template <class Lump, class DiskOf>
+LumpyHistograms lumpy_histograms(std::mt19937_64& rng, int members, Lump lump, DiskOf disk) {
+  constexpr int kLumps = 150, kBins = kLumpyBins;
+  constexpr double kBin = kLumpyBin;
+  LumpyHistograms h;
+  h.total.assign(kBins, 0.0);
+  h.rows.assign(static_cast<std::size_t>(members), std::vector<double>(kBins, 0.0));
+  std::geometric_distribution<int> disks(1.0 / 8.0);
+  for (auto& row : h.rows)
+    for (int l = 0; l < kLumps; ++l) {
+      const double value = lump();
+      for (int d = std::min(40, 1 + disks(rng)); d > 0; --d) {
+        const double b = std::floor(disk(value) / kBin);
+        if (!(b >= 0.0 && b < kBins)) continue;
+        row[static_cast<std::size_t>(b)] += 1.0;
+        h.total[static_cast<std::size_t>(b)] += 1.0;
+      }
+    }
+  return h;
+}
+
 }  // namespace
 
 // Noise-free data: the fit returns the generating coefficients.
@@ -209,23 +245,12 @@ TEST(Analysis, HistogramShapeTellsGaussianFromExponential) {
 // the members' counts too, though one shape still has the lower AIC.
 TEST(Analysis, HistogramShapeNeedsAFitWithinTheMembersScatter) {
   std::mt19937_64 rng(2026);
-  const int members = 16, lumps = 150, n_bins = 60;
-  const double bin = 0.5;
-  std::vector<double> edges;
-  for (int k = 0; k <= n_bins; ++k) edges.push_back(k * bin);
-  std::geometric_distribution<int> lump(1.0 / 8.0);
-  auto ensemble = [&](auto draw) {
-    std::vector<std::vector<double>> rows(members, std::vector<double>(n_bins, 0.0));
-    std::vector<double> total(n_bins, 0.0);
-    for (auto& row : rows)
-      for (int l = 0; l < lumps; ++l) {
-        const int b = static_cast<int>(std::fabs(draw()) / bin);
-        const double disks = std::min(40, 1 + lump(rng));
-        if (b >= n_bins) continue;
-        row[static_cast<std::size_t>(b)] += disks;
-        total[static_cast<std::size_t>(b)] += disks;
-      }
-    return std::pair(total, rows);
+  const int members = 16;
+  const std::vector<double> edges = lumpy_edges();
+  auto ensemble = [&](auto draw) {  // every disk of a lump in its bin
+    auto h = lumpy_histograms(
+        rng, members, [&] { return std::fabs(draw()); }, [](double v) { return v; });
+    return std::pair(h.total, h.rows);
   };
   std::normal_distribution<double> gauss(12.0, 3.0), low(7.0, 1.0), high(17.0, 1.0);
   std::exponential_distribution<double> expo(1.0 / 3.0);
@@ -286,29 +311,20 @@ TEST(Analysis, HistogramShapeWithoutTheGaussiansJackknifeIsNeither) {
 // exponential's chi2 exceeds its 99 % quantile in 4.4-4.7 % (more than 3 %), not 1 %.
 TEST(Analysis, HistogramShapeChoosesTheGaussianForAnExponentialAsAkaikeSays) {
   std::mt19937_64 rng(11);
-  const int members = 16, lumps = 150, n_bins = 60, ensembles = 1000;
-  const double bin = 0.5, scale = 3.0;
-  std::vector<double> edges;
-  for (int k = 0; k <= n_bins; ++k) edges.push_back(k * bin);
-  std::geometric_distribution<int> lump(1.0 / 8.0);
+  const int members = 16, ensembles = 1000;
+  const double scale = 3.0;
+  const std::vector<double> edges = lumpy_edges();
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> jitter(0.0, 0.02);
   int gaussian = 0, by_chi2 = 0, chi2_rejects = 0;
   for (int e = 0; e < ensembles; ++e) {
-    std::vector<std::vector<double>> rows(members, std::vector<double>(n_bins, 0.0));
-    std::vector<double> total(n_bins, 0.0);
-    for (auto& row : rows)
-      for (int l = 0; l < lumps; ++l) {
-        const double u0 = uniform(rng);
-        for (int d = std::min(40, 1 + lump(rng)); d > 0; --d) {
+    const auto [total, rows] = lumpy_histograms(
+        rng, members, [&] { return uniform(rng); },
+        [&](double u0) {
           double u = u0 + jitter(rng);
           u -= std::floor(u);  // uniform for every disk: each disk's |Delta y| is exponential
-          const int b = static_cast<int>(-scale * std::log1p(-u) / bin);
-          if (b >= n_bins) continue;
-          row[static_cast<std::size_t>(b)] += 1.0;
-          total[static_cast<std::size_t>(b)] += 1.0;
-        }
-      }
+          return -scale * std::log1p(-u);
+        });
     const HistogramShape h = histogram_shape(edges, total, rows);
     ASSERT_TRUE(h.member_errors);
     gaussian += h.quadratic_chi2 > 2.0;
@@ -329,28 +345,17 @@ TEST(Analysis, HistogramShapeChoosesTheGaussianForAnExponentialAsAkaikeSays) {
 // a Gumbel distribution (mode 10 R, scale 3 R, skewness 1.14) in nearly all of 20.
 TEST(Analysis, HistogramGaussiansNextTermIsStudentsTAndShowsASkew) {
   std::mt19937_64 rng(17);
-  const int members = 16, lumps = 150, n_bins = 60;
-  const double bin = 0.5, bound = 2.947;
-  std::vector<double> edges;
-  for (int k = 0; k <= n_bins; ++k) edges.push_back(k * bin);
-  std::geometric_distribution<int> lump(1.0 / 8.0);
+  const int members = 16;
+  const double bound = 2.947;
+  const std::vector<double> edges = lumpy_edges();
   std::normal_distribution<double> gauss(12.0, 3.0), spread(0.0, 0.3);
   std::extreme_value_distribution<double> gumbel(10.0, 3.0);
   auto beyond = [&](auto& centre, int ensembles) {
     int count = 0;
     for (int e = 0; e < ensembles; ++e) {
-      std::vector<std::vector<double>> rows(members, std::vector<double>(n_bins, 0.0));
-      std::vector<double> total(n_bins, 0.0);
-      for (auto& row : rows)
-        for (int l = 0; l < lumps; ++l) {
-          const double c = centre(rng);
-          for (int d = std::min(40, 1 + lump(rng)); d > 0; --d) {
-            const auto b = static_cast<std::size_t>(std::fabs(c + spread(rng)) / bin);
-            if (b >= static_cast<std::size_t>(n_bins)) continue;
-            row[b] += 1.0;
-            total[b] += 1.0;
-          }
-        }
+      const auto [total, rows] = lumpy_histograms(
+          rng, members, [&] { return centre(rng); },
+          [&](double c) { return std::fabs(c + spread(rng)); });
       const HistogramShape h = histogram_shape(edges, total, rows);
       EXPECT_TRUE(std::isfinite(h.gaussian.next_term_t));
       count += std::fabs(h.gaussian.next_term_t) > bound;
