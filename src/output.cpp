@@ -1015,16 +1015,18 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
   for (const char* which : {"shape", "shape_cut"}) {
     const std::string h = n + "/abs_dy_histogram/" + which, pref = f.verdict(n, which);
     if (pref == "none") continue;
-    out << "  |Delta y| histogram" << (which == std::string("shape") ? "" : " (top and bottom cut)")
-        << ": " << pref << " (chi2/dof gaussian " << f.attribute(h + "/gaussian", "reduced_chi2")
-        << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2");
+    std::ostringstream line;  // three digits, as the fits' lines above
+    line << std::setprecision(3) << "  |Delta y| histogram"
+         << (which == std::string("shape") ? "" : " (top and bottom cut)") << ": " << pref
+         << " (chi2/dof gaussian " << f.attribute(h + "/gaussian", "reduced_chi2")
+         << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2");
     // With errors from the members' scatter (files from 2026-12-02 on): the quadratic term's t,
     // which chose between the shapes, and the cubic's, the Gaussian's next term.
     const double t2 = f.newer_attribute(h + "/exponential", "next_term_t");
     const double t3 = f.newer_attribute(h + "/gaussian", "next_term_t");
-    if (std::isfinite(t2)) out << "; t of the quadratic term " << t2;
-    if (std::isfinite(t3)) out << ", of the cubic " << t3;
-    out << ")\n";
+    if (std::isfinite(t2)) line << "; t of the quadratic term " << t2;
+    if (std::isfinite(t3)) line << ", of the cubic " << t3;
+    out << line.str() << ")\n";
   }
 }
 
