@@ -516,12 +516,19 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
     const bool gauss_scatter =
         member_scatter(h.gaussian, 2, x, n, bins, member_counts, member_failure);
     h.member_errors = exp_scatter || gauss_scatter;
-    // The Gaussian's next term: the cubic's c3 over its jackknife error, for the summary.
+    // Each shape's next term, the highest coefficient of the fit one degree higher over its
+    // jackknife error where that fit has one from at least 4 members: the exponential's is the
+    // Gaussian's c2, which chooses between the shapes (below), the Gaussian's the cubic's c3,
+    // stored and shown beside the verdict.
+    auto top_term_t = [](const Fit& next) {
+      const std::size_t k = next.coef.size() - 1;
+      return next.replicas.size() >= 4 ? coef(next, k) / err(next, k) : kNaN;
+    };
+    h.exponential.next_term_t = top_term_t(h.gaussian);
     Fit cubic = log_count_fit(x, n, 3);
-    if (gauss_scatter && cubic.valid() && cubic.dof > 0 &&
-        member_scatter(cubic, 3, x, n, bins, member_counts, member_failure) &&
-        cubic.replicas.size() >= 4)
-      h.gaussian.next_term_t = coef(cubic, 3) / err(cubic, 3);
+    if (cubic.valid() && cubic.dof > 0 &&
+        member_scatter(cubic, 3, x, n, bins, member_counts, member_failure))
+      h.gaussian.next_term_t = top_term_t(cubic);
   }
   const double beta = coef(h.exponential, 1);
   h.decay_length = beta < 0.0 ? -1.0 / beta : kNaN;
@@ -534,10 +541,7 @@ HistogramShape histogram_shape(const std::vector<double>& edges, const std::vect
     // Akaike's criterion with the quadratic term's share of chi2 from its t, where the Gaussian
     // has jackknife errors (a member without whom its bins fit nothing leaves none: "neither").
     const auto members = static_cast<double>(h.gaussian.replicas.size());
-    if (members >= 4.0) {
-      h.exponential.next_term_t = g / err(h.gaussian, 2);
-      h.quadratic_chi2 = chi2_term_of_t(h.exponential.next_term_t, members - 1.0);
-    }
+    if (members >= 4.0) h.quadratic_chi2 = chi2_term_of_t(h.exponential.next_term_t, members - 1.0);
     if (h.quadratic_chi2 <= 2.0 && fits(h.exponential))
       h.preferred = "exponential";
     else if (h.quadratic_chi2 > 2.0 && g < 0.0 && fits(h.gaussian))
