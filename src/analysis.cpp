@@ -423,16 +423,61 @@ double chi2_quantile99(double dof) {
 
 namespace {
 
-// ln n = polynomial of `degree` in x through the bins with counts (weights n).
+// ln n = polynomial of `degree` in x, fitted to the counts n as Poisson's by maximum likelihood
+// (iteratively reweighted least squares, a step halved while it lowers the likelihood), empty
+// bins included. A least-squares fit of ln n weighted by n over the bins with disks is biased
+// where counts are small: a count that fluctuated up weighs more than one that fluctuated down,
+// and an empty bin drops out, so a tail's last bins bend ln n upwards. The maximum lies at finite
+// coefficients only where more bins than `degree` hold counts (else a polynomial that vanishes on
+// them drives the empty bins' expectations to zero): an invalid fit there, and where the
+// iterations do not settle. Errors and chi2 are those of the last weighted step: the inverse of
+// the Fisher information, widened by Pearson's chi2 per degree of freedom where that exceeds one,
+// and Pearson's chi2 of the counts against the model.
 Fit log_count_fit(const std::vector<double>& x, const std::vector<double>& n, int degree) {
-  std::vector<double> xs, ln, ls;
-  for (std::size_t k = 0; k < x.size(); ++k) {
-    if (!(n[k] > 0.0)) continue;
-    xs.push_back(x[k]);
-    ln.push_back(std::log(n[k]));
-    ls.push_back(1.0 / std::sqrt(n[k]));
+  constexpr int kIterations = 100, kHalvings = 40;
+  constexpr double kSettled = 1e-10;  // the largest change of ln mu in a step
+  if (std::count_if(n.begin(), n.end(), [](double c) { return c > 0.0; }) <= degree) return Fit{};
+  const std::size_t bins = x.size();
+  std::vector<double> z(bins), sigma(bins), eta(bins);
+  for (std::size_t k = 0; k < bins; ++k) {  // start: ln(n + 1/2), weights n + 1/2
+    z[k] = std::log(n[k] + 0.5);
+    sigma[k] = 1.0 / std::sqrt(n[k] + 0.5);
   }
-  return polynomial_fit(xs, ln, ls, degree);
+  Fit f = polynomial_fit(x, z, sigma, degree);
+  auto log_likelihood = [&](const Fit& g, std::vector<double>& e) {
+    double l = 0.0;
+    for (std::size_t k = 0; k < bins; ++k) {
+      e[k] = polynomial(g, x[k]);
+      l += n[k] * e[k] - std::exp(e[k]);
+    }
+    return l;
+  };
+  if (!f.valid()) return Fit{};
+  double l = log_likelihood(f, eta);
+  std::vector<double> next_eta(bins);
+  for (int it = 0; it < kIterations; ++it) {
+    for (std::size_t k = 0; k < bins; ++k) {
+      const double mu = std::exp(eta[k]);
+      z[k] = eta[k] + (n[k] - mu) / mu;
+      sigma[k] = 1.0 / std::sqrt(mu);
+    }
+    Fit next = polynomial_fit(x, z, sigma, degree);
+    if (!next.valid() || next.points != static_cast<int>(bins)) return Fit{};
+    double next_l = log_likelihood(next, next_eta);
+    for (int h = 0; h < kHalvings && !(next_l >= l); ++h) {
+      for (std::size_t j = 0; j < next.coef.size(); ++j)
+        next.coef[j] = 0.5 * (next.coef[j] + f.coef[j]);
+      next_l = log_likelihood(next, next_eta);
+    }
+    double change = 0.0;
+    for (std::size_t k = 0; k < bins; ++k)
+      change = std::max(change, std::fabs(next_eta[k] - eta[k]));
+    f = std::move(next);
+    eta.swap(next_eta);
+    l = next_l;
+    if (change < kSettled) return f;
+  }
+  return Fit{};
 }
 
 // The histogram fit's chi2 and errors from the members' scatter (HistogramShape): each member
@@ -479,88 +524,131 @@ bool member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
   return true;
 }
 
+// The band of a histogram's bins the shapes are fitted to: from the bin that holds the counts'
+// kShapeTail quantile to the one that holds their 1 - kShapeTail quantile, empty bins within
+// included. Beyond it the few disks of a tail are one or two members' avalanches, bins of
+// single lumps, which no smooth ln n describes and which make the jackknife of the shapes' next
+// terms heavy-tailed (a member whose absence empties them moves the top coefficients far).
+constexpr double kShapeTail = 0.005;
+std::vector<std::size_t> shape_bins(const std::vector<double>& counts, std::size_t bins) {
+  double total = 0.0;
+  for (std::size_t k = 0; k < bins; ++k) total += counts[k] > 0.0 ? counts[k] : 0.0;
+  std::vector<std::size_t> out;
+  double below = 0.0;
+  for (std::size_t k = 0; k < bins && total > 0.0; ++k) {
+    below += counts[k] > 0.0 ? counts[k] : 0.0;
+    if (!out.empty() || below > kShapeTail * total) out.push_back(k);
+    if (below >= (1.0 - kShapeTail) * total) break;
+  }
+  return out;
+}
+
+// The two-sided bound on each of a shape's next two terms' t: each at 0.5 %, so that a right
+// shape fails either in at most 1 % of ensembles, as the chi2 test's 99 % quantile would have it.
+// Compared as chi2 terms (chi2_term_of_t), so that one bound serves every number of members:
+// the square of the standard normal's 99.75 % quantile, 2.807.
+constexpr double kTermBound = 2.807 * 2.807;
+
+// The shapes' next two terms, from the fits of degrees 2 to 4 with the members' jackknife:
+// the exponential's are the quadratic (which chooses between the shapes) and the cubic, the
+// Gaussian's the cubic and the quartic. Returns whether either shape had its errors from the
+// members (false: fewer than 4 members that did not fail).
+bool member_terms(HistogramShape& h, const std::vector<double>& x, const std::vector<double>& n,
+                  const std::vector<std::size_t>& bins,
+                  const std::vector<std::vector<double>>& member_counts,
+                  const std::vector<double>& member_failure) {
+  const bool exp_scatter =
+      member_scatter(h.exponential, 1, x, n, bins, member_counts, member_failure);
+  const bool gauss_scatter =
+      member_scatter(h.gaussian, 2, x, n, bins, member_counts, member_failure);
+  auto higher = [&](int degree) {
+    Fit f = log_count_fit(x, n, degree);
+    if (f.valid() && f.dof > 0)
+      member_scatter(f, degree, x, n, bins, member_counts, member_failure);
+    return f;
+  };
+  const Fit cubic = higher(3), quartic = higher(4);
+  auto top_term_t = [](const Fit& next) {
+    if (!next.valid() || next.replicas.size() < 4) return kNaN;
+    const std::size_t k = next.coef.size() - 1;
+    return coef(next, k) / err(next, k);
+  };
+  h.exponential.next_term_t = top_term_t(h.gaussian);
+  h.exponential.second_term_t = top_term_t(cubic);
+  h.gaussian.next_term_t = top_term_t(cubic);
+  h.gaussian.second_term_t = top_term_t(quartic);
+  return exp_scatter || gauss_scatter;
+}
+
+// The verdict with errors from the members: Akaike's criterion chooses, the quadratic term's
+// share of chi2 from its t; the chosen shape must hold, both of its next two terms within their
+// bound (a Gaussian with a maximum, c2 < 0), else "neither".
+void verdict_by_terms(HistogramShape& h) {
+  const auto members = static_cast<double>(h.gaussian.replicas.size());
+  if (members < 4.0) {  // a member without whom the bins fit no Gaussian: no t to choose by
+    h.preferred = "neither";
+    return;
+  }
+  auto term = [&](double t) { return chi2_term_of_t(t, members - 1.0); };
+  auto holds = [&](const Fit& f) {
+    return term(f.next_term_t) <= kTermBound && term(f.second_term_t) <= kTermBound;
+  };
+  h.quadratic_chi2 = term(h.exponential.next_term_t);
+  h.exponential_acceptable = holds(h.exponential);
+  h.gaussian_acceptable = coef(h.gaussian, 2) < 0.0 && holds(h.gaussian);
+  if (h.quadratic_chi2 <= 2.0 && h.exponential_acceptable)
+    h.preferred = "exponential";
+  else if (h.quadratic_chi2 > 2.0 && h.gaussian_acceptable)
+    h.preferred = "gaussian";
+  else
+    h.preferred = "neither";
+}
+
+// The verdict without the members' counts: Akaike's criterion on Pearson's chi2, and the chosen
+// shape must fit, its chi2 within the 99 % quantile (a Gaussian with a maximum).
+void verdict_by_pearson(HistogramShape& h) {
+  auto fits = [](const Fit& f) { return f.chi2 <= chi2_quantile99(f.dof); };
+  h.exponential_acceptable = fits(h.exponential);
+  h.gaussian_acceptable = coef(h.gaussian, 2) < 0.0 && fits(h.gaussian);
+  const bool exponential_first = h.exponential.chi2 + 2.0 * 2.0 <= h.gaussian.chi2 + 2.0 * 3.0;
+  if (exponential_first)
+    h.preferred = h.exponential_acceptable ? "exponential" : "neither";
+  else
+    h.preferred = h.gaussian_acceptable ? "gaussian" : "neither";
+}
+
 }  // namespace
 
 HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
                                const std::vector<std::vector<double>>& member_counts,
-                               const std::vector<double>& member_failure, double min_count) {
+                               const std::vector<double>& member_failure) {
   HistogramShape h;
   h.preferred = "none";
+  const std::size_t n_bins = std::min(counts.size(), edges.empty() ? 0 : edges.size() - 1);
+  const std::vector<std::size_t> bins = shape_bins(counts, n_bins);
   std::vector<double> x, n;
-  std::vector<std::size_t> bins;
-  for (std::size_t k = 0; k < counts.size() && k + 1 < edges.size(); ++k) {
-    if (!(counts[k] >= min_count)) continue;
+  for (std::size_t k : bins) {
     x.push_back(0.5 * (edges[k] + edges[k + 1]));
     n.push_back(counts[k]);
-    bins.push_back(k);
   }
   h.exponential = log_count_fit(x, n, 1);
   h.gaussian = log_count_fit(x, n, 2);
-  // Pearson chi2 of the counts against each fitted model, unless the members give errors.
-  auto pearson = [&](Fit& f) {
-    if (!f.valid()) return;
-    double chi2 = 0.0;
-    for (std::size_t k = 0; k < x.size(); ++k) {
-      const double model = std::exp(polynomial(f, x[k]));
-      chi2 += (n[k] - model) * (n[k] - model) / model;
-    }
-    f.chi2 = chi2;
-  };
-  pearson(h.exponential);
-  pearson(h.gaussian);
   bool rows_ok = !member_counts.empty();
   for (const auto& row : member_counts) rows_ok = rows_ok && row.size() == counts.size();
-  if (rows_ok) {
-    const bool exp_scatter =
-        member_scatter(h.exponential, 1, x, n, bins, member_counts, member_failure);
-    const bool gauss_scatter =
-        member_scatter(h.gaussian, 2, x, n, bins, member_counts, member_failure);
-    h.member_errors = exp_scatter || gauss_scatter;
-    // Each shape's next term, the highest coefficient of the fit one degree higher over its
-    // jackknife error where that fit has one from at least 4 members: the exponential's is the
-    // Gaussian's c2, which chooses between the shapes (below), the Gaussian's the cubic's c3,
-    // stored and shown beside the verdict.
-    auto top_term_t = [](const Fit& next) {
-      const std::size_t k = next.coef.size() - 1;
-      return next.replicas.size() >= 4 ? coef(next, k) / err(next, k) : kNaN;
-    };
-    h.exponential.next_term_t = top_term_t(h.gaussian);
-    Fit cubic = log_count_fit(x, n, 3);
-    if (cubic.valid() && cubic.dof > 0 &&
-        member_scatter(cubic, 3, x, n, bins, member_counts, member_failure))
-      h.gaussian.next_term_t = top_term_t(cubic);
-  }
+  if (rows_ok) h.member_errors = member_terms(h, x, n, bins, member_counts, member_failure);
   const double beta = coef(h.exponential, 1);
   h.decay_length = beta < 0.0 ? -1.0 / beta : kNaN;
   const double g = coef(h.gaussian, 2);
   h.gaussian_mean = g < 0.0 ? -coef(h.gaussian, 1) / (2.0 * g) : kNaN;
   h.gaussian_width = g < 0.0 ? std::sqrt(-1.0 / (2.0 * g)) : kNaN;
-  if (!h.exponential.valid() || !h.gaussian.valid() || h.gaussian.dof <= 0) return h;
-  auto fits = [](const Fit& f) { return f.chi2 <= chi2_quantile99(f.dof); };
-  if (h.member_errors) {
-    // Akaike's criterion with the quadratic term's share of chi2 from its t, where the Gaussian
-    // has jackknife errors (a member without whom its bins fit nothing leaves none: "neither").
-    const auto members = static_cast<double>(h.gaussian.replicas.size());
-    if (members >= 4.0) h.quadratic_chi2 = chi2_term_of_t(h.exponential.next_term_t, members - 1.0);
-    if (h.quadratic_chi2 <= 2.0 && fits(h.exponential))
-      h.preferred = "exponential";
-    else if (h.quadratic_chi2 > 2.0 && g < 0.0 && fits(h.gaussian))
-      h.preferred = "gaussian";
-    else
-      h.preferred = "neither";
-    return h;
-  }
-  const double aic_exp = h.exponential.chi2 + 2.0 * 2.0;
-  const double aic_gauss = h.gaussian.chi2 + 2.0 * 3.0;
-  const Fit& best = aic_exp <= aic_gauss ? h.exponential : h.gaussian;
-  // A shape that does not fit describes nothing, however much better than the other; nor
-  // does a quadratic without a maximum (a tail heavier than exponential).
-  if (!fits(best))
-    h.preferred = "neither";
-  else if (aic_exp <= aic_gauss)
-    h.preferred = "exponential";
+  // Both shapes and the Gaussian's next terms need bins: six for the quartic and a degree of
+  // freedom, where the members give errors.
+  const bool enough_bins = h.member_errors ? x.size() >= 6 : h.gaussian.dof > 0;
+  if (!h.exponential.valid() || !h.gaussian.valid() || !enough_bins) return h;
+  if (h.member_errors)
+    verdict_by_terms(h);
   else
-    h.preferred = g < 0.0 ? "gaussian" : "neither";
+    verdict_by_pearson(h);
   return h;
 }
 

@@ -12,6 +12,7 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
 
 #include "hdf5.hpp"
 #include "loosepack/checkpoint.hpp"
@@ -286,8 +287,16 @@ void histogram_shape(hid_t parent, const std::string& name, const HistogramShape
   attribute(g, "gaussian_mean", h.gaussian_mean);
   attribute(g, "gaussian_width", h.gaussian_width);
   attribute(g, "quadratic_chi2", h.quadratic_chi2);
+  attribute(g, "members", static_cast<double>(h.exponential.replicas.size()));
   fit(g, "exponential", h.exponential);
   fit(g, "gaussian", h.gaussian);
+  for (const auto& [shape, f, acceptable] :
+       {std::tuple("exponential", &h.exponential, h.exponential_acceptable),
+        {"gaussian", &h.gaussian, h.gaussian_acceptable}}) {
+    H5 s = open_group(g, shape);
+    attribute(s, "second_term_t", f->valid() ? f->second_term_t : NAN);
+    attribute(s, "acceptable", acceptable ? 1.0 : 0.0);
+  }
 }
 
 // The analysis of one point (docs/OUTPUT.md, "Analysis"): fits inside the groups of the data
@@ -1020,12 +1029,15 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
          << (which == std::string("shape") ? "" : " (top and bottom cut)") << ": " << pref
          << " (chi2/dof gaussian " << f.attribute(h + "/gaussian", "reduced_chi2")
          << ", exponential " << f.attribute(h + "/exponential", "reduced_chi2");
-    // With errors from the members' scatter (files from 2026-12-02 on): the quadratic term's t,
-    // which chose between the shapes, and the cubic's, the Gaussian's next term.
+    // With errors from the members' scatter: the quadratic term's t, which chose between the
+    // shapes (files from 2026-12-02 on), the cubic's and the quartic's, the terms that judge them
+    // (the quartic's in files from 2026-12-03 on).
     const double t2 = f.newer_attribute(h + "/exponential", "next_term_t");
     const double t3 = f.newer_attribute(h + "/gaussian", "next_term_t");
+    const double t4 = f.newer_attribute(h + "/gaussian", "second_term_t");
     if (std::isfinite(t2)) line << "; t of the quadratic term " << t2;
     if (std::isfinite(t3)) line << ", of the cubic " << t3;
+    if (std::isfinite(t4)) line << ", of the quartic " << t4;
     out << line.str() << ")\n";
   }
 }

@@ -18,8 +18,9 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
   A, Bo = 0         the |Delta y| histogram is exponential (fig. 9)
   A, Bo = 1e3       the |Delta y| histogram is Gaussian (fig. 8; the paper says it of Bo = 1e3,
                     not of larger Bond numbers): the program's verdict (`preferred`), which
-                    needs the lower information criterion and an acceptable fit, its errors
-                    from the members' scatter (docs/OUTPUT.md, "Analysis")
+                    needs the lower information criterion and an acceptable shape (its next two
+                    terms within their bounds, errors from the members' scatter; docs/OUTPUT.md,
+                    "Analysis")
   A, 0 < Bo < 1e4   (with `observables.trajectory_every`, 4 or more members) the avalanches
                     move disks collectively and mainly downwards (fig. 5): over the sampled
                     disks' paths after their own deposition, the mean downward displacement
@@ -33,10 +34,11 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     b' = b/(1+b), a' = a/(1+b) holds: each difference within two standard errors
                     of zero, its error a jackknife of the difference itself (figs. 14, 15)
 
-  A, Bo = 0         beyond 2 R the cut histogram decays exponentially (an acceptable fit with
-                    errors from the members' scatter), and between 1 and 2 R its probability is
-                    about constant (one constant acceptable through those bins): the paper's
-                    "exponential decay" with its stated deviation (fig. 9)
+  A, Bo = 0         beyond 2 R the cut histogram decays exponentially (the slope negative by
+                    two jackknife errors, the quadratic and cubic terms within their bounds),
+                    and between 1 and 2 R its probability is about constant (one constant
+                    acceptable through those bins): the paper's "exponential decay" with its
+                    stated deviation (fig. 9)
   A, Bo = 1e2, 1e3  (H >= 220, the paper's width of 200 R) the deposition density's fluctuation
                     at y = 200: 15 % and 20 % (sec. V), the relative standard deviation of the
                     strips of 4 R between 180 and 220 R about a line in each member, within a
@@ -86,10 +88,10 @@ than 1 %; so a profile model is judged by the term it lacks instead: the highest
 the fit one degree higher over its jackknife error, a Student's t with n - 1 degrees of freedom,
 within its two-sided 99 % quantile (t_quantile) for the model to be acceptable, beyond it for the
 term to be there (for members whose coefficients scatter about normally; a rare member far off
-the others makes the t's tails heavier). The histograms' shapes keep the chi2 test (a shape
-outside the polynomials of ln n, two humps, has no large next term), and so does the tail at
-Bo = 0: with counts near Poisson's, the bins of 5 disks or more that end a tail are those that
-fluctuated up, which bends ln n upwards, and its quadratic term's t is biased.
+the others makes the t's tails heavier). The histograms' shapes are judged the same way, by their
+next two terms, each within its two-sided 99.5 % bound (the program's verdict; and the tail at
+Bo = 0 here, fitted as the program fits: ln n a polynomial, the counts Poisson's, by maximum
+likelihood over the bins between the counts' 0.5 % and 99.5 % quantiles; log_count_fit).
 
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
@@ -343,12 +345,55 @@ def histogram_verdict(point, path):
     return "shape", "none", h["shape"]
 
 
+def log_count_fit(x, n, degree):
+    """ln n = polynomial of `degree` in x (coefficients c0, c1, ...), fitted to the counts n as
+    Poisson's by maximum likelihood, empty bins included, as the program's histogram shapes
+    (src/analysis.cpp, log_count_fit): iteratively reweighted least squares, a step halved while
+    it lowers the likelihood. None where no more bins than `degree` hold counts (no maximum) or
+    the iterations do not settle."""
+    x, n = np.asarray(x, float), np.asarray(n, float)
+    if int((n > 0).sum()) <= degree:
+        return None
+    basis = np.vander(x, degree + 1, increasing=True)
+
+    def solve(z, w):
+        sw = np.sqrt(w)
+        return np.linalg.lstsq(basis * sw[:, None], z * sw, rcond=None)[0]
+
+    def likelihood(c):
+        eta = basis @ c
+        return eta, float((n * eta - np.exp(eta)).sum())
+
+    c = solve(np.log(n + 0.5), n + 0.5)
+    eta, ll = likelihood(c)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        for _ in range(100):
+            mu = np.exp(eta)
+            step = solve(eta + (n - mu) / mu, mu)
+            new_eta, new_ll = likelihood(step)
+            for _ in range(40):
+                if new_ll >= ll:
+                    break
+                step = 0.5 * (step + c)
+                new_eta, new_ll = likelihood(step)
+            change = float(np.abs(new_eta - eta).max())
+            c, eta, ll = step, new_eta, new_ll
+            if not np.all(np.isfinite(c)):
+                return None
+            if change < 1e-10:
+                return c
+    return None
+
+
 class Histogram:
     """The cut |Delta y| histogram's per-member counts (`member_counts_cut`), for fits with errors
     from the members' scatter, as the program's shapes (docs/OUTPUT.md, "Analysis"): ln n a
-    polynomial in |Delta y| (weights n), errors a jackknife over the members (the others'
+    polynomial in |Delta y| fitted to the counts as Poisson's over the bins between the counts'
+    0.5 % and 99.5 % quantiles (log_count_fit), errors a jackknife over the members (the others'
     counts scaled to the whole ensemble's), chi2 the counts' residuals against the residuals'
-    jackknife errors (residual_chi2)."""
+    jackknife errors (residual_chi2), and the fit's next two terms as t's."""
+
+    TAIL = 0.005  # the program's kShapeTail
 
     def __init__(self, group, path):
         if "member_counts_cut" not in group:
@@ -363,6 +408,11 @@ class Histogram:
         self.centre = 0.5 * (edges[1:] + edges[:-1])
         self.total = self.rows.sum(axis=0)
         self.members = len(self.rows)
+        cumulative = np.cumsum(self.total)
+        whole = cumulative[-1] if len(cumulative) else 0.0
+        k = np.arange(len(self.total))
+        self.band = ((cumulative > self.TAIL * whole) &
+                     (k <= np.searchsorted(cumulative, (1 - self.TAIL) * whole)))
 
     def replicas(self):
         """The other members' counts scaled to the whole ensemble's, one per member left out."""
@@ -370,23 +420,41 @@ class Histogram:
         return [(self.total - r) * n / (n - 1) for r in self.rows]
 
     def fit(self, degree, use):
-        """(coefficients (c0, c1, ...) of ln n, their errors, chi2, dof) over the bins `use`
-        with at least 5 disks; None with fewer than 4 members or no degree of freedom."""
-        use = use & (self.total >= 5)
+        """(coefficients (c0, c1, ...) of ln n, their errors, chi2, dof, the t's of the next two
+        terms) over the bins `use` within the band; None with fewer than 4 members, no degree of
+        freedom, or a fit that does not exist (without some member, too)."""
+        use = use & self.band
         x, dof = self.centre[use], int(use.sum()) - degree - 1
         if dof < 1 or self.members < 4:
             return None
 
-        def one(counts):
-            ok = counts > 0
-            c = np.polynomial.polynomial.polyfit(x[ok], np.log(counts[ok]), degree,
-                                                 w=np.sqrt(counts[ok]))
-            return c, counts - np.exp(np.polynomial.polynomial.polyval(x, c))
+        def with_jackknife(d):
+            coef = log_count_fit(x, self.total[use], d)
+            loo = [log_count_fit(x, r[use], d) for r in self.replicas()]
+            if coef is None or any(c is None for c in loo):
+                return None
+            resid = lambda counts, c: counts - np.exp(np.polynomial.polynomial.polyval(x, c))
+            return (coef, jackknife(loo), resid(self.total[use], coef),
+                    jackknife([resid(r[use], c) for r, c in zip(self.replicas(), loo)]))
 
-        coef, resid = one(self.total[use])
-        loo = [one(r[use]) for r in self.replicas()]
-        err, resid_err = jackknife([c for c, _ in loo]), jackknife([r for _, r in loo])
-        return coef, err, residual_chi2(resid, resid_err, self.members, degree + 1), dof
+        model = with_jackknife(degree)
+        if model is None:
+            return None
+        coef, err, resid, resid_err = model
+
+        def top_t(d):
+            f = with_jackknife(d) if int(use.sum()) > d + 1 else None
+            return f[0][-1] / f[1][-1] if f is not None else math.nan
+
+        return (coef, err, residual_chi2(resid, resid_err, self.members, degree + 1), dof,
+                (top_t(degree + 1), top_t(degree + 2)))
+
+
+def terms_hold(ts, members):
+    """Whether a fit's next two terms (t's with members - 1 degrees of freedom) are each within
+    their two-sided 99.5 % bound, as the program judges the histogram shapes (at most 1 % of right
+    shapes fail); False where a term has no t."""
+    return all(math.isfinite(t) and chi2_term_of_t(t, members - 1) <= Z9975 ** 2 for t in ts)
 
 
 def bo0_histogram_claims(point, path, where):
@@ -407,11 +475,12 @@ def bo0_histogram_claims(point, path, where):
         yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R", NOT_JUDGED,
                "too few bins or members beyond 2 R")
     else:
-        coef, err, chi2, dof = tail
+        coef, err, chi2, dof, ts = tail
         yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R",
-               coef[1] < -2 * err[1] and chi2 <= chi2_quantile99(dof),
+               coef[1] < -2 * err[1] and terms_hold(ts, hist.members),
                f"decay length {-1 / coef[1]:.3g} R (slope {coef[1]:.3g} +- {err[1]:.2g} per R), "
-               f"chi2/dof {chi2:.3g}/{dof} (99 % bound {chi2_quantile99(dof):.3g}), "
+               f"t of the quadratic term {ts[0]:.3g}, of the cubic {ts[1]:.3g} (bound "
+               f"{t_quantile(hist.members - 1, Z9975):.3g}), chi2/dof {chi2:.3g}/{dof}, "
                f"{hist.members} members")
     band = (hist.centre > 1.0) & (hist.centre < 2.0)
     if band.sum() < 2 or hist.members < 4:
@@ -563,13 +632,18 @@ def histogram_claims(point, path, where):
                "fewer than 4 members with disks: no errors from their scatter to judge a shape by "
                "(Poisson's are far too small for counts that move together)")
     else:
-        # each shape's next term, the quadratic and the cubic (files from 2026-12-02 on)
-        t2, t3 = (g[s].attrs.get("next_term_t", math.nan) if s in g else math.nan
-                  for s in ("exponential", "gaussian"))
+        # the shapes' next terms, the quadratic and the cubic (files from 2026-12-02 on) and the
+        # quartic (from 2026-12-03 on), which judge the shapes where the members give errors
+        attr = lambda s, a: g[s].attrs.get(a, math.nan) if s in g else math.nan
+        ts = [(name, attr(s, a)) for name, s, a in (
+            ("quadratic", "exponential", "next_term_t"), ("cubic", "gaussian", "next_term_t"),
+            ("quartic", "gaussian", "second_term_t"))]
+        terms = ", ".join(f"{name} {t:.3g}" for name, t in ts if math.isfinite(t))
+        bound = t_quantile(g.attrs.get("members", math.nan) - 1, Z9975)  # files from 2026-12-03
         detail = (f"{which}: preferred {preferred}; chi2/dof exponential {chi2('exponential')}, "
                   f"gaussian {chi2('gaussian')}, errors from {errors}"
-                  + (f"; t of the quadratic term {t2:.3g}" if math.isfinite(t2) else "")
-                  + (f", of the cubic {t3:.3g}" if math.isfinite(t3) else ""))
+                  + (f"; t of the terms: {terms}" if terms else "")
+                  + (f" (bound {bound:.3g})" if terms and math.isfinite(bound) else ""))
         yield (f"{where}: |Delta y| histogram is {expected}", preferred == expected, detail)
     if bo == 0:
         yield from bo0_histogram_claims(point, path, where)

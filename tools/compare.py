@@ -17,7 +17,8 @@ errors, sqrt(e_A^2 + e_B^2):
                                   judged against its bound from splits of the members (below),
                                   and the largest abs(z)
   abs(Delta y) histogram          the cut histogram's shape: a Gaussian or an exponential must
-                                  fit both files, chi2 within its 99 % quantile in each (the
+                                  be acceptable in both files, as the program judges each shape
+                                  (its next two terms within their bounds; docs/OUTPUT.md) (the
                                   program's verdict `preferred` between two shapes that both fit
                                   may differ by chance), or neither verdict be a shape; each bin's
                                   fraction of the disks, mean and standard error over the
@@ -368,10 +369,15 @@ def fractions(name, rows_a, rows_b, bins, unit):
 
 
 def acceptable(group, shape):
-    """Whether the histogram's fit of `shape` is acceptable (chi2 within its 99 % quantile)."""
+    """Whether the histogram's fit of `shape` is acceptable as the program judges it (attribute
+    `acceptable`: its next two terms within their bounds, or where the members give no errors
+    Pearson's chi2 within its 99 % quantile); in files before 2026-12-03, its chi2 within the
+    99 % quantile."""
     if shape not in group:
         return False
     a = group[shape].attrs
+    if "acceptable" in a:
+        return bool(a["acceptable"])
     return bool(a.get("valid", 0)) and float(a["chi2"]) <= chi2_quantile99(max(float(a["dof"]), 1))
 
 

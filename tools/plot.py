@@ -231,17 +231,19 @@ def avalanche_profiles(points, out, written):
     save(fig, out, "avalanche_profiles.png", written)
 
 
-# The histogram shapes are fitted to the bins with at least this many disks, each at its centre
-# (histogram_shape, src/analysis.cpp).
-SHAPE_MIN_COUNT = 5
+# The histogram shapes are fitted to the bins between the counts' SHAPE_TAIL and 1 - SHAPE_TAIL
+# quantiles, each at its centre (kShapeTail, histogram_shape, src/analysis.cpp).
+SHAPE_TAIL = 0.005
 
 
 def fitted_range(edges, counts):
     """(first, last) centre of the bins a histogram shape was fitted to: a fit is drawn there
     only."""
     centres = 0.5 * (edges[1:] + edges[:-1])
-    fitted = centres[counts >= SHAPE_MIN_COUNT]
-    return fitted.min(), fitted.max()
+    cumulative = np.cumsum(counts)
+    first = int(np.argmax(cumulative > SHAPE_TAIL * cumulative[-1]))
+    last = int(np.searchsorted(cumulative, (1 - SHAPE_TAIL) * cumulative[-1]))
+    return centres[first], centres[min(last, len(centres) - 1)]
 
 
 def abs_dy_histograms(points, out, written):
@@ -267,8 +269,8 @@ def abs_dy_histograms(points, out, written):
                 ax.semilogy(x, np.exp(poly(f[0], x)) / norm, style, color=line.get_color(), lw=lw)
     ax.set_xlabel("|Delta y| [R] (bottom and top cut)")
     ax.set_ylabel("fraction of disks")
-    ax.set_title("solid: Gaussian fit, dashed: exponential, over the bins of at least "
-                 f"{SHAPE_MIN_COUNT} disks they fit; bold: preferred", fontsize=9)
+    ax.set_title("solid: Gaussian fit, dashed: exponential, bold: preferred\nover the bins they "
+                 f"fit (the middle {100 * (1 - 2 * SHAPE_TAIL):g} % of the disks)", fontsize=9)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7)
         ax.set_ylim(bottom=1e-5)

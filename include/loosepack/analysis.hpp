@@ -30,6 +30,9 @@ struct Fit {
   // with members - 1 degrees of freedom whatever the bins' correlation, for members whose
   // coefficients scatter about normally); NaN where there is none.
   double next_term_t = std::numeric_limits<double>::quiet_NaN();
+  // Histogram fits with errors from the members: the term after that, the highest coefficient of
+  // the fit two degrees higher over its jackknife error; NaN where there is none.
+  double second_term_t = std::numeric_limits<double>::quiet_NaN();
   int points = 0;     // data points used
   int dof = 0;        // points - parameters
   // Fits across scan points: the indices of the scan points the fit went through, in scan
@@ -54,42 +57,43 @@ Fit slice_parabola_fit(const std::vector<double>& ye, const std::vector<double>&
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& sigma);
 
-// |Delta y| histogram shapes, fitted to the counts of bins with at least `min_count` samples
-// as ln n = alpha + beta x (exponential, decay length -1/beta) and ln n = alpha + beta x +
-// gamma x^2 (Gaussian: mean -beta / (2 gamma), width sqrt(-1 / (2 gamma))), weights n (the
-// variance of ln n is 1/n). With the members' own counts (`member_counts`, one row per member, a
-// failed member's row 0) and at least 4 members that did not fail (`member_failure` 0 where it
-// has a value per row, else the rows with disks) each fit's errors come from a jackknife over
-// the members and its chi2 is that of the counts' residuals against the residuals' own
-// jackknife errors, each t mapped to its chi2 term, as the avalanche-profile fits do: the disks one
-// avalanche moves together land in the same bins, so the counts scatter far more than Poisson's
-// sqrt(n). The preferred shape has the lower Akaike criterion chi2 + 2 k (k parameters); it must
-// also fit (chi2 at most the 99 % quantile of chi2 with its degrees of freedom), and the Gaussian
-// needs a maximum (gamma < 0): otherwise "neither". With the members' counts the difference of the
-// two shapes' chi2 is taken from the term the exponential lacks, gamma over its jackknife error
-// (the exponential's `next_term_t`, Student's t with members - 1 degrees of freedom: the jackknife
-// over whole members carries the bins' correlation), as its chi2 term (`quadratic_chi2`,
-// chi2_term_of_t): the quadratic term counts where that exceeds 2 (NaN without the Gaussian's
-// jackknife: neither). The difference of the chi2 themselves counts neighbouring bins, which move
-// together, as independent, and took the quadratic term for real more often than Akaike's 16 %;
-// those chi2 still reject a right shape more often than 1 % (docs/OUTPUT.md). With counts near
-// Poisson's the 5-disk cut biases gamma upwards (the tail's last bins are those that fluctuated
-// up). The Gaussian's `next_term_t` is the cubic's c3 over its jackknife error, a smooth departure
-// from the Gaussian that the chi2, summed over bins, need not show (and does not judge the shape:
-// `preferred` is as above). Without the members' counts chi2 is Pearson's (counts against the
-// model).
+// |Delta y| histogram shapes: ln n = alpha + beta x (exponential, decay length -1/beta) and
+// ln n = alpha + beta x + gamma x^2 (Gaussian: mean -beta / (2 gamma), width sqrt(-1 / (2 gamma))),
+// fitted to the counts as Poisson's by maximum likelihood over the band of bins between the
+// counts' 0.5 % and 99.5 % quantiles, empty bins within included (a least-squares fit of ln n over
+// the bins with disks bends up at a tail's last bins, those that fluctuated up). With the members'
+// own counts (`member_counts`, one row per member, a failed member's row 0) and at least 4 members
+// that did not fail (`member_failure` 0 where it has a value per row, else the rows with disks)
+// each fit's errors come from a jackknife over the members, whose scatter holds the avalanches'
+// (the disks one avalanche moves together land in the same bins, so the counts scatter far more
+// than Poisson's sqrt(n)), and its chi2 is that of the counts' residuals against the residuals'
+// own jackknife errors, as the avalanche-profile fits'. That chi2 counts neighbouring bins, which
+// move together, as independent and rejects a right shape more often than 1 %; so each shape is
+// judged by its next two terms instead (`next_term_t`, `second_term_t`: the highest coefficient
+// of the fits one and two degrees higher over its jackknife error, Student's t with members - 1
+// degrees of freedom), each within its two-sided 99.5 % bound. Akaike's criterion chooses the
+// shape, the difference of the two chi2 taken from the quadratic term's t (the exponential's
+// `next_term_t`) as its chi2 term (`quadratic_chi2`, chi2_term_of_t): the Gaussian where that
+// exceeds 2 (it must have a maximum, gamma < 0), else the exponential; the chosen shape must hold
+// by its terms, else "neither" (also where a member's absence leaves the Gaussian without a fit).
+// Without the members' counts chi2 is Pearson's (counts against the model), Akaike's criterion
+// takes it as it is, and the chosen shape must fit, chi2 at most its 99 % quantile. "none": too
+// few bins (six, with the members' counts, for the quartic and a degree of freedom).
 struct HistogramShape {
   Fit exponential, gaussian;
   double decay_length = 0.0, gaussian_mean = 0.0, gaussian_width = 0.0;
   bool member_errors = false;  // chi2 and errors from the members' scatter (else Pearson's chi2)
   static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
   double quadratic_chi2 = kNone;  // with member_errors
+  // Each shape judged on its own, as the verdict judges the one Akaike's criterion chooses: it
+  // holds by its next two terms (with member_errors) or fits by Pearson's chi2; the Gaussian
+  // also needs its maximum.
+  bool exponential_acceptable = false, gaussian_acceptable = false;
   std::string preferred;  // "gaussian", "exponential", "neither", or "none" (too few bins)
 };
 HistogramShape histogram_shape(const std::vector<double>& edges, const std::vector<double>& counts,
                                const std::vector<std::vector<double>>& member_counts = {},
-                               const std::vector<double>& member_failure = {},
-                               double min_count = 5.0);
+                               const std::vector<double>& member_failure = {});
 
 // The 99 % quantile of chi2 with `dof` degrees of freedom (Wilson and Hilferty; within 1 % of
 // the exact quantile from 3 degrees of freedom on).

@@ -348,3 +348,30 @@ def test_histogram_shapes_agree_when_one_shape_fits_both(tmp_path):
         verdict = lambda p, q: next(compare.histogram(p, q)).within
         assert verdict(a, b) and verdict(b, c) and verdict(e, e)
         assert not verdict(c, d) and not verdict(c, e)
+        # Files from 2026-12-03 on judge each shape themselves (attribute `acceptable`, by its
+        # next two terms where the members give errors), whatever its chi2.
+        g = shape_point(f, "g", "gaussian", bound + 30, bound + 40)
+        h = shape_point(f, "h", "neither", bound + 30, 19.0)
+        for p, gaussian_ok in ((g, 1.0), (h, 0.0)):
+            p["abs_dy_histogram/shape_cut/gaussian"].attrs["acceptable"] = gaussian_ok
+            p["abs_dy_histogram/shape_cut/exponential"].attrs["acceptable"] = 0.0
+        assert verdict(g, c) and not verdict(h, d) and not verdict(g, h)
+
+
+def test_claims_histogram_fits_are_the_programs(runs):
+    """tools/claims.py fits the cut histogram's bands itself (the tail beyond 2 R at Bo = 0): over
+    the whole band its fits are the program's, coefficients, jackknife errors and next terms."""
+    claims = load_script(os.path.join(HERE, "..", "..", "tools", "claims.py"))
+    _, cohesive, _ = runs
+    with h5py.File(cohesive, "r") as f:
+        point = f["points/0000"]
+        hist = claims.Histogram(point["abs_dy_histogram"], str(cohesive))
+        assert hist.members == 6
+        for degree, shape in ((1, "exponential"), (2, "gaussian")):
+            g = point[f"abs_dy_histogram/shape_cut/{shape}"]
+            coef, err, chi2, _, ts = hist.fit(degree, np.ones(hist.centre.size, bool))
+            assert np.allclose(coef, g["coef"][()], rtol=1e-7, atol=1e-9), (shape, coef)
+            assert np.allclose(err, g["error"][()], rtol=1e-6), (shape, err)
+            assert chi2 == pytest.approx(g.attrs["chi2"], rel=1e-6)
+            assert ts == pytest.approx((g.attrs["next_term_t"], g.attrs["second_term_t"]),
+                                       rel=1e-5)

@@ -59,10 +59,12 @@ def test_collapse_increase_on_a_log_axis_cuts_bars_that_reach_zero(tmp_path, fig
 
 
 def test_histogram_fits_are_drawn_over_the_bins_they_fit(tmp_path, figures):
-    """The |Delta y| histogram's fits go through the bins with at least 5 disks (src/analysis.cpp,
-    histogram_shape): each curve runs from the first such bin's centre to the last's."""
+    """The |Delta y| histogram's fits go through the bins between the counts' 0.5 % and 99.5 %
+    quantiles (src/analysis.cpp, histogram_shape): each curve runs from the first such bin's
+    centre to the last's."""
     edges = np.arange(11) * 0.5
-    counts = np.array([3, 50, 30, 20, 10, 6, 2, 5, 1, 0])  # fitted: bins 1 to 5 and 7
+    # 687 disks: bin 0 holds the first 1 (below 3.4), bin 7 the 683.6th: fitted bins 1 to 7
+    counts = np.array([1, 300, 200, 100, 50, 20, 10, 5, 1, 0])
     with h5py.File(tmp_path / "h.h5", "w") as f:
         g = point(f, 0, protocol="A")
         h = g.create_group("abs_dy_histogram")
