@@ -17,8 +17,8 @@ errors, sqrt(e_A^2 + e_B^2):
                                   judged against its bound from splits of the members (below),
                                   and the largest abs(z)
   abs(Delta y) histogram          the cut histogram's shape: a Gaussian or an exponential must
-                                  be acceptable in both files, as the program judges each shape
-                                  (its next two terms within their bounds; docs/OUTPUT.md) (the
+                                  be acceptable in both files as the program judges each shape
+                                  (its next two terms within their bounds, docs/OUTPUT.md; the
                                   program's verdict `preferred` between two shapes that both fit
                                   may differ by chance), or neither verdict be a shape; each bin's
                                   fraction of the disks, mean and standard error over the
