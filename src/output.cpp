@@ -287,7 +287,7 @@ void histogram_shape(hid_t parent, const std::string& name, const HistogramShape
   attribute(g, "gaussian_mean", h.gaussian_mean);
   attribute(g, "gaussian_width", h.gaussian_width);
   attribute(g, "quadratic_chi2", h.quadratic_chi2);
-  attribute(g, "members", static_cast<double>(h.exponential.replicas.size()));
+  attribute(g, "members", static_cast<double>(h.gaussian.replicas.size()));  // the verdict's
   fit(g, "exponential", h.exponential);
   fit(g, "gaussian", h.gaussian);
   for (const auto& [shape, f, acceptable] :

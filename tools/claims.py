@@ -385,6 +385,19 @@ def log_count_fit(x, n, degree):
     return None
 
 
+SHAPE_TAIL = 0.005  # the program's kShapeTail (src/analysis.cpp)
+
+
+def shape_band(counts):
+    """The bins the program fits the histogram shapes to: from the one that holds the counts'
+    SHAPE_TAIL quantile to the one that holds their 1 - SHAPE_TAIL quantile (a boolean mask)."""
+    cumulative = np.cumsum(counts)
+    whole = cumulative[-1] if len(cumulative) else 0.0
+    k = np.arange(len(cumulative))
+    return ((cumulative > SHAPE_TAIL * whole) &
+            (k <= np.searchsorted(cumulative, (1 - SHAPE_TAIL) * whole)))
+
+
 class Histogram:
     """The cut |Delta y| histogram's per-member counts (`member_counts_cut`), for fits with errors
     from the members' scatter, as the program's shapes (docs/OUTPUT.md, "Analysis"): ln n a
@@ -392,8 +405,6 @@ class Histogram:
     0.5 % and 99.5 % quantiles (log_count_fit), errors a jackknife over the members (the others'
     counts scaled to the whole ensemble's), chi2 the counts' residuals against the residuals'
     jackknife errors (residual_chi2), and the fit's next two terms as t's."""
-
-    TAIL = 0.005  # the program's kShapeTail
 
     def __init__(self, group, path):
         if "member_counts_cut" not in group:
@@ -408,11 +419,7 @@ class Histogram:
         self.centre = 0.5 * (edges[1:] + edges[:-1])
         self.total = self.rows.sum(axis=0)
         self.members = len(self.rows)
-        cumulative = np.cumsum(self.total)
-        whole = cumulative[-1] if len(cumulative) else 0.0
-        k = np.arange(len(self.total))
-        self.band = ((cumulative > self.TAIL * whole) &
-                     (k <= np.searchsorted(cumulative, (1 - self.TAIL) * whole)))
+        self.band = shape_band(self.total)
 
     def replicas(self):
         """The other members' counts scaled to the whole ensemble's, one per member left out."""

@@ -44,7 +44,7 @@ except ImportError as e:  # pragma: no cover
 # Input the figures cannot be drawn from: the message and exit status 2, as claims.py and
 # compare.py (1 is left for errors while writing).
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from claims import check_result_file, unusable  # noqa: E402
+from claims import SHAPE_TAIL, check_result_file, shape_band, unusable  # noqa: E402
 
 
 
@@ -231,19 +231,11 @@ def avalanche_profiles(points, out, written):
     save(fig, out, "avalanche_profiles.png", written)
 
 
-# The histogram shapes are fitted to the bins between the counts' SHAPE_TAIL and 1 - SHAPE_TAIL
-# quantiles, each at its centre (kShapeTail, histogram_shape, src/analysis.cpp).
-SHAPE_TAIL = 0.005
-
-
 def fitted_range(edges, counts):
-    """(first, last) centre of the bins a histogram shape was fitted to: a fit is drawn there
-    only."""
-    centres = 0.5 * (edges[1:] + edges[:-1])
-    cumulative = np.cumsum(counts)
-    first = int(np.argmax(cumulative > SHAPE_TAIL * cumulative[-1]))
-    last = int(np.searchsorted(cumulative, (1 - SHAPE_TAIL) * cumulative[-1]))
-    return centres[first], centres[min(last, len(centres) - 1)]
+    """(first, last) centre of the bins a histogram shape was fitted to (claims.shape_band, the
+    program's band): a fit is drawn there only."""
+    centres = 0.5 * (edges[1:] + edges[:-1])[shape_band(counts)]
+    return centres.min(), centres.max()
 
 
 def abs_dy_histograms(points, out, written):
