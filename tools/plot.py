@@ -10,8 +10,9 @@ against H, dnu/nu_i against H and nu_i) are not drawn, since the program makes t
 nor the pictures of single members (snapshots, trajectories): draw those from each file alone.
 
 Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
-histograms with the Gaussian and exponential fits, deposition density with the final density
-predicted from it. When the file has them: nu_lower_half against the Bond number, or against
+histograms with the Gaussian and exponential fits (and, for protocol A at 0 < Bo < inf, the sum
+of the height slices' Gaussians, tools/claims.py's SliceMixture), deposition density with the
+final density predicted from it. When the file has them: nu_lower_half against the Bond number, or against
 the capture radius where all points share one Bond number (several points), protocol-A
 profiles of several heights scaled by H with c2 and the slice model's a against H (the paper's
 fig. 7), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
@@ -44,7 +45,8 @@ except ImportError as e:  # pragma: no cover
 # Input the figures cannot be drawn from: the message and exit status 2, as claims.py and
 # compare.py (1 is left for errors while writing).
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from claims import SHAPE_TAIL, check_result_file, shape_band, unusable  # noqa: E402
+from claims import (SHAPE_TAIL, Histogram, SliceMixture, check_result_file,  # noqa: E402
+                    shape_band, unusable)
 
 
 
@@ -238,6 +240,24 @@ def fitted_range(edges, counts):
     return centres.min(), centres.max()
 
 
+def slices_sum(g):
+    """The cut |Delta y| histogram of a protocol-A point with 0 < Bo < inf as its height slices'
+    Gaussians summed (claims.SliceMixture), as fractions of its disks per bin; None where the
+    file lacks the per-member rows it is made of, or has fewer than 2 members."""
+    a = g.attrs
+    h = g["abs_dy_histogram"]
+    prof = g.get("avalanche_by_ye")
+    if (text(a["protocol"]) != "A" or not 0 < float(a["bond_number"]) < math.inf or
+            "member_counts_cut" not in h or prof is None or "stddev" not in prof or
+            "member_mean" not in prof or "members" not in g or "top" not in g["members"]):
+        return None
+    hist = Histogram(h, g.file.filename)
+    if hist.members < 2:
+        return None
+    total = SliceMixture(g, hist).total
+    return total / total.sum() if total.sum() > 0 else None
+
+
 def abs_dy_histograms(points, out, written):
     fig, ax = plt.subplots(figsize=(6, 4.5))
     for g in points:
@@ -259,10 +279,14 @@ def abs_dy_histograms(points, out, written):
                 x = np.linspace(*fitted_range(edges, counts), 200)
                 lw = 1.5 if model == pref else 0.7
                 ax.semilogy(x, np.exp(poly(f[0], x)) / norm, style, color=line.get_color(), lw=lw)
+        summed = slices_sum(g)
+        if summed is not None:
+            ax.semilogy(centres, summed, ":", color=line.get_color(), lw=1.2)
     ax.set_xlabel("|Delta y| [R] (bottom and top cut)")
     ax.set_ylabel("fraction of disks")
-    ax.set_title("solid: Gaussian fit, dashed: exponential, bold: preferred\nover the bins they "
-                 f"fit (the middle {100 * (1 - 2 * SHAPE_TAIL):g} % of the disks)", fontsize=9)
+    ax.set_title("solid: Gaussian fit, dashed: exponential, bold: preferred, over the bins\nthey "
+                 f"fit (the middle {100 * (1 - 2 * SHAPE_TAIL):g} % of the disks); dotted: the "
+                 "height slices' Gaussians summed", fontsize=9)
     if ax.get_legend_handles_labels()[0]:
         ax.legend(fontsize=7)
         ax.set_ylim(bottom=1e-5)

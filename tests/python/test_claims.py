@@ -453,6 +453,61 @@ def test_histogram_jackknife_keeps_a_finished_member_without_disks_in_the_band(t
         del f["points/0000/members/failure"]  # a file without the flags: rows with disks
         assert claims.Histogram(g, str(path)).members == 4
 
+def sliced_histogram_file(tmp_path, name, profile, noise, per_bin=60, seed=9):
+    """A Bo = 1e3 point whose 16 members each hold `per_bin` disks in every bin of 4 R of y_e,
+    with Delta y = profile(y_e) + noise(rng, n): the profile rows by y_e (`avalanche_by_ye`,
+    pooled mean and standard deviation too) and the cut |Delta y| histogram of the same disks
+    (cuts 20 R, every member's top at H)."""
+    rng = np.random.default_rng(seed)
+    centre = np.arange(BIN / 2, H, BIN)
+    edges = np.arange(0.0, 40.01, 0.5)
+    shape = (MEMBERS, centre.size)
+    count, mean, pos = np.full(shape, float(per_bin)), np.zeros(shape), np.zeros(shape)
+    hist = np.zeros((MEMBERS, edges.size - 1))
+    pooled = [[] for _ in centre]
+    for m in range(MEMBERS):
+        for b, c in enumerate(centre):
+            y = rng.uniform(c - BIN / 2, c + BIN / 2, per_bin)
+            dy = profile(y) + noise(rng, per_bin)
+            mean[m, b], pos[m, b] = dy.mean(), y.mean()
+            pooled[b].append(dy)
+            cut = (y >= 20.0) & (y <= H - 20.0)
+            hist[m] += np.histogram(np.abs(dy[cut]), edges)[0]
+    path = tmp_path / f"{name}.h5"
+    with h5py.File(path, "w") as f:
+        g = f.create_group("points/0000")
+        g.attrs.update({"protocol": "A", "bond_number": 1e3, "height": H,
+                        "cut_bottom": 20.0, "cut_top": 20.0})
+        a = g.create_group("avalanche_by_ye")
+        a["centre"], a["member_count"], a["member_mean"], a["member_position"] = \
+            centre, count, mean, pos
+        a["mean"] = np.array([np.concatenate(d).mean() for d in pooled])
+        a["stddev"] = np.array([np.concatenate(d).std(ddof=1) for d in pooled])
+        g["abs_dy_histogram/edges"], g["abs_dy_histogram/member_counts_cut"] = edges, hist
+        g["members/top"], g["members/failure"] = np.full(MEMBERS, H), np.zeros(MEMBERS, np.int32)
+    with h5py.File(path, "r") as f:
+        (claim, ok, detail), = claims.slice_mixture_claim(f["points/0000"], str(path), "p")
+        hist_ = claims.Histogram(f["points/0000/abs_dy_histogram"], str(path))
+        terms = claims.mixture_terms(hist_, claims.SliceMixture(f["points/0000"], hist_))
+    return ok, terms, detail
+
+
+def test_a_histogram_of_gaussian_slices_about_an_arch_is_skewed_as_their_sum(tmp_path):
+    """Disks normal about an arched profile (0 at the floor and the top, -12 R half way up): the
+    cut histogram, no Gaussian (its cubic term many errors below zero), has the skew of its
+    slices' sum; the same profile with a skewed scatter about it (an exponential's, of the same
+    spread) has not."""
+    arch = lambda y: -12.0 * np.sin(np.pi * y / H)
+    ok, terms, detail = sliced_histogram_file(
+        tmp_path, "gaussian", arch, lambda rng, n: rng.normal(0.0, 2.5, n))
+    cubic, err, cubic_sum, t = terms[1]
+    assert ok, detail
+    assert cubic_sum / err < -3.0 and cubic / err < -3.0, detail  # the sum of Gaussians is skewed
+    ok, terms, detail = sliced_histogram_file(
+        tmp_path, "skewed", arch, lambda rng, n: 2.5 * (rng.exponential(1.0, n) - 1.0))
+    assert not ok, detail
+
+
 def deposition_file(tmp_path, name, rels, width=200.0, height=240.0, seed=5):
     """Protocol-A points at Bo = 1e2 and 1e3 (one per entry of `rels`), nu_d(y_i) of 16 members in
     strips of 3.97 R: a rising line with relative Gaussian noise rels[bo]."""
@@ -572,8 +627,10 @@ def test_a_point_without_an_ensemble_and_a_histogram_without_member_errors_are_s
             for m in ("exponential", "gaussian"):
                 s.create_group(m).attrs.update({"chi2": 50.0, "dof": 3})
     with h5py.File(path, "r") as f:
-        (claim, ok, detail), = claims.histogram_claims(f["points/0000"], str(path), "p")
+        (_, ok, detail), (_, mixture_ok, mixture_detail) = claims.histogram_claims(
+            f["points/0000"], str(path), "p")
     assert ok is claims.NOT_JUDGED and "fewer than 4 members" in detail, detail
+    assert mixture_ok is claims.NOT_JUDGED, mixture_detail  # nor the slices' sum
 
 
 def test_help_and_unusable_input():

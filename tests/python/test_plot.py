@@ -11,6 +11,7 @@ import pytest
 from matplotlib.collections import LineCollection
 
 import loosepack
+import test_claims
 from script_module import load_script
 
 TOOL = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "tools", "plot.py")
@@ -81,6 +82,31 @@ def test_histogram_fits_are_drawn_over_the_bins_they_fit(tmp_path, figures):
     assert len(curves) == 2
     for line in curves:
         assert (line.get_xdata().min(), line.get_xdata().max()) == (0.75, 3.75)
+
+
+def test_the_histogram_of_a_cohesive_point_is_drawn_with_its_slices_summed(tmp_path, figures):
+    """At 0 < Bo < inf the cut histogram is drawn with its height slices' Gaussians summed
+    (claims.SliceMixture; dotted), as fractions of the disks: made of the same disks, the sum's
+    mean |Delta y| is the histogram's within the bins' width."""
+    arch = lambda y: -12.0 * np.sin(np.pi * y / test_claims.H)
+    test_claims.sliced_histogram_file(tmp_path, "arch", arch,
+                                      lambda rng, n: rng.normal(0.0, 2.5, n))
+    with h5py.File(tmp_path / "arch.h5", "r+") as f:
+        g = f["points/0000"]
+        g.attrs["capture_radius"] = 1.0
+        h = g["abs_dy_histogram"]
+        h["counts_cut"] = h["member_counts_cut"][()].sum(axis=0)
+        plot.abs_dy_histograms([g], str(tmp_path), [])
+        counts, edges = h["counts_cut"][()], h["edges"][()]
+    ax = figures["abs_dy_histograms.png"].axes[0]
+    dotted, = [line for line in ax.lines if line.get_linestyle() == ":"]
+    x, y = dotted.get_xdata(), dotted.get_ydata()
+    assert y.sum() == pytest.approx(1.0)
+    centres = 0.5 * (edges[1:] + edges[:-1])
+    assert abs((x * y).sum() - (centres * counts).sum() / counts.sum()) < 0.5
+    with h5py.File(tmp_path / "arch.h5", "r+") as f:  # none at Bo = 0
+        f["points/0000"].attrs["bond_number"] = 0.0
+        assert plot.slices_sum(f["points/0000"]) is None
 
 
 def test_a_failed_members_snapshot_is_not_drawn_as_a_deposit(tmp_path, monkeypatch):
