@@ -87,6 +87,23 @@ def ensemble_point(rng, members, sizes):
     return f, g
 
 
+def rejections(members, sizes, trials, rng):
+    """(ensembles judged, how many of them reject the right sum, the mean of the sum's cubic over
+    the measured error) over `trials` synthetic ensembles."""
+    failed, sum_t = 0, []
+    for _ in range(trials):
+        f, g = ensemble_point(rng, members, sizes)
+        with f:
+            hist = claims.Histogram(g["abs_dy_histogram"], "synthetic")
+            terms = claims.mixture_terms(hist, claims.SliceMixture(g, hist))
+        if terms is None:
+            continue
+        cubic, err, cubic_sum, t = terms[1]
+        failed += abs(t) > claims.t_quantile(members - 1)
+        sum_t.append(cubic_sum / err)
+    return len(sum_t), failed, float(np.mean(sum_t))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("trials", nargs="?", type=int, default=200)
@@ -95,26 +112,15 @@ def main():
     for sizes in ("light", "heavy"):
         for members in (8, 16):
             rng = np.random.default_rng(1000 * members + (sizes == "heavy"))
-            failed, sum_t, trials = 0, [], 0
-            for _ in range(args.trials):
-                f, g = ensemble_point(rng, members, sizes)
-                with f:
-                    hist = claims.Histogram(g["abs_dy_histogram"], "synthetic")
-                    terms = claims.mixture_terms(hist, claims.SliceMixture(g, hist))
-                if terms is None:
-                    continue
-                cubic, err, cubic_sum, t = terms[1]
-                failed += abs(t) > claims.t_quantile(members - 1)
-                sum_t.append(cubic_sum / err)
-                trials += 1
+            trials, failed, sum_t = rejections(members, sizes, args.trials, rng)
             line = {"study": "slice_sum_calibration", "sizes": sizes, "members": members,
                     "trials": trials, "rejected": failed / trials,
-                    "mean_sum_cubic_over_error": float(np.mean(sum_t)),
+                    "mean_sum_cubic_over_error": sum_t,
                     "command": "/usr/bin/python3 bench/slice_sum_calibration.py "
                                f"{args.trials} --json OUT"}
             print(f"{sizes:5s} avalanches, {members:2d} members: the right sum rejected in "
                   f"{failed} of {trials} ({100 * failed / trials:.1f} %); the sum's cubic over "
-                  f"the measured error {np.mean(sum_t):.2f} on average")
+                  f"the measured error {sum_t:.2f} on average")
             if args.json:
                 with open(args.json, "a") as out:
                     out.write(json.dumps(line) + "\n")
