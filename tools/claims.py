@@ -523,6 +523,13 @@ class SliceMixture:
             self.rows.append(row)
         self.rows = np.array(self.rows)
         self.total = self.rows.sum(axis=0)
+        # the profile's spread over the cut against the scatter about it, each bin weighted by
+        # its disks: a sum of Gaussians is skewed where the first is not small beside the second
+        band = (disks > 1) & (centre >= bottom) & (centre <= tops[hist.kept].mean() - top_cut)
+        w = disks[band] / disks[band].sum()
+        spread = pooled_mean[band] - (w * pooled_mean[band]).sum()
+        self.spread = float(np.sqrt((w * spread ** 2).sum()))
+        self.scatter = float(np.sqrt((w * pooled_sd[band] ** 2).sum()))
 
     def replicas(self):
         """The sum without each member in turn, scaled to the whole ensemble's (as
@@ -571,7 +578,8 @@ def slice_mixture_claim(point, path, where):
     if hist.members < 4:
         yield (claim, NOT_JUDGED, f"{hist.members} members (4 needed)")
         return
-    terms = mixture_terms(hist, SliceMixture(point, hist))
+    mixture = SliceMixture(point, hist)
+    terms = mixture_terms(hist, mixture)
     if terms is None:
         yield (claim, NOT_JUDGED, "too few bins for the fits of degree 4")
         return
@@ -582,7 +590,8 @@ def slice_mixture_claim(point, path, where):
     bound = t_quantile(hist.members - 1)
     yield (claim, abs(t) <= bound,
            f"{detail} (bound {bound:.3g}; {hist.members} members); the sum's cubic over the "
-           f"measured error {cubic_sum / cubic_err:.3g}")
+           f"measured error {cubic_sum / cubic_err:.3g}; the profile's means spread over the cut "
+           f"by {mixture.spread:.3g} R, the disks about them by {mixture.scatter:.3g} R")
 
 
 def bo0_histogram_claims(point, path, where):

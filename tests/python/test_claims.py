@@ -488,8 +488,9 @@ def sliced_histogram_file(tmp_path, name, profile, noise, per_bin=60, seed=9):
     with h5py.File(path, "r") as f:
         (claim, ok, detail), = claims.slice_mixture_claim(f["points/0000"], str(path), "p")
         hist_ = claims.Histogram(f["points/0000/abs_dy_histogram"], str(path))
-        terms = claims.mixture_terms(hist_, claims.SliceMixture(f["points/0000"], hist_))
-    return ok, terms, detail
+        mixture = claims.SliceMixture(f["points/0000"], hist_)
+        terms = claims.mixture_terms(hist_, mixture)
+    return ok, terms, detail, mixture
 
 
 def test_a_histogram_of_gaussian_slices_about_an_arch_is_skewed_as_their_sum(tmp_path):
@@ -498,12 +499,17 @@ def test_a_histogram_of_gaussian_slices_about_an_arch_is_skewed_as_their_sum(tmp
     slices' sum; the same profile with a skewed scatter about it (an exponential's, of the same
     spread) has not."""
     arch = lambda y: -12.0 * np.sin(np.pi * y / H)
-    ok, terms, detail = sliced_histogram_file(
+    ok, terms, detail, mixture = sliced_histogram_file(
         tmp_path, "gaussian", arch, lambda rng, n: rng.normal(0.0, 2.5, n))
     cubic, err, cubic_sum, t = terms[1]
     assert ok, detail
     assert cubic_sum / err < -3.0 and cubic / err < -3.0, detail  # the sum of Gaussians is skewed
-    ok, terms, detail = sliced_histogram_file(
+    # the profile's spread over the cut's bins (centres 22-98 R) and the scatter about it (2.5 R,
+    # and the profile's own change across a bin of 4 R, under 0.1 R here)
+    means = arch(np.arange(BIN / 2, H, BIN)[5:25])
+    assert mixture.spread == pytest.approx(means.std(), rel=0.05), detail
+    assert mixture.scatter == pytest.approx(2.5, rel=0.05), detail
+    ok, terms, detail, _ = sliced_histogram_file(
         tmp_path, "skewed", arch, lambda rng, n: 2.5 * (rng.exponential(1.0, n) - 1.0))
     assert not ok, detail
 
