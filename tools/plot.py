@@ -12,8 +12,8 @@ nor the pictures of single members (snapshots, trajectories): draw those from ea
 Always: density profiles against y and depth, avalanche profiles with their fits, |Delta y|
 histograms with the Gaussian and exponential fits (and, for protocol A at 0 < Bo < inf, the sum
 of the height slices' Gaussians, tools/claims.py's SliceMixture), deposition density with the
-final density predicted from it. When the file has them: nu_lower_half against the Bond number, or against
-the capture radius where all points share one Bond number (several points), protocol-A
+final density predicted from it. When the file has them: nu_lower_half against the Bond number,
+or against the capture radius where all points share one Bond number (several points), protocol-A
 profiles of several heights scaled by H with c2 and the slice model's a against H (the paper's
 fig. 7), dnu/nu_i against H and against nu_i (protocol C points), avalanche-event size
 distributions (protocol A), a picture of each finished member's snapshot with its compressive
