@@ -50,7 +50,8 @@ def member(rng, sizes):
     ys, dys = [], []
     disks = 0
     while disks < DISKS:
-        s = min(40, rng.geometric(1 / 8)) if sizes == "light" else rng.choice(POWER_SIZES, p=POWER_P)
+        s = (min(40, rng.geometric(1 / 8)) if sizes == "light"
+             else rng.choice(POWER_SIZES, p=POWER_P))
         y = np.clip(rng.uniform(0.0, H) + SPREAD_Y * rng.normal(size=s), 0.0, H - 1e-9)
         ys.append(y)
         dys.append(profile(y) + SHARED * rng.normal() + OWN * rng.normal(size=s))
