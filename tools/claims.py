@@ -505,9 +505,9 @@ class SliceMixture:
         count, mean = prof["member_count"][()], np.nan_to_num(prof["member_mean"][()])
         pooled_mean, pooled_sd = prof["mean"][()], prof["stddev"][()]
         disks = count.sum(axis=0)
-        spread = (count * (mean - np.nan_to_num(pooled_mean)) ** 2).sum(axis=0)
+        between = (count * (mean - np.nan_to_num(pooled_mean)) ** 2).sum(axis=0)
         groups = (count > 0).sum(axis=0)
-        within = ((disks - 1) * np.nan_to_num(pooled_sd) ** 2 - spread) / np.maximum(
+        within = ((disks - 1) * np.nan_to_num(pooled_sd) ** 2 - between) / np.maximum(
             1.0, disks - groups)
         sd = np.sqrt(np.maximum(within, 1e-12))
         bottom, top_cut = cuts(point)
@@ -530,6 +530,17 @@ class SliceMixture:
         spread = pooled_mean[band] - (w * pooled_mean[band]).sum()
         self.spread = float(np.sqrt((w * spread ** 2).sum()))
         self.scatter = float(np.sqrt((w * pooled_sd[band] ** 2).sum()))
+
+    @staticmethod
+    def missing(point):
+        """Why the point's file cannot give the sum (per-member histogram counts, profile rows or
+        members' tops missing), or None."""
+        h, prof = point["abs_dy_histogram"], point.get("avalanche_by_ye")
+        if ("members" in point and "top" in point["members"] and "member_counts_cut" in h and
+                prof is not None and
+                all(k in prof for k in ("member_count", "member_mean", "stddev"))):
+            return None
+        return "the file has no per-member histogram counts, profile rows or members' tops"
 
     def replicas(self):
         """The sum without each member in turn, scaled to the whole ensemble's (as
@@ -566,15 +577,11 @@ def slice_mixture_claim(point, path, where):
     does not model; the cubic's t against the measured error says what the profile alone makes
     of the Gaussian's verdict."""
     claim = f"{where}: the cut |Delta y| histogram's skew is its height slices' Gaussians' sum's"
-    h = point["abs_dy_histogram"]
-    prof = point.get("avalanche_by_ye")
-    if not ("members" in point and "top" in point["members"] and "member_counts_cut" in h and
-            prof is not None and
-            all(k in prof for k in ("member_count", "member_mean", "stddev"))):
-        yield (claim, NOT_JUDGED, "the file has no per-member histogram counts, profile rows or "
-               "members' tops")
+    why = SliceMixture.missing(point)
+    if why is not None:
+        yield (claim, NOT_JUDGED, why)
         return
-    hist = Histogram(h, path)
+    hist = Histogram(point["abs_dy_histogram"], path)
     if hist.members < 4:
         yield (claim, NOT_JUDGED, f"{hist.members} members (4 needed)")
         return

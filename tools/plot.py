@@ -245,13 +245,10 @@ def slices_sum(g):
     Gaussians summed (claims.SliceMixture), as fractions of its disks per bin; None where the
     file lacks the per-member rows it is made of, or has fewer than 2 members."""
     a = g.attrs
-    h = g["abs_dy_histogram"]
-    prof = g.get("avalanche_by_ye")
     if (text(a["protocol"]) != "A" or not 0 < float(a["bond_number"]) < math.inf or
-            "member_counts_cut" not in h or prof is None or "stddev" not in prof or
-            "member_mean" not in prof or "members" not in g or "top" not in g["members"]):
+            SliceMixture.missing(g) is not None):
         return None
-    hist = Histogram(h, g.file.filename)
+    hist = Histogram(g["abs_dy_histogram"], g.file.filename)
     if hist.members < 2:
         return None
     total = SliceMixture(g, hist).total
