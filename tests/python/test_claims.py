@@ -453,6 +453,7 @@ def test_histogram_jackknife_keeps_a_finished_member_without_disks_in_the_band(t
         del f["points/0000/members/failure"]  # a file without the flags: rows with disks
         assert claims.Histogram(g, str(path)).members == 4
 
+
 def sliced_histogram_file(tmp_path, name, profile, noise, per_bin=60, seed=9):
     """A Bo = 1e3 point whose 16 members each hold `per_bin` disks in every bin of 4 R of y_e,
     with Delta y = profile(y_e) + noise(rng, n): the profile rows by y_e (`avalanche_by_ye`,
