@@ -197,8 +197,9 @@ void string_dataset(hid_t parent, const std::string& name, const std::string& v,
   string_attribute_on(set, "long_name", long_name);
 }
 
-// Opaque bytes as a one-dimensional dataset of unsigned 8-bit integers.
-void bytes_dataset(hid_t parent, const std::string& name, const std::string& bytes) {
+// Opaque bytes as a one-dimensional dataset of unsigned 8-bit integers, with its long name.
+void bytes_dataset(hid_t parent, const std::string& name, const std::string& bytes,
+                   const std::string& long_name) {
   const hsize_t n = bytes.size();
   H5 space(H5Screate_simple(1, &n, nullptr), H5Sclose, "create dataspace for " + name);
   H5 set(
@@ -207,6 +208,7 @@ void bytes_dataset(hid_t parent, const std::string& name, const std::string& byt
   if (n > 0)
     check(H5Dwrite(set, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, bytes.data()),
           "write dataset " + name);
+  string_attribute_on(set, "long_name", long_name);
 }
 
 void scalar(hid_t obj, const std::string& name, const Scalar& s) {
@@ -273,8 +275,8 @@ void fit(hid_t parent, const std::string& name, const Fit& f) {
   dataset(g, "coef", f.valid() ? f.coef : std::vector<double>{});
   dataset(g, "error", f.valid() ? f.error : std::vector<double>{});
   attribute(g, "chi2", f.valid() ? f.chi2 : NAN);
-  attribute(g, "dof", static_cast<double>(f.dof));
-  attribute(g, "points", static_cast<double>(f.points));
+  count(g, "dof", f.dof);
+  count(g, "points", f.points);
   attribute(g, "reduced_chi2", f.valid() ? f.reduced_chi2() : NAN);
   attribute(g, "next_term_t", f.valid() ? f.next_term_t : NAN);
 }
@@ -287,7 +289,7 @@ void histogram_shape(hid_t parent, const std::string& name, const HistogramShape
   attribute(g, "gaussian_mean", h.gaussian_mean);
   attribute(g, "gaussian_width", h.gaussian_width);
   attribute(g, "quadratic_chi2", h.quadratic_chi2);
-  attribute(g, "members", static_cast<double>(h.gaussian.replicas.size()));  // the verdict's
+  count(g, "members", static_cast<long long>(h.gaussian.replicas.size()));  // the verdict's
   fit(g, "exponential", h.exponential);
   fit(g, "gaussian", h.gaussian);
   for (const auto& [shape, f, acceptable] :
@@ -316,8 +318,8 @@ void point_analysis(hid_t g, Protocol protocol, const PointAnalysis& an) {
                                   {"from", t.from},
                                   {"to", t.to}})
       attribute(d, name, v);
-    attribute(d, "strips", static_cast<double>(t.strips));
-    attribute(d, "members", static_cast<double>(t.members));
+    count(d, "strips", t.strips);
+    count(d, "members", t.members);
   }
   fit(open_group(g, "nu_deposition"), "power_law", an.deposition_power_law);
   fit(open_group(g, "avalanche_by_yi"), "fit", an.dy_by_yi);
@@ -560,7 +562,8 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       write_members(group(g, "members"), scan, pr, members, snapshots);
     }
     if (info.shards > 0)
-      bytes_dataset(file, "shard_members", checkpoint_part_bytes(scan_fingerprint(scan), members));
+      bytes_dataset(file, "shard_members", checkpoint_part_bytes(scan_fingerprint(scan), members),
+                    "the shard's finished members as a checkpoint part (loosepack merge)");
   });
 }
 

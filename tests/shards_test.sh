@@ -66,6 +66,10 @@ read -r n02 missing <<<"$(members_of two.h5)"
 "$exe" summary two.h5 | head -1 | grep -q "$n1 members not in this file (shards not merged, or merged unfinished)" ||
   fail "summary of two shards: $("$exe" summary two.h5 | head -1)"
 "$exe" summary p1.h5 | head -1 | grep -q "shard 1 of 3 of the scan" || fail "summary of a shard"
+# Like every dataset (docs/OUTPUT.md), the shard's members say what they hold.
+/usr/bin/python3 -c "import h5py, sys
+sys.exit('long_name' not in h5py.File(sys.argv[1], 'r')['shard_members'].attrs)" p1.h5 ||
+  fail "shard_members has no long_name"
 # A point of one member has no standard error: the summary says nan, not a zero.
 "$exe" summary p1.h5 | grep -q "^0000 .* +- nan " || fail "summary of one member: $("$exe" summary p1.h5)"
 # A shard's file is a result file of its members (one a point here, whose errors are NaN): the

@@ -49,6 +49,10 @@ def test_every_dataset_says_what_it_holds(result):
                      and "long_name" not in obj.attrs else None)
         for name in ("mean", "predicted", "deviation"):
             assert f[f"points/0001/nu/{name}"].attrs["units"] == "1", name
+        # counts are 64-bit integers, a fit's degrees of freedom and points too
+        fit = f["points/0001/avalanche_by_ye/fit"].attrs
+        assert fit["dof"].dtype == "int64" and fit["points"].dtype == "int64"
+        assert fit["points"] - fit["dof"] == 3  # a parabola's three coefficients
     assert not missing, missing
 
 
