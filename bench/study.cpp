@@ -398,7 +398,8 @@ void size(Setup base, const std::vector<double>& sides, double budget_s) {
 
 // expected_cost against the measured time per member over scenes that span what a scan may hold:
 // protocol A from cohesionless to Bo = 1e3 (each with the examples' time step), A's box made
-// wider and taller, C's collapse at r_capt = 1 and 2, ballistic deposition. Times are CPU
+// wider and taller, C's collapse at r_capt = 1 and 2, ballistic deposition in a small box and at
+// the paper's size. Times are CPU
 // seconds of this process (wall x core share), so a run beside other work measures the same.
 void cost(double budget_s, bool tiny, int seeds) {
   const Setup a = Setup().variant("", [&](Setup& s) { s.seeds = seeds > 0 ? seeds : 2; });
@@ -421,6 +422,9 @@ void cost(double budget_s, bool tiny, int seeds) {
     v.push_back(c.variant(
         "C r_capt=1", [](Setup& s) { s.width = 40.0, s.height = 60.0, s.capture_radius = 1.0; }));
   v.push_back(a.variant("B", [](Setup& s) { s.protocol = "B", s.width = s.height = 48.0; }));
+  if (!tiny)
+    v.push_back(
+        v.back().variant("B paper size", [](Setup& s) { s.width = 200.0, s.height = 800.0; }));
   std::vector<double> ratios;
   for (Setup s : v) {
     if (tiny) s.width = s.height = 8.0;

@@ -38,7 +38,14 @@ namespace {
 
 // The parts of expected_cost, in units of about 0.039 microseconds of one core of the AMD EPYC
 // VM the project is developed on (docs/PERFORMANCE.md, "What a member costs").
-double ballistic_cost(const SystemParams& p) { return p.width * p.height; }
+// Ballistic deposition: each disk looks for its landing place among all the disks of its system
+// (kernels/deposit.hpp), so a box of W H costs ~ (W H)^2 beyond a cost per disk. 1 000 R^2: one
+// core's CPU per member of protocol B at r_capt = 1, 0.5 ms at 48 R x 48 R and 1.07 s at 200 R x
+// 800 R (bench/results/cost-relative-2026-12-03.jsonl). `filled`: the share of H deposited.
+double ballistic_cost(const SystemParams& p, double filled = 1.0) {
+  const double area = p.width * p.height * filled;
+  return area * (1.0 + area / 1000.0);
+}
 // Cohesion shortens the relaxation after each deposit, and with it a member's CPU time at the same
 // box and time step: (1 + Bo/4)^-0.7 is the exponent that makes the CPU seconds per unit of the
 // recorded protocol-A scenes most alike (spread 3.1 against 7.1 with the -0.55 of the simulated
@@ -113,7 +120,7 @@ double running_cost(const Member& m, MemberPhase phase, double got) {
     case MemberPhase::Collapse:
       return ballistic_cost(p) + std::min(got, kMostOfACollapse) * collapse_cost(p);
     case MemberPhase::Ballistic:
-      return ballistic_cost(p) * got;
+      return ballistic_cost(p, got);
     default:
       return std::pow(got, height_exponent(p)) * slow_cost(p);
   }

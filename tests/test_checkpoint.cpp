@@ -391,6 +391,24 @@ TEST(Checkpoint, AMemberFromItsSnapshotIsExpectedToCostWhatIsLeft) {
               1e-12 * expected_cost(c));
 }
 
+// A ballistic deposit looks for each disk's landing place among all the disks before it
+// (kernels/deposit.hpp): a box of W H costs ~ (W H)^2 where it is large, so four times the area
+// costs nearly sixteen times as much, and a deposit half done has less than half behind it.
+TEST(Checkpoint, ABallisticDepositCostsTheSquareOfItsArea) {
+  Member m;
+  m.protocol = Protocol::B;
+  m.params.width = 100.0;
+  m.params.height = 400.0;
+  const double small = expected_cost(m);
+  m.params.width = 200.0;
+  m.params.height = 800.0;
+  const double paper = expected_cost(m);
+  EXPECT_GT(paper, 15.0 * small);
+  EXPECT_LT(paper, 16.0 * small);
+  EXPECT_LT(running_cost(m, MemberPhase::Ballistic, 0.5), 0.3 * paper);
+  EXPECT_DOUBLE_EQ(running_cost(m, MemberPhase::Ballistic, 1.0), paper);
+}
+
 namespace {
 // Everything a finished member records but its wall time, bit for bit.
 void expect_same_member(const MemberResult& a, const MemberResult& b) {

@@ -18,7 +18,7 @@ import pytest
 from loosepack.runner import to_toml
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-RECORD = os.path.join(HERE, "..", "..", "bench", "results", "cost-relative-2026-11-25.jsonl")
+RECORD = os.path.join(HERE, "..", "..", "bench", "results", "cost-relative-2026-12-03.jsonl")
 PROGRAM = os.environ.get("LOOSEPACK", os.path.join(HERE, "..", "..", "build", "loosepack"))
 
 
