@@ -399,8 +399,8 @@ void size(Setup base, const std::vector<double>& sides, double budget_s) {
 // expected_cost against the measured time per member over scenes that span what a scan may hold:
 // protocol A from cohesionless to Bo = 1e3 (each with the examples' time step), A's box made
 // wider and taller, C's collapse at r_capt = 1 and 2, ballistic deposition in a small box and at
-// the paper's size. Times are CPU
-// seconds of this process (wall x core share), so a run beside other work measures the same.
+// the paper's size. Times are CPU seconds of this process (wall x core share), so a run beside
+// other work measures the same.
 void cost(double budget_s, bool tiny, int seeds) {
   const Setup a = Setup().variant("", [&](Setup& s) { s.seeds = seeds > 0 ? seeds : 2; });
   std::vector<Setup> v;
