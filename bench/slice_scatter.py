@@ -85,9 +85,8 @@ def jackknife(per_member):
     """The statistics of all members' residuals and their jackknife errors over members."""
     n = len(per_member)
     whole = statistics(np.concatenate(per_member))
-    left = np.array([statistics(np.concatenate(per_member[:k] + per_member[k + 1:]))
-                     for k in range(n)])
-    return whole, np.sqrt((n - 1) / n * ((left - left.mean(axis=0)) ** 2).sum(axis=0))
+    left = [statistics(np.concatenate(per_member[:k] + per_member[k + 1:])) for k in range(n)]
+    return whole, claims.jackknife(left)
 
 
 def normal_ensembles(groups, trials, rng):

@@ -79,9 +79,9 @@ double slow_cost(const SystemParams& p) {
 // 0.25: the collapse scenes' seconds per unit, 40 R x 60 R to the paper's 200 R x 800 R, lie a
 // fourth of the protocol-A scenes' (bench/results/cost-relative-2026-11-25.jsonl,
 // paper-size-C-2026-11-26.jsonl), at r_capt = 2. A denser deposit (a smaller capture radius)
-// holds more disks and contacts: 2 / r_capt, the least-squares power of one box's members, 2.2,
-// 1.05, 1 and 0.59 times r_capt = 2's cost at r_capt = 1, 1.5, 2 and 3 (48 R x 96 R;
-// bench/results/collapse-capture-cost-2026-12-03.jsonl).
+// holds more disks and contacts: (2 / r_capt)^1.05 fits one box's members by least squares (2.2,
+// 1.05, 1 and 0.59 times r_capt = 2's cost at r_capt = 1, 1.5, 2 and 3; 48 R x 96 R;
+// bench/results/collapse-capture-cost-2026-12-03.jsonl), rounded to 2 / r_capt.
 double collapse_cost(const SystemParams& p) {
   return 0.25 * p.width * p.height * p.height / p.time_step * (2.0 / p.capture_radius);
 }

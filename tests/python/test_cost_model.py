@@ -1,6 +1,6 @@
 """The cost model (`expected_cost`, src/protocols.cpp) against the recorded measurements it
 was fitted on, not against numbers copied into a test: each record of
-bench/results/cost-relative-2026-11-25.jsonl (`bench_study --study cost`, with its environment)
+bench/results/cost-relative-2026-12-03.jsonl (`bench_study --study cost`, with its environment)
 is one scene's CPU seconds per member; the program's own estimate for the same scene comes from
 `loosepack run --dry-run`. docs/PERFORMANCE.md ("What a member costs") says what the model
 claims: the seconds per unit of cost spread by a factor of 6.7 over these scenes, less than the
