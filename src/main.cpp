@@ -260,6 +260,7 @@ class RunCommand {
   std::vector<MemberResult> fresh;
   int finished_parts = 0;
   bool running_part_holds = false;  // whether the running part on disk holds any snapshot
+  bool running_saved = true;        // whether the running part on disk holds `running` as it is
   std::map<std::uint64_t, MemberSnapshot> running;
   std::vector<MemberResult> computed;
   RunInfo info;
@@ -511,13 +512,15 @@ void RunCommand::write_checkpoint() {
     fresh.clear();
   }
   // The running part, unless it would stay empty (each write is flushed to the disk; with
-  // --checkpoint-every 0 and no snapshots taken, every finished member would write one).
-  if (!running.empty() || running_part_holds) {
+  // --checkpoint-every 0 and no snapshots taken, every finished member would write one) or
+  // unchanged since it was written (a stop's snapshots, written when taken, not again at the end).
+  if (!running_saved && (!running.empty() || running_part_holds)) {
     std::vector<MemberSnapshot> snaps;
     for (const auto& [id, snap] : running) snaps.push_back(snap);
     write_checkpoint_part(part, fingerprint, {}, snaps);
     running_part_holds = !snaps.empty();
   }
+  running_saved = true;
   // A tall deposit's snapshot is megabytes; glibc keeps freed buffers in the heap, so a run
   // would grow by a few encodings' worth over its checkpoints (tests/soak_test.sh). Hand them
   // back.
@@ -592,7 +595,7 @@ RunHooks RunCommand::hooks() {
   };
   h.finished = [this](const MemberResult& r) {
     fresh.push_back(r);
-    running.erase(r.member.id);
+    if (running.erase(r.member.id) > 0) running_saved = false;
     if (seconds_since(last_checkpoint) >= o.checkpoint_every) {
       save_checkpoint();
       last_checkpoint = Clock::now();
@@ -605,6 +608,7 @@ RunHooks RunCommand::hooks() {
   };
   h.snapshots = [this](std::vector<MemberSnapshot> snaps) {
     for (auto& snap : snaps) running[snap.result.member.id] = std::move(snap);
+    running_saved = false;
     save_checkpoint();
     last_snapshots = last_checkpoint = Clock::now();
   };
