@@ -409,8 +409,7 @@ ViewerFile viewer_file(hid_t file, const MemberData& m, ExportFormat format,
 
 std::vector<std::string> export_viewer_files(const std::string& path, ExportFormat format,
                                              const ExportSelection& selection) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  const H5 file = open_to_read(path, "open " + path);
   // Reading the file, an error that is not a selection's (std::invalid_argument) is its damage.
   auto damaged = [&](const std::runtime_error& e) { return DamagedResultFile(path, e.what()); };
   std::vector<MemberData> members, every;

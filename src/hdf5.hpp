@@ -69,6 +69,12 @@ void replace_hdf5_file(const std::string& path, Fill fill, const std::string* im
   replace_file(path, [&](const std::string& tmp) { write_bytes(tmp, bytes); });
 }
 
+// The file `path`, to read, HDF5's own error printing off (the exception says what failed).
+inline H5 open_to_read(const std::string& path, const std::string& what) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  return H5(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, what);
+}
+
 inline H5 open_group(hid_t parent, const std::string& name) {
   return H5(H5Gopen2(parent, name.c_str(), H5P_DEFAULT), H5Gclose, "open group " + name);
 }

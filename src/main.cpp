@@ -988,18 +988,19 @@ struct FileCommands {
   ExportSelection export_selection;
 };
 
+// The result file a command reads, its one positional argument.
+void add_result_file(CLI::App& command, std::string& path) {
+  command.add_option("file", path, "result file (HDF5)")->required()->check(CLI::ExistingFile);
+}
+
 void add_file_commands(CLI::App& app, FileCommands& f) {
   f.summary = app.add_subcommand("summary", "Print a table per scan point of a result file");
-  f.summary->add_option("file", f.summary_path, "result file (HDF5)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_result_file(*f.summary, f.summary_path);
   f.analyse = app.add_subcommand(
       "analyse",
       "Recompute the fits of a result file from the aggregates it stores (a file of "
       "an older program gets the current analysis without a rerun)");
-  f.analyse->add_option("file", f.analyse_path, "result file (HDF5)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_result_file(*f.analyse, f.analyse_path);
   f.analyse
       ->add_option("-o,--output", f.analyse_out,
                    "write here instead of replacing FILE (atomically, either way); an "
@@ -1012,9 +1013,7 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
       "export",
       "Write viewer files next to a result file from its snapshots and trajectories: XDMF "
       "for ParaView (reading the result file in place) or extended XYZ for OVITO");
-  f.exporter->add_option("file", f.export_path, "result file (HDF5)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_result_file(*f.exporter, f.export_path);
   f.exporter->add_option("--format", f.export_format, "xdmf or extxyz")
       ->capture_default_str()
       ->check(CLI::IsMember({"xdmf", "extxyz"}));

@@ -832,28 +832,24 @@ void reanalyse(const std::string& in, const std::string& out) {
 }
 
 std::vector<double> read_dataset(const std::string& path, const std::string& name) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  const H5 file = open_to_read(path, "open " + path);
   return doubles(file, name);
 }
 
 double read_attribute_double(const std::string& path, const std::string& object,
                              const std::string& name) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  const H5 file = open_to_read(path, "open " + path);
   return double_attribute(file, object, name);
 }
 
 std::string read_scan_text(const std::string& path) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  const H5 file = open_to_read(path, "open " + path);
   return scan_text_of(file);
 }
 
 std::string read_attribute_string(const std::string& path, const std::string& object,
                                   const std::string& name) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+  const H5 file = open_to_read(path, "open " + path);
   return string_attribute(file, object, name);
 }
 
@@ -1090,9 +1086,7 @@ static void print_fits(hid_t file, const std::vector<std::string>& names, std::o
 namespace {
 
 void write_summary(const std::string& path, std::ostream& out) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-  H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
-          "open " + path + " (not an HDF5 file written by loosepack?)");
+  const H5 file = open_to_read(path, "open " + path + " (not an HDF5 file written by loosepack?)");
   std::vector<std::string> names;
   {
     H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
