@@ -3,6 +3,7 @@ standardised by each bin's spread within members, and on snapshots made by hand 
 about the profile is found normal where a two-sided exponential (Laplace: skewness 0, excess
 kurtosis 3) or a skewed scatter is not."""
 
+import json
 import os
 
 import h5py
@@ -90,3 +91,21 @@ def test_a_point_without_snapshots_is_refused(tmp_path):
             del f[f"points/0000/members/snapshot_{k}"]
     with h5py.File(path, "r") as f, pytest.raises(SystemExit, match="1 members with snapshots"):
         scatter.measure(f["points/0000"])
+
+
+def test_the_command_appends_one_record_per_run(tmp_path, capsys):
+    path, record = str(tmp_path / "point.h5"), tmp_path / "scatter.jsonl"
+    write_point(path, lambda rng, n: 2.5 * rng.standard_normal(n))
+    with h5py.File(path, "a") as f:
+        f.attrs["git_commit"] = "abc1234"
+    for label in ("first", "second"):
+        scatter.main([path, "--json", str(record), "--label", label])
+    assert f"{MEMBERS} members" in capsys.readouterr().out
+    lines = [json.loads(line) for line in record.read_text().splitlines()]
+    assert [r["label"] for r in lines] == ["first", "second"]
+    for r in lines:
+        assert (r["point"], r["height"], r["members"]) == ("0000", H, MEMBERS)
+        assert r["run"] == {"git_commit": "abc1234"} and "date" in r["env"]
+        assert set(scatter.STATISTICS) <= set(r)
+    with pytest.raises(SystemExit, match="no point 0001"):
+        scatter.main([path, "--point", "0001"])
