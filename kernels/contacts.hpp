@@ -187,33 +187,37 @@ struct IncidentSort {
   }
 };
 
-// Local Delassus entries of every contact. With mass splitting (Jacobi) each body's inverse
-// mass and inertia are multiplied by its number of contacts, which makes Jacobi convergent.
-// Reads: con.partner; part.{n_incident, inv_mass, inv_inertia, radius}.
+// Local Delassus entries of every contact, particle by particle over its own slots (filled from
+// the first: ContactBuild). With mass splitting (Jacobi) each body's inverse mass and inertia are
+// multiplied by its number of contacts, which makes Jacobi convergent.
+// Reads: con.partner; part.{cell, n_incident, inv_mass, inv_inertia, radius}.
 // Writes: con.{wn, wa, wb, wc}.
 struct ContactMobilityBuild {
   ParticleViews part;
   ContactViews con;
   bool mass_splitting;
 
-  KOKKOS_INLINE_FUNCTION void operator()(int c) const {
-    const int j = con.partner(c);
-    if (j == kNoContact) return;
-    const int i = c / kSlots;
+  KOKKOS_INLINE_FUNCTION void operator()(int i) const {
+    if (part.cell(i) < 0) return;  // not stepped now: its contacts are as they were
     const double si = mass_splitting ? double(kmath::imax(part.n_incident(i), 1)) : 1.0;
-    double inv_mj = 0.0, inv_Ij = 0.0, Rj = 0.0;
-    if (j >= 0) {
-      const double sj = mass_splitting ? double(kmath::imax(part.n_incident(j), 1)) : 1.0;
-      inv_mj = sj * part.inv_mass(j);
-      inv_Ij = sj * part.inv_inertia(j);
-      Rj = part.radius(j);
+    for (int k = 0; k < kSlots; ++k) {
+      const int c = i * kSlots + k;
+      const int j = con.partner(c);
+      if (j == kNoContact) break;
+      double inv_mj = 0.0, inv_Ij = 0.0, Rj = 0.0;
+      if (j >= 0) {
+        const double sj = mass_splitting ? double(kmath::imax(part.n_incident(j), 1)) : 1.0;
+        inv_mj = sj * part.inv_mass(j);
+        inv_Ij = sj * part.inv_inertia(j);
+        Rj = part.radius(j);
+      }
+      const ContactMobility w = contact_mobility(si * part.inv_mass(i), si * part.inv_inertia(i),
+                                                 part.radius(i), inv_mj, inv_Ij, Rj);
+      con.wn(c) = w.wn;
+      con.wa(c) = w.a;
+      con.wb(c) = w.b;
+      con.wc(c) = w.c;
     }
-    const ContactMobility w = contact_mobility(si * part.inv_mass(i), si * part.inv_inertia(i),
-                                               part.radius(i), inv_mj, inv_Ij, Rj);
-    con.wn(c) = w.wn;
-    con.wa(c) = w.a;
-    con.wb(c) = w.b;
-    con.wc(c) = w.c;
   }
 };
 

@@ -500,7 +500,7 @@ void Batch::Impl::contact_stage() {
                          IncidentScatter{sys, part, con});
     Kokkos::parallel_for("incident_sort", Kokkos::RangePolicy<ExecSpace>(p0, p1),
                          IncidentSort{part});
-    Kokkos::parallel_for("mobility", Kokkos::RangePolicy<ExecSpace>(p0 * kSlots, p1 * kSlots),
+    Kokkos::parallel_for("mobility", Kokkos::RangePolicy<ExecSpace>(p0, p1),
                          ContactMobilityBuild{part, con, split_mass});
     Kokkos::parallel_for("warm_start", Kokkos::RangePolicy<ExecSpace>(p0, p1),
                          BodyVelocity{sys, part, con, false});
