@@ -16,10 +16,14 @@ KOKKOS_INLINE_FUNCTION int grid_row(double y, double cell, int ny) {
   return cy < 0 ? 0 : (cy >= ny ? ny - 1 : cy);
 }
 
-// Columns to visit around column cx: all of them when nx < 3 (so none is visited twice).
+// Columns to visit around column cx: all of them when nx < 3 (so none is visited twice). The
+// k-th wraps around the periodic x by a compare, not a division: first + k lies in [-1, nx].
 struct ColumnRange {
   int first, n, nx;
-  KOKKOS_INLINE_FUNCTION int operator[](int k) const { return (first + k + nx) % nx; }
+  KOKKOS_INLINE_FUNCTION int operator[](int k) const {
+    const int c = first + k;
+    return c < 0 ? c + nx : (c >= nx ? c - nx : c);
+  }
 };
 KOKKOS_INLINE_FUNCTION ColumnRange grid_columns(int cx, int nx) {
   return nx < 3 ? ColumnRange{0, nx, nx} : ColumnRange{cx - 1, 3, nx};
