@@ -3,6 +3,7 @@
 // concatenated, system s owns [offset(s), offset(s) + capacity(s))), [P*kSlots] per contact slot
 // (particle p owns slots p*kSlots ... p*kSlots + kSlots - 1), [C] per grid cell of all systems.
 // The kernels take these bundles whole; each says above it which fields it reads and writes.
+// Their views are KViews (kernels/compat.hpp): the Batch that allocates them owns their memory.
 #pragma once
 #include <cstdint>
 
@@ -37,7 +38,7 @@ enum SystemFailure : int {
 // Sorts v[first, end) in increasing order (insertion sort: the ranges are a grid cell's
 // particles or a disk's incident contacts, a handful each). After the atomic fills of a
 // parallel backend this makes every list, and every loop over it, the same on every backend.
-KOKKOS_INLINE_FUNCTION void sort_range(const DView<int>& v, int first, int end) {
+KOKKOS_INLINE_FUNCTION void sort_range(const KView<int>& v, int first, int end) {
   for (int a = first + 1; a < end; ++a) {
     const int x = v(a);
     int b = a - 1;
@@ -58,36 +59,36 @@ KOKKOS_INLINE_FUNCTION double periodic_delta(double d, double width) {
 
 struct SystemViews {
   // [S] layout
-  DView<int> offset, capacity, count;
+  KView<int> offset, capacity, count;
   // [S] parameters (see SystemParams)
-  DView<double> width, height, radius, polydispersity, disk_density, capture_radius, gravity_x,
+  KView<double> width, height, radius, polydispersity, disk_density, capture_radius, gravity_x,
       gravity_y, cohesive_force, cohesion_range, friction, rolling_friction, time_step,
       weight,     // weight: m g of a mean disk, the force unit of tolerances
       tolerance,  // solver tolerance [h m g]: a sweep whose largest impulse change is below it ends
       step_tolerance;     // this step's: max(tolerance, kappa v_max / (g h)) (SolverSettings)
-  DView<int> max_sweeps;  // solver sweep cap per step
-  DView<int> floor_cohesion;
+  KView<int> max_sweeps;  // solver sweep cap per step
+  KView<int> floor_cohesion;
   // [S] counter-based random stream: key (seed, member) and the next draw index
-  DView<std::uint64_t> seed, member, draws;
+  KView<std::uint64_t> seed, member, draws;
   // [S] grid: cell edge, cells in x and y, first cell index
-  DView<double> cell_size;
-  DView<int> grid_nx, grid_ny, cell_offset;
+  KView<double> cell_size;
+  KView<int> grid_nx, grid_ny, cell_offset;
   // [S] status
-  DView<int> active;               // 1: stepped by step()
-  DView<int> unconverged;          // kIterating, kStoppedAtCap, or 0: converged (or not stepped)
-  DView<int> failure;              // SystemFailure
-  DView<double> sweep_change;      // max impulse change of the last sweep (impulse units)
-  DView<double> max_speed;         // max(|v|, R|w|) after the last step (or Batch::set_disks)
-  DView<double> max_centre_speed;  // max |v| after the last step (RestSettings::spin false)
-  DView<double> margin;            // contact detection margin of the current step
-  DView<double> max_margin;        // its bound, which the grid cell leaves room for
-  DView<double> gradient2;  // accelerated Gauss-Seidel: squared norm of the last iteration's change
+  KView<int> active;               // 1: stepped by step()
+  KView<int> unconverged;          // kIterating, kStoppedAtCap, or 0: converged (or not stepped)
+  KView<int> failure;              // SystemFailure
+  KView<double> sweep_change;      // max impulse change of the last sweep (impulse units)
+  KView<double> max_speed;         // max(|v|, R|w|) after the last step (or Batch::set_disks)
+  KView<double> max_centre_speed;  // max |v| after the last step (RestSettings::spin false)
+  KView<double> margin;            // contact detection margin of the current step
+  KView<double> max_margin;        // its bound, which the grid cell leaves room for
+  KView<double> gradient2;  // accelerated Gauss-Seidel: squared norm of the last iteration's change
   // 1 while the system is inside a step whose solve goes on in the next launch (the team
   // solver's SolverSettings::sweeps_per_launch): every stage but the solve leaves it alone.
-  DView<int> solving;
-  DView<int> colours;  // the team solver: the colour count of the system's current step
+  KView<int> solving;
+  KView<int> colours;  // the team solver: the colour count of the system's current step
   // The team solver: the disk count when the system's colouring was made, plus one (0: none).
-  DView<int> coloured_count;
+  KView<int> coloured_count;
 };
 
 // The contact slots of system s: [first, end).
@@ -100,36 +101,36 @@ KOKKOS_INLINE_FUNCTION SlotRange system_slots(const SystemViews& sys, int s) {
 
 struct ParticleViews {
   // [P]
-  DView<int> system;  // owning system
-  DView<double> x, y, theta, vx, vy, w;
-  DView<double> vfx, vfy, wf;  // free velocities of the current step
-  DView<double> radius, inv_mass, inv_inertia;
-  DView<double> y_deposit;  // y_i, the height at which the disk was deposited
-  DView<double> y_mark;     // height at the start of the current avalanche event
-  DView<int> cell;          // grid cell (global index)
-  DView<int> n_incident;    // [P] number of incident contacts
-  DView<int> incident;      // [P*kIncident] contact slot ids
+  KView<int> system;  // owning system
+  KView<double> x, y, theta, vx, vy, w;
+  KView<double> vfx, vfy, wf;  // free velocities of the current step
+  KView<double> radius, inv_mass, inv_inertia;
+  KView<double> y_deposit;  // y_i, the height at which the disk was deposited
+  KView<double> y_mark;     // height at the start of the current avalanche event
+  KView<int> cell;          // grid cell (global index)
+  KView<int> n_incident;    // [P] number of incident contacts
+  KView<int> incident;      // [P*kIncident] contact slot ids
 };
 
 struct ContactViews {
   // [P*kSlots]
-  DView<int> partner;  // kNoContact, kFloor, or the partner's particle index
-  DView<double> nx, ny, gap, rc;
-  DView<double> wn, wa, wb, wc;  // local Delassus entries (with mass splitting for Jacobi)
-  DView<double> lower;           // -h F_c for a cohesive contact, else 0
-  DView<double> pn, pt, pm;      // impulses: normal, tangential, rolling moment
-  DView<int> colour;             // Gauss-Seidel colour, -1 when uncoloured
-  DView<int> coloured_partner;   // the team solver: the partner when the system was coloured
+  KView<int> partner;  // kNoContact, kFloor, or the partner's particle index
+  KView<double> nx, ny, gap, rc;
+  KView<double> wn, wa, wb, wc;  // local Delassus entries (with mass splitting for Jacobi)
+  KView<double> lower;           // -h F_c for a cohesive contact, else 0
+  KView<double> pn, pt, pm;      // impulses: normal, tangential, rolling moment
+  KView<int> colour;             // Gauss-Seidel colour, -1 when uncoloured
+  KView<int> coloured_partner;   // the team solver: the partner when the system was coloured
   // [P*kSlots] accelerated Gauss-Seidel (NNCG): the impulses at the start of the iteration and
   // the conjugate direction
-  DView<double> start_pn, start_pt, start_pm;
-  DView<double> dir_pn, dir_pt, dir_pm;
+  KView<double> start_pn, start_pt, start_pm;
+  KView<double> dir_pn, dir_pt, dir_pm;
 };
 
 struct GridViews {
-  DView<int> cell_start;      // [C+1]
-  DView<int> cell_fill;       // [C]
-  DView<int> cell_particles;  // [P]
+  KView<int> cell_start;      // [C+1]
+  KView<int> cell_fill;       // [C]
+  KView<int> cell_particles;  // [P]
 };
 
 }  // namespace loosepack

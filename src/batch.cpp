@@ -176,9 +176,9 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
 namespace {
 template <class T>
 using HostCopy =
-    decltype(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), std::declval<DView<T>>()));
+    decltype(Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), std::declval<KView<T>>()));
 template <class T>
-HostCopy<T> host_copy(const DView<T>& v) {
+HostCopy<T> host_copy(const KView<T>& v) {
   return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
 }
 

@@ -2,9 +2,11 @@
 // and its device state (src/batch_state.cpp).
 #pragma once
 #include <algorithm>
+#include <any>
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -36,13 +38,13 @@ DView<T> alloc(const char* name, std::size_t n) {
 }
 
 // v(k) = f(k) for k < n, filled through the host mirror h (v itself on a host backend).
-template <class T, class F>
-void fill_from(const DView<T>& v, const typename DView<T>::HostMirror& h, std::size_t n, F f) {
+template <class V, class H, class F>
+void fill_from(const V& v, const H& h, std::size_t n, F f) {
   for (std::size_t k = 0; k < n; ++k) h(k) = f(k);
   Kokkos::deep_copy(v, h);
 }
-template <class T, class F>
-void fill_from(const DView<T>& v, std::size_t n, F f) {
+template <class V, class F>
+void fill_from(const V& v, std::size_t n, F f) {
   fill_from(v, Kokkos::create_mirror_view(v), n, f);
 }
 }  // namespace batch_detail
@@ -55,10 +57,19 @@ struct Batch::Impl {
   SolverSettings solver;
   RestSettings rest;
   int n_systems = 0, n_particles = 0, n_cells = 0;
+  // The kernels' bundles of views (kernels/state.hpp), whose views count no references: their
+  // memory is in `bundle_memory`, allocated by own().
   SystemViews sys;
   ParticleViews part;
   ContactViews con;
   GridViews grid;
+  std::map<const void*, std::any> bundle_memory;  // a bundle field's address -> its allocation
+  template <class T>
+  void own(KView<T>& field, const char* name, std::size_t n) {
+    DView<T> memory = alloc<T>(name, n);
+    field = memory;
+    bundle_memory[&field] = std::move(memory);  // a field allocated again frees its last memory
+  }
   DView<int> colour_list, colour_start, colour_fill;
   // ColouredAcceleratedGaussSeidel's packed copy of each system's contacts and their owners.
   ContactViews packed;

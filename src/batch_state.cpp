@@ -29,9 +29,9 @@ void Batch::Impl::allocate(const std::vector<SystemSetup>& setups) {
   allocate_systems(cell_offset);
   allocate_particles();
   allocate_contacts();
-  grid.cell_start = alloc<int>("cell_start", static_cast<std::size_t>(n_cells) + 1);
-  grid.cell_fill = alloc<int>("cell_fill", static_cast<std::size_t>(n_cells));
-  grid.cell_particles = alloc<int>("cell_particles", static_cast<std::size_t>(n_particles));
+  own(grid.cell_start, "cell_start", static_cast<std::size_t>(n_cells) + 1);
+  own(grid.cell_fill, "cell_fill", static_cast<std::size_t>(n_cells));
+  own(grid.cell_particles, "cell_particles", static_cast<std::size_t>(n_particles));
   const auto S = static_cast<std::size_t>(n_systems);
   params.resize(S);
   status.assign(S, SystemStatus{});
@@ -76,46 +76,46 @@ std::vector<int> Batch::Impl::lay_out(const std::vector<SystemSetup>& setups) {
 // The per-system views, and the host's counters and mirrors of them.
 void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   const auto S = static_cast<std::size_t>(n_systems);
-  sys.offset = alloc<int>("offset", S);
-  sys.capacity = alloc<int>("capacity", S);
-  sys.count = alloc<int>("count", S);
-  sys.width = alloc<double>("width", S);
-  sys.height = alloc<double>("height", S);
-  sys.radius = alloc<double>("radius", S);
-  sys.polydispersity = alloc<double>("polydispersity", S);
-  sys.disk_density = alloc<double>("disk_density", S);
-  sys.capture_radius = alloc<double>("capture_radius", S);
-  sys.gravity_x = alloc<double>("gravity_x", S);
-  sys.gravity_y = alloc<double>("gravity_y", S);
-  sys.cohesive_force = alloc<double>("cohesive_force", S);
-  sys.cohesion_range = alloc<double>("cohesion_range", S);
-  sys.friction = alloc<double>("friction", S);
-  sys.rolling_friction = alloc<double>("rolling_friction", S);
-  sys.time_step = alloc<double>("time_step", S);
-  sys.weight = alloc<double>("weight", S);
-  sys.tolerance = alloc<double>("tolerance", S);
-  sys.step_tolerance = alloc<double>("step_tolerance", S);
-  sys.max_sweeps = alloc<int>("max_sweeps", S);
-  sys.floor_cohesion = alloc<int>("floor_cohesion", S);
-  sys.seed = alloc<std::uint64_t>("seed", S);
-  sys.member = alloc<std::uint64_t>("member", S);
-  sys.draws = alloc<std::uint64_t>("draws", S);
-  sys.cell_size = alloc<double>("cell_size", S);
-  sys.grid_nx = alloc<int>("grid_nx", S);
-  sys.grid_ny = alloc<int>("grid_ny", S);
-  sys.cell_offset = alloc<int>("cell_offset", S);
-  sys.active = alloc<int>("active", S);
-  sys.unconverged = alloc<int>("unconverged", S);
-  sys.failure = alloc<int>("failure", S);
-  sys.sweep_change = alloc<double>("sweep_change", S);
-  sys.max_speed = alloc<double>("max_speed", S);
-  sys.max_centre_speed = alloc<double>("max_centre_speed", S);
-  sys.margin = alloc<double>("margin", S);
-  sys.max_margin = alloc<double>("max_margin", S);
-  sys.gradient2 = alloc<double>("gradient2", S);
-  sys.solving = alloc<int>("solving", S);
-  sys.colours = alloc<int>("colours", S);
-  sys.coloured_count = alloc<int>("coloured_count", S);
+  own(sys.offset, "offset", S);
+  own(sys.capacity, "capacity", S);
+  own(sys.count, "count", S);
+  own(sys.width, "width", S);
+  own(sys.height, "height", S);
+  own(sys.radius, "radius", S);
+  own(sys.polydispersity, "polydispersity", S);
+  own(sys.disk_density, "disk_density", S);
+  own(sys.capture_radius, "capture_radius", S);
+  own(sys.gravity_x, "gravity_x", S);
+  own(sys.gravity_y, "gravity_y", S);
+  own(sys.cohesive_force, "cohesive_force", S);
+  own(sys.cohesion_range, "cohesion_range", S);
+  own(sys.friction, "friction", S);
+  own(sys.rolling_friction, "rolling_friction", S);
+  own(sys.time_step, "time_step", S);
+  own(sys.weight, "weight", S);
+  own(sys.tolerance, "tolerance", S);
+  own(sys.step_tolerance, "step_tolerance", S);
+  own(sys.max_sweeps, "max_sweeps", S);
+  own(sys.floor_cohesion, "floor_cohesion", S);
+  own(sys.seed, "seed", S);
+  own(sys.member, "member", S);
+  own(sys.draws, "draws", S);
+  own(sys.cell_size, "cell_size", S);
+  own(sys.grid_nx, "grid_nx", S);
+  own(sys.grid_ny, "grid_ny", S);
+  own(sys.cell_offset, "cell_offset", S);
+  own(sys.active, "active", S);
+  own(sys.unconverged, "unconverged", S);
+  own(sys.failure, "failure", S);
+  own(sys.sweep_change, "sweep_change", S);
+  own(sys.max_speed, "max_speed", S);
+  own(sys.max_centre_speed, "max_centre_speed", S);
+  own(sys.margin, "margin", S);
+  own(sys.max_margin, "max_margin", S);
+  own(sys.gradient2, "gradient2", S);
+  own(sys.solving, "solving", S);
+  own(sys.colours, "colours", S);
+  own(sys.coloured_count, "coloured_count", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
@@ -146,24 +146,24 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
 void Batch::Impl::allocate_particles() {
   const auto S = static_cast<std::size_t>(n_systems);
   const auto P = static_cast<std::size_t>(n_particles);
-  part.system = alloc<int>("system", P);
-  part.x = alloc<double>("x", P);
-  part.y = alloc<double>("y", P);
-  part.theta = alloc<double>("theta", P);
-  part.vx = alloc<double>("vx", P);
-  part.vy = alloc<double>("vy", P);
-  part.w = alloc<double>("w", P);
-  part.vfx = alloc<double>("vfx", P);
-  part.vfy = alloc<double>("vfy", P);
-  part.wf = alloc<double>("wf", P);
-  part.radius = alloc<double>("radius", P);
-  part.inv_mass = alloc<double>("inv_mass", P);
-  part.inv_inertia = alloc<double>("inv_inertia", P);
-  part.y_deposit = alloc<double>("y_deposit", P);
-  part.y_mark = alloc<double>("y_mark", P);
-  part.cell = alloc<int>("cell", P);
-  part.n_incident = alloc<int>("n_incident", P);
-  part.incident = alloc<int>("incident", P * kIncident);
+  own(part.system, "system", P);
+  own(part.x, "x", P);
+  own(part.y, "y", P);
+  own(part.theta, "theta", P);
+  own(part.vx, "vx", P);
+  own(part.vy, "vy", P);
+  own(part.w, "w", P);
+  own(part.vfx, "vfx", P);
+  own(part.vfy, "vfy", P);
+  own(part.wf, "wf", P);
+  own(part.radius, "radius", P);
+  own(part.inv_mass, "inv_mass", P);
+  own(part.inv_inertia, "inv_inertia", P);
+  own(part.y_deposit, "y_deposit", P);
+  own(part.y_mark, "y_mark", P);
+  own(part.cell, "cell", P);
+  own(part.n_incident, "n_incident", P);
+  own(part.incident, "incident", P * kIncident);
   {
     auto h = Kokkos::create_mirror_view(part.system);
     for (std::size_t s = 0; s < S; ++s)
@@ -177,41 +177,41 @@ void Batch::Impl::allocate_particles() {
 // The per-contact views: kSlots contact slots per disk slot, and what the solver kind needs.
 void Batch::Impl::allocate_contacts() {
   const auto NC = static_cast<std::size_t>(n_particles) * kSlots;
-  con.partner = alloc<int>("partner", NC);
+  own(con.partner, "partner", NC);
   Kokkos::deep_copy(con.partner, kNoContact);
-  con.nx = alloc<double>("cnx", NC);
-  con.ny = alloc<double>("cny", NC);
-  con.gap = alloc<double>("gap", NC);
-  con.rc = alloc<double>("rc", NC);
-  con.wn = alloc<double>("wn", NC);
-  con.wa = alloc<double>("wa", NC);
-  con.wb = alloc<double>("wb", NC);
-  con.wc = alloc<double>("wc", NC);
-  con.lower = alloc<double>("lower", NC);
-  con.pn = alloc<double>("pn", NC);
-  con.pt = alloc<double>("pt", NC);
-  con.pm = alloc<double>("pm", NC);
-  con.colour = alloc<int>("colour", NC);
+  own(con.nx, "cnx", NC);
+  own(con.ny, "cny", NC);
+  own(con.gap, "gap", NC);
+  own(con.rc, "rc", NC);
+  own(con.wn, "wn", NC);
+  own(con.wa, "wa", NC);
+  own(con.wb, "wb", NC);
+  own(con.wc, "wc", NC);
+  own(con.lower, "lower", NC);
+  own(con.pn, "pn", NC);
+  own(con.pt, "pt", NC);
+  own(con.pm, "pm", NC);
+  own(con.colour, "colour", NC);
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
-    con.start_pn = alloc<double>("start_pn", NC);
-    con.start_pt = alloc<double>("start_pt", NC);
-    con.start_pm = alloc<double>("start_pm", NC);
-    con.dir_pn = alloc<double>("dir_pn", NC);
-    con.dir_pt = alloc<double>("dir_pt", NC);
-    con.dir_pm = alloc<double>("dir_pm", NC);
+    own(con.start_pn, "start_pn", NC);
+    own(con.start_pt, "start_pt", NC);
+    own(con.start_pm, "start_pm", NC);
+    own(con.dir_pn, "dir_pn", NC);
+    own(con.dir_pt, "dir_pt", NC);
+    own(con.dir_pm, "dir_pm", NC);
   }
   colour_list = alloc<int>("colour_list", NC);
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {
     system_colour_start =
         alloc<int>("system_colour_start", NC + static_cast<std::size_t>(n_systems));
-    con.coloured_partner = alloc<int>("coloured_partner", NC);
+    own(con.coloured_partner, "coloured_partner", NC);
     packed_owner = alloc<int>("packed_owner", NC);
-    packed.partner = alloc<int>("packed_partner", NC);
-    for (DView<double>* v :
+    own(packed.partner, "packed_partner", NC);
+    for (KView<double>* v :
          {&packed.gap, &packed.nx, &packed.ny, &packed.rc, &packed.wn, &packed.wa, &packed.wb,
           &packed.wc, &packed.lower, &packed.pn, &packed.pt, &packed.pm, &packed.start_pn,
           &packed.start_pt, &packed.start_pm, &packed.dir_pn, &packed.dir_pt, &packed.dir_pm})
-      *v = alloc<double>("packed", NC);
+      own(*v, "packed", NC);
   }
   colour_start = alloc<int>("colour_start", 2);
   colour_fill = alloc<int>("colour_fill", 1);

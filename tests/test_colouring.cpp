@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <any>
 #include <string>
 #include <utility>
 #include <vector>
@@ -29,7 +30,13 @@ struct Graph {
   SystemViews sys;
   ParticleViews part;
   ContactViews con;
-  std::vector<int> slot;  // of each of kContacts
+  std::vector<int> slot;         // of each of kContacts
+  std::vector<std::any> memory;  // of the bundles' views, which count no references (KView)
+  template <class T>
+  void keep(KView<T>& field, const DView<T>& view) {
+    field = view;
+    memory.push_back(view);
+  }
 };
 
 template <class T>
@@ -41,10 +48,10 @@ DView<T> from_host(const char* name, const std::vector<T>& v) {
   return d;
 }
 
-template <class T>
-std::vector<T> to_host(const DView<T>& d) {
+template <class View>
+std::vector<typename View::non_const_value_type> to_host(const View& d) {
   auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d);
-  return std::vector<T>(h.data(), h.data() + h.extent(0));
+  return {h.data(), h.data() + h.extent(0)};
 }
 
 Graph graph(const std::vector<std::pair<int, int>>& contacts = kContacts) {
@@ -58,13 +65,13 @@ Graph graph(const std::vector<std::pair<int, int>>& contacts = kContacts) {
     if (j >= 0) incident[j * kIncident + n_incident[j]++] = c;
   }
   Graph g;
-  g.sys.offset = from_host<int>("offset", {0, 5});
-  g.sys.count = from_host<int>("count", {5, 3});
-  g.part.system = from_host<int>("system", {0, 0, 0, 0, 0, 1, 1, 1});
-  g.part.n_incident = from_host("n_incident", n_incident);
-  g.part.incident = from_host("incident", incident);
-  g.con.partner = from_host("partner", partner);
-  g.con.colour = DView<int>("colour", kDisks * kSlots);
+  g.keep(g.sys.offset, from_host<int>("offset", {0, 5}));
+  g.keep(g.sys.count, from_host<int>("count", {5, 3}));
+  g.keep(g.part.system, from_host<int>("system", {0, 0, 0, 0, 0, 1, 1, 1}));
+  g.keep(g.part.n_incident, from_host("n_incident", n_incident));
+  g.keep(g.part.incident, from_host("incident", incident));
+  g.keep(g.con.partner, from_host("partner", partner));
+  g.keep(g.con.colour, DView<int>("colour", kDisks * kSlots));
   g.slot = slots;
   return g;
 }
@@ -162,9 +169,9 @@ TEST(TeamColouring, ContactsSharingADiskDifferAndMatchTheBatchRounds) {
 TEST(TeamColouring, ASystemKeepsItsColouringWhileItsContactPairsStay) {
   Graph g = graph();
   const std::size_t n_slots = kDisks * kSlots;
-  g.sys.colours = DView<int>("colours", kSystems);
-  g.sys.coloured_count = DView<int>("coloured_count", kSystems);
-  g.con.coloured_partner = DView<int>("coloured_partner", n_slots);
+  g.keep(g.sys.colours, DView<int>("colours", kSystems));
+  g.keep(g.sys.coloured_count, DView<int>("coloured_count", kSystems));
+  g.keep(g.con.coloured_partner, DView<int>("coloured_partner", n_slots));
   const Solver solver{g.sys,
                       g.part,
                       g.con,
