@@ -38,8 +38,9 @@ template <class T>
 using DView = Kokkos::View<T*, MemSpace>;
 // The views of the kernels' bundles (kernels/state.hpp): unmanaged, so that a kernel's copy of a
 // bundle counts no references. On a host backend each counted copy of a view is an atomic
-// increment and decrement, and a step copies the bundles, some 80 views, into 16 kernels: 6-9 %
-// of the default job's time (docs/PERFORMANCE.md). Their owner keeps the memory (Batch::Impl::own).
+// increment and decrement, and a step copies the bundles, some 80 views, into 16 kernels: about
+// 7 % of the default job's time (docs/PERFORMANCE.md). Their owner keeps their memory
+// (Batch::Impl::own).
 template <class T>
 using KView = Kokkos::View<T*, MemSpace, Kokkos::MemoryTraits<Kokkos::Unmanaged>>;
 }  // namespace loosepack
