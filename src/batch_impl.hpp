@@ -6,7 +6,6 @@
 #include <array>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -63,12 +62,12 @@ struct Batch::Impl {
   ParticleViews part;
   ContactViews con;
   GridViews grid;
-  std::map<const void*, std::any> bundle_memory;  // a bundle field's address -> its allocation
+  std::vector<std::any> bundle_memory;  // each field's allocation, made once with the batch
   template <class T>
   void own(KView<T>& field, const char* name, std::size_t n) {
     DView<T> memory = alloc<T>(name, n);
     field = memory;
-    bundle_memory[&field] = std::move(memory);  // a field allocated again frees its last memory
+    bundle_memory.emplace_back(std::move(memory));
   }
   DView<int> colour_list, colour_start, colour_fill;
   // ColouredAcceleratedGaussSeidel's packed copy of each system's contacts and their owners.

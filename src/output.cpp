@@ -790,12 +790,10 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
 }  // namespace
 
 void reanalyse(const std::string& in, const std::string& out) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   Scan scan;
   std::vector<PointResult> points;
   try {
-    H5 file(H5Fopen(in.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
-            "open it (not an HDF5 file written by loosepack?)");
+    const H5 file = open_to_read(in, "open it (not an HDF5 file written by loosepack?)");
     scan = parse_scan(scan_text_of(file), in + " (scan_text)");
     for (const auto& p : scan.points) {
       // A file of some members (one member, a shard, the finished ones) has their points only.
@@ -873,12 +871,10 @@ std::string result_file_problem(const std::string& path) {
 }
 
 ShardFile read_shard_file(const std::string& path) {
-  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   ShardFile out;
   out.path = path;
   try {
-    H5 file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose,
-            "open it (not an HDF5 file written by loosepack?)");
+    const H5 file = open_to_read(path, "open it (not an HDF5 file written by loosepack?)");
     if (H5Aexists(file, "shards") <= 0 || H5Lexists(file, "shard_members", H5P_DEFAULT) <= 0)
       throw std::runtime_error(
           "not a shard's file (a shard is written by loosepack run SCAN --shard K/N)");

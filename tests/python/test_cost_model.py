@@ -3,10 +3,10 @@ was fitted on, not against numbers copied into a test: each record of
 bench/results/cost-relative-2026-12-03.jsonl (`bench_study --study cost`, with its environment)
 is one scene's CPU seconds per member; the program's own estimate for the same scene comes from
 `loosepack run --dry-run`. docs/PERFORMANCE.md ("What a member costs") says what the model
-claims: the seconds per unit of cost spread by a factor of 6.7 over these scenes, less than the
-same model with the height exponent of Bo = 1e2 for every Bond number (17) and than that one
-without the Bond number's relaxation time either (830), and it orders the scenes as their
-measured costs do."""
+claims: the seconds per unit of cost spread over these scenes by the factor it states, less than
+the same model with the height exponent of Bo = 1e2 for every Bond number and than that one
+without the Bond number's relaxation time either, and it orders the scenes as their measured
+costs do."""
 
 import json
 import os
