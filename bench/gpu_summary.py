@@ -95,16 +95,15 @@ def stage_table(runs):
     with_stages = [r for r in runs if r.get("where") == "device" and r.get("stages") and r.get("steps")]
     if not with_stages:
         return []
-    # "scheduler" (what the run's loop does between the steps) is no stage of the step: it
-    # follows "the step".
+    # "scheduler" (what the run's loop does between the steps) and "snapshots" (the running
+    # members' snapshots taken in it) are no stages of the step: they follow "the step".
+    between = ["scheduler", "snapshots"]
     names = []
     for r in with_stages:
         for name in r["stages"]:
-            if name not in names and name != "scheduler":
+            if name not in names and name not in between:
                 names.append(name)
-    tail = ["the step"]
-    if any("scheduler" in r["stages"] for r in with_stages):
-        tail.append("scheduler")
+    tail = ["the step"] + [b for b in between if any(b in r["stages"] for r in with_stages)]
     head = ["{} {}".format(r["scene"], r.get("variant", "")) for r in with_stages]
     lines = ["| stage, ms per step | " + " | ".join(head) + " |", "|---|" + "---|" * len(head)]
     for name in names + tail:
@@ -112,7 +111,7 @@ def stage_table(runs):
         for r in with_stages:
             if name == "the step":
                 seconds = sum(v[0] if isinstance(v, list) else v
-                              for k, v in r["stages"].items() if k != "scheduler")
+                              for k, v in r["stages"].items() if k not in between)
             elif name in r["stages"]:
                 v = r["stages"][name]
                 seconds = v[0] if isinstance(v, list) else v

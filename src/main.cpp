@@ -643,7 +643,7 @@ void RunCommand::print_cost_per_disk(const StageCost& solve) const {
   const std::string prefix = solve.name.substr(0, solve.name.size() - std::string("solve").size());
   const auto of_batch = [&](const std::string& name) {
     if (!prefix.empty()) return name.rfind(prefix, 0) == 0;
-    return name.rfind("region ", 0) != 0 && name != "scheduler";
+    return name.rfind("region ", 0) != 0 && name != "scheduler" && name != "snapshots";
   };
   double all = 0.0, solving = 0.0;
   for (const auto& st : stages) {
@@ -681,7 +681,8 @@ void RunCommand::print_timing() const {
                  st.launches * per_step, st.copies * per_step);
   }
   // The batch's steps, then the regions' (their stages are named "region ..."), then the
-  // scheduler's loop between the batch's steps, so that a stage's seconds per step can be told.
+  // scheduler's loop between the batch's steps and the snapshots taken in it, so that a stage's
+  // seconds per step can be told.
   const auto steps_of = [](const StageCost& st) {
     if (st.name.rfind("region ", 0) == 0) return " steps of the regions";
     return st.name == "scheduler" ? " passes of the scheduler's loop" : " steps of the batch";

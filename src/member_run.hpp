@@ -112,6 +112,8 @@ class MemberRun {
   bool reported_ = false;  // progress_.start_fraction is set
   double total_cost_ = 0.0, done_cost_ = 0.0;
   bool snapshots_wanted_ = false;
+  bool stop_round_ = false;  // the round of snapshots under way is the stop's
+  StageCost snapshot_cost_;  // with timing: what the snapshots cost (collect_stage_costs)
   std::vector<MemberSnapshot> taken_;
   Clock::time_point stopped_at_{};
   double wake_ = 0.0;  // kWakeFactor rest speeds

@@ -23,6 +23,31 @@ constexpr double kStopGrace = 10.0;
 constexpr bool kOnDevice =
     !Kokkos::SpaceAccessibility<Kokkos::HostSpace,
                                 Kokkos::DefaultExecutionSpace::memory_space>::accessible;
+// With timing: adds its scope's wall time (fenced), launches and copies to a StageCost.
+class CostLap {
+ public:
+  explicit CostLap(StageCost* cost) : cost_(cost) {
+    if (!cost_) return;
+    Kokkos::fence();
+    timer_.reset();
+    at_ = launch_counts();
+  }
+  CostLap(const CostLap&) = delete;
+  CostLap& operator=(const CostLap&) = delete;
+  ~CostLap() {
+    if (!cost_) return;
+    Kokkos::fence();
+    const LaunchCounts now = launch_counts();
+    cost_->seconds += timer_.seconds();
+    cost_->launches += now.launches - at_.launches;
+    cost_->copies += now.copies - at_.copies;
+  }
+
+ private:
+  StageCost* cost_;
+  Kokkos::Timer timer_;
+  LaunchCounts at_;
+};
 }  // namespace
 
 double progress_eta(const Progress& p, double elapsed) {
@@ -157,8 +182,9 @@ std::vector<MemberResult> MemberRun::run() {
 }
 
 // With timing: the stages of the batch's steps, the regions' ("region ..."), then "scheduler",
-// what the loop did between the steps (deposits, events, phase changes, progress, snapshots): the
-// loop's seconds, launches and copies less the stages', over the batch's steps.
+// what the loop did between the steps (deposits, events, phase changes, progress): the loop's
+// seconds, launches and copies less the stages' and the snapshots', over the batch's steps; then
+// "snapshots", the running members' snapshots taken and handed over (the checkpoints written).
 void MemberRun::collect_stage_costs(double loop_seconds, long launches, long copies) const {
   auto& costs = *hooks_.stage_costs;
   costs = batch_->stage_costs();
@@ -173,12 +199,19 @@ void MemberRun::collect_stage_costs(double loop_seconds, long launches, long cop
   between.seconds = loop_seconds;
   between.launches = launches;
   between.copies = copies;
+  StageCost snapshots = snapshot_cost_;
+  snapshots.name = "snapshots";
+  snapshots.steps = between.steps;
   for (const auto& cost : costs) {
     between.seconds -= cost.seconds;
     between.launches -= cost.launches;
     between.copies -= cost.copies;
   }
+  between.seconds -= snapshots.seconds;
+  between.launches -= snapshots.launches;
+  between.copies -= snapshots.copies;
   costs.push_back(std::move(between));
+  if (hooks_.snapshots) costs.push_back(std::move(snapshots));
 }
 
 // Puts the next member into slot k (from its snapshot where it has one), or empties the slot.
@@ -310,11 +343,18 @@ bool MemberRun::stopped() {
 // until the members inside a step have ended it. True when handed over.
 bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
   if (!hooks_.snapshots) return true;
-  if (!snapshots_wanted_ && (stopping || (hooks_.snapshot_wanted && hooks_.snapshot_wanted()))) {
+  // A stop starts a round of its own (a checkpoint's round under way included), so that every
+  // snapshot handed over is of the stop; each member's is taken once, as soon as it can give one.
+  const bool round_starts =
+      stopping ? !stop_round_
+               : !snapshots_wanted_ && hooks_.snapshot_wanted && hooks_.snapshot_wanted();
+  if (round_starts) {
     snapshots_wanted_ = true;
+    stop_round_ = stopping;
     taken_.clear();
   }
   if (!snapshots_wanted_) return false;
+  CostLap lap(hooks_.stage_costs ? &snapshot_cost_ : nullptr);
   bool all = true;
   for (std::size_t k = 0; k < n_slots_; ++k) {
     const Slot& sl = slots_[k];
@@ -327,11 +367,7 @@ bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
       all = all && have != taken_.end();
       continue;
     }
-    if (have != taken_.end()) {
-      if (!stopping) continue;
-      taken_.erase(have);
-    }
-    taken_.push_back(snapshot(k));
+    if (have == taken_.end()) taken_.push_back(snapshot(k));
   }
   if (!all && !last_chance) return false;
   hooks_.snapshots(std::move(taken_));

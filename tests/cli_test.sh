@@ -118,7 +118,7 @@ lower_half_from = 1" > "$dir/split.toml"
 msg=$("$exe" run "$dir/split.toml" -o "$dir/split.h5" --timing 2>&1) || fail "split solve: $msg"
 grep -q "coloured_accelerated_gauss_seidel (at most 4 sweeps a launch)" <<< "$msg" ||
   fail "the first line does not name the split: $msg"
-for stage in margin grid free_velocity contacts solve integrate status scheduler; do
+for stage in margin grid free_velocity contacts solve integrate status scheduler snapshots; do
   grep -qE "^  $stage +[0-9.]+ s" <<< "$msg" || fail "--timing lists no stage $stage: $msg"
 done
 read -r systems slowest ended < <(echo "$msg" | awk '$1 == "solve:" && $3 == "systems" { n = $2 }

@@ -541,3 +541,64 @@ TEST(Checkpoint, RunningMembersOfSplitSolvesGoOnBitForBit) {
   expect_running_members_go_on(
       "kind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 4\n");
 }
+
+// A stop hands over the running members as they were when it came: each member's snapshot is
+// taken once, at the stop's first pass of the loop, or, for a member inside a step whose solve
+// goes on over launches, once that step has ended; the members stepped in between are not
+// snapshotted again. So a stop gives the snapshots a checkpoint's round started at the same
+// pass gives, among them some taken after the round's first pass.
+TEST(Checkpoint, AStopTakesEachRunningMembersSnapshotOnce) {
+  const Scan scan = parse_scan(
+      "[scan]\nseeds = 4\nbatch_size = 4\nprotocol = \"A\"\n"
+      "[system]\nwidth = 16\nheight = 16\nbond_number = 1000\ntime_step = 0.0028\n"
+      "[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 2\n",
+      "test.toml");
+  const auto members = members_of(scan);
+  // The snapshots of a round started at the top of pass `at + 1` of the run's loop (`at`
+  // progress reports before it), by a stop or by a checkpoint; `later`: handed over at a later
+  // pass (a member was inside a step when the round started).
+  const auto round_at = [&](long at, bool by_stop, bool* later) {
+    volatile std::sig_atomic_t stop = 0;
+    long n = 0;
+    std::vector<MemberSnapshot> got;
+    RunHooks hooks;
+    hooks.stop = &stop;
+    hooks.progress = [&](const Progress&) {
+      if (++n == at && by_stop) stop = 1;
+    };
+    hooks.snapshot_wanted = [&] { return !by_stop && n == at; };
+    hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
+      if (!got.empty()) return;
+      *later = n > at;
+      got = std::move(snaps);
+      stop = 1;  // the checkpoint's run ends here too
+    };
+    run_members(scan, members, hooks);
+    std::sort(got.begin(), got.end(), [](const MemberSnapshot& a, const MemberSnapshot& b) {
+      return a.result.member.id < b.result.member.id;
+    });
+    return got;
+  };
+  long at = 40;
+  bool later = false;
+  std::vector<MemberSnapshot> checkpoint;
+  for (; at < 400 && !later; ++at) checkpoint = round_at(at, false, &later);
+  ASSERT_TRUE(later) << "no round found a member inside a step";
+  bool stop_later = false;
+  const auto stopped = round_at(at - 1, true, &stop_later);
+  EXPECT_TRUE(stop_later);
+  ASSERT_EQ(stopped.size(), checkpoint.size());
+  bool moving = false;
+  for (std::size_t k = 0; k < stopped.size(); ++k) {
+    const auto &a = stopped[k].system, &b = checkpoint[k].system;
+    EXPECT_EQ(stopped[k].result.member.id, checkpoint[k].result.member.id);
+    EXPECT_EQ(a.status.steps, b.status.steps) << "member " << k;
+    ASSERT_EQ(a.disks.size(), b.disks.size());
+    for (std::size_t d = 0; d < a.disks.size(); ++d) {
+      EXPECT_EQ(a.disks[d].x, b.disks[d].x);
+      EXPECT_EQ(a.disks[d].y, b.disks[d].y);
+    }
+    moving = moving || a.status.active;
+  }
+  EXPECT_TRUE(moving);  // some were stepped while the others ended their steps
+}

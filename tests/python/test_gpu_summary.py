@@ -62,17 +62,20 @@ def test_runs_on_one_core_give_the_balance_but_no_ratio():
 
 
 def test_the_scheduler_follows_the_step_and_is_not_part_of_it(tmp_path):
-    """`--timing`'s "scheduler" (the run's loop between the steps) gets its own row after "the
-    step", whose milliseconds are the stages' alone."""
+    """`--timing`'s "scheduler" (the run's loop between the steps) and "snapshots" (the snapshots
+    taken in it) get their own rows after "the step", whose milliseconds are the stages' alone."""
     run = {"where": "device", "variant": "after", "scene": "A", "members": 4, "batch": 4,
            "per_member_s": 1.0, "steps": 1000,
-           "stages": {"grid": [0.5, 6, 2], "solve": [2.0, 1, 0], "scheduler": [4.0, 1, 2]}}
+           "stages": {"grid": [0.5, 6, 2], "solve": [2.0, 1, 0], "scheduler": [4.0, 1, 2],
+                      "snapshots": [8.0, 0, 30]}}
     path = tmp_path / "runs.jsonl"
     path.write_text(json.dumps(run) + "\n")
     text = summary(str(path))
-    names = [r[0] for r in rows(text, "")][-4:]
-    assert names == ["grid", "solve", "the step", "scheduler"]
+    names = [r[0] for r in rows(text, "")][-5:]
+    assert names == ["grid", "solve", "the step", "scheduler", "snapshots"]
     (step,) = rows(text, "the step")
     (scheduler,) = rows(text, "scheduler")
+    (snapshots,) = rows(text, "snapshots")
     assert float(step[1]) == 1000.0 * (0.5 + 2.0) / 1000
     assert float(scheduler[1]) == 1000.0 * 4.0 / 1000
+    assert float(snapshots[1]) == 1000.0 * 8.0 / 1000
