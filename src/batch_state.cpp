@@ -579,9 +579,9 @@ void Batch::restore(int s, const SystemState& state) {
   set_solver_pace(s, state.pace);
 }
 
-double Batch::max_overlap(int s) const {
-  const auto d = disks(s);
-  const double width = params(s).width;
+double Batch::max_overlap(int s) const { return loosepack::max_overlap(disks(s), params(s).width); }
+
+double max_overlap(const std::vector<Disk>& d, double width) {
   double worst = 0.0;
   // Bucket by column of width >= the largest diameter; compare within neighbouring columns.
   double rmax = 0.0;

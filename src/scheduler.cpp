@@ -202,16 +202,14 @@ void MemberRun::collect_stage_costs(double loop_seconds, long launches, long cop
   StageCost snapshots = snapshot_cost_;
   snapshots.name = "snapshots";
   snapshots.steps = between.steps;
+  costs.push_back(std::move(snapshots));
   for (const auto& cost : costs) {
     between.seconds -= cost.seconds;
     between.launches -= cost.launches;
     between.copies -= cost.copies;
   }
-  between.seconds -= snapshots.seconds;
-  between.launches -= snapshots.launches;
-  between.copies -= snapshots.copies;
-  costs.push_back(std::move(between));
-  if (hooks_.snapshots) costs.push_back(std::move(snapshots));
+  costs.insert(costs.end() - 1, std::move(between));
+  if (!hooks_.snapshots) costs.pop_back();  // none taken
 }
 
 // Puts the next member into slot k (from its snapshot where it has one), or empties the slot.
@@ -300,7 +298,7 @@ void MemberRun::finish(std::size_t k) {
   // ended: a member whose last region hit its time cap ends without a whole-system step, and
   // the contacts' gaps are then those of an earlier step.
   if (r.failure == Failure::None &&
-      batch_->max_overlap(s) > kMaxFinalOverlap * batch_->params(s).radius)
+      max_overlap(disks, batch_->params(s).width) > kMaxFinalOverlap * batch_->params(s).radius)
     r.failure = Failure::Overlap;
   for (const auto& d : disks) {
     r.x.push_back(d.x);
@@ -339,8 +337,8 @@ bool MemberRun::stopped() {
 
 // Snapshots of running members for checkpoints (RunHooks::snapshots): those asked for, taken
 // slot by slot when each can be, and handed over when every running member has one. At a stop,
-// the latest of every member that can give one, and the run goes on (for at most kStopGrace)
-// until the members inside a step have ended it. True when handed over.
+// every member's as it was then, and the run goes on (for at most kStopGrace) until the members
+// inside a step have ended it. True when handed over.
 bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
   if (!hooks_.snapshots) return true;
   // A stop starts a round of its own (a checkpoint's round under way included), so that every

@@ -141,6 +141,10 @@ struct StageCost {
   int team_size = 0;  // the team solver's solve stage: threads per system's team
 };
 
+// Largest interpenetration (disk-disk 2R - d or disk-floor R - y) of these disks in a box
+// periodic over `width`.
+double max_overlap(const std::vector<Disk>& disks, double width);
+
 class Batch {
  public:
   Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver = {},
@@ -217,7 +221,8 @@ class Batch {
   // Replace the impulses system s's next step is warm-started from with these contacts' forces
   // (i < j, or j = -1 for the floor; geometry fields are ignored). For an inactive system.
   void set_contacts(int s, const std::vector<ContactForce>& contacts);
-  // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s.
+  // Largest interpenetration (disk-disk 2R - d or disk-floor R - y) in system s (the free
+  // max_overlap of its disks).
   double max_overlap(int s) const;
 
   // Everything system s carries from one step to the next, bit for bit: disks, the heights its
