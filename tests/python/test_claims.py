@@ -482,8 +482,9 @@ def sliced_histogram_file(tmp_path, name, profile, noise, per_bin=60, seed=9):
         a = g.create_group("avalanche_by_ye")
         a["centre"], a["member_count"], a["member_mean"], a["member_position"] = \
             centre, count, mean, pos
-        a["mean"] = np.array([np.concatenate(d).mean() for d in pooled])
-        a["stddev"] = np.array([np.concatenate(d).std(ddof=1) for d in pooled])
+        pooled = [np.concatenate(d) for d in pooled]
+        a["mean"] = np.array([d.mean() for d in pooled])
+        a["stddev"] = np.array([d.std(ddof=1) for d in pooled])
         g["abs_dy_histogram/edges"], g["abs_dy_histogram/member_counts_cut"] = edges, hist
         g["members/top"], g["members/failure"] = np.full(MEMBERS, H), np.zeros(MEMBERS, np.int32)
     with h5py.File(path, "r") as f:
