@@ -199,17 +199,18 @@ void MemberRun::collect_stage_costs(double loop_seconds, long launches, long cop
   between.seconds = loop_seconds;
   between.launches = launches;
   between.copies = copies;
-  StageCost snapshots = snapshot_cost_;
+  StageCost snapshots = snapshot_cost_;  // all zero where none are taken
   snapshots.name = "snapshots";
   snapshots.steps = between.steps;
-  costs.push_back(std::move(snapshots));
-  for (const auto& cost : costs) {
+  const auto less = [&](const StageCost& cost) {
     between.seconds -= cost.seconds;
     between.launches -= cost.launches;
     between.copies -= cost.copies;
-  }
-  costs.insert(costs.end() - 1, std::move(between));
-  if (!hooks_.snapshots) costs.pop_back();  // none taken
+  };
+  for (const auto& cost : costs) less(cost);
+  less(snapshots);
+  costs.push_back(std::move(between));
+  if (hooks_.snapshots) costs.push_back(std::move(snapshots));
 }
 
 // Puts the next member into slot k (from its snapshot where it has one), or empties the slot.
