@@ -18,7 +18,7 @@ struct DepositKernel {
   SystemViews sys;
   ParticleViews part;
   DView<int> request;     // [S] 1: deposit one disk
-  DView<double> result;   // [S*4] placed, x, y, radius
+  DView<double> result;   // [S*4] placed (1; 0: full; -1: kParticleOverflow), x, y, radius
   DView<double> given_x;  // [S] abscissae to use instead of random draws (empty: draw)
   bool capture;           // DropRule::Capture
 
@@ -79,6 +79,7 @@ struct DepositKernel {
       if (py + r > sys.height(s)) return;  // the system is full
       if (n >= sys.capacity(s)) {
         sys.failure(s) = kParticleOverflow;
+        result(4 * s + 0) = -1.0;
         return;
       }
       const int p = first + n;

@@ -1,6 +1,8 @@
 // Loading one system into its batch slot: what the host gathered (its parameters and disks)
 // reaches the device in two copies, and one kernel puts it in place, so that refilling a slot
-// on a device costs two copies and a launch instead of one copy per value.
+// on a device costs two copies and a launch instead of one copy per value. Reading one back
+// (Batch::disks, contacts, state) is the reverse: one kernel gathers it, and it reaches the host
+// in one copy.
 #pragma once
 #include <cstdint>
 
@@ -99,6 +101,89 @@ struct LoadSlot {
     sys.solving(s) = 0;
     sys.failure(s) = kOk;
     sys.max_speed(s) = v.max_speed;
+  }
+};
+
+// The per-contact-slot values of a slot read back, field after field, after its disks'.
+enum SlotContactField {
+  kReadPartner,  // kNoContact, kFloor, or the partner's particle index (exact in a double)
+  kReadNx,
+  kReadNy,
+  kReadGap,
+  kReadPn,
+  kReadPt,
+  kReadPm,
+  kSlotContactFields
+};
+
+// What a slot's read gathers after its contact slots, with them (Batch::state): the speeds the
+// next step's margin comes from and the random draws taken, as two 32-bit halves (each exact in
+// a double).
+enum SlotReadValue {
+  kReadMaxSpeed,
+  kReadCentreSpeed,
+  kReadDrawsHigh,
+  kReadDrawsLow,
+  kSlotReadValues
+};
+
+// Where ReadSlot puts field `field` of contact slot c of a system of `count` disks, and value
+// `value` (SlotReadValue).
+KOKKOS_INLINE_FUNCTION int read_contact_at(int count, int field, int c) {
+  return kSlotDiskFields * count + field * count * kSlots + c;
+}
+KOKKOS_INLINE_FUNCTION int read_value_at(int count, int value) {
+  return (kSlotDiskFields + kSlotContactFields * kSlots) * count + value;
+}
+
+// Over i in [0, count) (with contacts: [0, max(1, count * kSlots))): gathers system s's disks
+// into out(field * count + a) for a disk a (SlotDiskField, kLoadYMark included) and, with
+// contacts, its contact slots (SlotContactField) and its values (SlotReadValue) where
+// read_contact_at and read_value_at say.
+// Reads: part.* and con.{partner, nx, ny, gap, pn, pt, pm} of the slot, sys.{max_speed,
+// max_centre_speed, draws} of s. Writes: out.
+struct ReadSlot {
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  DView<double> out;
+  int s, first, count;
+  bool contacts;
+
+  KOKKOS_INLINE_FUNCTION void operator()(int i) const {
+    if (i < count) {
+      const int p = first + i;
+      auto put = [&](int field, double v) { out(field * count + i) = v; };
+      put(kLoadX, part.x(p));
+      put(kLoadY, part.y(p));
+      put(kLoadTheta, part.theta(p));
+      put(kLoadVx, part.vx(p));
+      put(kLoadVy, part.vy(p));
+      put(kLoadW, part.w(p));
+      put(kLoadRadius, part.radius(p));
+      put(kLoadInvMass, part.inv_mass(p));
+      put(kLoadInvInertia, part.inv_inertia(p));
+      put(kLoadYDeposit, part.y_deposit(p));
+      put(kLoadYMark, part.y_mark(p));
+    }
+    if (!contacts) return;
+    if (i == 0) {
+      const std::uint64_t draws = sys.draws(s);
+      out(read_value_at(count, kReadMaxSpeed)) = sys.max_speed(s);
+      out(read_value_at(count, kReadCentreSpeed)) = sys.max_centre_speed(s);
+      out(read_value_at(count, kReadDrawsHigh)) = static_cast<double>(draws >> 32);
+      out(read_value_at(count, kReadDrawsLow)) = static_cast<double>(draws & 0xffffffffu);
+    }
+    if (i >= count * kSlots) return;
+    const int c = first * kSlots + i;
+    auto put = [&](int field, double v) { out(read_contact_at(count, field, i)) = v; };
+    put(kReadPartner, con.partner(c));
+    put(kReadNx, con.nx(c));
+    put(kReadNy, con.ny(c));
+    put(kReadGap, con.gap(c));
+    put(kReadPn, con.pn(c));
+    put(kReadPt, con.pt(c));
+    put(kReadPm, con.pm(c));
   }
 };
 

@@ -737,15 +737,13 @@ std::vector<Deposit> Batch::deposit_at(const std::vector<char>& mask, const std:
       "deposit", Kokkos::TeamPolicy<ExecSpace>(I.n_systems, Kokkos::AUTO),
       DepositKernel{I.sys, I.part, I.request, I.reply, given, rule == DropRule::Capture});
   const auto hr = host.reply;
-  const auto h_fail = host.failure;
-  Kokkos::deep_copy(hr, I.reply);
-  Kokkos::deep_copy(h_fail, I.sys.failure);
+  Kokkos::deep_copy(hr, I.reply);  // the only failure a deposit sets comes in the reply
   std::vector<Deposit> out(S);
   for (std::size_t s = 0; s < S; ++s) {
-    if (!mask[s]) continue;
     auto& st = I.status[s];
-    st.failure = static_cast<Failure>(h_fail(static_cast<int>(s)));
-    if (st.failure != Failure::None) {
+    if (!mask[s] || st.failure != Failure::None) continue;  // (not deposited)
+    if (hr(4 * s) < -0.5) {
+      st.failure = static_cast<Failure>(kParticleOverflow);
       st.active = false;
       continue;
     }

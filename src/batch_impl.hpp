@@ -104,9 +104,9 @@ struct Batch::Impl {
   DView<double> request_x;  // [S] given abscissae of deposit_at
   DView<double> reply;      // [4 S] their results
   // Host mirrors of what the scheduler sends and reads between most steps (the requests, their
-  // replies and failures, the active flags), made once rather than at each call.
+  // replies, the active flags), made once rather than at each call.
   struct SchedulerMirrors {
-    DView<int>::HostMirror request, failure, active;
+    DView<int>::HostMirror request, active;
     DView<double>::HostMirror request_x, reply;
   } scheduler_host;
   // load()'s staging: one system's values and disks, gathered on the host (load_host) and
@@ -117,6 +117,13 @@ struct Batch::Impl {
     DView<SlotLoad>::HostMirror system;
     DView<double>::HostMirror disks;
   } load_host;
+  // Reads of one system (Batch::disks, contacts, state): ReadSlot gathers it into read_staging,
+  // which reaches read_host in one copy; sized for the largest slot (read_value_at).
+  DView<double> read_staging;
+  DView<double>::HostMirror read_host;
+  // System s's disks (and with contacts its contact slots and values) on the host, laid out as
+  // ReadSlot writes them; valid until the next read.
+  DView<double>::HostMirror read_slot(int s, bool contacts);
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks

@@ -130,13 +130,15 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   request = alloc<int>("request", S);
   request_x = alloc<double>("request_x", S);
   reply = alloc<double>("reply", 4 * S);
-  scheduler_host = {Kokkos::create_mirror_view(request), Kokkos::create_mirror_view(sys.failure),
-                    Kokkos::create_mirror_view(sys.active), Kokkos::create_mirror_view(request_x),
-                    Kokkos::create_mirror_view(reply)};
+  scheduler_host = {Kokkos::create_mirror_view(request), Kokkos::create_mirror_view(sys.active),
+                    Kokkos::create_mirror_view(request_x), Kokkos::create_mirror_view(reply)};
   load_system = alloc<SlotLoad>("load_system", 1);
   const int largest = *std::max_element(slot_capacity.begin(), slot_capacity.end());
   load_disks = alloc<double>("load_disks", static_cast<std::size_t>(kSlotDiskFields * largest));
   load_host = {Kokkos::create_mirror_view(load_system), Kokkos::create_mirror_view(load_disks)};
+  read_staging = alloc<double>("read_staging",
+                               static_cast<std::size_t>(read_value_at(largest, kSlotReadValues)));
+  read_host = Kokkos::create_mirror_view(read_staging);
   fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
   fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
   fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
@@ -397,64 +399,81 @@ void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
   Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
 }
 
-std::vector<Disk> Batch::disks(int s) const {
-  auto& I = *impl_;
-  const auto& st = I.status.at(static_cast<std::size_t>(s));
-  const int first = I.offsets[static_cast<std::size_t>(s)];
-  const auto range = std::make_pair(first, first + st.count);
-  auto get = [&](const DView<double>& v) {
-    auto sub = Kokkos::subview(v, range);
-    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sub);
-    return h;
-  };
-  auto x = get(I.part.x), y = get(I.part.y), th = get(I.part.theta);
-  auto vx = get(I.part.vx), vy = get(I.part.vy), w = get(I.part.w);
-  auto r = get(I.part.radius), im = get(I.part.inv_mass), iI = get(I.part.inv_inertia);
-  auto yd = get(I.part.y_deposit);
-  std::vector<Disk> out(static_cast<std::size_t>(st.count));
-  for (int k = 0; k < st.count; ++k) {
-    Disk& d = out[static_cast<std::size_t>(k)];
-    d.x = x(k);
-    d.y = y(k);
-    d.theta = th(k);
-    d.vx = vx(k);
-    d.vy = vy(k);
-    d.w = w(k);
-    d.radius = r(k);
-    d.fixed = im(k) == 0.0;
-    d.lock_rotation = !d.fixed && iI(k) == 0.0;
-    d.y_deposit = yd(k);
+DView<double>::HostMirror Batch::Impl::read_slot(int s, bool contacts) {
+  const auto k = static_cast<std::size_t>(s);
+  const int count = status.at(k).count;
+  const int range = contacts ? std::max(1, count * kSlots) : count;
+  Kokkos::parallel_for("read_slot", Kokkos::RangePolicy<ExecSpace>(0, range),
+                       ReadSlot{sys, part, con, read_staging, s, offsets[k], count, contacts});
+  const int used = contacts ? read_value_at(count, kSlotReadValues) : kSlotDiskFields * count;
+  const auto part_used = std::make_pair(std::size_t{0}, static_cast<std::size_t>(used));
+  Kokkos::deep_copy(Kokkos::subview(read_host, part_used),
+                    Kokkos::subview(read_staging, part_used));
+  return read_host;
+}
+
+namespace {
+
+// The disks of a slot read back (Batch::Impl::read_slot).
+std::vector<Disk> disks_read(const DView<double>::HostMirror& h, int count) {
+  std::vector<Disk> out(static_cast<std::size_t>(count));
+  for (int a = 0; a < count; ++a) {
+    auto v = [&](int field) { return h(field * count + a); };
+    Disk& d = out[static_cast<std::size_t>(a)];
+    d.x = v(kLoadX);
+    d.y = v(kLoadY);
+    d.theta = v(kLoadTheta);
+    d.vx = v(kLoadVx);
+    d.vy = v(kLoadVy);
+    d.w = v(kLoadW);
+    d.radius = v(kLoadRadius);
+    d.fixed = v(kLoadInvMass) == 0.0;
+    d.lock_rotation = !d.fixed && v(kLoadInvInertia) == 0.0;
+    d.y_deposit = v(kLoadYDeposit);
   }
   return out;
 }
 
+// Field `field` (SlotContactField) of contact slot c of a slot of `count` disks read back with
+// its contacts.
+double contact_read(const DView<double>::HostMirror& h, int count, int field, int c) {
+  return h(read_contact_at(count, field, c));
+}
+
+// The partner of contact slot c as the system numbers its disks: -1 for the floor, kNoContact
+// for an empty slot.
+int partner_read(const DView<double>::HostMirror& h, int count, int first, int c) {
+  const int p = static_cast<int>(contact_read(h, count, kReadPartner, c));
+  return p == kNoContact ? kNoContact : p == kFloor ? -1 : p - first;
+}
+
+}  // namespace
+
+std::vector<Disk> Batch::disks(int s) const {
+  const int count = impl_->status.at(static_cast<std::size_t>(s)).count;
+  return disks_read(impl_->read_slot(s, false), count);
+}
+
 std::vector<ContactForce> Batch::contacts(int s) const {
   auto& I = *impl_;
-  const auto& st = I.status.at(static_cast<std::size_t>(s));
-  const int first = I.offsets[static_cast<std::size_t>(s)];
-  const auto range = std::make_pair(first * kSlots, (first + st.count) * kSlots);
-  auto geti = [&](const DView<int>& v) {
-    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
-  };
-  auto getd = [&](const DView<double>& v) {
-    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
-  };
-  auto partner = geti(I.con.partner);
-  auto nx = getd(I.con.nx), ny = getd(I.con.ny), gap = getd(I.con.gap);
-  auto pn = getd(I.con.pn), pt = getd(I.con.pt), pm = getd(I.con.pm);
-  const double h = I.params[static_cast<std::size_t>(s)].time_step;
+  const auto k = static_cast<std::size_t>(s);
+  const int count = I.status.at(k).count, first = I.offsets[k];
+  const auto h = I.read_slot(s, true);
+  const double step = I.params[k].time_step;
   std::vector<ContactForce> out;
-  for (int c = 0; c < st.count * kSlots; ++c) {
-    if (partner(c) == kNoContact) continue;
+  for (int c = 0; c < count * kSlots; ++c) {
+    const int j = partner_read(h, count, first, c);
+    if (j == kNoContact) continue;
+    auto v = [&](int field) { return contact_read(h, count, field, c); };
     ContactForce f;
     f.i = c / kSlots;
-    f.j = partner(c) == kFloor ? -1 : partner(c) - first;
-    f.nx = nx(c);
-    f.ny = ny(c);
-    f.gap = gap(c);
-    f.normal = pn(c) / h;
-    f.tangential = pt(c) / h;
-    f.moment = pm(c) / h;
+    f.j = j;
+    f.nx = v(kReadNx);
+    f.ny = v(kReadNy);
+    f.gap = v(kReadGap);
+    f.normal = v(kReadPn) / step;
+    f.tangential = v(kReadPt) / step;
+    f.moment = v(kReadPm) / step;
     out.push_back(f);
   }
   return out;
@@ -465,37 +484,31 @@ Batch::SystemState Batch::state(int s) const {
   const auto k = static_cast<std::size_t>(s);
   SystemState out;
   out.status = I.status.at(k);
-  out.disks = disks(s);
   const int first = I.offsets[k], count = out.status.count;
-  auto host = [](const auto& v, std::pair<int, int> range) {
-    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(v, range));
-  };
-  const auto disk_range = std::make_pair(first, first + count);
-  for (auto [to, from] :
-       {std::make_pair(&out.y_mark, I.part.y_mark), std::make_pair(&out.inv_mass, I.part.inv_mass),
-        std::make_pair(&out.inv_inertia, I.part.inv_inertia)}) {
-    const auto h = host(from, disk_range);
-    to->assign(h.data(), h.data() + count);
-  }
-  const auto range = std::make_pair(first * kSlots, (first + count) * kSlots);
-  const auto partner = host(I.con.partner, range);
-  const auto pn = host(I.con.pn, range), pt = host(I.con.pt, range), pm = host(I.con.pm, range);
-  const auto nx = host(I.con.nx, range), ny = host(I.con.ny, range), gap = host(I.con.gap, range);
+  const auto h = I.read_slot(s, true);
+  out.disks = disks_read(h, count);
+  for (auto [to, field] :
+       {std::make_pair(&out.y_mark, kLoadYMark), std::make_pair(&out.inv_mass, kLoadInvMass),
+        std::make_pair(&out.inv_inertia, kLoadInvInertia)})
+    to->assign(h.data() + field * count, h.data() + (field + 1) * count);
   for (int c = 0; c < count * kSlots; ++c) {
-    if (partner(c) == kNoContact) continue;
+    const int j = partner_read(h, count, first, c);
+    if (j == kNoContact) continue;
+    auto v = [&](int field) { return contact_read(h, count, field, c); };
     out.slot.push_back(c);
-    out.partner.push_back(partner(c) == kFloor ? -1 : partner(c) - first);
-    out.pn.push_back(pn(c));
-    out.pt.push_back(pt(c));
-    out.pm.push_back(pm(c));
-    out.nx.push_back(nx(c));
-    out.ny.push_back(ny(c));
-    out.gap.push_back(gap(c));
+    out.partner.push_back(j);
+    out.pn.push_back(v(kReadPn));
+    out.pt.push_back(v(kReadPt));
+    out.pm.push_back(v(kReadPm));
+    out.nx.push_back(v(kReadNx));
+    out.ny.push_back(v(kReadNy));
+    out.gap.push_back(v(kReadGap));
   }
-  const auto one = std::make_pair(s, s + 1);
-  out.draws = host(I.sys.draws, one)(0);
-  out.speed = host(I.sys.max_speed, one)(0);
-  out.centre_speed = host(I.sys.max_centre_speed, one)(0);
+  const auto value = [&](SlotReadValue v) { return h(read_value_at(count, v)); };
+  out.draws = (static_cast<std::uint64_t>(value(kReadDrawsHigh)) << 32) |
+              static_cast<std::uint64_t>(value(kReadDrawsLow));
+  out.speed = value(kReadMaxSpeed);
+  out.centre_speed = value(kReadCentreSpeed);
   out.gravity_on = I.params[k].gravity_on;
   out.status.newton_steps = I.newton_steps[k];
   out.pace = solver_pace(s);

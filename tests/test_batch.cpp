@@ -288,6 +288,50 @@ TEST(Batch, KernelFollowsTheActiveSystems) {
   EXPECT_FALSE(effects.cohesion || effects.friction || effects.rolling);
 }
 
+// Reading a system back is one kernel and one copy (on a device, one transfer and one wait),
+// whatever it holds: its disks, its contacts, its whole state. The state gives what the other
+// reads give, and its random draws beyond 32 bits survive the trip (a state restored with them
+// reads them back).
+TEST(Batch, ASystemReadsBackInOneCopy) {
+  std::vector<SystemSetup> setups = unequal_systems();
+  Batch batch(setups);
+  for (int k = 0; k < 500; ++k) batch.step();  // the drops have landed
+  batch.set_timing(true);                      // counts launches and copies (src/launch_count.hpp)
+  const auto once = [](const auto& read) {
+    const LaunchCounts before = launch_counts();
+    read();
+    const LaunchCounts after = launch_counts();
+    EXPECT_EQ(after.launches - before.launches, 1);
+    EXPECT_EQ(after.copies - before.copies, 1);
+  };
+  for (int s = 0; s < batch.size(); ++s) {
+    std::vector<Disk> disks;
+    std::vector<ContactForce> contacts;
+    Batch::SystemState state;
+    once([&] { disks = batch.disks(s); });
+    once([&] { contacts = batch.contacts(s); });
+    once([&] { state = batch.state(s); });
+    ASSERT_FALSE(contacts.empty()) << "system " << s;
+    expect_same_disks(state.disks, disks, s);
+    ASSERT_EQ(state.partner.size(), contacts.size()) << "system " << s;
+    const double h = batch.params(s).time_step;
+    for (std::size_t c = 0; c < contacts.size(); ++c) {
+      EXPECT_EQ(state.slot[c] / kSlots, contacts[c].i);
+      EXPECT_EQ(state.partner[c], contacts[c].j);
+      EXPECT_EQ(state.pn[c] / h, contacts[c].normal);
+      EXPECT_EQ(state.gap[c], contacts[c].gap);
+    }
+    EXPECT_EQ(state.speed, batch.status(s).max_speed) << "system " << s;
+  }
+  Batch::SystemState far = batch.state(1);
+  far.draws = (std::uint64_t{1} << 40) + 12345;
+  SystemSetup su = setups[1];
+  su.disks = far.disks;
+  batch.reset(1, su);
+  batch.restore(1, far);
+  EXPECT_EQ(batch.state(1).draws, far.draws);
+}
+
 // The scheduler moves systems in and out of the step between two steps: the device learns the
 // active flags once, before the next step, however many changed (a copy at each change was
 // about 25 copies a step for 4 096 members of protocol A: docs/PERFORMANCE.md), and the step
