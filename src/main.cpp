@@ -184,6 +184,26 @@ double seconds_since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
+// A long time in the unit a reader would use ("2.5 hours", "1.3 years"), for the ETA and the
+// dry run's estimate, whose seconds stay as they are for scripts; empty under 2 minutes.
+std::string in_words(double seconds) {
+  struct Unit {
+    double seconds;
+    const char* name;
+  };
+  constexpr double kDay = 86400.0;
+  const Unit units[] = {
+      {365.25 * kDay, "years"}, {kDay, "days"}, {3600.0, "hours"}, {60.0, "minutes"}};
+  if (!(seconds >= 120.0)) return "";
+  for (const Unit& u : units)
+    if (seconds >= u.seconds) {
+      char text[64];
+      std::snprintf(text, sizeof text, "%.1f %s", seconds / u.seconds, u.name);
+      return text;
+    }
+  return "";
+}
+
 // `loosepack run`: one object per run, its steps top-down in run() below.
 class RunCommand {
  public:
@@ -569,8 +589,12 @@ void RunCommand::show(bool force) {
   if (p.relaxing_long > 0)
     std::fprintf(stderr, ", %d relaxing for %ld steps or more (the longest for %ld)",
                  p.relaxing_long, kLongRelaxation, p.relax_steps);
-  if (const double eta = progress_eta(p, el); eta >= 0.0 && !finished)
-    std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s", 100.0 * p.fraction, eta);
+  if (const double eta = progress_eta(p, el); eta >= 0.0 && !finished) {
+    const std::string words = in_words(eta);
+    const std::string spelled = words.empty() ? "" : " (" + words + ")";
+    std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s%s", 100.0 * p.fraction, eta,
+                 spelled.c_str());
+  }
   std::fprintf(stderr, "\n");
 }
 
@@ -862,10 +886,12 @@ int RunCommand::dry_run() const {
                 protocol_name(pt.protocol).c_str(), pt.params.bond_number, pt.params.capture_radius,
                 pt.params.width, pt.params.height, n, cost / n);
   }
+  const std::string words = in_words(total);
+  const std::string spelled = words.empty() ? "" : ", " + words + " of one core";
   std::printf(
-      "# expected: about %.3g CPU s in all (the cost model, right within a factor of a "
+      "# expected: about %.3g CPU s in all%s (the cost model, right within a factor of a "
       "few: docs/PERFORMANCE.md, \"What a member costs\")\n",
-      total);
+      total, spelled.c_str());
   const bool regions = scan.protocol.region_radius > 0.0 &&
                        std::any_of(scan.points.begin(), scan.points.end(), [](const ScanPoint& p) {
                          return p.protocol == Protocol::A && std::isfinite(p.params.bond_number);

@@ -83,6 +83,12 @@ grep -qE "^0000 +B .* 2 +[0-9.e+-]+$" "$dir/dry.txt" || fail "--dry-run: $(cat "
 grep -q "^# expected: about " "$dir/dry.txt" || fail "--dry-run gives no estimate: $(cat "$dir/dry.txt")"
 [ ! -e "$dir/good.h5" ] || fail "--dry-run wrote a file"
 ! grep -q "region_radius" "$dir/dry.txt" || fail "--dry-run of a scan without regions speaks of them"
+grep -q "CPU s in all (the cost model" "$dir/dry.txt" || fail "--dry-run spells out a short estimate"
+# A long estimate also in the unit a reader would use: here its seconds over a year of 365.25 days.
+line=$("$exe" run "$repo/examples/paper/fig06_avalanche_profile_1e3_full.toml" --dry-run | grep "^# expected: ")
+secs=$(sed -n 's/^# expected: about \([0-9.e+]*\) CPU s in all.*/\1/p' <<<"$line")
+want=$(awk -v s="$secs" 'BEGIN { printf "%.1f years of one core", s / (365.25 * 86400) }')
+grep -qF ", $want (" <<<"$line" || fail "--dry-run: '$line' does not say $want"
 # A scan relaxing in regions is told that the model prices the whole system's relaxation.
 "$exe" run "$repo/examples/paper/fig07_scaled_profiles_tall.toml" -o "$dir/tall.h5" --dry-run |
   grep -q "^# protocol.region_radius is set: the model prices the whole system" ||
