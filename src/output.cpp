@@ -294,7 +294,7 @@ void histogram_shape(hid_t parent, const std::string& name, const HistogramShape
   fit(g, "gaussian", h.gaussian);
   for (const auto& [shape, f, acceptable] :
        {std::tuple("exponential", &h.exponential, h.exponential_acceptable),
-        {"gaussian", &h.gaussian, h.gaussian_acceptable}}) {
+        std::tuple("gaussian", &h.gaussian, h.gaussian_acceptable)}) {
     H5 s = open_group(g, shape);
     attribute(s, "second_term_t", f->valid() ? f->second_term_t : NAN);
     attribute(s, "acceptable", acceptable ? 1.0 : 0.0);
@@ -311,12 +311,10 @@ void point_analysis(hid_t g, Protocol protocol, const PointAnalysis& an) {
     attribute(nu, "rms_deviation", an.nu_rms_deviation);
     const auto& t = an.nu_deviation_terms;
     H5 d = group(nu, "deviation_terms");
-    for (const auto& [name, v] : {std::pair("mean", t.mean),
-                                  {"mean_error", t.mean_error},
-                                  {"slope", t.slope},
-                                  {"slope_error", t.slope_error},
-                                  {"from", t.from},
-                                  {"to", t.to}})
+    for (const auto& [name, v] :
+         {std::pair("mean", t.mean), std::pair("mean_error", t.mean_error),
+          std::pair("slope", t.slope), std::pair("slope_error", t.slope_error),
+          std::pair("from", t.from), std::pair("to", t.to)})
       attribute(d, name, v);
     count(d, "strips", t.strips);
     count(d, "members", t.members);
