@@ -107,9 +107,15 @@ if [ -n "${PAPER_MEMBER_S:-}" ]; then
     2>>"$out/study.log"
   wait "$member_job"
   for where in device host; do  # the last progress line: disks deposited, seconds elapsed
-    grep 'disks deposited' "$work/member-$where"/*.log | tail -n 1 |
-      sed -n "s/.* \([0-9][0-9]*\) disks deposited.* \([0-9][0-9]*\) s elapsed.*/{\"where\": \"$where\", \"disks\": \1, \"elapsed_s\": \2}/p"
-  done | tee -a "$out/study.log" >>"$out/member.jsonl"
+    line=$(grep -h 'disks deposited' "$work/member-$where"/*.log 2>/dev/null | tail -n 1)
+    if [ -z "$line" ]; then
+      log "the paper-size member on the $where left no progress line; its log ends:"
+      tail -n 5 "$work/member-$where"/*.log >>"$out/study.log" 2>&1
+      continue
+    fi
+    sed -n "s/.* \([0-9][0-9]*\) disks deposited.* \([0-9][0-9]*\) s elapsed.*/{\"where\": \"$where\", \"disks\": \1, \"elapsed_s\": \2}/p" <<<"$line" |
+      tee -a "$out/study.log" >>"$out/member.jsonl"
+  done
 fi
 
 if [ -n "${TESTS:-}" ]; then

@@ -21,6 +21,7 @@ bond=${2:-1e3}
 settings=${3:-tall}
 here=$(cd "$(dirname "$0")" && pwd)
 exe=${LOOSEPACK:-$here/../build/loosepack}
+[[ $exe == */* ]] && exe=$(realpath "$exe")  # the run goes on in OUT_DIR (a relative path would not)
 case "$bond" in
   1e3) b=1000.0 dt=0.0028 ;;
   1e2) b=100.0 dt=0.009 ;;
