@@ -35,6 +35,24 @@ enum SlotDiskField {
   kSlotDiskFields
 };
 
+// The particle view that holds disk field `field` (SlotDiskField): the one mapping of the fields
+// to the views, for LoadSlot and ReadSlot.
+KOKKOS_INLINE_FUNCTION const KView<double>& disk_field(const ParticleViews& part, int field) {
+  switch (field) {
+    case kLoadY: return part.y;
+    case kLoadTheta: return part.theta;
+    case kLoadVx: return part.vx;
+    case kLoadVy: return part.vy;
+    case kLoadW: return part.w;
+    case kLoadRadius: return part.radius;
+    case kLoadInvMass: return part.inv_mass;
+    case kLoadInvInertia: return part.inv_inertia;
+    case kLoadYDeposit: return part.y_deposit;
+    case kLoadYMark: return part.y_mark;
+    default: return part.x;  // kLoadX
+  }
+}
+
 // Over i in [0, capacity * kSlots): slot s takes `load` and its disks (the slot's `capacity`
 // disk slots, zeros past the system's disks), no cell and no contact; its random stream starts
 // at draw 0 and it is not inside a step.
@@ -53,18 +71,8 @@ struct LoadSlot {
     if (i == 0) put_system();
     if (i < capacity) {
       const int p = first + i;
-      auto d = [&](int field) { return disks(field * capacity + i); };
-      part.x(p) = d(kLoadX);
-      part.y(p) = d(kLoadY);
-      part.theta(p) = d(kLoadTheta);
-      part.vx(p) = d(kLoadVx);
-      part.vy(p) = d(kLoadVy);
-      part.w(p) = d(kLoadW);
-      part.radius(p) = d(kLoadRadius);
-      part.inv_mass(p) = d(kLoadInvMass);
-      part.inv_inertia(p) = d(kLoadInvInertia);
-      part.y_deposit(p) = d(kLoadYDeposit);
-      part.y_mark(p) = d(kLoadYMark);
+      for (int field = 0; field < kSlotDiskFields; ++field)
+        disk_field(part, field)(p) = disks(field * capacity + i);
       part.cell(p) = -1;
     }
     con.partner(first * kSlots + i) = kNoContact;
@@ -104,6 +112,9 @@ struct LoadSlot {
   }
 };
 
+// What a read of one system gathers (Batch::disks, contacts, state).
+enum class SlotRead { Disks, Contacts, State };
+
 // The per-contact-slot values of a slot read back, field after field, after its disks'.
 enum SlotContactField {
   kReadPartner,  // kNoContact, kFloor, or the partner's particle index (exact in a double)
@@ -116,9 +127,8 @@ enum SlotContactField {
   kSlotContactFields
 };
 
-// What a slot's read gathers after its contact slots, with them (Batch::state): the speeds the
-// next step's margin comes from and the random draws taken, as two 32-bit halves (each exact in
-// a double).
+// What a read of the whole state gathers after the contact slots: the speeds the next step's
+// margin comes from and the random draws taken, as two 32-bit halves (each exact in a double).
 enum SlotReadValue {
   kReadMaxSpeed,
   kReadCentreSpeed,
@@ -128,7 +138,8 @@ enum SlotReadValue {
 };
 
 // Where ReadSlot puts field `field` of contact slot c of a system of `count` disks, and value
-// `value` (SlotReadValue).
+// `value` (SlotReadValue): its disks come first (field * count + a for a disk a), then its
+// contact slots, then the values. A read fills, and copies, only its own part of that layout.
 KOKKOS_INLINE_FUNCTION int read_contact_at(int count, int field, int c) {
   return kSlotDiskFields * count + field * count * kSlots + c;
 }
@@ -136,38 +147,26 @@ KOKKOS_INLINE_FUNCTION int read_value_at(int count, int value) {
   return (kSlotDiskFields + kSlotContactFields * kSlots) * count + value;
 }
 
-// Over i in [0, count) (with contacts: [0, max(1, count * kSlots))): gathers system s's disks
-// into out(field * count + a) for a disk a (SlotDiskField, kLoadYMark included) and, with
-// contacts, its contact slots (SlotContactField) and its values (SlotReadValue) where
+// Over i in [0, count) for the disks, [0, count * kSlots) for the contacts, [0, max(1, count *
+// kSlots)) for the state: gathers system s's disks (SlotDiskField, kLoadYMark included), its
+// contact slots (SlotContactField) or both with the values (SlotReadValue) into out, where
 // read_contact_at and read_value_at say.
-// Reads: part.* and con.{partner, nx, ny, gap, pn, pt, pm} of the slot, sys.{max_speed,
-// max_centre_speed, draws} of s. Writes: out.
+// Reads: what it gathers of part.*, con.{partner, nx, ny, gap, pn, pt, pm} of the slot and
+// sys.{max_speed, max_centre_speed, draws} of s. Writes: out.
 struct ReadSlot {
   SystemViews sys;
   ParticleViews part;
   ContactViews con;
   DView<double> out;
   int s, first, count;
-  bool contacts;
+  SlotRead what;
 
   KOKKOS_INLINE_FUNCTION void operator()(int i) const {
-    if (i < count) {
-      const int p = first + i;
-      auto put = [&](int field, double v) { out(field * count + i) = v; };
-      put(kLoadX, part.x(p));
-      put(kLoadY, part.y(p));
-      put(kLoadTheta, part.theta(p));
-      put(kLoadVx, part.vx(p));
-      put(kLoadVy, part.vy(p));
-      put(kLoadW, part.w(p));
-      put(kLoadRadius, part.radius(p));
-      put(kLoadInvMass, part.inv_mass(p));
-      put(kLoadInvInertia, part.inv_inertia(p));
-      put(kLoadYDeposit, part.y_deposit(p));
-      put(kLoadYMark, part.y_mark(p));
-    }
-    if (!contacts) return;
-    if (i == 0) {
+    if (what != SlotRead::Contacts && i < count)
+      for (int field = 0; field < kSlotDiskFields; ++field)
+        out(field * count + i) = disk_field(part, field)(first + i);
+    if (what == SlotRead::Disks) return;
+    if (what == SlotRead::State && i == 0) {
       const std::uint64_t draws = sys.draws(s);
       out(read_value_at(count, kReadMaxSpeed)) = sys.max_speed(s);
       out(read_value_at(count, kReadCentreSpeed)) = sys.max_centre_speed(s);

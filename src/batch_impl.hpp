@@ -121,9 +121,9 @@ struct Batch::Impl {
   // which reaches read_host in one copy; sized for the largest slot (read_value_at).
   DView<double> read_staging;
   DView<double>::HostMirror read_host;
-  // System s's disks (and with contacts its contact slots and values) on the host, laid out as
-  // ReadSlot writes them; valid until the next read.
-  DView<double>::HostMirror read_slot(int s, bool contacts);
+  // What `what` reads of system s on the host, laid out as ReadSlot writes it; valid until the
+  // next read.
+  DView<double>::HostMirror read_slot(int s, SlotRead what);
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks

@@ -399,16 +399,21 @@ void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
   Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
 }
 
-DView<double>::HostMirror Batch::Impl::read_slot(int s, bool contacts) {
+DView<double>::HostMirror Batch::Impl::read_slot(int s, SlotRead what) {
   const auto k = static_cast<std::size_t>(s);
   const int count = status.at(k).count;
-  const int range = contacts ? std::max(1, count * kSlots) : count;
+  const int range = what == SlotRead::Disks      ? count
+                    : what == SlotRead::Contacts ? count * kSlots
+                                                 : std::max(1, count * kSlots);
   Kokkos::parallel_for("read_slot", Kokkos::RangePolicy<ExecSpace>(0, range),
-                       ReadSlot{sys, part, con, read_staging, s, offsets[k], count, contacts});
-  const int used = contacts ? read_value_at(count, kSlotReadValues) : kSlotDiskFields * count;
-  const auto part_used = std::make_pair(std::size_t{0}, static_cast<std::size_t>(used));
-  Kokkos::deep_copy(Kokkos::subview(read_host, part_used),
-                    Kokkos::subview(read_staging, part_used));
+                       ReadSlot{sys, part, con, read_staging, s, offsets[k], count, what});
+  // Its part of the layout (read_contact_at, read_value_at).
+  const int from = what == SlotRead::Contacts ? kSlotDiskFields * count : 0;
+  const int to = what == SlotRead::Disks      ? kSlotDiskFields * count
+                 : what == SlotRead::Contacts ? read_value_at(count, 0)
+                                              : read_value_at(count, kSlotReadValues);
+  const auto part_read = std::make_pair(static_cast<std::size_t>(from), static_cast<std::size_t>(to));
+  Kokkos::deep_copy(Kokkos::subview(read_host, part_read), Kokkos::subview(read_staging, part_read));
   return read_host;
 }
 
@@ -451,14 +456,14 @@ int partner_read(const DView<double>::HostMirror& h, int count, int first, int c
 
 std::vector<Disk> Batch::disks(int s) const {
   const int count = impl_->status.at(static_cast<std::size_t>(s)).count;
-  return disks_read(impl_->read_slot(s, false), count);
+  return disks_read(impl_->read_slot(s, SlotRead::Disks), count);
 }
 
 std::vector<ContactForce> Batch::contacts(int s) const {
   auto& I = *impl_;
   const auto k = static_cast<std::size_t>(s);
   const int count = I.status.at(k).count, first = I.offsets[k];
-  const auto h = I.read_slot(s, true);
+  const auto h = I.read_slot(s, SlotRead::Contacts);
   const double step = I.params[k].time_step;
   std::vector<ContactForce> out;
   for (int c = 0; c < count * kSlots; ++c) {
@@ -485,7 +490,7 @@ Batch::SystemState Batch::state(int s) const {
   SystemState out;
   out.status = I.status.at(k);
   const int first = I.offsets[k], count = out.status.count;
-  const auto h = I.read_slot(s, true);
+  const auto h = I.read_slot(s, SlotRead::State);
   out.disks = disks_read(h, count);
   for (auto [to, field] :
        {std::make_pair(&out.y_mark, kLoadYMark), std::make_pair(&out.inv_mass, kLoadInvMass),
