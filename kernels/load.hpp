@@ -2,10 +2,12 @@
 // reaches the device in two copies, and one kernel puts it in place, so that refilling a slot
 // on a device costs two copies and a launch instead of one copy per value. Reading one back
 // (Batch::disks, contacts, state) is the reverse: one kernel gathers it, and it reaches the host
-// in one copy.
+// in one copy. Writing part of one back (Batch::set_disks, set_contacts, restore) is one copy
+// and one kernel too, in the layout of a read.
 #pragma once
 #include <cstdint>
 
+#include "kernels/integrate.hpp"
 #include "kernels/state.hpp"
 
 namespace loosepack {
@@ -117,42 +119,46 @@ enum class SlotRead { Disks, Contacts, State };
 
 // The per-contact-slot values of a slot read back, field after field, after its disks'.
 enum SlotContactField {
-  kReadPartner,  // kNoContact, kFloor, or the partner's particle index (exact in a double)
-  kReadNx,
-  kReadNy,
-  kReadGap,
-  kReadPn,
-  kReadPt,
-  kReadPm,
+  kSlotPartner,  // kNoContact, kFloor, or the partner's particle index (exact in a double)
+  kSlotNx,
+  kSlotNy,
+  kSlotGap,
+  kSlotPn,
+  kSlotPt,
+  kSlotPm,
   kSlotContactFields
 };
 
-// What a read of the whole state gathers after the contact slots: the speeds the next step's
-// margin comes from and the random draws taken, as two 32-bit halves (each exact in a double).
-enum SlotReadValue {
-  kReadMaxSpeed,
-  kReadCentreSpeed,
-  kReadDrawsHigh,
-  kReadDrawsLow,
-  kSlotReadValues
+// What a read or write of the whole state holds after the contact slots: the speeds the next
+// step's margin comes from, the random draws taken, as two 32-bit halves (each exact in a
+// double), and the gravity the system feels.
+enum SlotValue {
+  kSlotMaxSpeed,
+  kSlotCentreSpeed,
+  kSlotDrawsHigh,
+  kSlotDrawsLow,
+  kSlotGravityX,
+  kSlotGravityY,
+  kSlotValues
 };
 
-// Where ReadSlot puts field `field` of contact slot c of a system of `count` disks, and value
-// `value` (SlotReadValue): its disks come first (field * count + a for a disk a), then its
-// contact slots, then the values. A read fills, and copies, only its own part of that layout.
-KOKKOS_INLINE_FUNCTION int read_contact_at(int count, int field, int c) {
+// Where ReadSlot puts, and WriteSlot finds, field `field` of contact slot c of a system of
+// `count` disks, and value `value` (SlotValue): its disks come first (field * count + a for a
+// disk a), then its contact slots, then the values. A read or write fills, and copies, only its
+// own part of that layout.
+KOKKOS_INLINE_FUNCTION int slot_contact_at(int count, int field, int c) {
   return kSlotDiskFields * count + field * count * kSlots + c;
 }
-KOKKOS_INLINE_FUNCTION int read_value_at(int count, int value) {
+KOKKOS_INLINE_FUNCTION int slot_value_at(int count, int value) {
   return (kSlotDiskFields + kSlotContactFields * kSlots) * count + value;
 }
 
 // Over i in [0, count) for the disks, [0, count * kSlots) for the contacts, [0, max(1, count *
 // kSlots)) for the state: gathers system s's disks (SlotDiskField, kLoadYMark included), its
-// contact slots (SlotContactField) or both with the values (SlotReadValue) into out, where
-// read_contact_at and read_value_at say.
+// contact slots (SlotContactField) or both with the values (SlotValue) into out, where
+// slot_contact_at and slot_value_at say.
 // Reads: what it gathers of part.*, con.{partner, nx, ny, gap, pn, pt, pm} of the slot and
-// sys.{max_speed, max_centre_speed, draws} of s. Writes: out.
+// sys.{max_speed, max_centre_speed, draws, gravity_x, gravity_y} of s. Writes: out.
 struct ReadSlot {
   SystemViews sys;
   ParticleViews part;
@@ -168,21 +174,111 @@ struct ReadSlot {
     if (what == SlotRead::Disks) return;
     if (what == SlotRead::State && i == 0) {
       const std::uint64_t draws = sys.draws(s);
-      out(read_value_at(count, kReadMaxSpeed)) = sys.max_speed(s);
-      out(read_value_at(count, kReadCentreSpeed)) = sys.max_centre_speed(s);
-      out(read_value_at(count, kReadDrawsHigh)) = static_cast<double>(draws >> 32);
-      out(read_value_at(count, kReadDrawsLow)) = static_cast<double>(draws & 0xffffffffu);
+      out(slot_value_at(count, kSlotMaxSpeed)) = sys.max_speed(s);
+      out(slot_value_at(count, kSlotCentreSpeed)) = sys.max_centre_speed(s);
+      out(slot_value_at(count, kSlotDrawsHigh)) = static_cast<double>(draws >> 32);
+      out(slot_value_at(count, kSlotDrawsLow)) = static_cast<double>(draws & 0xffffffffu);
+      out(slot_value_at(count, kSlotGravityX)) = sys.gravity_x(s);
+      out(slot_value_at(count, kSlotGravityY)) = sys.gravity_y(s);
     }
     if (i >= count * kSlots) return;
     const int c = first * kSlots + i;
-    auto put = [&](int field, double v) { out(read_contact_at(count, field, i)) = v; };
-    put(kReadPartner, con.partner(c));
-    put(kReadNx, con.nx(c));
-    put(kReadNy, con.ny(c));
-    put(kReadGap, con.gap(c));
-    put(kReadPn, con.pn(c));
-    put(kReadPt, con.pt(c));
-    put(kReadPm, con.pm(c));
+    auto put = [&](int field, double v) { out(slot_contact_at(count, field, i)) = v; };
+    put(kSlotPartner, con.partner(c));
+    put(kSlotNx, con.nx(c));
+    put(kSlotNy, con.ny(c));
+    put(kSlotGap, con.gap(c));
+    put(kSlotPn, con.pn(c));
+    put(kSlotPt, con.pt(c));
+    put(kSlotPm, con.pm(c));
+  }
+};
+
+// What a write of one system puts in place (Batch::set_disks, set_contacts, restore).
+enum class SlotWrite { Disks, Contacts, State };
+
+// A write of n disks by index (SlotWrite::Disks) holds the k-th disk's x, y, theta, vx, vy and w
+// (SlotDiskField) at field * n + k and its index at kWrittenIndex * n + k.
+constexpr int kWrittenIndex = kLoadW + 1;
+
+// One team (a league of one) puts what the host staged in `in` into system s:
+// - Disks: n disks by index, then sys.max_speed(s) from the system's disks as written (the next
+//   step's margin and relative tolerance follow the fastest disk, as after an integration);
+// - Contacts: every contact slot of the system as ReadSlot lays them out (slot_contact_at): its
+//   partner, and where it has one, its impulses; the slots from count * kSlots on, up to the
+//   slot's capacity, have none;
+// - State: the contacts with their normals and gaps too, the disks' x, y_mark, inv_mass and
+//   inv_inertia, and the values (SlotValue).
+// A slot without a partner keeps what it held, as the step's contact build expects.
+// Reads: in. Writes: what it puts of part.*, con.* of the slot and sys.* of s.
+struct WriteSlot {
+  using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;
+  SystemViews sys;
+  ParticleViews part;
+  ContactViews con;
+  DView<double> in;
+  int s, first, count, capacity, n;
+  SlotWrite what;
+
+  KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
+    if (what == SlotWrite::Disks) return put_disks(team);
+    put_contacts(team);
+    if (what == SlotWrite::Contacts) return;
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, count), [&](int a) {
+      const auto put = [&](int field) {
+        disk_field(part, field)(first + a) = in(field * count + a);
+      };
+      put(kLoadX);
+      put(kLoadYMark);
+      put(kLoadInvMass);
+      put(kLoadInvInertia);
+    });
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { put_values(); });
+  }
+
+  KOKKOS_INLINE_FUNCTION void put_disks(const Member& team) const {
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, n), [&](int k) {
+      const int p = first + static_cast<int>(in(kWrittenIndex * n + k));
+      for (int field = kLoadX; field <= kLoadW; ++field)
+        disk_field(part, field)(p) = in(field * n + k);
+    });
+    team.team_barrier();
+    double fastest = 0.0;
+    Kokkos::parallel_reduce(
+        Kokkos::TeamThreadRange(team, count),
+        [&](int a, double& m) { m = kmath::max(m, disk_speed(part, first + a)); },
+        Kokkos::Max<double>(fastest));
+    Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.max_speed(s) = kmath::max(0.0, fastest); });
+  }
+
+  KOKKOS_INLINE_FUNCTION void put_contacts(const Member& team) const {
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, capacity * kSlots), [&](int i) {
+      const int c = first * kSlots + i;
+      if (i >= count * kSlots) {
+        con.partner(c) = kNoContact;
+        return;
+      }
+      const auto v = [&](int field) { return in(slot_contact_at(count, field, i)); };
+      con.partner(c) = static_cast<int>(v(kSlotPartner));
+      if (con.partner(c) == kNoContact) return;
+      con.pn(c) = v(kSlotPn);
+      con.pt(c) = v(kSlotPt);
+      con.pm(c) = v(kSlotPm);
+      if (what != SlotWrite::State) return;
+      con.nx(c) = v(kSlotNx);
+      con.ny(c) = v(kSlotNy);
+      con.gap(c) = v(kSlotGap);
+    });
+  }
+
+  KOKKOS_INLINE_FUNCTION void put_values() const {
+    const auto value = [&](int v) { return in(slot_value_at(count, v)); };
+    sys.draws(s) = (static_cast<std::uint64_t>(value(kSlotDrawsHigh)) << 32) |
+                   static_cast<std::uint64_t>(value(kSlotDrawsLow));
+    sys.max_speed(s) = value(kSlotMaxSpeed);
+    sys.max_centre_speed(s) = value(kSlotCentreSpeed);
+    sys.gravity_x(s) = value(kSlotGravityX);
+    sys.gravity_y(s) = value(kSlotGravityY);
   }
 };
 

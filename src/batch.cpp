@@ -687,10 +687,8 @@ void Batch::set_active(int s, bool active) {
 void Batch::set_gravity(int s, bool on) {
   auto& pr = impl_->params.at(static_cast<std::size_t>(s));
   pr.gravity_on = on;
-  const double gx = on ? pr.gravity * pr.gravity_dir_x : 0.0;
-  const double gy = on ? pr.gravity * pr.gravity_dir_y : 0.0;
-  Kokkos::deep_copy(Kokkos::subview(impl_->sys.gravity_x, s), gx);
-  Kokkos::deep_copy(Kokkos::subview(impl_->sys.gravity_y, s), gy);
+  Kokkos::deep_copy(Kokkos::subview(impl_->sys.gravity_x, s), pr.gravity_x());
+  Kokkos::deep_copy(Kokkos::subview(impl_->sys.gravity_y, s), pr.gravity_y());
   reset_rest(s);
 }
 

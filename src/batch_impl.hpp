@@ -117,13 +117,17 @@ struct Batch::Impl {
     DView<SlotLoad>::HostMirror system;
     DView<double>::HostMirror disks;
   } load_host;
-  // Reads of one system (Batch::disks, contacts, state): ReadSlot gathers it into read_staging,
-  // which reaches read_host in one copy; sized for the largest slot (read_value_at).
-  DView<double> read_staging;
-  DView<double>::HostMirror read_host;
+  // Reads and writes of one system (Batch::disks, contacts, state; set_disks, set_contacts,
+  // restore) pass through slot_staging and slot_host in one copy: ReadSlot gathers into the
+  // one, WriteSlot puts from it; sized for the largest slot (slot_value_at).
+  DView<double> slot_staging;
+  DView<double>::HostMirror slot_host;
   // What `what` reads of system s on the host, laid out as ReadSlot writes it; valid until the
-  // next read.
+  // next read or write.
   DView<double>::HostMirror read_slot(int s, SlotRead what);
+  // Puts what the host staged in slot_host (n disks by index for SlotWrite::Disks) into system s
+  // (WriteSlot).
+  void write_slot(int s, SlotWrite what, int n = 0);
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks

@@ -136,9 +136,9 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   const int largest = *std::max_element(slot_capacity.begin(), slot_capacity.end());
   load_disks = alloc<double>("load_disks", static_cast<std::size_t>(kSlotDiskFields * largest));
   load_host = {Kokkos::create_mirror_view(load_system), Kokkos::create_mirror_view(load_disks)};
-  read_staging = alloc<double>("read_staging",
-                               static_cast<std::size_t>(read_value_at(largest, kSlotReadValues)));
-  read_host = Kokkos::create_mirror_view(read_staging);
+  slot_staging =
+      alloc<double>("slot_staging", static_cast<std::size_t>(slot_value_at(largest, kSlotValues)));
+  slot_host = Kokkos::create_mirror_view(slot_staging);
   fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
   fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
   fill_from(sys.cell_offset, S, [&](std::size_t s) { return cell_offset[s]; });
@@ -232,8 +232,8 @@ SlotLoad slot_load_of(const SystemSetup& su, const GridShape& g, double toleranc
   v.polydispersity = pr.polydispersity;
   v.disk_density = pr.disk_density;
   v.capture_radius = pr.capture_radius;
-  v.gravity_x = pr.gravity_on ? pr.gravity * pr.gravity_dir_x : 0.0;
-  v.gravity_y = pr.gravity_on ? pr.gravity * pr.gravity_dir_y : 0.0;
+  v.gravity_x = pr.gravity_x();
+  v.gravity_y = pr.gravity_y();
   v.cohesive_force = pr.cohesive_force();
   v.cohesion_range = pr.cohesion_range;
   v.friction = pr.friction;
@@ -335,68 +335,80 @@ void Batch::reset(int s, const SystemSetup& setup) {
 
 void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Disk>& disks) {
   auto& I = *impl_;
-  const auto& st = I.status.at(static_cast<std::size_t>(s));
+  const auto k = static_cast<std::size_t>(s);
+  const int count = I.status.at(k).count;
   if (index.size() != disks.size()) throw std::invalid_argument("Batch::set_disks: sizes differ");
-  const int first = I.offsets[static_cast<std::size_t>(s)];
-  const auto range = std::make_pair(first, first + st.count);
-  const double width = I.params[static_cast<std::size_t>(s)].width;
-  auto put = [&](const DView<double>& v, auto f) {
-    auto sub = Kokkos::subview(v, range);
-    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), sub);
-    for (std::size_t k = 0; k < index.size(); ++k) {
-      if (index[k] < 0 || index[k] >= st.count)
-        throw std::out_of_range("Batch::set_disks: no disk " + std::to_string(index[k]));
-      h(index[k]) = f(disks[k]);
-    }
-    Kokkos::deep_copy(sub, h);
-  };
-  put(I.part.x, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
-  put(I.part.y, [](const Disk& d) { return d.y; });
-  put(I.part.theta, [](const Disk& d) { return d.theta; });
-  put(I.part.vx, [](const Disk& d) { return d.vx; });
-  put(I.part.vy, [](const Disk& d) { return d.vy; });
-  put(I.part.w, [](const Disk& d) { return d.w; });
-  // The next step's detection margin and relative tolerance follow the fastest disk (the margin
-  // stage): the system's disks as written now (a region's avalanche handed to the whole system,
-  // or a region's disks come to rest), measured as the integration measures it after a step.
-  const ParticleViews part = I.part;
-  double fastest = 0.0;
-  Kokkos::parallel_reduce(
-      "written_speed", Kokkos::RangePolicy<ExecSpace>(range.first, range.second),
-      KOKKOS_LAMBDA(int p, double& m) { m = kmath::max(m, disk_speed(part, p)); },
-      Kokkos::Max<double>(fastest));
-  Kokkos::deep_copy(Kokkos::subview(I.sys.max_speed, s), fastest);
+  std::vector<char> given(static_cast<std::size_t>(count), 0);
+  for (int a : index) {
+    if (a < 0 || a >= count)
+      throw std::out_of_range("Batch::set_disks: no disk " + std::to_string(a));
+    if (given[static_cast<std::size_t>(a)]++)
+      throw std::invalid_argument("Batch::set_disks: disk " + std::to_string(a) + " given twice");
+  }
+  const int n = static_cast<int>(index.size());
+  const double width = I.params[k].width;
+  const auto& h = I.slot_host;
+  for (int j = 0; j < n; ++j) {
+    const Disk& d = disks[static_cast<std::size_t>(j)];
+    const auto put = [&](int field, double v) { h(field * n + j) = v; };
+    put(kLoadX, std::fmod(std::fmod(d.x, width) + width, width));
+    put(kLoadY, d.y);
+    put(kLoadTheta, d.theta);
+    put(kLoadVx, d.vx);
+    put(kLoadVy, d.vy);
+    put(kLoadW, d.w);
+    put(kWrittenIndex, index[static_cast<std::size_t>(j)]);
+  }
+  I.write_slot(s, SlotWrite::Disks, n);
 }
+
+namespace {
+// Stages no contact in any of the count * kSlots contact slots of a write (slot_contact_at).
+void stage_no_contacts(const DView<double>::HostMirror& h, int count) {
+  for (int c = 0; c < count * kSlots; ++c) h(slot_contact_at(count, kSlotPartner, c)) = kNoContact;
+}
+}  // namespace
 
 void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
   auto& I = *impl_;
   const auto k = static_cast<std::size_t>(s);
-  const auto& st = I.status.at(k);
-  const int first = I.offsets[k];
-  const auto range = std::make_pair(first * kSlots, (first + I.slot_capacity[k]) * kSlots);
-  auto partner = Kokkos::create_mirror_view(Kokkos::subview(I.con.partner, range));
-  auto pn = Kokkos::create_mirror_view(Kokkos::subview(I.con.pn, range));
-  auto pt = Kokkos::create_mirror_view(Kokkos::subview(I.con.pt, range));
-  auto pm = Kokkos::create_mirror_view(Kokkos::subview(I.con.pm, range));
-  Kokkos::deep_copy(partner, kNoContact);
-  std::vector<int> used(static_cast<std::size_t>(I.slot_capacity[k]), 0);
-  const double h = I.params[k].time_step;
-  for (const auto& c : contacts) {
-    if (c.i < 0 || c.i >= st.count || c.j >= st.count || (c.j >= 0 && c.j <= c.i))
+  const int count = I.status.at(k).count, first = I.offsets[k];
+  for (const auto& c : contacts)
+    if (c.i < 0 || c.i >= count || c.j >= count || (c.j >= 0 && c.j <= c.i))
       throw std::out_of_range("Batch::set_contacts: no contact " + std::to_string(c.i) + "-" +
                               std::to_string(c.j));
+  const auto& h = I.slot_host;
+  stage_no_contacts(h, count);
+  std::vector<int> used(static_cast<std::size_t>(count), 0);
+  const double step = I.params[k].time_step;
+  for (const auto& c : contacts) {
     int& n = used[static_cast<std::size_t>(c.i)];
     if (n >= kSlots) continue;  // more than a disk can own: no warm start for the rest
     const int slot = c.i * kSlots + n++;
-    partner(slot) = c.j < 0 ? kFloor : first + c.j;
-    pn(slot) = h * c.normal;
-    pt(slot) = h * c.tangential;
-    pm(slot) = h * c.moment;
+    const auto put = [&](int field, double v) { h(slot_contact_at(count, field, slot)) = v; };
+    put(kSlotPartner, c.j < 0 ? kFloor : first + c.j);
+    put(kSlotPn, step * c.normal);
+    put(kSlotPt, step * c.tangential);
+    put(kSlotPm, step * c.moment);
   }
-  Kokkos::deep_copy(Kokkos::subview(I.con.partner, range), partner);
-  Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
-  Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
-  Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
+  I.write_slot(s, SlotWrite::Contacts);
+}
+
+void Batch::Impl::write_slot(int s, SlotWrite what, int n) {
+  const auto k = static_cast<std::size_t>(s);
+  const int count = status.at(k).count;
+  // Its part of the layout (kWrittenIndex; slot_contact_at, slot_value_at).
+  const int from = what == SlotWrite::Contacts ? kSlotDiskFields * count : 0;
+  const int to = what == SlotWrite::Disks      ? (kWrittenIndex + 1) * n
+                 : what == SlotWrite::Contacts ? slot_value_at(count, 0)
+                                               : slot_value_at(count, kSlotValues);
+  const auto part_written =
+      std::make_pair(static_cast<std::size_t>(from), static_cast<std::size_t>(to));
+  Kokkos::deep_copy(Kokkos::subview(slot_staging, part_written),
+                    Kokkos::subview(slot_host, part_written));
+  Kokkos::parallel_for(
+      "write_slot", Kokkos::TeamPolicy<ExecSpace>(1, Kokkos::AUTO),
+      WriteSlot{sys, part, con, slot_staging, s, offsets[k], count, slot_capacity[k], n, what});
 }
 
 DView<double>::HostMirror Batch::Impl::read_slot(int s, SlotRead what) {
@@ -406,15 +418,16 @@ DView<double>::HostMirror Batch::Impl::read_slot(int s, SlotRead what) {
                     : what == SlotRead::Contacts ? count * kSlots
                                                  : std::max(1, count * kSlots);
   Kokkos::parallel_for("read_slot", Kokkos::RangePolicy<ExecSpace>(0, range),
-                       ReadSlot{sys, part, con, read_staging, s, offsets[k], count, what});
-  // Its part of the layout (read_contact_at, read_value_at).
+                       ReadSlot{sys, part, con, slot_staging, s, offsets[k], count, what});
+  // Its part of the layout (slot_contact_at, slot_value_at).
   const int from = what == SlotRead::Contacts ? kSlotDiskFields * count : 0;
   const int to = what == SlotRead::Disks      ? kSlotDiskFields * count
-                 : what == SlotRead::Contacts ? read_value_at(count, 0)
-                                              : read_value_at(count, kSlotReadValues);
+                 : what == SlotRead::Contacts ? slot_value_at(count, 0)
+                                              : slot_value_at(count, kSlotValues);
   const auto part_read = std::make_pair(static_cast<std::size_t>(from), static_cast<std::size_t>(to));
-  Kokkos::deep_copy(Kokkos::subview(read_host, part_read), Kokkos::subview(read_staging, part_read));
-  return read_host;
+  Kokkos::deep_copy(Kokkos::subview(slot_host, part_read),
+                    Kokkos::subview(slot_staging, part_read));
+  return slot_host;
 }
 
 namespace {
@@ -442,13 +455,13 @@ std::vector<Disk> disks_read(const DView<double>::HostMirror& h, int count) {
 // Field `field` (SlotContactField) of contact slot c of a slot of `count` disks read back with
 // its contacts.
 double contact_read(const DView<double>::HostMirror& h, int count, int field, int c) {
-  return h(read_contact_at(count, field, c));
+  return h(slot_contact_at(count, field, c));
 }
 
 // The partner of contact slot c as the system numbers its disks: -1 for the floor, kNoContact
 // for an empty slot.
 int partner_read(const DView<double>::HostMirror& h, int count, int first, int c) {
-  const int p = static_cast<int>(contact_read(h, count, kReadPartner, c));
+  const int p = static_cast<int>(contact_read(h, count, kSlotPartner, c));
   return p == kNoContact ? kNoContact : p == kFloor ? -1 : p - first;
 }
 
@@ -473,12 +486,12 @@ std::vector<ContactForce> Batch::contacts(int s) const {
     ContactForce f;
     f.i = c / kSlots;
     f.j = j;
-    f.nx = v(kReadNx);
-    f.ny = v(kReadNy);
-    f.gap = v(kReadGap);
-    f.normal = v(kReadPn) / step;
-    f.tangential = v(kReadPt) / step;
-    f.moment = v(kReadPm) / step;
+    f.nx = v(kSlotNx);
+    f.ny = v(kSlotNy);
+    f.gap = v(kSlotGap);
+    f.normal = v(kSlotPn) / step;
+    f.tangential = v(kSlotPt) / step;
+    f.moment = v(kSlotPm) / step;
     out.push_back(f);
   }
   return out;
@@ -502,18 +515,18 @@ Batch::SystemState Batch::state(int s) const {
     auto v = [&](int field) { return contact_read(h, count, field, c); };
     out.slot.push_back(c);
     out.partner.push_back(j);
-    out.pn.push_back(v(kReadPn));
-    out.pt.push_back(v(kReadPt));
-    out.pm.push_back(v(kReadPm));
-    out.nx.push_back(v(kReadNx));
-    out.ny.push_back(v(kReadNy));
-    out.gap.push_back(v(kReadGap));
+    out.pn.push_back(v(kSlotPn));
+    out.pt.push_back(v(kSlotPt));
+    out.pm.push_back(v(kSlotPm));
+    out.nx.push_back(v(kSlotNx));
+    out.ny.push_back(v(kSlotNy));
+    out.gap.push_back(v(kSlotGap));
   }
-  const auto value = [&](SlotReadValue v) { return h(read_value_at(count, v)); };
-  out.draws = (static_cast<std::uint64_t>(value(kReadDrawsHigh)) << 32) |
-              static_cast<std::uint64_t>(value(kReadDrawsLow));
-  out.speed = value(kReadMaxSpeed);
-  out.centre_speed = value(kReadCentreSpeed);
+  const auto value = [&](SlotValue v) { return h(slot_value_at(count, v)); };
+  out.draws = (static_cast<std::uint64_t>(value(kSlotDrawsHigh)) << 32) |
+              static_cast<std::uint64_t>(value(kSlotDrawsLow));
+  out.speed = value(kSlotMaxSpeed);
+  out.centre_speed = value(kSlotCentreSpeed);
   out.gravity_on = I.params[k].gravity_on;
   out.status.newton_steps = I.newton_steps[k];
   out.pace = solver_pace(s);
@@ -535,63 +548,47 @@ void Batch::restore(int s, const SystemState& state) {
   if (!fits)
     throw std::invalid_argument("Batch::restore: the state does not fit system " +
                                 std::to_string(s) + " (reset it with the state's disks first)");
-  const int first = I.offsets[k];
-  auto put = [&](const DView<double>& v, auto f) {
-    auto sub = Kokkos::subview(v, std::make_pair(first, first + count));
-    auto h = Kokkos::create_mirror_view(sub);
-    for (int a = 0; a < count; ++a) h(a) = f(a);
-    Kokkos::deep_copy(sub, h);
-  };
-  // reset() wraps x into the box, which may round it, and computes the masses on the host
-  // (deposited disks got theirs on the device).
-  put(I.part.x, [&](int a) { return state.disks[static_cast<std::size_t>(a)].x; });
-  for (auto [to, from] : {std::make_pair(I.part.y_mark, &state.y_mark),
-                          std::make_pair(I.part.inv_mass, &state.inv_mass),
-                          std::make_pair(I.part.inv_inertia, &state.inv_inertia)}) {
-    const std::vector<double>& values = *from;  // (C++17 lambdas cannot capture a binding)
-    put(to, [&](int a) { return values[static_cast<std::size_t>(a)]; });
-  }
-  // The impulses go where the next step's warm start reads them (as set_contacts).
-  const auto range = std::make_pair(first * kSlots, (first + I.slot_capacity[k]) * kSlots);
-  auto partner = Kokkos::create_mirror_view(Kokkos::subview(I.con.partner, range));
-  auto pn = Kokkos::create_mirror_view(Kokkos::subview(I.con.pn, range));
-  auto pt = Kokkos::create_mirror_view(Kokkos::subview(I.con.pt, range));
-  auto pm = Kokkos::create_mirror_view(Kokkos::subview(I.con.pm, range));
-  auto nx =
-      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.nx, range));
-  auto ny =
-      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.ny, range));
-  auto gap =
-      Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(I.con.gap, range));
-  Kokkos::deep_copy(partner, kNoContact);
   for (std::size_t c = 0; c < n; ++c) {
     const int slot = state.slot[c], j = state.partner[c];
     if (slot < 0 || slot >= count * kSlots || j < -1 || j >= count)
       throw std::invalid_argument("Batch::restore: contact slot " + std::to_string(slot) +
                                   " with partner " + std::to_string(j) + " is not in system " +
                                   std::to_string(s));
-    partner(slot) = j < 0 ? kFloor : first + j;
-    pn(slot) = state.pn[c];
-    pt(slot) = state.pt[c];
-    pm(slot) = state.pm[c];
-    nx(slot) = state.nx[c];
-    ny(slot) = state.ny[c];
-    gap(slot) = state.gap[c];
   }
-  Kokkos::deep_copy(Kokkos::subview(I.con.partner, range), partner);
-  Kokkos::deep_copy(Kokkos::subview(I.con.pn, range), pn);
-  Kokkos::deep_copy(Kokkos::subview(I.con.pt, range), pt);
-  Kokkos::deep_copy(Kokkos::subview(I.con.pm, range), pm);
-  Kokkos::deep_copy(Kokkos::subview(I.con.nx, range), nx);
-  Kokkos::deep_copy(Kokkos::subview(I.con.ny, range), ny);
-  Kokkos::deep_copy(Kokkos::subview(I.con.gap, range), gap);
-  auto set = [s](const auto& view, auto value) {
-    Kokkos::deep_copy(Kokkos::subview(view, s), value);
-  };
-  set(I.sys.draws, state.draws);
-  set(I.sys.max_speed, state.speed);
-  set(I.sys.max_centre_speed, state.centre_speed);
-  set_gravity(s, state.gravity_on);
+  const int first = I.offsets[k];
+  const auto& h = I.slot_host;
+  // reset() wraps x into the box, which may round it, and computes the masses on the host
+  // (deposited disks got theirs on the device).
+  for (int a = 0; a < count; ++a) {
+    const auto d = static_cast<std::size_t>(a);
+    h(kLoadX * count + a) = state.disks[d].x;
+    h(kLoadYMark * count + a) = state.y_mark[d];
+    h(kLoadInvMass * count + a) = state.inv_mass[d];
+    h(kLoadInvInertia * count + a) = state.inv_inertia[d];
+  }
+  // The impulses go where the next step's warm start reads them (as set_contacts).
+  stage_no_contacts(h, count);
+  for (std::size_t c = 0; c < n; ++c) {
+    const auto put = [&](int field, double v) {
+      h(slot_contact_at(count, field, state.slot[c])) = v;
+    };
+    put(kSlotPartner, state.partner[c] < 0 ? kFloor : first + state.partner[c]);
+    put(kSlotPn, state.pn[c]);
+    put(kSlotPt, state.pt[c]);
+    put(kSlotPm, state.pm[c]);
+    put(kSlotNx, state.nx[c]);
+    put(kSlotNy, state.ny[c]);
+    put(kSlotGap, state.gap[c]);
+  }
+  I.params[k].gravity_on = state.gravity_on;
+  const auto value = [&](SlotValue v, double x) { h(slot_value_at(count, v)) = x; };
+  value(kSlotDrawsHigh, static_cast<double>(state.draws >> 32));
+  value(kSlotDrawsLow, static_cast<double>(state.draws & 0xffffffffu));
+  value(kSlotMaxSpeed, state.speed);
+  value(kSlotCentreSpeed, state.centre_speed);
+  value(kSlotGravityX, I.params[k].gravity_x());
+  value(kSlotGravityY, I.params[k].gravity_y());
+  I.write_slot(s, SlotWrite::State);
   I.status[k] = state.status;
   I.newton_steps[k] = state.status.newton_steps;
   set_solver_pace(s, state.pace);

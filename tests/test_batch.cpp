@@ -4,6 +4,7 @@
 
 #include <Kokkos_Core.hpp>
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <regex>
 #include <sstream>
@@ -114,6 +115,17 @@ void expect_same_disks(const std::vector<Disk>& a, const std::vector<Disk>& b, i
     EXPECT_EQ(a[k].vy, b[k].vy) << "system " << s << " disk " << k;
     EXPECT_EQ(a[k].w, b[k].w) << "system " << s << " disk " << k;
   }
+}
+
+// Runs `f` (a read or write of one system, with the batch's timing on) and expects one kernel
+// launch and one copy of it.
+template <class F>
+void once(const F& f) {
+  const LaunchCounts before = launch_counts();
+  f();
+  const LaunchCounts after = launch_counts();
+  EXPECT_EQ(after.launches - before.launches, 1);
+  EXPECT_EQ(after.copies - before.copies, 1);
 }
 }  // namespace
 
@@ -297,13 +309,6 @@ TEST(Batch, ASystemReadsBackInOneCopy) {
   Batch batch(setups);
   for (int k = 0; k < 500; ++k) batch.step();  // the drops have landed
   batch.set_timing(true);                      // counts launches and copies (src/launch_count.hpp)
-  const auto once = [](const auto& read) {
-    const LaunchCounts before = launch_counts();
-    read();
-    const LaunchCounts after = launch_counts();
-    EXPECT_EQ(after.launches - before.launches, 1);
-    EXPECT_EQ(after.copies - before.copies, 1);
-  };
   for (int s = 0; s < batch.size(); ++s) {
     std::vector<Disk> disks;
     std::vector<ContactForce> contacts;
@@ -330,6 +335,92 @@ TEST(Batch, ASystemReadsBackInOneCopy) {
   batch.reset(1, su);
   batch.restore(1, far);
   EXPECT_EQ(batch.state(1).draws, far.draws);
+}
+
+// Writing a system is one kernel and one copy too (on a device, one transfer and no wait): disks
+// by index, with the fastest disk as written for the next step's margin; the contacts' impulses
+// (a contact left out leaves its slot empty); a whole state, gravity included. A write that
+// names a disk twice or one that is not there changes nothing.
+TEST(Batch, ASystemIsWrittenInOneCopy) {
+  std::vector<SystemSetup> setups = unequal_systems();
+  Batch batch(setups);
+  for (int k = 0; k < 500; ++k) batch.step();
+  batch.set_timing(true);
+  const int s = 1;
+  const double width = batch.params(s).width;
+  std::vector<Disk> expect = batch.disks(s);
+  const int last = static_cast<int>(expect.size()) - 1;
+  std::vector<Disk> written{expect[static_cast<std::size_t>(last)], expect[0]};
+  written[0].x += width + 0.25;  // wraps into the box
+  written[0].vx = 2.0;
+  written[1].y += 0.125;
+  written[1].w = 0.5;
+  EXPECT_THROW(batch.set_disks(s, {0, 0}, {written[1], written[1]}), std::invalid_argument);
+  EXPECT_THROW(batch.set_disks(s, {last + 1}, {written[0]}), std::out_of_range);
+  expect_same_disks(batch.disks(s), expect, s);
+  once([&] { batch.set_disks(s, {last, 0}, written); });
+  expect[static_cast<std::size_t>(last)] = written[0];
+  expect[0] = written[1];
+  for (int a : {last, 0}) {  // wrapped into [0, width) as Batch::reset wraps them
+    double& x = expect[static_cast<std::size_t>(a)].x;
+    x = std::fmod(std::fmod(x, width) + width, width);
+  }
+  expect_same_disks(batch.disks(s), expect, s);
+  double fastest = 0.0;  // as the device measures a disk's speed (kernels/integrate.hpp)
+  for (const auto& d : expect)
+    fastest = std::max({fastest, std::sqrt(d.vx * d.vx + d.vy * d.vy), std::fabs(d.radius * d.w)});
+  EXPECT_EQ(batch.state(s).speed, fastest);
+
+  std::vector<ContactForce> contacts = batch.contacts(s);
+  ASSERT_GT(contacts.size(), 1u);
+  contacts.pop_back();
+  for (auto& c : contacts) c.normal *= 2.0;
+  once([&] { batch.set_contacts(s, contacts); });
+  const auto back = batch.contacts(s);
+  ASSERT_EQ(back.size(), contacts.size());
+  const double h = batch.params(s).time_step;
+  for (std::size_t c = 0; c < back.size(); ++c) {
+    EXPECT_EQ(back[c].i, contacts[c].i);
+    EXPECT_EQ(back[c].j, contacts[c].j);
+    EXPECT_EQ(back[c].normal, h * contacts[c].normal / h);
+  }
+
+  Batch::SystemState was = batch.state(s);
+  for (int k = 0; k < 50; ++k) batch.step();
+  SystemSetup su = setups[s];
+  su.disks = was.disks;
+  batch.reset(s, su);
+  once([&] { batch.restore(s, was); });
+  const Batch::SystemState now = batch.state(s);
+  expect_same_disks(now.disks, was.disks, s);
+  EXPECT_EQ(now.slot, was.slot);
+  EXPECT_EQ(now.partner, was.partner);
+  EXPECT_EQ(now.pn, was.pn);
+  EXPECT_EQ(now.gap, was.gap);
+  EXPECT_EQ(now.nx, was.nx);
+  EXPECT_EQ(now.y_mark, was.y_mark);
+  EXPECT_EQ(now.inv_mass, was.inv_mass);
+  EXPECT_EQ(now.draws, was.draws);
+  EXPECT_EQ(now.speed, was.speed);
+  EXPECT_EQ(now.centre_speed, was.centre_speed);
+
+  // Gravity as the state has it: disks in flight keep their speed without it, and gain g h
+  // with it.
+  std::vector<Disk> flying;  // apart from each other and from the floor
+  for (double x : {3.0, 9.0, 15.0}) {
+    flying.push_back(column(1, x)[0]);
+    flying.back().y = 6.0;
+  }
+  Batch free({setup(cohesive_params(), flying)});
+  for (bool on : {false, true}) {
+    Batch::SystemState state = free.state(0);
+    state.gravity_on = on;
+    free.reset(0, setup(cohesive_params(), flying));
+    free.restore(0, state);
+    free.step();
+    const double g = on ? cohesive_params().gravity : 0.0;
+    for (const auto& d : free.disks(0)) EXPECT_NEAR(d.vy, -g * free.params(0).time_step, 1e-15);
+  }
 }
 
 // The scheduler moves systems in and out of the step between two steps: the device learns the

@@ -32,6 +32,9 @@ struct SystemParams {
   double capture_radius = 1.0;  // r_capt >= 1 (protocol B)
 
   double reference_mass() const { return disk_density * M_PI * radius * radius; }
+  // The gravitational acceleration the disks feel (x, y): zero while gravity is off.
+  double gravity_x() const { return gravity_on ? gravity * gravity_dir_x : 0.0; }
+  double gravity_y() const { return gravity_on ? gravity * gravity_dir_y : 0.0; }
   // Every field, in order (a new field belongs here: the size check below fails without it).
   auto fields() const {
     return std::tie(width, height, radius, polydispersity, disk_density, gravity, gravity_dir_x,
