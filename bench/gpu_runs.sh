@@ -13,7 +13,9 @@
 #                coloured_accelerated_gauss_seidel)
 #   STAGES=1 bench/gpu_runs.sh ...  runs with `--timing` (fenced after every stage, so the wall
 #     time is not the plain run's) and adds "stages": per stage of the step its seconds, and its
-#     kernel launches and deep copies per step, and "steps": the batch's steps timed.
+#     kernel launches and deep copies per step, "steps": the batch's steps timed, and
+#     "wall_parts": the run's wall time before its members, running them (the loop, and the
+#     batch's set-up and last checkpoint around it) and after them (analysis and file).
 #   LIMIT=seconds bench/gpu_runs.sh ...  stops each run after that many seconds (SIGINT: the run
 #     checkpoints and prints its timing), for the cost per step of a prefix of a long run; such a
 #     run has no summary, so its line has no observable.
@@ -97,6 +99,14 @@ for name in C A; do
         "$work/timing.txt")
       observable="$observable, \"steps\": ${steps:-null}, \"stages\": {$stages}"
       [ -n "$balance" ] && observable="$observable, \"balance\": $balance"
+      # "loosepack: wall time T s: B s before the members ..., R s running them (the loop above
+      # L s, the batch's set-up and the last checkpoint S s), A s after them ..." (absent: stopped)
+      parts=$(grep '^loosepack: wall time' "$work/timing.txt" | grep -oE '[0-9]+\.[0-9]+' |
+        paste -sd' ' -)
+      if [ -n "$parts" ]; then
+        read -r p_all p_before p_members p_loop p_around p_after <<<"$parts"
+        observable="$observable, \"wall_parts\": {\"program_s\": $p_all, \"before_s\": $p_before, \"members_s\": $p_members, \"loop_s\": $p_loop, \"around_loop_s\": $p_around, \"after_s\": $p_after}"
+      fi
     fi
     printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "sweeps_per_launch": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
       "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "${SWEEPS_PER_LAUNCH:-0}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"

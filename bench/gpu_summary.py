@@ -7,7 +7,8 @@ bench/gpu_study.sh (OUT/runs.jsonl, or a bench/results/gpu-study-*.jsonl record)
 Prints, per scene: the host core's and each whole device run's seconds per member, the host
 cores the GPU is worth (host seconds per member over the device's), the main observable of
 each with the difference in combined standard errors, and for runs with --timing the solve's
-balance; then the milliseconds per step of each stage for every device run with stages.
+balance; then the milliseconds per step of each stage for every device run with stages, and
+where each run's wall time went (before its members, the loop, around it, after).
 """
 import json
 import math
@@ -123,12 +124,35 @@ def stage_table(runs):
     return lines
 
 
+def wall_table(runs):
+    """Where each run's wall time went (the runs with --timing that finished)."""
+    with_parts = [r for r in runs if r.get("wall_parts")]
+    if not with_parts:
+        return []
+    lines = [
+        "| scene | run | wall s (the script's) | program s | before the members | the loop"
+        " | set-up and last checkpoint | after (analysis, file) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for r in with_parts:
+        w = r["wall_parts"]
+        lines.append(
+            "| {} | {} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} | {:.2f} |".format(
+                r["scene"],
+                " ".join(x for x in (r.get("where"), r.get("variant")) if x),
+                r["wall_s"], w["program_s"], w["before_s"], w["loop_s"], w["around_loop_s"],
+                w["after_s"],
+            )
+        )
+    return lines
+
+
 def main(argv):
     if len(argv) != 2:
         sys.stderr.write("usage: bench/gpu_summary.py RUNS.jsonl\n")
         return 2
     runs = load(argv[1])
-    for table in (ratio_table(runs), balance_table(runs), stage_table(runs)):
+    for table in (ratio_table(runs), balance_table(runs), stage_table(runs), wall_table(runs)):
         if table:
             print("\n".join(table))
             print()

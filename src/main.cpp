@@ -183,6 +183,9 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
+// The program's start (its static initialisation), for `run --timing`'s account of a run's wall
+// time.
+const Clock::time_point kProgramStart = Clock::now();
 
 // A long time in the unit a reader would use ("2.5 hours", "1.3 years"), for the ETA and the
 // dry run's estimate, whose seconds stay as they are for scripts; empty under 2 minutes.
@@ -228,6 +231,7 @@ class RunCommand {
   int compute();
   void print_timing() const;
   void print_cost_per_disk(const StageCost& solve) const;
+  void print_wall_time() const;
   int wait_for_ranks();
   int collect_and_write();
   int write_finished();
@@ -290,6 +294,7 @@ class RunCommand {
   std::vector<char> final;       // which ranks have finished
   Progress own;                  // this rank's latest
   std::vector<StageCost> stages;
+  Clock::time_point computed_at;  // the members computed and checkpointed (print_wall_time)
   OutputLock lock;  // rank 0: the output and its checkpoint are this run's
 };
 
@@ -305,7 +310,9 @@ int RunCommand::run() {
   const int stopped = wait_for_ranks();  // the last progress line, then the timing after it
   print_timing();
   if (stopped) return stopped;
-  return collect_and_write();
+  const int rc = collect_and_write();
+  print_wall_time();
+  return rc;
 }
 
 // The scan, and the members to run (all, or the one of --member).
@@ -649,6 +656,7 @@ int RunCommand::compute() {
     // Everything computed is in the checkpoint before the gather and the final write, so that
     // neither a long wait for the other ranks nor a failed write (a full disk) loses it.
     save_checkpoint();
+    computed_at = Clock::now();
   } catch (const std::exception& e) {
     const std::string who = ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "";
     std::cerr << "loosepack: " << who << e.what() << "\n";
@@ -734,6 +742,27 @@ void RunCommand::print_timing() const {
   for (const auto& st : stages)
     if (st.team_size > 0)
       std::fprintf(stderr, "  %s: %d threads a team\n", st.name.c_str(), st.team_size);
+}
+
+// With --timing, after the file is written: the run's wall time before its members (the
+// backend's start, the scan, the checkpoint read), running them (the loop of the table above,
+// and around it the batch's set-up and the last checkpoint) and after them (the other ranks'
+// members awaited and gathered, the analysis and the file).
+void RunCommand::print_wall_time() const {
+  if (!o.timing || !talk) return;
+  double loop = 0.0;
+  for (const auto& st : stages) loop += st.seconds;
+  const auto between = [](Clock::time_point a, Clock::time_point b) {
+    return std::chrono::duration<double>(b - a).count();
+  };
+  const double members = between(t0, computed_at);
+  std::fprintf(stderr,
+               "loosepack: wall time %.3f s: %.3f s before the members (start-up, the scan, the "
+               "checkpoint), %.3f s running them (the loop above %.3f s, the batch's set-up "
+               "and the last checkpoint %.3f s), %.3f s after them (gathered, analysed, "
+               "written)\n",
+               seconds_since(kProgramStart), between(kProgramStart, t0), members, loop,
+               members - loop, between(computed_at, Clock::now()));
 }
 
 // Rank 0 shows progress until every rank is done, finished or stopped. A rank stopped by a

@@ -139,6 +139,16 @@ msg=$("$exe" run "$dir/timed.toml" -o "$dir/timed.h5" --timing 2>&1) || fail "ti
 echo "$msg" | awk '$1 == "solve:" && $3 == "disks" { found = 1; all = $10; rest = $14 }
   END { exit !(found && rest > 0 && rest < all) }' ||
   fail "--timing gives no cost per disk, or one outside the solve that is not less: $msg"
+# Its last line, after the file is written: the run's wall time, the parts before, running and
+# after the members adding up to it, the loop of the table (its rows' sum) and the rest of running
+# them adding up to that part (each rounded to a millisecond).
+read -r all before members loop around after < <(grep '^loosepack: wall time' <<< "$msg" |
+  grep -oE '[0-9]+\.[0-9]+' | paste -sd' ' -)
+rows=$(awk '$NF == "copies" { for (k = 2; $(k + 1) != "s"; ++k); sum += $k } END { print sum }' <<< "$msg")
+awk -v a="$all" -v b="$before" -v m="$members" -v l="$loop" -v r="$around" -v f="$after" -v t="$rows" \
+  'BEGIN { d = a - b - m - f; e = m - l - r; g = l - t
+           exit !(a > 0 && l > 0 && d * d < 4e-6 && e * e < 4e-6 && g * g < 1e-4) }' ||
+  fail "--timing's wall time does not add up ($all = $before + $members + $after; $members = $loop + $around; the rows $rows): $msg"
 # An existing result file is refused before any work, and replaced with --force.
 cp "$dir/good.h5" "$dir/kept.h5"
 set +e
