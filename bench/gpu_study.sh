@@ -15,7 +15,9 @@
 #      does, without --timing's fence after every stage (and without its table);
 #   5. if PAPER_MEMBER_S is set: one paper-size protocol-A member (bench/paper_size_member.sh:
 #      200 R x 800 R, Bo = 1e3, regions) for that many seconds on the device (a batch of one,
-#      the backend's defaults) and side by side on one host core: the disks each deposited;
+#      the backend's defaults) and side by side on one host core: the disks each deposited; on
+#      the device once for each team size in PAPER_TEAM_SIZES (default "0", the backend's
+#      choice; one system may use a larger team than thousands do);
 #   6. if TESTS names a GoogleTest binary: its tests (bench/gpu_tests.sh), in the seconds left
 #      of BUDGET_S.
 #
@@ -103,10 +105,16 @@ if [ -n "${PAPER_MEMBER_S:-}" ]; then
   LOOSEPACK=$host FOR_S=$PAPER_MEMBER_S taskset -c "$last_core" \
     "$here/paper_size_member.sh" "$work/member-host" 2>>"$out/study.log" &
   member_job=$!
-  LOOSEPACK=$device FOR_S=$PAPER_MEMBER_S "$here/paper_size_member.sh" "$work/member-device" \
-    2>>"$out/study.log"
+  members=(host)
+  for size in ${PAPER_TEAM_SIZES:-0}; do
+    where=device
+    [ "$size" = 0 ] || where=device-team$size
+    members+=("$where")
+    LOOSEPACK=$device FOR_S=$PAPER_MEMBER_S TEAM_SIZE=$size "$here/paper_size_member.sh" \
+      "$work/member-$where" 2>>"$out/study.log"
+  done
   wait "$member_job"
-  for where in device host; do  # the last progress line: disks deposited, seconds elapsed
+  for where in "${members[@]}"; do  # the last progress line: disks deposited, seconds elapsed
     line=$(grep -h 'disks deposited' "$work/member-$where"/*.log 2>/dev/null | tail -n 1)
     if [ -z "$line" ]; then
       log "the paper-size member on the $where left no progress line; its log ends:"

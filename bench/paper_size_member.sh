@@ -14,7 +14,9 @@
 # solver.tolerance = 3e-3, as the tall and wide fig. 7 files) or "defaults" (the program's).
 # Stop it with Ctrl-C or SIGTERM: the run writes its checkpoint and the next call goes on.
 # FOR_S=N stops the run so after N seconds (bench/gpu_study.sh's PAPER_MEMBER_S). LOOSEPACK names
-# the binary (default build/loosepack).
+# the binary (default build/loosepack). TEAM_SIZE=n (n > 0) sets solver.team_size, the team
+# solver's threads for the member (a device's default solver; a member of its own, whose name
+# says so); 0 or unset: the backend's choice.
 set -euo pipefail
 out=${1:?usage: paper_size_member.sh OUT_DIR [BOND_NUMBER] [SETTINGS]}
 bond=${2:-1e3}
@@ -33,7 +35,10 @@ case "$settings" in
 esac
 mkdir -p "$out"
 cd "$out"
+team=${TEAM_SIZE:-0}
+[[ $team =~ ^[0-9]+$ ]] || { echo "paper_size_member.sh: TEAM_SIZE must be a count, not '$team'" >&2; exit 2; }
 name="A_bo${bond}_${settings}"
+[ "$team" -gt 0 ] && name="${name}_team$team"
 if [ ! -f "$name.toml" ]; then
   {
     printf '[scan]\nname = "%s"\nseed = 2011\nseeds = 1\nbatch_size = 1\nprotocol = "A"\n\n' "$name"
@@ -41,7 +46,10 @@ if [ ! -f "$name.toml" ]; then
     printf '[protocol]\nstop_rule = "no_room"\n'
     if [ "$settings" = tall ]; then
       printf 'region_radius = 8.0\nregion_check_every = 10\n\n[solver]\ntolerance = 3e-3\n'
+    else
+      printf '\n[solver]\n'
     fi
+    if [ "$team" -gt 0 ]; then printf 'team_size = %d\n' "$team"; fi
   } >"$name.toml"
 fi
 if [ -f "$name.h5" ]; then
