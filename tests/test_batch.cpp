@@ -373,6 +373,11 @@ TEST(Batch, ASystemIsWrittenInOneCopy) {
 
   std::vector<ContactForce> contacts = batch.contacts(s);
   ASSERT_GT(contacts.size(), 1u);
+  std::vector<ContactForce> bad = contacts;
+  bad.front().normal *= 2.0;
+  bad.back().j = bad.back().i;  // no contact of a disk with itself
+  EXPECT_THROW(batch.set_contacts(s, bad), std::out_of_range);
+  EXPECT_EQ(batch.contacts(s).front().normal, contacts.front().normal);
   contacts.pop_back();
   for (auto& c : contacts) c.normal *= 2.0;
   once([&] { batch.set_contacts(s, contacts); });
@@ -390,6 +395,10 @@ TEST(Batch, ASystemIsWrittenInOneCopy) {
   SystemSetup su = setups[s];
   su.disks = was.disks;
   batch.reset(s, su);
+  Batch::SystemState off_slot = was;  // a contact slot outside the system
+  off_slot.slot.back() = static_cast<int>(was.disks.size()) * kSlots;
+  EXPECT_THROW(batch.restore(s, off_slot), std::invalid_argument);
+  EXPECT_TRUE(batch.contacts(s).empty());  // as reset left it
   once([&] { batch.restore(s, was); });
   const Batch::SystemState now = batch.state(s);
   expect_same_disks(now.disks, was.disks, s);
