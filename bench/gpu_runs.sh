@@ -101,8 +101,8 @@ for name in C A; do
       [ -n "$balance" ] && observable="$observable, \"balance\": $balance"
       # "loosepack: wall time T s: B s before the members ..., R s running them (the loop above
       # L s, the batch's set-up and the last checkpoint S s), A s after them ..." (absent: stopped)
-      parts=$(grep '^loosepack: wall time' "$work/timing.txt" | grep -oE '[0-9]+\.[0-9]+' |
-        paste -sd' ' -)
+      parts=$({ grep '^loosepack: wall time' "$work/timing.txt" || true; } |
+        grep -oE '[0-9]+\.[0-9]+' | paste -sd' ' - || true)
       if [ -n "$parts" ]; then
         read -r p_all p_before p_members p_loop p_around p_after <<<"$parts"
         observable="$observable, \"wall_parts\": {\"program_s\": $p_all, \"before_s\": $p_before, \"members_s\": $p_members, \"loop_s\": $p_loop, \"around_loop_s\": $p_around, \"after_s\": $p_after}"
