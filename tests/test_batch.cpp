@@ -337,13 +337,12 @@ TEST(Batch, ASystemReadsBackInOneCopy) {
   EXPECT_EQ(batch.state(1).draws, far.draws);
 }
 
-// Writing a system is one kernel and one copy too (on a device, one transfer and no wait): disks
-// by index, with the fastest disk as written for the next step's margin; the contacts' impulses
-// (a contact left out leaves its slot empty); a whole state, gravity included. A write that
-// names a disk twice or one that is not there changes nothing.
-TEST(Batch, ASystemIsWrittenInOneCopy) {
-  std::vector<SystemSetup> setups = unequal_systems();
-  Batch batch(setups);
+// Writing a system is one kernel and one copy too (on a device, one transfer and no wait), and a
+// write that names a disk twice, a disk or a contact slot that is not there changes nothing.
+// Disks by index: the values read back as written (x wrapped into the box), and the fastest disk
+// as written for the next step's margin.
+TEST(Batch, DisksAreWrittenInOneCopy) {
+  Batch batch(unequal_systems());
   for (int k = 0; k < 500; ++k) batch.step();
   batch.set_timing(true);
   const int s = 1;
@@ -370,7 +369,14 @@ TEST(Batch, ASystemIsWrittenInOneCopy) {
   for (const auto& d : expect)
     fastest = std::max({fastest, std::sqrt(d.vx * d.vx + d.vy * d.vy), std::fabs(d.radius * d.w)});
   EXPECT_EQ(batch.state(s).speed, fastest);
+}
 
+// Contacts' impulses: a contact left out leaves its slot empty.
+TEST(Batch, ContactsAreWrittenInOneCopy) {
+  Batch batch(unequal_systems());
+  for (int k = 0; k < 500; ++k) batch.step();
+  batch.set_timing(true);
+  const int s = 1;
   std::vector<ContactForce> contacts = batch.contacts(s);
   ASSERT_GT(contacts.size(), 1u);
   std::vector<ContactForce> bad = contacts;
@@ -389,7 +395,16 @@ TEST(Batch, ASystemIsWrittenInOneCopy) {
     EXPECT_EQ(back[c].j, contacts[c].j);
     EXPECT_EQ(back[c].normal, h * contacts[c].normal / h);
   }
+}
 
+// A whole state restored reads back as it was, its gravity included: disks in flight keep their
+// speed without it and gain g h with it.
+TEST(Batch, AStateIsRestoredInOneCopy) {
+  std::vector<SystemSetup> setups = unequal_systems();
+  Batch batch(setups);
+  for (int k = 0; k < 500; ++k) batch.step();
+  batch.set_timing(true);
+  const int s = 1;
   Batch::SystemState was = batch.state(s);
   for (int k = 0; k < 50; ++k) batch.step();
   SystemSetup su = setups[s];
@@ -413,8 +428,6 @@ TEST(Batch, ASystemIsWrittenInOneCopy) {
   EXPECT_EQ(now.speed, was.speed);
   EXPECT_EQ(now.centre_speed, was.centre_speed);
 
-  // Gravity as the state has it: disks in flight keep their speed without it, and gain g h
-  // with it.
   std::vector<Disk> flying;  // apart from each other and from the floor
   for (double x : {3.0, 9.0, 15.0}) {
     flying.push_back(column(1, x)[0]);
