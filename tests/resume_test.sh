@@ -3,8 +3,8 @@
 # and SIGINT and resumed, all give output identical to an uninterrupted run (tests/h5_equal.py),
 # members finished before the interruption are not computed again, a member interrupted while
 # it runs goes on from where it was, the members finished so far can be written without
-# computing (--finished-only) and the run then continued, and a checkpoint that does not belong
-# to the scan, or is corrupt, is refused.
+# computing (--finished-only) and the run then continued, a stop writes the running member's
+# snapshot once, and a checkpoint that does not belong to the scan, or is corrupt, is refused.
 source "$(dirname "$0")/common.sh"
 cd "$dir"
 
@@ -101,6 +101,23 @@ grep -q "interrupted by SIGINT" i.log || fail "message: $(cat i.log)"
 [ ! -e i.h5 ] || fail "an interrupted run wrote an output file"
 "$exe" run s.toml -o i.h5 --batch-size 1 --resume -q
 same full.h5 i.h5
+# At a stop the running member's snapshot is written once, as it is taken, and not again as the
+# run ends (a tall deposit's snapshot is megabytes): strace counts the renames onto the running
+# part (part-1-0.bin; every part is written to a temporary file and renamed into place).
+command -v strace >/dev/null || fail "strace is missing (scripts/install-deps.sh --test installs it)"
+strace -f -qq -e trace=rename,renameat,renameat2 -o once.trace \
+  "$exe" run s.toml -o once.h5 --batch-size 1 --checkpoint-every 0 >once.log 2>&1 &
+tracer=$!
+for _ in $(seq 1 600); do
+  ls once.h5.checkpoint/*.bin >/dev/null 2>&1 && break
+  sleep 0.02
+done
+sleep 0.5
+kill -INT "$(pgrep -P "$tracer" | head -n 1)"
+wait "$tracer" || true
+grep -q "interrupted by SIGINT" once.log || fail "the traced run was not stopped: $(cat once.log)"
+writes=$(grep -c 'rename.*"once\.h5\.checkpoint/part-1-0\.bin"' once.trace || true)
+[ "$writes" -eq 1 ] || fail "the running part was written $writes times at a stop: $(cat once.trace)"
 # The members finished so far, written without computing anything; the checkpoint stays, and
 # the run then goes on from it (over the partial file, with --force) to the same file.
 msg=$("$exe" run s.toml -o t.h5 --finished-only 2>&1) && fail "--finished-only without --resume ran"
