@@ -12,11 +12,11 @@ packages=(
 )
 # --test: what the test suite needs beyond that (pytest; ParaView's Python and ASE, which read
 # the files `loosepack export` writes; venv and setuptools to pip-install python/ in a test; xvfb
-# for rendering with ParaView, tools/render_deposit.py; strace, which counts a run's checkpoint
-# writes in tests/resume_test.sh).
+# for rendering with ParaView, tools/render_deposit.py; strace and procps's pgrep, with which
+# tests/resume_test.sh counts a run's checkpoint writes).
 if [ "${1:-}" = "--test" ]; then
   packages+=(python3-pytest python3-paraview python3-ase python3-venv python3-setuptools xvfb xauth
-    strace)
+    strace procps)
 fi
 missing=()
 for p in "${packages[@]}"; do
