@@ -114,8 +114,10 @@ struct LoadSlot {
   }
 };
 
-// What a read of one system gathers (Batch::disks, contacts, state).
-enum class SlotRead { Disks, Contacts, State };
+// The part of one system a read (Batch::disks, contacts, state) gathers or a write
+// (Batch::set_disks, set_contacts, restore) puts in place: its disks, its contact slots, or its
+// whole state.
+enum class SlotPart { Disks, Contacts, State };
 
 // The per-contact-slot values of a slot read back, field after field, after its disks'.
 enum SlotContactField {
@@ -142,10 +144,11 @@ enum SlotValue {
   kSlotValues
 };
 
-// Where ReadSlot puts, and WriteSlot finds, field `field` of contact slot c of a system of
-// `count` disks, and value `value` (SlotValue): its disks come first (field * count + a for a
-// disk a), then its contact slots, then the values. A read or write fills, and copies, only its
-// own part of that layout.
+// Where ReadSlot puts, and WriteSlot finds, field `field` of disk a and of contact slot c of a
+// system of `count` disks, and value `value` (SlotValue): its disks come first, then its contact
+// slots, then the values. A read or write fills, and copies, only its own part of that layout
+// (a write of disks by index lays out its n disks as slot_disk_at(n, field, k)).
+KOKKOS_INLINE_FUNCTION int slot_disk_at(int count, int field, int a) { return field * count + a; }
 KOKKOS_INLINE_FUNCTION int slot_contact_at(int count, int field, int c) {
   return kSlotDiskFields * count + field * count * kSlots + c;
 }
@@ -165,14 +168,14 @@ struct ReadSlot {
   ContactViews con;
   DView<double> out;
   int s, first, count;
-  SlotRead what;
+  SlotPart what;
 
   KOKKOS_INLINE_FUNCTION void operator()(int i) const {
-    if (what != SlotRead::Contacts && i < count)
+    if (what != SlotPart::Contacts && i < count)
       for (int field = 0; field < kSlotDiskFields; ++field)
-        out(field * count + i) = disk_field(part, field)(first + i);
-    if (what == SlotRead::Disks) return;
-    if (what == SlotRead::State && i == 0) {
+        out(slot_disk_at(count, field, i)) = disk_field(part, field)(first + i);
+    if (what == SlotPart::Disks) return;
+    if (what == SlotPart::State && i == 0) {
       const std::uint64_t draws = sys.draws(s);
       out(slot_value_at(count, kSlotMaxSpeed)) = sys.max_speed(s);
       out(slot_value_at(count, kSlotCentreSpeed)) = sys.max_centre_speed(s);
@@ -194,11 +197,8 @@ struct ReadSlot {
   }
 };
 
-// What a write of one system puts in place (Batch::set_disks, set_contacts, restore).
-enum class SlotWrite { Disks, Contacts, State };
-
-// A write of n disks by index (SlotWrite::Disks) holds the k-th disk's x, y, theta, vx, vy and w
-// (SlotDiskField) at field * n + k and its index at kWrittenIndex * n + k.
+// A write of n disks by index (SlotPart::Disks) holds the k-th disk's x, y, theta, vx, vy and w
+// (SlotDiskField) at slot_disk_at(n, field, k) and its index in the row after them.
 constexpr int kWrittenIndex = kLoadW + 1;
 
 // One team (a league of one) puts what the host staged in `in` into system s:
@@ -218,15 +218,15 @@ struct WriteSlot {
   ContactViews con;
   DView<double> in;
   int s, first, count, capacity, n;
-  SlotWrite what;
+  SlotPart what;
 
   KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
-    if (what == SlotWrite::Disks) return put_disks(team);
+    if (what == SlotPart::Disks) return put_disks(team);
     put_contacts(team);
-    if (what == SlotWrite::Contacts) return;
+    if (what == SlotPart::Contacts) return;
     Kokkos::parallel_for(Kokkos::TeamThreadRange(team, count), [&](int a) {
       const auto put = [&](int field) {
-        disk_field(part, field)(first + a) = in(field * count + a);
+        disk_field(part, field)(first + a) = in(slot_disk_at(count, field, a));
       };
       put(kLoadX);
       put(kLoadYMark);
@@ -238,9 +238,9 @@ struct WriteSlot {
 
   KOKKOS_INLINE_FUNCTION void put_disks(const Member& team) const {
     Kokkos::parallel_for(Kokkos::TeamThreadRange(team, n), [&](int k) {
-      const int p = first + static_cast<int>(in(kWrittenIndex * n + k));
+      const int p = first + static_cast<int>(in(slot_disk_at(n, kWrittenIndex, k)));
       for (int field = kLoadX; field <= kLoadW; ++field)
-        disk_field(part, field)(p) = in(field * n + k);
+        disk_field(part, field)(p) = in(slot_disk_at(n, field, k));
     });
     team.team_barrier();
     double fastest = 0.0;
@@ -248,6 +248,7 @@ struct WriteSlot {
         Kokkos::TeamThreadRange(team, count),
         [&](int a, double& m) { m = kmath::max(m, disk_speed(part, first + a)); },
         Kokkos::Max<double>(fastest));
+    // (A reduction over no disk gives the lowest double.)
     Kokkos::single(Kokkos::PerTeam(team), [&]() { sys.max_speed(s) = kmath::max(0.0, fastest); });
   }
 
@@ -264,7 +265,7 @@ struct WriteSlot {
       con.pn(c) = v(kSlotPn);
       con.pt(c) = v(kSlotPt);
       con.pm(c) = v(kSlotPm);
-      if (what != SlotWrite::State) return;
+      if (what != SlotPart::State) return;
       con.nx(c) = v(kSlotNx);
       con.ny(c) = v(kSlotNy);
       con.gap(c) = v(kSlotGap);

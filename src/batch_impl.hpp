@@ -124,10 +124,10 @@ struct Batch::Impl {
   DView<double>::HostMirror slot_host;
   // What `what` reads of system s on the host, laid out as ReadSlot writes it; valid until the
   // next read or write.
-  DView<double>::HostMirror read_slot(int s, SlotRead what);
-  // Puts what the host staged in slot_host (n disks by index for SlotWrite::Disks) into system s
+  DView<double>::HostMirror read_slot(int s, SlotPart what);
+  // Puts what the host staged in slot_host (n disks by index for SlotPart::Disks) into system s
   // (WriteSlot).
-  void write_slot(int s, SlotWrite what, int n = 0);
+  void write_slot(int s, SlotPart what, int n = 0);
   std::vector<SystemStatus> status;
   std::vector<int> offsets, slot_capacity, slot_cells;
   std::vector<std::pair<int, int>> chunks;  // particle ranges of the contact stage's chunks

@@ -350,7 +350,7 @@ void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Di
   const auto& h = I.slot_host;
   for (int j = 0; j < n; ++j) {
     const Disk& d = disks[static_cast<std::size_t>(j)];
-    const auto put = [&](int field, double v) { h(field * n + j) = v; };
+    const auto put = [&](int field, double v) { h(slot_disk_at(n, field, j)) = v; };
     put(kLoadX, std::fmod(std::fmod(d.x, width) + width, width));
     put(kLoadY, d.y);
     put(kLoadTheta, d.theta);
@@ -359,7 +359,7 @@ void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Di
     put(kLoadW, d.w);
     put(kWrittenIndex, index[static_cast<std::size_t>(j)]);
   }
-  I.write_slot(s, SlotWrite::Disks, n);
+  I.write_slot(s, SlotPart::Disks, n);
 }
 
 namespace {
@@ -391,19 +391,25 @@ void Batch::set_contacts(int s, const std::vector<ContactForce>& contacts) {
     put(kSlotPt, step * c.tangential);
     put(kSlotPm, step * c.moment);
   }
-  I.write_slot(s, SlotWrite::Contacts);
+  I.write_slot(s, SlotPart::Contacts);
 }
 
-void Batch::Impl::write_slot(int s, SlotWrite what, int n) {
+namespace {
+// The range of the staging layout that a read or write of `what` fills and copies: its disks
+// (which end at disks_end), its contact slots, or all of it with the values.
+std::pair<std::size_t, std::size_t> staged_part(SlotPart what, int count, int disks_end) {
+  const int from = what == SlotPart::Contacts ? kSlotDiskFields * count : 0;
+  const int to = what == SlotPart::Disks      ? disks_end
+                 : what == SlotPart::Contacts ? slot_value_at(count, 0)
+                                              : slot_value_at(count, kSlotValues);
+  return {static_cast<std::size_t>(from), static_cast<std::size_t>(to)};
+}
+}  // namespace
+
+void Batch::Impl::write_slot(int s, SlotPart what, int n) {
   const auto k = static_cast<std::size_t>(s);
   const int count = status.at(k).count;
-  // Its part of the layout (kWrittenIndex; slot_contact_at, slot_value_at).
-  const int from = what == SlotWrite::Contacts ? kSlotDiskFields * count : 0;
-  const int to = what == SlotWrite::Disks      ? (kWrittenIndex + 1) * n
-                 : what == SlotWrite::Contacts ? slot_value_at(count, 0)
-                                               : slot_value_at(count, kSlotValues);
-  const auto part_written =
-      std::make_pair(static_cast<std::size_t>(from), static_cast<std::size_t>(to));
+  const auto part_written = staged_part(what, count, slot_disk_at(n, kWrittenIndex + 1, 0));
   Kokkos::deep_copy(Kokkos::subview(slot_staging, part_written),
                     Kokkos::subview(slot_host, part_written));
   Kokkos::parallel_for(
@@ -411,20 +417,15 @@ void Batch::Impl::write_slot(int s, SlotWrite what, int n) {
       WriteSlot{sys, part, con, slot_staging, s, offsets[k], count, slot_capacity[k], n, what});
 }
 
-DView<double>::HostMirror Batch::Impl::read_slot(int s, SlotRead what) {
+DView<double>::HostMirror Batch::Impl::read_slot(int s, SlotPart what) {
   const auto k = static_cast<std::size_t>(s);
   const int count = status.at(k).count;
-  const int range = what == SlotRead::Disks      ? count
-                    : what == SlotRead::Contacts ? count * kSlots
+  const int range = what == SlotPart::Disks      ? count
+                    : what == SlotPart::Contacts ? count * kSlots
                                                  : std::max(1, count * kSlots);
   Kokkos::parallel_for("read_slot", Kokkos::RangePolicy<ExecSpace>(0, range),
                        ReadSlot{sys, part, con, slot_staging, s, offsets[k], count, what});
-  // Its part of the layout (slot_contact_at, slot_value_at).
-  const int from = what == SlotRead::Contacts ? kSlotDiskFields * count : 0;
-  const int to = what == SlotRead::Disks      ? kSlotDiskFields * count
-                 : what == SlotRead::Contacts ? slot_value_at(count, 0)
-                                              : slot_value_at(count, kSlotValues);
-  const auto part_read = std::make_pair(static_cast<std::size_t>(from), static_cast<std::size_t>(to));
+  const auto part_read = staged_part(what, count, slot_disk_at(count, kSlotDiskFields, 0));
   Kokkos::deep_copy(Kokkos::subview(slot_host, part_read),
                     Kokkos::subview(slot_staging, part_read));
   return slot_host;
@@ -436,7 +437,7 @@ namespace {
 std::vector<Disk> disks_read(const DView<double>::HostMirror& h, int count) {
   std::vector<Disk> out(static_cast<std::size_t>(count));
   for (int a = 0; a < count; ++a) {
-    auto v = [&](int field) { return h(field * count + a); };
+    auto v = [&](int field) { return h(slot_disk_at(count, field, a)); };
     Disk& d = out[static_cast<std::size_t>(a)];
     d.x = v(kLoadX);
     d.y = v(kLoadY);
@@ -469,14 +470,14 @@ int partner_read(const DView<double>::HostMirror& h, int count, int first, int c
 
 std::vector<Disk> Batch::disks(int s) const {
   const int count = impl_->status.at(static_cast<std::size_t>(s)).count;
-  return disks_read(impl_->read_slot(s, SlotRead::Disks), count);
+  return disks_read(impl_->read_slot(s, SlotPart::Disks), count);
 }
 
 std::vector<ContactForce> Batch::contacts(int s) const {
   auto& I = *impl_;
   const auto k = static_cast<std::size_t>(s);
   const int count = I.status.at(k).count, first = I.offsets[k];
-  const auto h = I.read_slot(s, SlotRead::Contacts);
+  const auto h = I.read_slot(s, SlotPart::Contacts);
   const double step = I.params[k].time_step;
   std::vector<ContactForce> out;
   for (int c = 0; c < count * kSlots; ++c) {
@@ -503,12 +504,13 @@ Batch::SystemState Batch::state(int s) const {
   SystemState out;
   out.status = I.status.at(k);
   const int first = I.offsets[k], count = out.status.count;
-  const auto h = I.read_slot(s, SlotRead::State);
+  const auto h = I.read_slot(s, SlotPart::State);
   out.disks = disks_read(h, count);
   for (auto [to, field] :
        {std::make_pair(&out.y_mark, kLoadYMark), std::make_pair(&out.inv_mass, kLoadInvMass),
         std::make_pair(&out.inv_inertia, kLoadInvInertia)})
-    to->assign(h.data() + field * count, h.data() + (field + 1) * count);
+    to->assign(h.data() + slot_disk_at(count, field, 0),
+               h.data() + slot_disk_at(count, field + 1, 0));
   for (int c = 0; c < count * kSlots; ++c) {
     const int j = partner_read(h, count, first, c);
     if (j == kNoContact) continue;
@@ -561,10 +563,10 @@ void Batch::restore(int s, const SystemState& state) {
   // (deposited disks got theirs on the device).
   for (int a = 0; a < count; ++a) {
     const auto d = static_cast<std::size_t>(a);
-    h(kLoadX * count + a) = state.disks[d].x;
-    h(kLoadYMark * count + a) = state.y_mark[d];
-    h(kLoadInvMass * count + a) = state.inv_mass[d];
-    h(kLoadInvInertia * count + a) = state.inv_inertia[d];
+    h(slot_disk_at(count, kLoadX, a)) = state.disks[d].x;
+    h(slot_disk_at(count, kLoadYMark, a)) = state.y_mark[d];
+    h(slot_disk_at(count, kLoadInvMass, a)) = state.inv_mass[d];
+    h(slot_disk_at(count, kLoadInvInertia, a)) = state.inv_inertia[d];
   }
   // The impulses go where the next step's warm start reads them (as set_contacts).
   stage_no_contacts(h, count);
@@ -588,7 +590,7 @@ void Batch::restore(int s, const SystemState& state) {
   value(kSlotCentreSpeed, state.centre_speed);
   value(kSlotGravityX, I.params[k].gravity_x());
   value(kSlotGravityY, I.params[k].gravity_y());
-  I.write_slot(s, SlotWrite::State);
+  I.write_slot(s, SlotPart::State);
   I.status[k] = state.status;
   I.newton_steps[k] = state.status.newton_steps;
   set_solver_pace(s, state.pace);
