@@ -28,6 +28,10 @@
 #     solve's balance from --timing: "balance": [systems a launch, their sweeps as % of the
 #     launch's slowest system's, the slowest system's sweeps a launch, system steps ended a
 #     launch].
+#   NEWTON_EVERY=n bench/gpu_runs.sh ...  sets solver.newton_every (accelerated_gauss_seidel's
+#     Newton steps; 0: none, which a fused step needs).
+#   FUSED=1 bench/gpu_runs.sh ...  sets solver.fused_step (every stage of a system's step in its
+#     own team, one launch a step); with STAGES=1 the balance comes from its one row.
 #
 # Scenes: "C" the accuracy study's collapse (protocol C, 24 R x 40 R, Bo = 1e3, r_capt = 2,
 # h = 0.0028); "A" the default job's cohesive point (protocol A, 24 R x 24 R, Bo = 1e2).
@@ -57,6 +61,8 @@ batch_size = ${BATCH:-$members}"
   printf '[solver]\nkind = "%s"\n' "$2"
   [ -n "${TEAM_SIZE:-}" ] && printf 'team_size = %d\n' "$TEAM_SIZE"  # (older builds lack the key)
   [ -n "${SWEEPS_PER_LAUNCH:-}" ] && printf 'sweeps_per_launch = %d\n' "$SWEEPS_PER_LAUNCH"
+  [ "${FUSED:-0}" = 1 ] && printf 'fused_step = true\n'
+  [ -n "${NEWTON_EVERY:-}" ] && printf 'newton_every = %d\n' "$NEWTON_EVERY"
   printf '[observables]\nlower_half_from = 4.0\n'
 }
 
@@ -92,7 +98,9 @@ for name in C A; do
       steps=$(awk '$1 == "over" { print $2; exit }' "$work/timing.txt")
       # "  solve: N systems a launch, their sweeps P % ...", "  solve: S sweeps a launch by its
       # slowest system", "  solve: E system steps ended a launch" (absent: one launch a step)
-      balance=$(awk '$1 == "solve:" && $3 == "systems" { n = $2; p = $8 }
+      # (with FUSED=1 "  system_step: ...", the one launch's balance)
+      balance=$(awk '$1 == "system_step:" { $1 = "solve:" }
+        $1 == "solve:" && $3 == "systems" { n = $2; p = $8 }
         $1 == "solve:" && $3 == "sweeps" { w = $2 }
         $1 == "solve:" && $4 == "steps" { e = $2 }
         END { if (n != "") printf "[%s, %s, %s, %s]", n, p, (w == "" ? "null" : w), (e == "" ? n : e) }' \
@@ -108,7 +116,7 @@ for name in C A; do
         observable="$observable, \"wall_parts\": {\"program_s\": $p_all, \"before_s\": $p_before, \"members_s\": $p_members, \"loop_s\": $p_loop, \"around_loop_s\": $p_around, \"after_s\": $p_after}"
       fi
     fi
-    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "sweeps_per_launch": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
-      "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "${SWEEPS_PER_LAUNCH:-0}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
+    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "sweeps_per_launch": %d, "fused_step": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
+      "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "${SWEEPS_PER_LAUNCH:-0}" "${FUSED:-0}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
   done
 done

@@ -12,7 +12,9 @@
 #      each value of solver.sweeps_per_launch in SWEEPS_PER_LAUNCHES (default "0": each step's
 #      whole solve in one launch; K > 0 splits a step's solve over launches of at most K sweeps,
 #      so that a launch does not wait for the slowest system); FENCED=0 runs them as a user
-#      does, without --timing's fence after every stage (and without its table);
+#      does, without --timing's fence after every stage (and without its table); each of them
+#      once for each value of solver.fused_step in FUSED_STEPS (default "0"; "0 1" adds the
+#      runs whose whole step is one launch, variant "...-fused");
 #   5. if PAPER_MEMBER_S is set: one paper-size protocol-A member (bench/paper_size_member.sh:
 #      200 R x 800 R, Bo = 1e3, regions) for that many seconds on the device (a batch of one,
 #      the backend's defaults) and side by side on one host core: the disks each deposited; on
@@ -89,13 +91,16 @@ for size in ${TEAM_SIZES:-}; do
     "$members" "$solver"
 done
 
-for sweeps in ${SWEEPS_PER_LAUNCHES:-0}; do
-  variant=after  # (the name of the whole runs before sweeps_per_launch existed)
-  [ "$sweeps" = 0 ] || variant=sweeps-$sweeps
-  [ "${FENCED:-1}" = 1 ] || variant=$variant-unfenced
-  log "whole runs on the device, sweeps_per_launch $sweeps, $members members"
-  SWEEPS_PER_LAUNCH=$sweeps STAGES=${FENCED:-1} runs device "$variant" 0 "$device" "$members" \
-    "$solver"
+for fused in ${FUSED_STEPS:-0}; do
+  for sweeps in ${SWEEPS_PER_LAUNCHES:-0}; do
+    variant=after  # (the name of the whole runs before sweeps_per_launch existed)
+    [ "$sweeps" = 0 ] || variant=sweeps-$sweeps
+    [ "$fused" = 0 ] || variant=$variant-fused
+    [ "${FENCED:-1}" = 1 ] || variant=$variant-unfenced
+    log "whole runs on the device, sweeps_per_launch $sweeps, fused_step $fused, $members members"
+    FUSED=$fused SWEEPS_PER_LAUNCH=$sweeps STAGES=${FENCED:-1} runs device "$variant" 0 "$device" \
+      "$members" "$solver"
+  done
 done
 wait "$host_job"
 log "host reference done"

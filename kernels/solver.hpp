@@ -511,7 +511,11 @@ struct ColouredAcceleratedGaussSeidel {
   DView<int> owner;
 
   KOKKOS_INLINE_FUNCTION void operator()(const Member& team) const {
-    const int s = team.league_rank();
+    solve(team, team.league_rank());
+  }
+
+  // System s's solve (or its next launch's share) by this team.
+  KOKKOS_INLINE_FUNCTION void solve(const Member& team, int s) const {
     if (!sys.active(s) || !sys.unconverged(s)) return;
     const SlotRange range = system_slots(sys, s);
     const int base = range.first + s;

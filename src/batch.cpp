@@ -48,6 +48,38 @@ std::string failure_message(Failure f) {
   return "unknown";
 }
 
+template <class F>
+void Batch::Impl::with_effects(F&& f) const {
+  const EffectFlags e = needed_effects();
+  if (e.rolling) {
+    f(Effects<true, true, true>{});
+  } else if (e.friction) {
+    if (e.cohesion)
+      f(Effects<true, true, false>{});
+    else
+      f(Effects<false, true, false>{});
+  } else {
+    if (e.cohesion)
+      f(Effects<true, false, false>{});
+    else
+      f(Effects<false, false, false>{});
+  }
+}
+
+template <class Fx>
+ColouredAcceleratedGaussSeidel<Fx> Batch::Impl::team_solver() {
+  return {sys,
+          part,
+          con,
+          sweeps_this_step,
+          colour_list,
+          system_colour_start,
+          solver.relaxation,
+          solver.sweeps_per_launch,
+          packed,
+          packed_owner};
+}
+
 template <class Fx>
 void Batch::Impl::solve() {
   const SystemViews sys_ = sys;
@@ -73,16 +105,8 @@ void Batch::Impl::solve() {
     return;
   }
   if (solver.kind == SolverKind::ColouredAcceleratedGaussSeidel) {  // one team per system
-    const ColouredAcceleratedGaussSeidel<Fx> team_solver{sys,         part,
-                                                         con,         sweeps,
-                                                         colour_list, system_colour_start,
-                                                         omega,       solver.sweeps_per_launch,
-                                                         packed,      packed_owner};
-    const int threads = team_size_of(team_solver);
-    Kokkos::parallel_for("coloured_accelerated_gauss_seidel",
-                         threads > 0 ? Kokkos::TeamPolicy<ExecSpace>(n_systems, threads)
-                                     : Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO),
-                         team_solver);
+    const auto solver_ = team_solver<Fx>();
+    Kokkos::parallel_for("coloured_accelerated_gauss_seidel", team_policy(solver_), solver_);
     return;
   }
   int n_colours = 0;
@@ -420,7 +444,8 @@ const char* stage_name(StepStage stage) {
 }
 
 // One time step of the active systems: the stages of StepStage in their order (a system inside
-// a step whose solve goes on takes part in the solve alone).
+// a step whose solve goes on takes part in the solve alone), each launched over the batch, or
+// with solver.fused_step all but the status's host side in one launch.
 void Batch::Impl::step() {
   if (std::none_of(status.begin(), status.end(), [](const SystemStatus& st) { return st.active; }))
     return;
@@ -430,6 +455,13 @@ void Batch::Impl::step() {
     stage_timer.reset();
     lap_counts = launch_counts();
     ++timed_steps;
+  }
+  if (fused()) {
+    with_effects([this](auto fx) { system_step<decltype(fx)>(); });
+    lap(fused_cost);
+    read_status();
+    lap(timer(StepStage::Status));
+    return;
   }
   for (int k = 0; k < kStepStages; ++k) {
     const auto stage = static_cast<StepStage>(k);
@@ -460,31 +492,10 @@ void Batch::Impl::run_stage(StepStage stage) {
   }
 }
 
-// The detection margin and the solver tolerance from the last step's speeds (or those of the
-// disks Batch::set_disks wrote since); the step's counters reset. A system inside a step
-// (sys.solving) keeps its step's.
+// The detection margin and the solver tolerance from the last step's speeds (StepStart).
 void Batch::Impl::margin_stage() {
-  const SystemViews sys_ = sys;
-  const auto sweeps = sweeps_this_step;
-  const double kappa = solver.relative_tolerance;
-  Kokkos::parallel_for(
-      "margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems), KOKKOS_LAMBDA(int s) {
-        if (sys_.solving(s)) return;
-        sweeps(s) = 0;
-        const double h = sys_.time_step(s);
-        const double g = kmath::sqrt(sys_.gravity_x(s) * sys_.gravity_x(s) +
-                                     sys_.gravity_y(s) * sys_.gravity_y(s));
-        const double r = sys_.radius(s);
-        sys_.step_tolerance(s) =
-            g > 0.0 ? kmath::max(sys_.tolerance(s), kappa * sys_.max_speed(s) / (g * h))
-                    : sys_.tolerance(s);
-        sys_.margin(s) = kmath::clamp(2.0 * h * (sys_.max_speed(s) + h * g), kMinMarginFactor * r,
-                                      sys_.max_margin(s));
-        sys_.unconverged(s) = sys_.active(s) ? kIterating : 0;
-        sys_.sweep_change(s) = 0.0;
-        sys_.max_speed(s) = sys_.active(s) ? 0.0 : sys_.max_speed(s);
-        sys_.max_centre_speed(s) = sys_.active(s) ? 0.0 : sys_.max_centre_speed(s);
-      });
+  Kokkos::parallel_for("margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+                       StepStart{sys, sweeps_this_step, solver.relative_tolerance});
 }
 
 // Contacts, warm-started from the previous step's impulses, then the velocities those impulses
@@ -526,19 +537,38 @@ Batch::KernelEffects Batch::Impl::needed_effects() const {
 }
 
 void Batch::Impl::solve_stage() {
-  const EffectFlags e = needed_effects();
-  if (e.rolling) {
-    solve<Effects<true, true, true>>();
-  } else if (e.friction) {
-    if (e.cohesion)
-      solve<Effects<true, true, false>>();
-    else
-      solve<Effects<false, true, false>>();
-  } else {
-    if (e.cohesion)
-      solve<Effects<true, false, false>>();
-    else
-      solve<Effects<false, false, false>>();
+  with_effects([this](auto fx) { solve<decltype(fx)>(); });
+}
+
+// One team per system takes it through every stage (SystemStep, kernels/step.hpp) with the
+// solver's sweeps of one system: the team solver's, or one thread's.
+template <class Fx>
+void Batch::Impl::system_step() {
+  const auto launch = [&](const auto& solve) {
+    using Solve = std::decay_t<decltype(solve)>;
+    const SystemStep<Solve> step{sys,
+                                 part,
+                                 con,
+                                 grid,
+                                 StepStart{sys, sweeps_this_step, solver.relative_tolerance},
+                                 solve,
+                                 StatusReport{sys, sweeps_this_step, report},
+                                 false,
+                                 solver.overlap_correction};
+    Kokkos::parallel_for("system_step", team_policy(step), step);
+  };
+  const auto& sweeps = sweeps_this_step;
+  const double omega = solver.relaxation;
+  switch (solver.kind) {
+    case SolverKind::ColouredAcceleratedGaussSeidel:
+      return launch(TeamSolve<Fx>{team_solver<Fx>()});
+    case SolverKind::AcceleratedGaussSeidel:
+      return launch(OneThreadSolve<AcceleratedGaussSeidel<Fx>>{
+          {sys, part, con, sweeps, omega, DView<int>()}});
+    case SolverKind::SequentialGaussSeidel:
+      return launch(OneThreadSolve<SequentialGaussSeidel<Fx>>{{sys, part, con, sweeps, omega}});
+    default:  // refused when the batch was made
+      throw std::logic_error("Batch: a fused step with a solver that sweeps the whole batch");
   }
 }
 
@@ -552,24 +582,16 @@ void Batch::Impl::integrate_stage() {
 }
 
 // Per-system status on the host: the non-finite and overflow guards stop a system; rest
-// detection. A system whose solve goes on (sys.solving) has finished no step yet: only the
-// solve's balance counts it.
+// detection. The device packs it (StatusReport), the host reads it in one copy (read_status).
 void Batch::Impl::status_stage() {
-  const SystemViews sys_ = sys;
-  const auto sweeps = sweeps_this_step;
-  const auto out = report;
-  Kokkos::parallel_for(
-      "status_report", Kokkos::RangePolicy<ExecSpace>(0, n_systems), KOKKOS_LAMBDA(int s) {
-        double* r = &out(s * kStatusFields);
-        r[kFailure] = sys_.failure(s);
-        r[kMaxSpeed] = sys_.max_speed(s);
-        r[kMaxCentreSpeed] = sys_.max_centre_speed(s);
-        r[kStepTolerance] = sys_.step_tolerance(s);
-        r[kUnconverged] = sys_.unconverged(s);
-        r[kSweeps] = sweeps(s);
-        r[kCount] = sys_.count(s);
-        r[kSolving] = sys_.solving(s);
-      });
+  Kokkos::parallel_for("status_report", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+                       StatusReport{sys, sweeps_this_step, report});
+  read_status();
+}
+
+// The status report read back and acted on. A system whose solve goes on (sys.solving) has
+// finished no step yet: only the solve's balance counts it.
+void Batch::Impl::read_status() {
   Kokkos::deep_copy(host_report, report);
   const auto field = [&](int s, StatusField f) { return host_report(s * kStatusFields + f); };
   const auto whole = [&](int s, StatusField f) { return static_cast<int>(field(s, f)); };
@@ -606,7 +628,7 @@ void Batch::Impl::status_stage() {
     st.at_rest = st.rest_steps >= rest.steps;
   }
   if (timing) {
-    auto& cost = timer(StepStage::Solve);
+    auto& cost = fused() ? fused_cost : timer(StepStage::Solve);
     cost.system_steps += balance.systems;
     cost.disk_steps += balance.disks;
     cost.finished_steps += balance.finished;
@@ -619,6 +641,11 @@ void Batch::Impl::status_stage() {
 Batch::Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver,
              const RestSettings& rest)
     : impl_(std::make_unique<Impl>()) {
+  if (solver.fused_step && !fused_step_solver(solver))
+    throw std::invalid_argument(
+        "Batch: solver.fused_step needs a solver that sweeps each system in its own team: "
+        "coloured_accelerated_gauss_seidel, sequential_gauss_seidel, or accelerated_gauss_seidel "
+        "with newton_every = 0");
   impl_->solver = solver;
   impl_->rest = rest;
   impl_->allocate(systems);
@@ -648,6 +675,12 @@ const std::vector<StageCost>& Batch::stage_costs() const {
     cost.steps = I.timed_steps;
     I.stage_costs.push_back(std::move(cost));
   };
+  if (I.fused()) {  // one launch, and the status read on the host
+    named("system_step", I.fused_cost);
+    I.stage_costs.back().team_size = I.team_threads;
+    named(stage_name(StepStage::Status), I.timer(StepStage::Status));
+    return I.stage_costs;
+  }
   for (int k = 0; k < kStepStages; ++k) {
     const auto stage = static_cast<StepStage>(k);
     named(stage_name(stage), I.timer(stage));

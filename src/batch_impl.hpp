@@ -19,6 +19,7 @@
 #include "kernels/integrate.hpp"
 #include "kernels/load.hpp"
 #include "kernels/solver.hpp"
+#include "kernels/step.hpp"
 #include "loosepack/batch.hpp"
 #include "loosepack/geometry.hpp"
 #include "src/launch_count.hpp"
@@ -81,18 +82,7 @@ struct Batch::Impl {
   std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
   std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
   // The per-system status read after every step: packed on the device into `report` [S x
-  // StatusField] and read back in one copy (one wait for the device per step).
-  enum StatusField {
-    kFailure,
-    kMaxSpeed,
-    kMaxCentreSpeed,
-    kStepTolerance,
-    kUnconverged,
-    kSweeps,
-    kCount,
-    kSolving,
-    kStatusFields
-  };
+  // StatusField] (StatusReport, kernels/step.hpp) and read back in one copy.
   DView<double> report;
   DView<double>::HostMirror host_report;
   // Host mirrors of what the host reads between the accelerated solver's launches when it takes
@@ -166,6 +156,9 @@ struct Batch::Impl {
     stage_timer.reset();
   }
   StageCost& timer(StepStage stage) { return stage_cost[static_cast<std::size_t>(stage)]; }
+  // The fused step's one launch (solver.fused_step): every stage but the status's host side.
+  StageCost fused_cost;
+  bool fused() const { return solver.fused_step; }
   // The effects the active systems call for: the solve runs the kernel specialised on them.
   using EffectFlags = Batch::KernelEffects;
   EffectFlags needed_effects() const;
@@ -180,8 +173,16 @@ struct Batch::Impl {
   // kernels are the only ones that read it: a scheduler that moves many systems in or out
   // between two steps copies once.
   void upload_changed_active();
+  // f(Fx{}) with the Effects the systems active now call for: the kernels specialised on them.
+  template <class F>
+  void with_effects(F&& f) const;
+  template <class Fx>
+  ColouredAcceleratedGaussSeidel<Fx> team_solver();
   template <class Fx>
   void solve();
+  // The whole step of every system in one launch (solver.fused_step).
+  template <class Fx>
+  void system_step();
   template <class Fx>
   void solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain);
   template <class Fx>
@@ -209,6 +210,13 @@ struct Batch::Impl {
     return solver.team_size > 0 ? team_threads : 0;
   }
   int team_threads = 0;
+  // One team per system, of team_size_of(f) threads.
+  template <class Functor>
+  Kokkos::TeamPolicy<ExecSpace> team_policy(const Functor& f) {
+    const int threads = team_size_of(f);
+    return threads > 0 ? Kokkos::TeamPolicy<ExecSpace>(n_systems, threads)
+                       : Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO);
+  }
   int colour();
   void step();
   void run_stage(StepStage stage);
@@ -217,6 +225,7 @@ struct Batch::Impl {
   void solve_stage();
   void integrate_stage();
   void status_stage();
+  void read_status();
 };
 
 // The cells and margins of one system's neighbour grid.

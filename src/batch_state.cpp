@@ -54,7 +54,7 @@ std::vector<int> Batch::Impl::lay_out(const std::vector<SystemSetup>& setups) {
   long long particles = 0, cells = 0;
   for (const auto& su : setups) {
     particles += std::max<long long>({su.capacity, static_cast<long long>(su.disks.size()), 1});
-    cells += std::max(su.grid_cells, grid_cells_needed(su));
+    cells += std::max(su.grid_cells, grid_cells_needed(su)) + 1;
   }
   if (particles > kMaxIndex || cells > kMaxIndex)
     throw std::invalid_argument(
@@ -68,7 +68,7 @@ std::vector<int> Batch::Impl::lay_out(const std::vector<SystemSetup>& setups) {
     offsets[s] = n_particles;
     n_particles += slot_capacity[s];
     cell_offset[s] = n_cells;
-    n_cells += slot_cells[s];
+    n_cells += slot_cells[s] + 1;  // one to spare: where the fused step's grid ends the system's
   }
   return cell_offset;
 }

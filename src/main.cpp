@@ -491,6 +491,7 @@ void RunCommand::announce() const {
             << ", solver " << solver_kind_name(scan.solver.kind);
   if (scan.solver.sweeps_per_launch > 0)
     std::cerr << " (at most " << scan.solver.sweeps_per_launch << " sweeps a launch)";
+  if (scan.solver.fused_step) std::cerr << ", fused step (one launch a step)";
   if (ranks.size() > 1) std::cerr << ", " << ranks.size() << " MPI ranks";
   std::cerr << "\n";
   if (o.resume)
@@ -672,7 +673,12 @@ int RunCommand::compute() {
 // disk of the systems they stepped: what a step costs for the size of its systems, in all and
 // outside the solve and the Newton rounds (docs/PERFORMANCE.md, "Scaling with system size").
 void RunCommand::print_cost_per_disk(const StageCost& solve) const {
-  const std::string prefix = solve.name.substr(0, solve.name.size() - std::string("solve").size());
+  // The row "solve", or with solver.fused_step "system_step" (the whole step, the solve
+  // inside), of the batch or of the regions ("region ...").
+  const bool fused =
+      solve.name.size() >= 11 && solve.name.compare(solve.name.size() - 11, 11, "system_step") == 0;
+  const std::string prefix =
+      solve.name.substr(0, solve.name.size() - std::string(fused ? "system_step" : "solve").size());
   const auto of_batch = [&](const std::string& name) {
     if (!prefix.empty()) return name.rfind(prefix, 0) == 0;
     return name.rfind("region ", 0) != 0 && name != "scheduler" && name != "snapshots";
@@ -684,6 +690,14 @@ void RunCommand::print_cost_per_disk(const StageCost& solve) const {
     if (st.name == prefix + "solve" || st.name == prefix + "newton") solving += st.seconds;
   }
   const double disk_steps = static_cast<double>(solve.disk_steps);
+  if (fused) {
+    std::fprintf(stderr,
+                 "  %s: %.0f disks a system step; the step's stages %.3g microseconds a disk "
+                 "(the solve among them)\n",
+                 solve.name.c_str(), disk_steps / static_cast<double>(solve.system_steps),
+                 1e6 * all / disk_steps);
+    return;
+  }
   std::fprintf(stderr,
                "  %s: %.0f disks a system step; the step's stages %.3g microseconds a disk, "
                "%.3g of them outside the solve and the Newton rounds\n",

@@ -551,6 +551,7 @@ class ScanParser {
   void check_bands(double height) const;
   [[noreturn]] void fail_setting(const std::string& key, const std::string& reason) const;
   void check_sweeps_per_launch();
+  void check_fused_step();
   int positive_int(const toml::node& v, const std::string& key, int lo, int hi) const {
     auto i = v.as_integer();
     if (!i || i->get() < lo || i->get() > hi)
@@ -624,6 +625,7 @@ Scan ScanParser::parse() {
   warn_unresolved_barrier(points);
   warn_diverging_jacobi();
   check_sweeps_per_launch();
+  check_fused_step();
   // The identity is written once every value is valid: toml++ 3.3's writer converts an inf or
   // a nan in an array to an integer (undefined behaviour), and every key refuses them.
   std::ostringstream content;
@@ -969,6 +971,16 @@ void ScanParser::check_sweeps_per_launch() {
   fail(file, *setting_nodes.at("solver.sweeps_per_launch"), "solver.sweeps_per_launch",
        "only the solver kind coloured_accelerated_gauss_seidel splits a step's solve over "
        "launches; set solver.kind to it, or leave sweeps_per_launch at 0");
+}
+
+// A fused step needs a solver that sweeps each system in its own team (fused_step_solver): the
+// kind set in the file, since the backend's default is not known here.
+void ScanParser::check_fused_step() {
+  if (!scan.solver.fused_step || (scan.solver_kind_given && fused_step_solver(scan.solver))) return;
+  fail(file, *setting_nodes.at("solver.fused_step"), "solver.fused_step",
+       "a step runs in one launch only with a solver that sweeps each system in its own team; "
+       "set solver.kind to coloured_accelerated_gauss_seidel or sequential_gauss_seidel, or to "
+       "accelerated_gauss_seidel with newton_every = 0");
 }
 
 // Without mass splitting each of a disk's k contacts applies its whole impulse change at once,

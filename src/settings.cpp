@@ -81,6 +81,10 @@ std::vector<SettingKey> make_table() {
          s.sweeps_per_launch_given = true;
        },
        nullptr, nullptr, nullptr, nullptr, nullptr, /*changes_no_result=*/true},
+      {"solver", "fused_step", Type::Bool, 0, 1, "",
+       "every stage of a system's step in its own team: one launch a step (the same results)",
+       "solver_fused_step", LOOSEPACK_FIELD(solver.fused_step), nullptr, nullptr,
+       /*changes_no_result=*/true},
       {"solver", "overlap_correction", Type::Real, 0.0, 1.0, "",
        "beta: fraction of every overlap removed per step", "solver_overlap_correction",
        LOOSEPACK_FIELD(solver.overlap_correction), nullptr, nullptr},

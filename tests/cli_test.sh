@@ -132,6 +132,19 @@ read -r systems slowest ended < <(echo "$msg" | awk '$1 == "solve:" && $3 == "sy
   END { print n + 0, w + 0, e + 0 }')
 awk -v n="$systems" -v w="$slowest" -v e="$ended" 'BEGIN { exit !(w > 0 && w <= 4 && e > 0 && e < n) }' ||
   fail "split solve's balance: $systems systems, $slowest sweeps, $ended ended a launch: $msg"
+# The fused step (solver.fused_step): the first line says so, and --timing shows its one launch
+# a step (with the solve's balance) and the status's host side, and no other stage of the step.
+printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[solver]\nkind = "%s"\n%s\n%s\n' \
+  coloured_accelerated_gauss_seidel "fused_step = true" "[observables]
+lower_half_from = 1" > "$dir/fused.toml"
+msg=$("$exe" run "$dir/fused.toml" -o "$dir/fused.h5" --timing 2>&1) || fail "fused step: $msg"
+grep -q "coloured_accelerated_gauss_seidel, fused step (one launch a step)" <<< "$msg" ||
+  fail "the first line does not name the fused step: $msg"
+awk '$NF == "copies" && ($1 == "system_step" || $1 == "status") { rows[$1] = $(NF - 3) }
+  $NF == "copies" && $1 ~ /^(margin|grid|free_velocity|contacts|solve|integrate)$/ { other = 1 }
+  $1 == "system_step:" && $3 == "disks" { per_disk = $10 }
+  END { exit !(rows["system_step"] == 1 && rows["status"] == 0 && !other && per_disk > 0) }' \
+  <<< "$msg" || fail "--timing of a fused step: $msg"
 # Whole solves: the stages' cost per disk of a system step, in all and outside the solve.
 printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[observables]\nlower_half_from = 1\n' \
   > "$dir/timed.toml"

@@ -197,6 +197,106 @@ TEST(Batch, SystemInsideAStepStaysActive) {
   FAIL() << "no solve went on over launches";
 }
 
+// solver.fused_step runs every stage of a system's step in its own team, one launch a step: the
+// same stages over the same disks, so every system's disks, sweeps and status are the same bit
+// for bit as the staged step's, step by step. With each solver a team can run, a solve split
+// over launches, the overlap correction, and a system that sits out some steps.
+struct FusedCase {
+  const char* name;
+  SolverKind kind;
+  int sweeps_per_launch;
+  double overlap_correction;
+};
+void PrintTo(const FusedCase& c, std::ostream* os) { *os << c.name; }
+class FusedStep : public testing::TestWithParam<FusedCase> {};
+
+TEST_P(FusedStep, GivesTheSameStepsBitForBit) {
+  SolverSettings staged;
+  staged.kind = GetParam().kind;
+  staged.newton_every = 0;
+  staged.sweeps_per_launch = GetParam().sweeps_per_launch;
+  staged.overlap_correction = GetParam().overlap_correction;
+  SolverSettings fused = staged;
+  fused.fused_step = true;
+  Batch a(unequal_systems(), staged), b(unequal_systems(), fused);
+  long paused = 0;
+  for (int k = 0; k < 80; ++k) {
+    if (k == 20 || k == 40) {  // system 2 sits out steps 20 to 39 (once its step has ended)
+      const bool on = k == 40;
+      if (!a.status(2).mid_step && !b.status(2).mid_step) {
+        a.set_active(2, on);
+        b.set_active(2, on);
+      }
+    }
+    a.step();
+    b.step();
+    for (int s = 0; s < a.size(); ++s) {
+      const auto &sa = a.status(s), &sb = b.status(s);
+      ASSERT_EQ(sa.steps, sb.steps) << "system " << s << " call " << k;
+      ASSERT_EQ(sa.mid_step, sb.mid_step) << "system " << s << " call " << k;
+      EXPECT_EQ(sa.sweeps, sb.sweeps) << "system " << s << " call " << k;
+      EXPECT_EQ(sa.max_speed, sb.max_speed) << "system " << s << " call " << k;
+      EXPECT_EQ(sa.converged, sb.converged) << "system " << s << " call " << k;
+      EXPECT_EQ(sa.rest_steps, sb.rest_steps) << "system " << s << " call " << k;
+      EXPECT_EQ(sa.failure, Failure::None) << "system " << s << " call " << k;
+      paused += sb.mid_step ? 1 : 0;
+    }
+  }
+  if (GetParam().sweeps_per_launch > 0) EXPECT_GT(paused, 0) << "no solve went on over launches";
+  for (int s = 0; s < a.size(); ++s) {
+    expect_same_disks(a.disks(s), b.disks(s), s);
+    const auto ca = a.contacts(s), cb = b.contacts(s);
+    ASSERT_EQ(ca.size(), cb.size()) << "system " << s;
+    for (std::size_t c = 0; c < ca.size(); ++c) {
+      EXPECT_EQ(ca[c].i, cb[c].i) << "system " << s << " contact " << c;
+      EXPECT_EQ(ca[c].j, cb[c].j) << "system " << s << " contact " << c;
+      EXPECT_EQ(ca[c].normal, cb[c].normal) << "system " << s << " contact " << c;
+      EXPECT_EQ(ca[c].tangential, cb[c].tangential) << "system " << s << " contact " << c;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Batch, FusedStep,
+    testing::Values(FusedCase{"team", SolverKind::ColouredAcceleratedGaussSeidel, 0, 0.0},
+                    FusedCase{"team_split", SolverKind::ColouredAcceleratedGaussSeidel, 4, 0.0},
+                    FusedCase{"accelerated", SolverKind::AcceleratedGaussSeidel, 0, 0.0},
+                    FusedCase{"sequential_overlap", SolverKind::SequentialGaussSeidel, 0, 0.2}),
+    [](const testing::TestParamInfo<FusedCase>& info) { return std::string(info.param.name); });
+
+// A fused step is one launch and one copy (the status read back), and timing shows it as one
+// row beside the status's.
+TEST(Batch, AFusedStepIsOneLaunchAndOneCopy) {
+  SolverSettings fused;
+  fused.kind = SolverKind::ColouredAcceleratedGaussSeidel;
+  fused.fused_step = true;
+  Batch batch(unequal_systems(), fused);
+  batch.set_timing(true);
+  batch.step();  // the first step copies the active flags
+  once([&] { batch.step(); });
+  std::vector<std::string> rows;
+  for (const auto& cost : batch.stage_costs()) {
+    rows.push_back(cost.name);
+    EXPECT_EQ(cost.steps, 2) << cost.name;
+  }
+  EXPECT_EQ(rows, (std::vector<std::string>{"system_step", "status"}));
+  EXPECT_EQ(batch.stage_costs().front().launches, 2);
+  EXPECT_EQ(batch.stage_costs().front().finished_steps, 2 * batch.size());
+}
+
+// The solvers that sweep the whole batch at once, and the Newton steps the host takes between
+// launches, have no fused step.
+TEST(Batch, AFusedStepNeedsASolverOfTheSystemsOwnTeam) {
+  for (SolverKind kind :
+       {SolverKind::Jacobi, SolverKind::GaussSeidel, SolverKind::AcceleratedGaussSeidel}) {
+    SolverSettings fused;
+    fused.kind = kind;
+    fused.fused_step = true;
+    fused.newton_every = 5;
+    EXPECT_THROW(Batch(unequal_systems(), fused), std::invalid_argument) << solver_kind_name(kind);
+  }
+}
+
 // solver.team_size asks for threads per system's team; more than the backend's largest team
 // (1 on Serial, the threads on OpenMP) are lowered to it instead of failing the launch.
 TEST(Batch, TeamSizeIsLoweredToTheBackendsLargestTeam) {

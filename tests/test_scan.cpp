@@ -39,9 +39,9 @@ friction = [0.3, 0.5]
 
 // Scan::content, what checkpoints and merges identify a scan by: the same settings written with
 // comments, other spacing and keys in another order give the same content, which names the
-// toml++ that wrote it and parses to itself, and so does another batch size or
-// solver.sweeps_per_launch; any value that differs, in type (12, 12.0) or in its last bit, gives
-// another.
+// toml++ that wrote it and parses to itself, and so does another batch size,
+// solver.sweeps_per_launch or fused_step; any value that differs, in type (12, 12.0) or in its last
+// bit, gives another.
 TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrWhatNoResultDependsOn) {
   const std::string text =
       "[scan]\nseeds = 2\nprotocol = \"A\"\n[system]\nwidth = 12\nfriction = 0.1\n"
@@ -60,12 +60,14 @@ TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrWhatNoResultDependsOn) {
   const std::string system = text.substr(text.find("[system]"));
   EXPECT_EQ(parse_scan("[scan]\nbatch_size = 7\n" + system, "f.toml").content,
             parse_scan(system, "g.toml").content);
-  // Nor is solver.sweeps_per_launch (SettingKey::changes_no_result); the solver's other keys are.
+  // Nor are solver.sweeps_per_launch and fused_step (SettingKey::changes_no_result); the solver's
+  // other keys are.
   const std::string team = "[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\n";
   const auto content = [&](const std::string& solver) {
     return parse_scan(solver + text, "h.toml").content;
   };
   EXPECT_EQ(content(team + "sweeps_per_launch = 8\n"), content(team));
+  EXPECT_EQ(content(team + "fused_step = true\n"), content(team));
   EXPECT_EQ(content(team + "sweeps_per_launch = 8\nnewton_every = 3\n"),
             content(team + "newton_every = 3\n"));
   EXPECT_NE(content(team + "newton_every = 3\n"), content(team));
@@ -225,6 +227,13 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "coloured_accelerated_gauss_seidel splits a step's solve over launches"},
       {"[solver]\nkind = \"accelerated_gauss_seidel\"\nsweeps_per_launch = 8\n",
        "bad.toml:3:21: key 'solver.sweeps_per_launch': only the solver kind"},
+      {"[solver]\nfused_step = true\n",
+       "bad.toml:2:14: key 'solver.fused_step': a step runs in one launch only with a solver that "
+       "sweeps each system in its own team"},
+      {"[solver]\nkind = \"accelerated_gauss_seidel\"\nfused_step = true\n",
+       "bad.toml:3:14: key 'solver.fused_step': a step runs in one launch only"},
+      {"[solver]\nkind = \"jacobi\"\nfused_step = true\n",
+       "bad.toml:3:14: key 'solver.fused_step': a step runs in one launch only"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",

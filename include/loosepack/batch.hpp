@@ -165,7 +165,9 @@ class Batch {
   void step();
   // Wall time, launches and copies per stage of the step (StepStage, by stage_name, in order;
   // "newton": the Newton rounds inside the solve, apart from its sweeps), summed over all steps
-  // since timing was switched on. Timing fences after every stage.
+  // since timing was switched on. Timing fences after every stage. With
+  // SolverSettings::fused_step two rows: "system_step" (the one launch, with the solve's balance)
+  // and "status".
   void set_timing(bool on);
   const std::vector<StageCost>& stage_costs() const;
   // The effects the next step's solve is specialised on: those of the systems active now.

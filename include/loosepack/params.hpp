@@ -137,8 +137,8 @@ struct SolverSettings {
   // Fraction beta of an overlap removed per step by moving positions apart, velocities untouched
   // (kernels/integrate.hpp, OverlapCorrection); 0: none, an overlap is held as it is.
   double overlap_correction = 0.0;
-  // coloured_accelerated_gauss_seidel: threads in each system's team, at most the backend's
-  // largest team (1 on Serial, the threads on OpenMP); 0: the backend's recommended size
+  // coloured_accelerated_gauss_seidel and fused_step: threads in each system's team, at most the
+  // backend's largest team (1 on Serial, the threads on OpenMP); 0: the backend's recommended size
   // (Kokkos::AUTO).
   int team_size = 0;
   // coloured_accelerated_gauss_seidel: at most this many sweeps of a system per launch of the
@@ -147,7 +147,22 @@ struct SolverSettings {
   // "Building for more cores or a GPU"). The results are the same. 0: every system's whole solve
   // in one launch.
   int sweeps_per_launch = 0;
+  // Every stage of a system's step in one team, the whole batch's step in one launch
+  // (kernels/step.hpp), where the staged step launches each stage over the batch (16 launches).
+  // The results are the same bit for bit. For the solvers that sweep a system in one team or
+  // thread (fused_step_solver): the team solver, accelerated_gauss_seidel without Newton steps,
+  // sequential_gauss_seidel.
+  bool fused_step = false;
 };
+
+// Whether a solver sweeps each system within the system's own team, so that the step can run
+// in one launch (SolverSettings::fused_step): not Jacobi or the batch-wide colouring, and not
+// the Newton steps the host takes between launches.
+inline bool fused_step_solver(const SolverSettings& s) {
+  return s.kind == SolverKind::ColouredAcceleratedGaussSeidel ||
+         s.kind == SolverKind::SequentialGaussSeidel ||
+         (s.kind == SolverKind::AcceleratedGaussSeidel && s.newton_every == 0);
+}
 
 // When a system counts as at rest.
 struct RestSettings {
