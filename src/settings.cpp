@@ -69,7 +69,7 @@ std::vector<SettingKey> make_table() {
        "a Newton step after this many unconverged iterations (0: none)", "solver_newton_every",
        LOOSEPACK_FIELD(solver.newton_every), nullptr, nullptr},
       {"solver", "team_size", Type::Integer, 0, 1024, "threads",
-       "coloured_accelerated_gauss_seidel: threads per system (0: the backend's choice)",
+       "the team solver's and the fused step's threads per system (0: the backend's choice)",
        "solver_team_size", LOOSEPACK_FIELD(solver.team_size), nullptr, nullptr},
       {"solver", "sweeps_per_launch", Type::Integer, 0, 1e8, "sweeps",
        "coloured_accelerated_gauss_seidel: sweeps per launch of the solve (0: the whole solve; "
