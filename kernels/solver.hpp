@@ -405,11 +405,13 @@ KOKKOS_INLINE_FUNCTION bool nncg_step(const ContactViews& con, int c, double bet
 //
 // With Newton steps (SolverSettings::newton_every), a launch iterates each system only up to its
 // `sweep_limit` (sweeps of this step, [S]); the host then takes a Newton step (src/newton.hpp)
-// and launches again, which restarts the iteration from the new impulses.
+// and launches again, which restarts the iteration from the new impulses. In a fused step
+// (pause_at_limit) a system stopped at its limit below the cap stays inside its step
+// (sys.solving) for the host's round, and goes on in the next launch.
 // Reads: sweep_limit; sys.{active, unconverged, offset, count, max_sweeps, step_tolerance};
 // part.{inv_mass, inv_inertia} and what the local solve reads (local_solve). Writes: con.{pn,
 // pt, pm, start_pn, start_pt, start_pm, dir_pn, dir_pt, dir_pm}; part.{vx, vy, w};
-// sys.{unconverged, gradient2}; sweeps.
+// sys.{unconverged, gradient2, solving (pause_at_limit)}; sweeps.
 template <class Fx>
 struct AcceleratedGaussSeidel {
   SystemViews sys;
@@ -418,6 +420,7 @@ struct AcceleratedGaussSeidel {
   DView<int> sweeps;  // [S] sweeps of this step
   double omega;
   DView<int> sweep_limit;  // [S] this launch's limit, below the system's cap; empty: the cap
+  bool pause_at_limit = false;
 
   KOKKOS_INLINE_FUNCTION void apply(int c, double& worst) const {
     gauss_seidel_update<Fx>(sys, part, con, c, c / kSlots, omega, worst);
@@ -431,8 +434,9 @@ struct AcceleratedGaussSeidel {
     for_contacts(con, first, end, [&](int c) { keep_start(c); });
     const int cap = sys.max_sweeps(s);
     const int limit = sweep_limit.extent(0) > 0 ? kmath::imin(sweep_limit(s), cap) : cap;
-    while (sweeps(s) < limit)
-      if (iterate(s, first, end)) return;
+    bool converged = false;
+    while (!converged && sweeps(s) < limit) converged = iterate(s, first, end);
+    if (pause_at_limit) sys.solving(s) = !converged && sweeps(s) < cap ? 1 : 0;
   }
 
   // One iteration (a symmetric pair of sweeps and the NNCG step) over the contacts of disks

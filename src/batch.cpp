@@ -164,7 +164,7 @@ template <class Fx>
 void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   AcceleratedGaussSeidel<Fx> sweeper = plain;  // the same sweeps, stopping at sweep_limit
   sweeper.sweep_limit = sweep_limit;
-  auto limit = Kokkos::create_mirror_view(sweep_limit);
+  auto& limit = sweep_limit_host;
   for (int s = 0; s < n_systems; ++s) {
     const NewtonPace& pace = newton_pace[static_cast<std::size_t>(s)];
     limit(s) = pace.skips_step(longest_newton_wait(s)) ? sweep_cap[static_cast<std::size_t>(s)]
@@ -457,10 +457,7 @@ void Batch::Impl::step() {
     ++timed_steps;
   }
   if (fused()) {
-    with_effects([this](auto fx) { system_step<decltype(fx)>(); });
-    lap(fused_cost);
-    read_status();
-    lap(timer(StepStage::Status));
+    with_effects([this](auto fx) { fused_step<decltype(fx)>(); });
     return;
   }
   for (int k = 0; k < kStepStages; ++k) {
@@ -540,8 +537,60 @@ void Batch::Impl::solve_stage() {
   with_effects([this](auto fx) { solve<decltype(fx)>(); });
 }
 
+// The fused step: one launch (system_step), the status read back, and with Newton steps the
+// rounds of the systems that stopped at their wait inside the step, which go on in the next
+// launch while the others take their next steps.
+template <class Fx>
+void Batch::Impl::fused_step() {
+  const bool newton = newton_in_fused_step();
+  if (newton) upload_newton_limits();
+  for (int s = 0; s < n_systems; ++s)
+    launched[static_cast<std::size_t>(s)] = status[static_cast<std::size_t>(s)].active ? 1 : 0;
+  system_step<Fx>();
+  lap(fused_cost);
+  read_status();
+  lap(timer(StepStage::Status));
+  if (newton) newton_between_launches<Fx>();
+}
+
+// Each sweep limit of the fused step's next launch: a system that starts a step sweeps until
+// its first Newton round is due (or to the cap where its pace skips the rounds this step); one
+// inside its step keeps the limit its last round set.
+void Batch::Impl::upload_newton_limits() {
+  for (int s = 0; s < n_systems; ++s) {
+    const auto su = static_cast<std::size_t>(s);
+    if (status[su].mid_step) continue;
+    const NewtonPace& pace = newton_pace[su];
+    sweep_limit_host(s) = pace.skips_step(longest_newton_wait(s)) ? sweep_cap[su] : pace.wait;
+  }
+  Kokkos::deep_copy(sweep_limit, sweep_limit_host);
+}
+
+// After a fused step's launch: the Newton rounds of the systems inside their step, each with
+// its next limit; the pace of those whose step ended (solve_with_newton's, system by system).
+template <class Fx>
+void Batch::Impl::newton_between_launches() {
+  std::vector<int> due;
+  for (int s = 0; s < n_systems; ++s) {
+    const auto su = static_cast<std::size_t>(s);
+    const SystemStatus& st = status[su];
+    if (!launched[su]) continue;
+    if (st.mid_step)
+      due.push_back(s);
+    else
+      newton_pace[su].step_done(!st.converged, sweep_cap[su]);
+  }
+  if (due.empty()) return;
+  newton_round<Fx>(due);
+  lap(newton_cost);
+  for (int s : due)
+    sweep_limit_host(s) = static_cast<int>(host_report(s * kStatusFields + kSweeps)) +
+                      newton_pace[static_cast<std::size_t>(s)].wait;
+}
+
 // One team per system takes it through every stage (SystemStep, kernels/step.hpp) with the
-// solver's sweeps of one system: the team solver's, or one thread's.
+// solver's sweeps of one system: the team solver's, or one thread's (the accelerated solver's
+// stopping at the Newton rounds' limits, where it takes them).
 template <class Fx>
 void Batch::Impl::system_step() {
   const auto launch = [&](const auto& solve) {
@@ -562,9 +611,11 @@ void Batch::Impl::system_step() {
   switch (solver.kind) {
     case SolverKind::ColouredAcceleratedGaussSeidel:
       return launch(TeamSolve<Fx>{team_solver<Fx>()});
-    case SolverKind::AcceleratedGaussSeidel:
+    case SolverKind::AcceleratedGaussSeidel: {
+      const bool newton = newton_in_fused_step();
       return launch(OneThreadSolve<AcceleratedGaussSeidel<Fx>>{
-          {sys, part, con, sweeps, omega, DView<int>()}});
+          {sys, part, con, sweeps, omega, newton ? sweep_limit : DView<int>(), newton}});
+    }
     case SolverKind::SequentialGaussSeidel:
       return launch(OneThreadSolve<SequentialGaussSeidel<Fx>>{{sys, part, con, sweeps, omega}});
     default:  // refused when the batch was made
@@ -641,11 +692,10 @@ void Batch::Impl::read_status() {
 Batch::Batch(const std::vector<SystemSetup>& systems, const SolverSettings& solver,
              const RestSettings& rest)
     : impl_(std::make_unique<Impl>()) {
-  if (solver.fused_step && !fused_step_solver(solver))
+  if (solver.fused_step && !fused_step_solver(solver.kind))
     throw std::invalid_argument(
         "Batch: solver.fused_step needs a solver that sweeps each system in its own team: "
-        "coloured_accelerated_gauss_seidel, sequential_gauss_seidel, or accelerated_gauss_seidel "
-        "with newton_every = 0");
+        "accelerated_gauss_seidel, coloured_accelerated_gauss_seidel or sequential_gauss_seidel");
   impl_->solver = solver;
   impl_->rest = rest;
   impl_->allocate(systems);

@@ -77,6 +77,7 @@ struct Batch::Impl {
   DView<int> system_colour_start;  // [P * kSlots + S] ColouredAcceleratedGaussSeidel's
   DView<int> sweeps_this_step;     // [S]
   DView<int> sweep_limit;          // [S] accelerated solver with Newton steps: this launch's limit
+  DView<int>::HostMirror sweep_limit_host;  // [S] its host mirror: the limits set between launches
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
   std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
   std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
@@ -180,9 +181,20 @@ struct Batch::Impl {
   ColouredAcceleratedGaussSeidel<Fx> team_solver();
   template <class Fx>
   void solve();
-  // The whole step of every system in one launch (solver.fused_step).
+  // The whole step of every system in one launch (solver.fused_step), and with the accelerated
+  // solver's Newton steps the rounds between launches.
+  template <class Fx>
+  void fused_step();
   template <class Fx>
   void system_step();
+  bool newton_in_fused_step() const {
+    return solver.kind == SolverKind::AcceleratedGaussSeidel && solver.newton_every > 0;
+  }
+  void upload_newton_limits();
+  template <class Fx>
+  void newton_between_launches();
+  // [S] which systems took part in the fused step's last launch.
+  std::vector<char> launched;
   template <class Fx>
   void solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain);
   template <class Fx>

@@ -118,6 +118,8 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   own(sys.coloured_count, "coloured_count", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
+  sweep_limit_host = Kokkos::create_mirror_view(sweep_limit);
+  launched.assign(static_cast<std::size_t>(S), 0);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
   newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{shortest_newton_wait()});
   sweep_cap.assign(static_cast<std::size_t>(S), solver.max_sweeps);

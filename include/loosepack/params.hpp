@@ -150,18 +150,17 @@ struct SolverSettings {
   // Every stage of a system's step in one team, the whole batch's step in one launch
   // (kernels/step.hpp), where the staged step launches each stage over the batch (16 launches).
   // The results are the same bit for bit. For the solvers that sweep a system in one team or
-  // thread (fused_step_solver): the team solver, accelerated_gauss_seidel without Newton steps,
+  // thread (fused_step_solver): the team solver, accelerated_gauss_seidel (a system due for a
+  // Newton round stays inside its step for it, and goes on in the next launch),
   // sequential_gauss_seidel.
   bool fused_step = false;
 };
 
 // Whether a solver sweeps each system within the system's own team, so that the step can run
-// in one launch (SolverSettings::fused_step): not Jacobi or the batch-wide colouring, and not
-// the Newton steps the host takes between launches.
-inline bool fused_step_solver(const SolverSettings& s) {
-  return s.kind == SolverKind::ColouredAcceleratedGaussSeidel ||
-         s.kind == SolverKind::SequentialGaussSeidel ||
-         (s.kind == SolverKind::AcceleratedGaussSeidel && s.newton_every == 0);
+// in one launch (SolverSettings::fused_step): not Jacobi or the batch-wide colouring.
+inline bool fused_step_solver(SolverKind kind) {
+  return kind == SolverKind::ColouredAcceleratedGaussSeidel ||
+         kind == SolverKind::SequentialGaussSeidel || kind == SolverKind::AcceleratedGaussSeidel;
 }
 
 // When a system counts as at rest.
