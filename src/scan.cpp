@@ -973,14 +973,16 @@ void ScanParser::check_sweeps_per_launch() {
        "launches; set solver.kind to it, or leave sweeps_per_launch at 0");
 }
 
-// A fused step needs a solver that sweeps each system in its own team (fused_step_solver): the
-// kind set in the file, since the backend's default is not known here.
+// A fused step needs a solver that sweeps each system in its own team (fused_step_solver), as
+// every backend's default does.
 void ScanParser::check_fused_step() {
-  if (!scan.solver.fused_step || (scan.solver_kind_given && fused_step_solver(scan.solver))) return;
+  if (!scan.solver.fused_step || !scan.solver_kind_given || fused_step_solver(scan.solver.kind))
+    return;
   fail(file, *setting_nodes.at("solver.fused_step"), "solver.fused_step",
-       "a step runs in one launch only with a solver that sweeps each system in its own team; "
-       "set solver.kind to coloured_accelerated_gauss_seidel or sequential_gauss_seidel, or to "
-       "accelerated_gauss_seidel with newton_every = 0");
+       "a step runs in one launch only with a solver that sweeps each system in its own team: "
+       "accelerated_gauss_seidel, coloured_accelerated_gauss_seidel or sequential_gauss_seidel, "
+       "not " +
+           std::string(solver_kind_name(scan.solver.kind)));
 }
 
 // Without mass splitting each of a disk's k contacts applies its whole impulse change at once,

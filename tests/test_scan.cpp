@@ -227,13 +227,12 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "coloured_accelerated_gauss_seidel splits a step's solve over launches"},
       {"[solver]\nkind = \"accelerated_gauss_seidel\"\nsweeps_per_launch = 8\n",
        "bad.toml:3:21: key 'solver.sweeps_per_launch': only the solver kind"},
-      {"[solver]\nfused_step = true\n",
-       "bad.toml:2:14: key 'solver.fused_step': a step runs in one launch only with a solver that "
-       "sweeps each system in its own team"},
-      {"[solver]\nkind = \"accelerated_gauss_seidel\"\nfused_step = true\n",
-       "bad.toml:3:14: key 'solver.fused_step': a step runs in one launch only"},
       {"[solver]\nkind = \"jacobi\"\nfused_step = true\n",
-       "bad.toml:3:14: key 'solver.fused_step': a step runs in one launch only"},
+       "bad.toml:3:14: key 'solver.fused_step': a step runs in one launch only with a solver that "
+       "sweeps each system in its own team: accelerated_gauss_seidel, "
+       "coloured_accelerated_gauss_seidel or sequential_gauss_seidel, not jacobi"},
+      {"[solver]\nfused_step = true\nkind = \"gauss_seidel\"\n",
+       "bad.toml:2:14: key 'solver.fused_step': a step runs in one launch only"},
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",
