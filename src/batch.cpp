@@ -729,6 +729,7 @@ const std::vector<StageCost>& Batch::stage_costs() const {
     named("system_step", I.fused_cost);
     I.stage_costs.back().team_size = I.team_threads;
     named(stage_name(StepStage::Status), I.timer(StepStage::Status));
+    if (I.newton_cost.seconds > 0.0) named("newton", I.newton_cost);  // between the launches
     return I.stage_costs;
   }
   for (int k = 0; k < kStepStages; ++k) {
