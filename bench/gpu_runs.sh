@@ -30,8 +30,9 @@
 #     launch].
 #   NEWTON_EVERY=n bench/gpu_runs.sh ...  sets solver.newton_every (accelerated_gauss_seidel's
 #     Newton steps; 0: none, which a fused step needs).
-#   FUSED=1 bench/gpu_runs.sh ...  sets solver.fused_step (every stage of a system's step in its
-#     own team, one launch a step); with STAGES=1 the balance comes from its one row.
+#   FUSED=1 (or 0) bench/gpu_runs.sh ...  sets solver.fused_step (every stage of a system's step
+#     in its own team, one launch a step; unset: the backend's); with STAGES=1 the balance comes
+#     from its one row.
 #
 # Scenes: "C" the accuracy study's collapse (protocol C, 24 R x 40 R, Bo = 1e3, r_capt = 2,
 # h = 0.0028); "A" the default job's cohesive point (protocol A, 24 R x 24 R, Bo = 1e2).
@@ -61,7 +62,7 @@ batch_size = ${BATCH:-$members}"
   printf '[solver]\nkind = "%s"\n' "$2"
   [ -n "${TEAM_SIZE:-}" ] && printf 'team_size = %d\n' "$TEAM_SIZE"  # (older builds lack the key)
   [ -n "${SWEEPS_PER_LAUNCH:-}" ] && printf 'sweeps_per_launch = %d\n' "$SWEEPS_PER_LAUNCH"
-  [ "${FUSED:-0}" = 1 ] && printf 'fused_step = true\n'
+  [ -n "${FUSED:-}" ] && printf 'fused_step = %s\n' "$([ "$FUSED" = 1 ] && echo true || echo false)"
   [ -n "${NEWTON_EVERY:-}" ] && printf 'newton_every = %d\n' "$NEWTON_EVERY"
   printf '[observables]\nlower_half_from = 4.0\n'
 }
@@ -116,7 +117,7 @@ for name in C A; do
         observable="$observable, \"wall_parts\": {\"program_s\": $p_all, \"before_s\": $p_before, \"members_s\": $p_members, \"loop_s\": $p_loop, \"around_loop_s\": $p_around, \"after_s\": $p_after}"
       fi
     fi
-    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "sweeps_per_launch": %d, "fused_step": %d, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
-      "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "${SWEEPS_PER_LAUNCH:-0}" "${FUSED:-0}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
+    printf '{"scene": "%s", "solver": "%s", "members": %d, "batch": %d, "team_size": %d, "sweeps_per_launch": %d, "fused_step": %s, "wall_s": %.2f, "per_member_s": %.4f, %s}\n' \
+      "$name" "$solver" "$members" "${BATCH:-$members}" "${TEAM_SIZE:-0}" "${SWEEPS_PER_LAUNCH:-0}" "${FUSED:-null}" "$wall" "$(awk -v w="$wall" -v n="$members" 'BEGIN { print w / n }')" "$observable"
   done
 done

@@ -68,6 +68,8 @@ SolverKind default_solver_kind() {
 
 int default_sweeps_per_launch(std::size_t systems) { return kOnDevice && systems > 1 ? 8 : 0; }
 
+bool default_fused_step(SolverKind kind) { return !kOnDevice && fused_step_solver(kind); }
+
 void resolve_backend_defaults(Scan& scan, std::size_t members) {
   if (scan.batch_size == 0) scan.batch_size = default_batch_size();
   if (!scan.solver_kind_given) scan.solver.kind = default_solver_kind();
@@ -75,6 +77,7 @@ void resolve_backend_defaults(Scan& scan, std::size_t members) {
       scan.solver.kind == SolverKind::ColouredAcceleratedGaussSeidel)
     scan.solver.sweeps_per_launch =
         default_sweeps_per_launch(std::min(members, static_cast<std::size_t>(scan.batch_size)));
+  if (!scan.fused_step_given) scan.solver.fused_step = default_fused_step(scan.solver.kind);
 }
 
 std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member>& members,

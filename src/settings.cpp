@@ -82,9 +82,14 @@ std::vector<SettingKey> make_table() {
        },
        nullptr, nullptr, nullptr, nullptr, nullptr, /*changes_no_result=*/true},
       {"solver", "fused_step", Type::Bool, 0, 1, "",
-       "every stage of a system's step in its own team: one launch a step (the same results)",
-       "solver_fused_step", LOOSEPACK_FIELD(solver.fused_step), nullptr, nullptr,
-       /*changes_no_result=*/true},
+       "every stage of a system's step in its own team: one launch a step (the same results; "
+       "unset: the backend's)",
+       "solver_fused_step", [](const Scan& s) { return s.solver.fused_step ? 1.0 : 0.0; },
+       [](Scan& s, double v) {
+         s.solver.fused_step = v != 0.0;
+         s.fused_step_given = true;
+       },
+       nullptr, nullptr, nullptr, nullptr, nullptr, /*changes_no_result=*/true},
       {"solver", "overlap_correction", Type::Real, 0.0, 1.0, "",
        "beta: fraction of every overlap removed per step", "solver_overlap_correction",
        LOOSEPACK_FIELD(solver.overlap_correction), nullptr, nullptr},

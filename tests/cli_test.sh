@@ -115,11 +115,12 @@ set -e
 [ "$rc" -eq 0 ] && [ -s "$dir/piped.h5" ] || fail "a run whose stderr pipe closed exited $rc"
 # Kokkos's own options pass through.
 "$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --kokkos-num-threads=1
-# --timing: every stage of the step, then the solve's balance. With the team solver's solve split
-# over launches of at most 4 sweeps, the first line says so, the slowest system sweeps at most 4
+# --timing: every stage of the (staged) step, then the solve's balance. With the team solver's
+# solve split over launches of at most 4 sweeps, the first line says so, the slowest system sweeps at most 4
 # times a launch, and fewer system steps end in a launch than systems take part in it.
 printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[solver]\nkind = "%s"\n%s\n%s\n' \
-  coloured_accelerated_gauss_seidel "sweeps_per_launch = 4" "[observables]
+  coloured_accelerated_gauss_seidel "sweeps_per_launch = 4
+fused_step = false" "[observables]
 lower_half_from = 1" > "$dir/split.toml"
 msg=$("$exe" run "$dir/split.toml" -o "$dir/split.h5" --timing 2>&1) || fail "split solve: $msg"
 grep -q "coloured_accelerated_gauss_seidel (at most 4 sweeps a launch)" <<< "$msg" ||
@@ -145,8 +146,9 @@ awk '$NF == "copies" && ($1 == "system_step" || $1 == "status") { rows[$1] = $(N
   $1 == "system_step:" && $3 == "disks" { per_disk = $10 }
   END { exit !(rows["system_step"] == 1 && rows["status"] == 0 && !other && per_disk > 0) }' \
   <<< "$msg" || fail "--timing of a fused step: $msg"
-# Whole solves: the stages' cost per disk of a system step, in all and outside the solve.
-printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[observables]\nlower_half_from = 1\n' \
+# Whole solves of the staged step: the stages' cost per disk of a system step, in all and outside
+# the solve.
+printf '[scan]\nseeds = 2\n[system]\nwidth = 8\nheight = 8\n[solver]\nfused_step = false\n[observables]\nlower_half_from = 1\n' \
   > "$dir/timed.toml"
 msg=$("$exe" run "$dir/timed.toml" -o "$dir/timed.h5" --timing 2>&1) || fail "timed run: $msg"
 echo "$msg" | awk '$1 == "solve:" && $3 == "disks" { found = 1; all = $10; rest = $14 }

@@ -8,8 +8,8 @@
 # (scripts/test-openmp.sh gives the Serial build's), each one-thread file must also equal that
 # one's file of the same scan, but for the backend's name (the attribute kokkos_execution_space)
 # and the commit each was built from (git_commit: a build older by a commit of docs is as good).
-# With solver.fused_step (every stage of a system's step in its team) on 1 and 4 threads, each
-# solver's file equals its one-thread file of the staged step, but for the setting itself.
+# With the staged step (solver.fused_step = false) on 1 and 4 threads, each solver's file equals
+# its one-thread file of the host's default, the fused step, but for the setting itself.
 source "$(dirname "$0")/common.sh"
 other=${2:+$(realpath "$2")}
 export OMP_PROC_BIND=false
@@ -30,11 +30,12 @@ for kind in accelerated_gauss_seidel coloured_accelerated_gauss_seidel; do
     "$other" run "$dir/$kind.toml" -o "$dir/$kind-other.h5" -q
     same "$dir/$kind-1.h5" "$dir/$kind-other.h5" --except kokkos_execution_space --except git_commit
   fi
-  # The fused step (a team per system through every stage): the same files, but for the setting.
-  sed 's/^\[solver\]$/[solver]\nfused_step = true/' "$dir/$kind.toml" > "$dir/$kind-fused.toml"
+  # The staged step (a launch per stage; the host's default is the fused one, a team per
+  # system through every stage): the same files, but for the setting.
+  sed 's/^\[solver\]$/[solver]\nfused_step = false/' "$dir/$kind.toml" > "$dir/$kind-staged.toml"
   for threads in 1 4; do
-    OMP_NUM_THREADS=$threads "$exe" run "$dir/$kind-fused.toml" -o "$dir/$kind-fused-$threads.h5" -q
-    same "$dir/$kind-1.h5" "$dir/$kind-fused-$threads.h5" --except solver_fused_step --except scan_text
+    OMP_NUM_THREADS=$threads "$exe" run "$dir/$kind-staged.toml" -o "$dir/$kind-staged-$threads.h5" -q
+    same "$dir/$kind-1.h5" "$dir/$kind-staged-$threads.h5" --except solver_fused_step --except scan_text
   done
 done
 echo "threads_test: bit-identical on 1, 2 and 4 threads${other:+ and with $other}"

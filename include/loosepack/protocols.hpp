@@ -182,9 +182,15 @@ SolverKind default_solver_kind();
 // H200 at 4 096 members, and 16 is no better (docs/PERFORMANCE.md, "Building for more cores or a
 // GPU").
 int default_sweeps_per_launch(std::size_t systems);
-// Fills in what the scan leaves to the backend: the batch size, the solver kind and, for the
-// team solver, its sweeps per launch, for a run of `members` members (its batch holds
-// min(members, batch size) systems).
+// Whether the step is fused (SolverSettings::fused_step) where the scan does not say: on a host
+// backend with a solver that allows it, where the fused step gives the same results for less
+// time (0.47-0.78x on two OpenMP threads, whose staged step forks and joins them for every
+// stage; 0.83-0.99x on one core); not on a device, where it is not measured yet
+// (docs/PERFORMANCE.md, "Building for more cores or a GPU").
+bool default_fused_step(SolverKind kind);
+// Fills in what the scan leaves to the backend: the batch size, the solver kind, for the team
+// solver its sweeps per launch, and the fused step, for a run of `members` members (its batch
+// holds min(members, batch size) systems).
 void resolve_backend_defaults(Scan& scan, std::size_t members);
 
 // Run the members on one batch of scan.batch_size slots (default_batch_size() if 0): members of any

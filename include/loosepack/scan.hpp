@@ -124,6 +124,8 @@ struct Scan {
   // [solver] sweeps_per_launch set in the file; else the backend's default for the team solver
   // (resolve_backend_defaults). A Scan built in code that sets it to 0 sets this too.
   bool sweeps_per_launch_given = false;
+  // [solver] fused_step set in the file; else the backend's default (default_fused_step).
+  bool fused_step_given = false;
   RestSettings rest;
   ObservableSettings observables;
   ProtocolSettings protocol;
