@@ -87,13 +87,11 @@ lower_half_from = 2.0
   EXPECT_EQ(a[0].x, b[0].x);
 }
 
-// A step's solve split over launches (solver.sweeps_per_launch) gives every member the same
-// steps as whole solves: the slowest system no longer holds the others in a launch, and the
-// scheduler acts on a member only once its step has ended. Protocol A with relaxation regions
-// (a second batch) and with the whole system, and C's collapse, on 3 slots for 4 members (a
-// finished member's slot takes the next while the others are inside their steps).
-TEST(Reproducibility, SweepsPerLaunchDoNotChangeResults) {
-  const std::string text = R"(
+namespace {
+// Protocol A with relaxation regions (a second batch) and with the whole system, and C's
+// collapse, on 3 slots for 4 members (a finished member's slot takes the next while the others
+// are inside their steps); the team solver's whole solves in the staged step.
+const char* const kSlotsScan = R"(
 [scan]
 protocol = ["A", "C"]
 seeds = 2
@@ -111,57 +109,53 @@ region_radius = 6.0
 [observables]
 lower_half_from = 2.0
 )";
-  const Scan whole = scan_of(text);
+
+void expect_same_members(const std::vector<MemberResult>& a, const std::vector<MemberResult>& b,
+                         const std::string& label) {
+  ASSERT_EQ(a.size(), b.size()) << label;
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    EXPECT_EQ(a[k].y_e, b[k].y_e) << label << " member " << k;
+    EXPECT_EQ(a[k].x, b[k].x) << label << " member " << k;
+    EXPECT_EQ(a[k].steps, b[k].steps) << label << " member " << k;
+    EXPECT_EQ(a[k].sweeps, b[k].sweeps) << label << " member " << k;
+    EXPECT_EQ(a[k].events.size(), b[k].events.size()) << label << " member " << k;
+  }
+}
+
+// The batches (the members' and the regions') whose stage `stage` ran, with steps that went on
+// over launches.
+int batches_over_launches(const std::vector<StageCost>& costs, const std::string& stage) {
+  int n = 0;
+  for (const auto& cost : costs)
+    if (cost.name == stage || cost.name == "region " + stage)
+      n += cost.steps > 0 && cost.finished_steps < cost.system_steps ? 1 : 0;
+  return n;
+}
+}  // namespace
+
+// A step's solve split over launches (solver.sweeps_per_launch) gives every member the same
+// steps as whole solves: the slowest system no longer holds the others in a launch, and the
+// scheduler acts on a member only once its step has ended (kSlotsScan).
+TEST(Reproducibility, SweepsPerLaunchDoNotChangeResults) {
+  const Scan whole = scan_of(kSlotsScan);
   Scan split = whole;
   split.solver.sweeps_per_launch = 4;
   std::vector<StageCost> costs;
   RunHooks hooks;
   hooks.stage_costs = &costs;
-  const auto a = run_members(whole, members_of(whole));
-  const auto b = run_members(split, members_of(split), hooks);
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    EXPECT_EQ(a[k].y_e, b[k].y_e) << "member " << k;
-    EXPECT_EQ(a[k].x, b[k].x) << "member " << k;
-    EXPECT_EQ(a[k].steps, b[k].steps) << "member " << k;
-    EXPECT_EQ(a[k].sweeps, b[k].sweeps) << "member " << k;
-    EXPECT_EQ(a[k].events.size(), b[k].events.size()) << "member " << k;
-  }
-  // Both the batch's solves and the regions' went on over launches.
-  int split_batches = 0;
-  for (const auto& cost : costs)
-    if (cost.name == "solve" || cost.name == "region solve")
-      split_batches += cost.finished_steps < cost.system_steps ? 1 : 0;
-  EXPECT_EQ(split_batches, 2);
+  expect_same_members(run_members(whole, members_of(whole)),
+                      run_members(split, members_of(split), hooks), "split");
+  EXPECT_EQ(batches_over_launches(costs, "solve"), 2);  // the batch's solves and the regions'
 }
 
 // A fused step (solver.fused_step: every stage of a system's step in its team, one launch a
-// step) gives every member the same results as the staged step, with the team solver's solve
-// split over launches and with the accelerated solver's Newton rounds between launches:
-// protocol A with relaxation regions (a second batch, fused as well) and with the whole system,
-// and C's collapse, 3 slots for 4 members.
+// step) gives every member the same results as the staged step (kSlotsScan), with the team
+// solver's solve split over launches and with the accelerated solver's Newton rounds between
+// launches, in the members' batch and the regions'.
 TEST(Reproducibility, FusedStepDoesNotChangeResults) {
-  const std::string text = R"(
-[scan]
-protocol = ["A", "C"]
-seeds = 2
-batch_size = 3
-[system]
-width = 12.0
-height = 12.0
-bond_number = 50
-[solver]
-kind = "coloured_accelerated_gauss_seidel"
-sweeps_per_launch = 0
-[protocol]
-region_radius = 6.0
-[observables]
-lower_half_from = 2.0
-)";
   for (const SolverKind kind :
        {SolverKind::ColouredAcceleratedGaussSeidel, SolverKind::AcceleratedGaussSeidel}) {
-    Scan staged = scan_of(text);
-    staged.fused_step_given = true;  // false: not the host's default
+    Scan staged = scan_of(kSlotsScan);
     staged.solver.kind = kind;
     staged.solver.newton_every = 1;  // rounds wherever a solve takes more than two sweeps
     Scan fused = staged;
@@ -170,23 +164,10 @@ lower_half_from = 2.0
     std::vector<StageCost> costs;
     RunHooks hooks;
     hooks.stage_costs = &costs;
-    const auto a = run_members(staged, members_of(staged));
-    const auto b = run_members(fused, members_of(fused), hooks);
     const std::string name = solver_kind_name(kind);
-    ASSERT_EQ(a.size(), b.size()) << name;
-    for (std::size_t k = 0; k < a.size(); ++k) {
-      EXPECT_EQ(a[k].y_e, b[k].y_e) << name << " member " << k;
-      EXPECT_EQ(a[k].x, b[k].x) << name << " member " << k;
-      EXPECT_EQ(a[k].steps, b[k].steps) << name << " member " << k;
-      EXPECT_EQ(a[k].sweeps, b[k].sweeps) << name << " member " << k;
-      EXPECT_EQ(a[k].events.size(), b[k].events.size()) << name << " member " << k;
-    }
-    // Both the batch and the regions stepped fused, and their solves went on over launches.
-    int fused_batches = 0;
-    for (const auto& cost : costs)
-      if (cost.name == "system_step" || cost.name == "region system_step")
-        fused_batches += cost.steps > 0 && cost.finished_steps < cost.system_steps ? 1 : 0;
-    EXPECT_EQ(fused_batches, 2) << name;
+    expect_same_members(run_members(staged, members_of(staged)),
+                        run_members(fused, members_of(fused), hooks), name);
+    EXPECT_EQ(batches_over_launches(costs, "system_step"), 2) << name;
   }
 }
 
