@@ -152,7 +152,8 @@ struct SolverSettings {
   // The results are the same bit for bit. For the solvers that sweep a system in one team or
   // thread (fused_step_solver): the team solver, accelerated_gauss_seidel (a system due for a
   // Newton round stays inside its step for it, and goes on in the next launch),
-  // sequential_gauss_seidel.
+  // sequential_gauss_seidel. A Batch steps staged unless told; a scan that does not say takes
+  // the backend's default (default_fused_step: fused on a host backend, staged on a device).
   bool fused_step = false;
 };
 
