@@ -293,7 +293,8 @@ void MemberRun::await_disk(std::size_t k) { set_phase(k, Phase::Deposit); }
 // --- Bookkeeping -----------------------------------------------------------------------------
 
 // Whether slot k's system (its region's in a region) is inside a step whose solve goes on in
-// the next launch (SolverSettings::sweeps_per_launch): nothing of it is to be read or changed.
+// the next launch (SolverSettings::sweeps_per_launch, or a fused step's Newton round): nothing of
+// it is to be read or changed.
 bool MemberRun::inside_step(std::size_t k) const {
   const int s = static_cast<int>(k);
   return slots_[k].phase == Phase::Region ? regions_->status(s).mid_step

@@ -86,7 +86,8 @@ struct SystemStatus {
   int rest_steps = 0;  // consecutive steps below the rest speed with the solver converged
   bool at_rest = false;
   // The system is inside a step: its solve goes on in the next step() (the team solver's
-  // SolverSettings::sweeps_per_launch), and the rest of this status is still the last finished
+  // SolverSettings::sweeps_per_launch, or a fused step's Newton round between the launches of
+  // accelerated_gauss_seidel), and the rest of this status is still the last finished
   // step's. Nothing is to change the system (deactivate, deposit, read back) until it ends.
   bool mid_step = false;
 };
@@ -161,7 +162,8 @@ class Batch {
 
   // One time step of every active system. With SolverSettings::sweeps_per_launch a system whose
   // solve needs more sweeps is left inside its step (SystemStatus::mid_step), which goes on in
-  // the next call while the others take their next steps.
+  // the next call while the others take their next steps; so is a system due for a Newton round
+  // in a fused step (SolverSettings::fused_step).
   void step();
   // Wall time, launches and copies per stage of the step (StepStage, by stage_name, in order;
   // "newton": the Newton rounds inside the solve, apart from its sweeps), summed over all steps
