@@ -81,7 +81,8 @@ inline void build_grid(const SystemViews& sys, const ParticleViews& part, const 
 // each holding the same disks in the same order, as build_grid's. The system's cells list its
 // disks from its first disk slot on, and the cell past its last (each system has one to spare,
 // Batch::Impl::lay_out) marks where they end. Reads and writes what build_grid does, of system
-// s; ends with a team barrier.
+// s's disks: not the cells of its slot's empty tail, which no stage of a fused step reads (they
+// run over the system's disks; a loaded slot's cells start at -1). Ends with a team barrier.
 template <class Member>
 KOKKOS_INLINE_FUNCTION void build_system_grid(const Member& team, const SystemViews& sys,
                                               const ParticleViews& part, const GridViews& grid,
@@ -94,7 +95,7 @@ KOKKOS_INLINE_FUNCTION void build_system_grid(const Member& team, const SystemVi
     team.team_barrier();
   };
   zero_fill();
-  Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, first + sys.capacity(s)), [&](int p) {
+  Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, first + sys.count(s)), [&](int p) {
     const int c = step_cell(sys, part, s, p);
     part.cell(p) = c;
     if (c >= 0) Kokkos::atomic_increment(&fill(c));

@@ -115,8 +115,8 @@ struct SystemStep {
     const int s = team.league_rank();
     Kokkos::single(Kokkos::PerTeam(team), [&]() { start(s); });
     team.team_barrier();
-    build_system_grid(team, sys, part, grid, s);  // ends with a barrier
-    if (sys.active(s)) {
+    if (sys.active(s)) {  // (an inactive system's cells are read by no stage of a fused step)
+      build_system_grid(team, sys, part, grid, s);  // ends with a barrier
       const int first = sys.offset(s), end = first + sys.count(s);
       over_disks(team, first, end, FreeVelocity{sys, part});
       over_disks(team, first, end, ContactBuild{sys, part, con, grid});
