@@ -108,7 +108,6 @@ struct SystemStep {
   StepStart start;
   Solve solve;
   StatusReport status;
-  bool mass_splitting;        // Jacobi's only: false for the solvers a team runs
   double overlap_correction;  // SolverSettings::overlap_correction
 
   KOKKOS_INLINE_FUNCTION void operator()(const TeamMember& team) const {
@@ -122,7 +121,8 @@ struct SystemStep {
       over_disks(team, first, end, ContactBuild{sys, part, con, grid});
       over_disks(team, first, end, IncidentScatter{sys, part, con});
       over_disks(team, first, end, IncidentSort{part});
-      over_disks(team, first, end, ContactMobilityBuild{part, con, mass_splitting});
+      // (mass splitting is Jacobi's, which has no fused step)
+      over_disks(team, first, end, ContactMobilityBuild{part, con, false});
       over_disks(team, first, end, BodyVelocity{sys, part, con, false});
       solve(team, s);
       team.team_barrier();

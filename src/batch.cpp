@@ -602,7 +602,6 @@ void Batch::Impl::system_step() {
                                  StepStart{sys, sweeps_this_step, solver.relative_tolerance},
                                  solve,
                                  StatusReport{sys, sweeps_this_step, report},
-                                 false,
                                  solver.overlap_correction};
     Kokkos::parallel_for("system_step", team_policy(step), step);
   };
