@@ -165,11 +165,7 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
   AcceleratedGaussSeidel<Fx> sweeper = plain;  // the same sweeps, stopping at sweep_limit
   sweeper.sweep_limit = sweep_limit;
   auto& limit = sweep_limit_host;
-  for (int s = 0; s < n_systems; ++s) {
-    const NewtonPace& pace = newton_pace[static_cast<std::size_t>(s)];
-    limit(s) = pace.skips_step(longest_newton_wait(s)) ? sweep_cap[static_cast<std::size_t>(s)]
-                                                       : pace.wait;
-  }
+  for (int s = 0; s < n_systems; ++s) limit(s) = first_newton_limit(s);
   auto& unconverged = newton_host.unconverged;
   auto& done = newton_host.sweeps;
   for (;;) {
@@ -193,7 +189,7 @@ void Batch::Impl::solve_with_newton(const AcceleratedGaussSeidel<Fx>& plain) {
     lap(timer(StepStage::Solve));
     newton_round<Fx>(due);
     lap(newton_cost);
-    for (int s : due) limit(s) = done(s) + newton_pace[static_cast<std::size_t>(s)].wait;
+    for (int s : due) limit(s) = next_newton_limit(s, done(s));
   }
 }
 
@@ -560,8 +556,7 @@ void Batch::Impl::upload_newton_limits() {
   for (int s = 0; s < n_systems; ++s) {
     const auto su = static_cast<std::size_t>(s);
     if (status[su].mid_step) continue;
-    const NewtonPace& pace = newton_pace[su];
-    sweep_limit_host(s) = pace.skips_step(longest_newton_wait(s)) ? sweep_cap[su] : pace.wait;
+    sweep_limit_host(s) = first_newton_limit(s);
   }
   Kokkos::deep_copy(sweep_limit, sweep_limit_host);
 }
@@ -584,8 +579,8 @@ void Batch::Impl::newton_between_launches() {
   newton_round<Fx>(due);
   lap(newton_cost);
   for (int s : due)
-    sweep_limit_host(s) = static_cast<int>(host_report(s * kStatusFields + kSweeps)) +
-                      newton_pace[static_cast<std::size_t>(s)].wait;
+    sweep_limit_host(s) =
+        next_newton_limit(s, static_cast<int>(host_report(s * kStatusFields + kSweeps)));
 }
 
 // One team per system takes it through every stage (SystemStep, kernels/step.hpp) with the

@@ -222,6 +222,16 @@ struct Batch::Impl {
     return solver.team_size > 0 ? team_threads : 0;
   }
   int team_threads = 0;
+  // A step's sweep limit before its first Newton round (the cap where the pace skips the rounds
+  // this step), and after a round at `done` sweeps.
+  int first_newton_limit(int s) const {
+    const auto su = static_cast<std::size_t>(s);
+    return newton_pace[su].skips_step(longest_newton_wait(s)) ? sweep_cap[su]
+                                                              : newton_pace[su].wait;
+  }
+  int next_newton_limit(int s, int done) const {
+    return done + newton_pace[static_cast<std::size_t>(s)].wait;
+  }
   // One team per system, of team_size_of(f) threads.
   template <class Functor>
   Kokkos::TeamPolicy<ExecSpace> team_policy(const Functor& f) {

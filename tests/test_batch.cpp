@@ -127,6 +127,27 @@ void once(const F& f) {
   EXPECT_EQ(after.launches - before.launches, 1);
   EXPECT_EQ(after.copies - before.copies, 1);
 }
+// Steps `batch` until system s has finished target[s] steps: a system that has them sits out
+// the calls after (once its step has ended), one that has fewer takes part again. Returns the
+// calls that left a system inside its step (its solve going on in the next launch).
+long step_to(Batch& batch, const std::vector<long>& target) {
+  long paused = 0;
+  for (int calls = 0; calls < 100000; ++calls) {
+    bool any = false;
+    for (int s = 0; s < batch.size(); ++s) {
+      const auto& st = batch.status(s);
+      const bool wanted = st.mid_step || st.steps < target[static_cast<std::size_t>(s)];
+      if (st.active != wanted && !st.mid_step && st.failure == Failure::None)
+        batch.set_active(s, wanted);
+      any = any || batch.status(s).active;
+    }
+    if (!any) return paused;
+    batch.step();
+    for (int s = 0; s < batch.size(); ++s) paused += batch.status(s).mid_step ? 1 : 0;
+  }
+  ADD_FAILURE() << "the systems did not reach their steps";
+  return paused;
+}
 }  // namespace
 
 // solver.sweeps_per_launch splits a step's solve over launches: a system that needs more
@@ -146,17 +167,7 @@ TEST_P(SweepsPerLaunch, GiveTheSameStepsBitForBit) {
   Batch lockstep(unequal_systems(), whole), ticking(unequal_systems(), split);
   ticking.set_timing(true);
   for (long k = 0; k < kSteps; ++k) lockstep.step();
-  long launches = 0, paused = 0;
-  for (bool any = true; any && launches < 100 * kSteps; ++launches) {
-    any = false;
-    for (int s = 0; s < ticking.size(); ++s) {
-      const auto& st = ticking.status(s);
-      if (st.active && !st.mid_step && st.steps == kSteps) ticking.set_active(s, false);
-      any = any || ticking.status(s).active;
-    }
-    if (any) ticking.step();
-    for (int s = 0; s < ticking.size(); ++s) paused += ticking.status(s).mid_step ? 1 : 0;
-  }
+  const long paused = step_to(ticking, std::vector<long>(3, kSteps));
   ASSERT_GT(paused, 0) << "no solve needed more than 4 sweeps: the scene tests nothing";
   for (int s = 0; s < ticking.size(); ++s) {
     EXPECT_EQ(ticking.status(s).steps, kSteps) << "system " << s;
@@ -195,28 +206,6 @@ TEST(Batch, SystemInsideAStepStaysActive) {
       }
   }
   FAIL() << "no solve went on over launches";
-}
-
-// Steps `batch` until system s has finished target[s] steps: a system that has them sits out
-// the calls after (once its step has ended), one that has fewer takes part again. Returns the
-// calls that left a system inside its step (its solve going on in the next launch).
-long step_to(Batch& batch, const std::vector<long>& target) {
-  long paused = 0;
-  for (int calls = 0; calls < 100000; ++calls) {
-    bool any = false;
-    for (int s = 0; s < batch.size(); ++s) {
-      const auto& st = batch.status(s);
-      const bool wanted = st.mid_step || st.steps < target[static_cast<std::size_t>(s)];
-      if (st.active != wanted && !st.mid_step && st.failure == Failure::None)
-        batch.set_active(s, wanted);
-      any = any || batch.status(s).active;
-    }
-    if (!any) return paused;
-    batch.step();
-    for (int s = 0; s < batch.size(); ++s) paused += batch.status(s).mid_step ? 1 : 0;
-  }
-  ADD_FAILURE() << "the systems did not reach their steps";
-  return paused;
 }
 
 // solver.fused_step runs every stage of a system's step in its own team, one launch a step: the
