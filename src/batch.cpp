@@ -452,7 +452,7 @@ void Batch::Impl::step() {
     lap_counts = launch_counts();
     ++timed_steps;
   }
-  if (fused()) {
+  if (solver.fused_step) {
     with_effects([this](auto fx) { fused_step<decltype(fx)>(); });
     return;
   }
@@ -673,7 +673,7 @@ void Batch::Impl::read_status() {
     st.at_rest = st.rest_steps >= rest.steps;
   }
   if (timing) {
-    auto& cost = fused() ? fused_cost : timer(StepStage::Solve);
+    auto& cost = solver.fused_step ? fused_cost : timer(StepStage::Solve);
     cost.system_steps += balance.systems;
     cost.disk_steps += balance.disks;
     cost.finished_steps += balance.finished;
@@ -719,7 +719,7 @@ const std::vector<StageCost>& Batch::stage_costs() const {
     cost.steps = I.timed_steps;
     I.stage_costs.push_back(std::move(cost));
   };
-  if (I.fused()) {  // one launch, and the status read on the host
+  if (I.solver.fused_step) {  // one launch, and the status read on the host
     named("system_step", I.fused_cost);
     I.stage_costs.back().team_size = I.team_threads;
     named(stage_name(StepStage::Status), I.timer(StepStage::Status));

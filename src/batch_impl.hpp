@@ -159,7 +159,6 @@ struct Batch::Impl {
   StageCost& timer(StepStage stage) { return stage_cost[static_cast<std::size_t>(stage)]; }
   // The fused step's one launch (solver.fused_step): every stage but the status's host side.
   StageCost fused_cost;
-  bool fused() const { return solver.fused_step; }
   // The effects the active systems call for: the solve runs the kernel specialised on them.
   using EffectFlags = Batch::KernelEffects;
   EffectFlags needed_effects() const;

@@ -675,10 +675,12 @@ int RunCommand::compute() {
 void RunCommand::print_cost_per_disk(const StageCost& solve) const {
   // The row "solve", or with solver.fused_step "system_step" (the whole step, the solve
   // inside), of the batch or of the regions ("region ...").
-  const bool fused =
-      solve.name.size() >= 11 && solve.name.compare(solve.name.size() - 11, 11, "system_step") == 0;
-  const std::string prefix =
-      solve.name.substr(0, solve.name.size() - std::string(fused ? "system_step" : "solve").size());
+  const auto ends_with = [&](const std::string& tail) {
+    return solve.name.size() >= tail.size() &&
+           solve.name.compare(solve.name.size() - tail.size(), tail.size(), tail) == 0;
+  };
+  const std::string row = ends_with("system_step") ? "system_step" : "solve";
+  const std::string prefix = solve.name.substr(0, solve.name.size() - row.size());
   const auto of_batch = [&](const std::string& name) {
     if (!prefix.empty()) return name.rfind(prefix, 0) == 0;
     return name.rfind("region ", 0) != 0 && name != "scheduler" && name != "snapshots";
@@ -690,7 +692,7 @@ void RunCommand::print_cost_per_disk(const StageCost& solve) const {
     if (st.name == prefix + "solve" || st.name == prefix + "newton") solving += st.seconds;
   }
   const double disk_steps = static_cast<double>(solve.disk_steps);
-  if (fused) {
+  if (row == "system_step") {
     std::fprintf(stderr,
                  "  %s: %.0f disks a system step; the step's stages %.3g microseconds a disk "
                  "(the solve among them)\n",
