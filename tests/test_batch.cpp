@@ -238,8 +238,9 @@ TEST_P(FusedStep, GivesTheSameStepsBitForBit) {
     step_to(a, target);
     paused += step_to(b, target);
   }
-  if (GetParam().sweeps_per_launch > 0 || GetParam().newton_every > 0)
+  if (GetParam().sweeps_per_launch > 0 || GetParam().newton_every > 0) {
     EXPECT_GT(paused, 0) << "no solve went on over launches: the case tests nothing";
+  }
   long newton = 0;
   for (int s = 0; s < a.size(); ++s) {
     const auto &sa = a.status(s), &sb = b.status(s);
@@ -262,7 +263,9 @@ TEST_P(FusedStep, GivesTheSameStepsBitForBit) {
       EXPECT_EQ(ca[c].tangential, cb[c].tangential) << "system " << s << " contact " << c;
     }
   }
-  if (GetParam().newton_every > 0) EXPECT_GT(newton, 0) << "no Newton step: the case tests nothing";
+  if (GetParam().newton_every > 0) {
+    EXPECT_GT(newton, 0) << "no Newton step: the case tests nothing";
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(

@@ -1,6 +1,7 @@
 // The validation cases of docs/VALIDATION.md with their exact answers.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <vector>
@@ -450,6 +451,82 @@ TEST(Validation, PullOffBarrierOfUnequalDisks) {
   const double h = std::sqrt(2.0 * m_n * dc / bo) / 100.0;
   EXPECT_FALSE(escapes(0.95 * v_star, h, bo, dc, 2.0));
   EXPECT_TRUE(escapes(1.05 * v_star, h, bo, dc, 2.0));
+}
+
+// 11. A disk between two fixed disks, each within the cohesive range but not touching it (gap g0
+// < d_c): both pull with F_c (the gap closes at neither, the pulls cancel along their line), and
+// at the full pull the Coulomb bound mu (P_n + h F_c) is zero, so the disk moves across that line
+// without friction. Displaced by s, it feels -2 F_c s / sqrt(D^2 + s^2) (D = 2 R + g0, the
+// distance from its centre to each of theirs): a harmonic oscillation with omega^2 = 2 F_c / (m D)
+// for s << D, kept by nothing from going on for ever (the gaps grow by s^2 / (2 D) only, and stay
+// open). Touching its
+// neighbours (g0 = 0) the same disk stops within a step: closed, its contacts hold friction.
+// Such disks keep a dense cohesive packing from coming to rest (docs/PERFORMANCE.md, "What keeps
+// a dense collapse moving").
+namespace {
+struct Rattle {
+  std::vector<double> s;  // the disk's displacement across the line, after each step
+  double max_gap = 0.0, min_gap = 1e9;
+};
+Rattle rattle(double g0, double v0, double h, int steps) {
+  auto p = bare_params(40.0, 20.0);
+  p.gravity_on = false;
+  p.bond_number = 1000.0;
+  p.friction = 0.3;
+  p.rolling_friction = 0.1;
+  p.time_step = h;
+  const double D = 2.0 + g0;
+  std::vector<Disk> d(3);
+  for (int k = 0; k < 3; ++k) {
+    d[static_cast<std::size_t>(k)].x = 20.0 + (k - 1) * D;
+    d[static_cast<std::size_t>(k)].y = 10.0;
+    d[static_cast<std::size_t>(k)].fixed = k != 1;
+  }
+  d[1].vy = v0;
+  Batch batch({setup(p, d)}, tight());
+  Rattle r;
+  for (int k = 0; k < steps; ++k) {
+    batch.step();
+    const auto e = batch.disks(0);
+    r.s.push_back(e[1].y - 10.0);
+    for (int side : {0, 2}) {
+      const auto& n = e[static_cast<std::size_t>(side)];
+      const double gap = std::hypot(e[1].x - n.x, e[1].y - n.y) - 2.0;
+      r.max_gap = std::max(r.max_gap, gap);
+      r.min_gap = std::min(r.min_gap, gap);
+    }
+  }
+  return r;
+}
+}  // namespace
+
+TEST(Validation, DiskPulledFromBothSidesOscillatesWithoutLoss) {
+  const double g0 = 0.004, v0 = 1.0, h = 0.0028, f_c = 1000.0, D = 2.0 + g0;
+  const double omega = std::sqrt(2.0 * f_c / D), period = 2.0 * M_PI / omega;
+  const int steps = static_cast<int>(10.0 * period / h);
+  const Rattle r = rattle(g0, v0, h, steps);
+  // Upward zero crossings of s: whole periods.
+  std::vector<double> up;
+  for (std::size_t k = 1; k < r.s.size(); ++k)
+    if (r.s[k - 1] < 0.0 && r.s[k] >= 0.0)
+      up.push_back(h * (k - r.s[k] / (r.s[k] - r.s[k - 1])));  // interpolated, in time
+  ASSERT_GE(up.size(), 9u);
+  const double measured = (up.back() - up.front()) / static_cast<double>(up.size() - 1);
+  std::printf("rattle: period %.5f against 2 pi / omega = %.5f\n", measured, period);
+  EXPECT_NEAR(measured, period, 5e-3 * period);
+  // No loss: the last period's largest displacement is the first's, v0 / omega.
+  const auto last = r.s.end() - static_cast<long>(period / h);
+  const double first_amp =
+      *std::max_element(r.s.begin(), r.s.begin() + static_cast<long>(period / h));
+  const double last_amp = *std::max_element(last, r.s.end());
+  EXPECT_NEAR(first_amp, v0 / omega, 5e-3 * v0 / omega);
+  EXPECT_NEAR(last_amp, first_amp, 5e-3 * first_amp);
+  // Both contacts stay open and inside the range throughout.
+  EXPECT_GT(r.min_gap, 0.0);
+  EXPECT_LT(r.max_gap, 0.01);
+  // Touching its neighbours, the disk stops at once.
+  const Rattle touching = rattle(0.0, v0, h, 5);
+  EXPECT_LT(std::fabs(touching.s.back() - touching.s[touching.s.size() - 2]), 1e-9);
 }
 
 // Order in h of Moreau-Jean (first order), from the discrete motion worked out in closed form.
