@@ -557,6 +557,15 @@ void RunCommand::write_checkpoint() {
 #endif
 }
 
+namespace {
+// A ratio as the progress line says it: "2.7 times", "6420 times".
+std::string times(double ratio) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, ratio >= 10.0 ? "%.0f times" : "%.2g times", ratio);
+  return buf;
+}
+}  // namespace
+
 // Progress of all ranks, on rank 0, at most every 2 s unless forced; the line of every member
 // finished only when forced.
 void RunCommand::show(bool force) {
@@ -570,9 +579,15 @@ void RunCommand::show(bool force) {
     p.disks_deposited += latest[r].disks_deposited;
     p.disks_before += latest[r].disks_before;
     p.collapsing += latest[r].collapsing;
-    p.collapse_steps = std::max(p.collapse_steps, latest[r].collapse_steps);
+    if (latest[r].collapse_steps > p.collapse_steps) {
+      p.collapse_steps = latest[r].collapse_steps;
+      p.collapse_speed = latest[r].collapse_speed;
+    }
     p.relaxing_long += latest[r].relaxing_long;
-    p.relax_steps = std::max(p.relax_steps, latest[r].relax_steps);
+    if (latest[r].relax_steps > p.relax_steps) {
+      p.relax_steps = latest[r].relax_steps;
+      p.relax_speed = latest[r].relax_speed;
+    }
     done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
     start_cost += latest[r].start_fraction * shard_cost[r];
     total_cost += shard_cost[r];
@@ -592,11 +607,12 @@ void RunCommand::show(bool force) {
   if (p.disks_before > 0) std::fprintf(stderr, " (%ld before the resume)", p.disks_before);
   std::fprintf(stderr, ", %.0f disks/s, %.0f s elapsed", el > 0 ? disks_here / el : 0.0, el);
   if (p.collapsing > 0)
-    std::fprintf(stderr, ", %d collapsing (the longest for %ld steps)", p.collapsing,
-                 p.collapse_steps);
+    std::fprintf(stderr, ", %d collapsing (the longest for %ld steps, at %s the rest speed)",
+                 p.collapsing, p.collapse_steps, times(p.collapse_speed).c_str());
   if (p.relaxing_long > 0)
-    std::fprintf(stderr, ", %d relaxing for %ld steps or more (the longest for %ld)",
-                 p.relaxing_long, kLongRelaxation, p.relax_steps);
+    std::fprintf(stderr,
+                 ", %d relaxing for %ld steps or more (the longest for %ld, at %s the rest speed)",
+                 p.relaxing_long, kLongRelaxation, p.relax_steps, times(p.relax_speed).c_str());
   if (const double eta = progress_eta(p, el); eta >= 0.0 && !finished) {
     const std::string words = in_words(eta);
     const std::string spelled = words.empty() ? "" : " (" + words + ")";

@@ -66,6 +66,7 @@ class MemberRun {
   MemberSnapshot snapshot(std::size_t k) const;
   void report();
   double running_share(Slot& sl) const;
+  double speed_over_rest(std::size_t k) const;
   void collect_stage_costs(double loop_seconds, long launches, long copies) const;
   Mask mask_of(Phase phase, bool* any) const;
   bool any_dynamic() const;

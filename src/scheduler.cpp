@@ -398,21 +398,37 @@ void MemberRun::report() {
   double running = 0.0;
   progress_.collapsing = progress_.relaxing_long = 0;
   progress_.collapse_steps = progress_.relax_steps = 0;
-  for (auto& sl : slots_) {
+  for (std::size_t k = 0; k < slots_.size(); ++k) {
+    Slot& sl = slots_[k];
     running += running_share(sl);
     if (sl.phase == Phase::Collapse) {
       ++progress_.collapsing;
-      progress_.collapse_steps = std::max(progress_.collapse_steps, sl.steps);
+      if (sl.steps > progress_.collapse_steps) {
+        progress_.collapse_steps = sl.steps;
+        progress_.collapse_speed = speed_over_rest(k);
+      }
     } else if ((sl.phase == Phase::Relax || sl.phase == Phase::Region) &&
                sl.steps >= kLongRelaxation) {
       ++progress_.relaxing_long;
-      progress_.relax_steps = std::max(progress_.relax_steps, sl.steps);
+      if (sl.steps > progress_.relax_steps) {
+        progress_.relax_steps = sl.steps;
+        progress_.relax_speed = speed_over_rest(k);
+      }
     }
   }
   progress_.fraction = (done_cost_ + running) / total_cost_;
   if (!reported_) progress_.start_fraction = progress_.fraction;
   reported_ = true;
   hooks_.progress(progress_);
+}
+
+// The largest speed of slot k's system after its last step (its region's, in a region), over
+// rest.speed: what the rest test compares.
+double MemberRun::speed_over_rest(std::size_t k) const {
+  const int s = static_cast<int>(k);
+  const SystemStatus& st =
+      slots_[k].phase == Phase::Region ? regions_->status(s) : batch_->status(s);
+  return st.rest_speed(scan_.rest.spin) / scan_.rest.speed;
 }
 
 // Slot sl's running_cost, computed again only where its phase or its progress changed: report()

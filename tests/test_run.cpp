@@ -356,15 +356,24 @@ lower_half_from = 4.0
   EXPECT_GT(static_cast<double>(results[0].steps), 0.5 * expected);
   EXPECT_LT(static_cast<double>(results[0].steps), 2.0 * expected);
   int rises = 0, collapsing = 0;
+  double fastest = 0.0, last_speed = -1.0;
   for (std::size_t k = 1; k < seen.size(); ++k) {
     if (seen[k].collapsing == 0) continue;
     ++collapsing;
     rises += seen[k].fraction > seen[k - 1].fraction ? 1 : 0;
+    fastest = std::max(fastest, seen[k].collapse_speed);
+    last_speed = seen[k].collapse_speed;
   }
   // The fraction rises with the steps until the collapse reaches nine tenths of its expected
   // steps (then it holds); a share fixed at the collapse's start never rises.
   EXPECT_GT(collapsing, 100);
   EXPECT_GT(rises, collapsing / 3);
+  // The progress line's speed of the collapse, over the rest speed (1e-3 sqrt(gR)): the column's
+  // top falls freely at first (sqrt(2 g d) passes 100 rest speeds after d = 0.005 R), and the
+  // last reports come from the steps of the rest window, below the rest speed.
+  EXPECT_GT(fastest, 100.0);
+  EXPECT_GE(last_speed, 0.0);
+  EXPECT_LT(last_speed, 1.0);
 }
 
 // With the paper's stop rule the box is full when its lowest column is, so a member's share done
@@ -448,6 +457,7 @@ lower_half_from = 0.0
   ASSERT_GE(longest_event, kLongRelaxation);  // the scene has such relaxations
   int reports = 0;
   long longest = 0;
+  double fastest = 0.0;
   for (const auto& p : seen) {
     EXPECT_LE(p.relaxing_long, 2);
     if (p.relaxing_long == 0) {
@@ -457,8 +467,12 @@ lower_half_from = 0.0
     ++reports;
     EXPECT_GE(p.relax_steps, kLongRelaxation);
     longest = std::max(longest, p.relax_steps);
+    fastest = std::max(fastest, p.relax_speed);
   }
   EXPECT_GT(reports, 10);
+  // A relaxation goes on while a disk moves faster than the rest speed: the progress line's
+  // speed of the longest (over the rest speed) passes 1.
+  EXPECT_GT(fastest, 1.0);
   // An event lasts to its last step not at rest and the rest window: the relaxation's steps.
   EXPECT_LE(longest, longest_event);
   EXPECT_GE(longest, kLongRelaxation);

@@ -124,11 +124,13 @@ struct Progress {
   // collapse deposits nothing, so without them a long one would look stalled).
   int collapsing = 0;
   long collapse_steps = 0;
+  double collapse_speed = 0.0;  // that collapse's largest speed over rest.speed (the rest test's)
   // Protocol A: members whose relaxation after their last disk has taken kLongRelaxation steps
   // or more so far, and the steps of the longest (an avalanche of a tall cohesive deposit runs
   // for thousands of steps, at the paper's size for hours, depositing nothing meanwhile).
   int relaxing_long = 0;
   long relax_steps = 0;
+  double relax_speed = 0.0;  // that relaxation's largest speed over rest.speed
   // Fraction of the run's expected cost (expected_cost) done, counting running members by how
   // far they got: for the ETA only.
   double fraction = 0.0;
