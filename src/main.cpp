@@ -578,16 +578,19 @@ void RunCommand::show(bool force) {
     p.members_done += latest[r].members_done;
     p.disks_deposited += latest[r].disks_deposited;
     p.disks_before += latest[r].disks_before;
-    p.collapsing += latest[r].collapsing;
-    if (latest[r].collapse_steps > p.collapse_steps) {
+    // The longest collapse and relaxation of all ranks, with their speeds.
+    if (latest[r].collapsing > 0 &&
+        (p.collapsing == 0 || latest[r].collapse_steps > p.collapse_steps)) {
       p.collapse_steps = latest[r].collapse_steps;
       p.collapse_speed = latest[r].collapse_speed;
     }
-    p.relaxing_long += latest[r].relaxing_long;
-    if (latest[r].relax_steps > p.relax_steps) {
+    p.collapsing += latest[r].collapsing;
+    if (latest[r].relaxing_long > 0 &&
+        (p.relaxing_long == 0 || latest[r].relax_steps > p.relax_steps)) {
       p.relax_steps = latest[r].relax_steps;
       p.relax_speed = latest[r].relax_speed;
     }
+    p.relaxing_long += latest[r].relaxing_long;
     done_cost += (final[r] ? 1.0 : latest[r].fraction) * shard_cost[r];
     start_cost += latest[r].start_fraction * shard_cost[r];
     total_cost += shard_cost[r];

@@ -402,15 +402,13 @@ void MemberRun::report() {
     Slot& sl = slots_[k];
     running += running_share(sl);
     if (sl.phase == Phase::Collapse) {
-      ++progress_.collapsing;
-      if (sl.steps > progress_.collapse_steps) {
+      if (++progress_.collapsing == 1 || sl.steps > progress_.collapse_steps) {
         progress_.collapse_steps = sl.steps;
         progress_.collapse_speed = speed_over_rest(k);
       }
     } else if ((sl.phase == Phase::Relax || sl.phase == Phase::Region) &&
                sl.steps >= kLongRelaxation) {
-      ++progress_.relaxing_long;
-      if (sl.steps > progress_.relax_steps) {
+      if (++progress_.relaxing_long == 1 || sl.steps > progress_.relax_steps) {
         progress_.relax_steps = sl.steps;
         progress_.relax_speed = speed_over_rest(k);
       }
