@@ -397,23 +397,27 @@ void MemberRun::report() {
   if (!hooks_.progress) return;
   double running = 0.0;
   progress_.collapsing = progress_.relaxing_long = 0;
-  progress_.collapse_steps = progress_.relax_steps = 0;
+  std::size_t collapse = slots_.size(), relax = slots_.size();  // the longest of each
+  const auto longer = [&](std::size_t k, std::size_t than) {
+    return than == slots_.size() || slots_[k].steps > slots_[than].steps;
+  };
   for (std::size_t k = 0; k < slots_.size(); ++k) {
     Slot& sl = slots_[k];
     running += running_share(sl);
     if (sl.phase == Phase::Collapse) {
-      if (++progress_.collapsing == 1 || sl.steps > progress_.collapse_steps) {
-        progress_.collapse_steps = sl.steps;
-        progress_.collapse_speed = speed_over_rest(k);
-      }
+      ++progress_.collapsing;
+      if (longer(k, collapse)) collapse = k;
     } else if ((sl.phase == Phase::Relax || sl.phase == Phase::Region) &&
                sl.steps >= kLongRelaxation) {
-      if (++progress_.relaxing_long == 1 || sl.steps > progress_.relax_steps) {
-        progress_.relax_steps = sl.steps;
-        progress_.relax_speed = speed_over_rest(k);
-      }
+      ++progress_.relaxing_long;
+      if (longer(k, relax)) relax = k;
     }
   }
+  const bool collapsing = collapse < slots_.size(), relaxing = relax < slots_.size();
+  progress_.collapse_steps = collapsing ? slots_[collapse].steps : 0;
+  progress_.collapse_speed = collapsing ? speed_over_rest(collapse) : 0.0;
+  progress_.relax_steps = relaxing ? slots_[relax].steps : 0;
+  progress_.relax_speed = relaxing ? speed_over_rest(relax) : 0.0;
   progress_.fraction = (done_cost_ + running) / total_cost_;
   if (!reported_) progress_.start_fraction = progress_.fraction;
   reported_ = true;
