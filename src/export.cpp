@@ -76,9 +76,16 @@ void check_selection(hid_t file, const std::string& path, const ExportSelection&
                                 " has the seeds 0 to " + std::to_string(std::lround(seeds) - 1));
 }
 
+std::size_t length(hid_t file, const std::string& name) {
+  H5 set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+  H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
+  return static_cast<std::size_t>(H5Sget_simple_extent_npoints(space));
+}
+
 // The snapshots, failure snapshots and trajectories of the selection. A failed member's
 // snapshot_K (in files written before 2026-12-02, the same state as its failure_K) is no deposit:
-// its failure_K is exported.
+// its failure_K is exported. A trajectory without samples (a member without dynamics: protocol
+// B, or A at Bo = inf) is nothing to view.
 std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
   std::vector<MemberData> out;
   for (const auto& point : children(file, "points")) {
@@ -98,6 +105,7 @@ std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
                      "/" + pg + "/members/" + child,
                      double_attribute(file, pg, "width"),
                      double_attribute(file, pg, "height")};
+        if (m.kind == "trajectory" && length(file, m.group + "/time") == 0) continue;
         if (sel.seed < 0 || m.seed == sel.seed) out.push_back(m);
       }
     }
@@ -119,7 +127,10 @@ std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
   }
   const std::string how = "run with --snapshots or observables.trajectory_every";
   if (held.empty())
-    throw std::runtime_error(path + " holds no snapshot, failure snapshot or trajectory: " + how);
+    throw std::runtime_error(path +
+                             " holds no snapshot, failure snapshot or trajectory with samples "
+                             "(protocol B and A at Bo = inf have no dynamics to trace): " +
+                             how);
   constexpr std::size_t kNamed = 8;
   std::string named;
   std::size_t n = 0;
@@ -132,12 +143,6 @@ std::vector<MemberData> members_in(hid_t file, const ExportSelection& sel) {
   throw std::invalid_argument(asked + ": " + path + " holds no snapshot or trajectory of it, " +
                               "only those of " + named +
                               (final_snapshots ? "" : " (" + how + " for every member's)"));
-}
-
-std::size_t length(hid_t file, const std::string& name) {
-  H5 set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
-  H5 space(H5Dget_space(set), H5Sclose, "get dataspace of " + name);
-  return static_cast<std::size_t>(H5Sget_simple_extent_npoints(space));
 }
 
 std::string number(double v) {

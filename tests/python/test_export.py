@@ -227,6 +227,29 @@ def test_a_file_without_snapshots_is_refused(tmp_path):
     assert done.returncode == 1 and "--snapshots" in done.stderr
 
 
+def test_a_member_without_dynamics_has_no_trajectory_to_export(tmp_path):
+    """Protocol B deposits without dynamics: its trajectory groups hold no sample, and export
+    writes no viewer file of them (a file of nothing else is refused, exit 1)."""
+    scan = {"scan": {"protocol": "B", "seeds": 2},
+            "system": {"width": 12.0, "height": 12.0},
+            "observables": {"trajectory_every": 3}}
+    exe = loosepack.find_program()
+    plain = tmp_path / "plain.h5"
+    loosepack.run(scan, plain, progress=False)
+    with h5py.File(plain, "r") as f:
+        assert len(f["points/0000/members/trajectory_0/time"]) == 0
+    done = subprocess.run([exe, "export", str(plain)], capture_output=True, text=True)
+    assert done.returncode == 1 and "no dynamics" in done.stderr
+    assert not list(tmp_path.glob("plain_*"))
+    snaps = tmp_path / "snaps.h5"
+    loosepack.run(scan, snaps, progress=False, args=["--snapshots"])
+    done = subprocess.run([exe, "export", str(snaps)], capture_output=True, text=True,
+                          check=True)
+    stem = str(snaps)[:-len(".h5")]
+    assert sorted(done.stdout.split()) == sorted(
+        [stem + "_p0000_s%d%s" % (s, t) for s in (0, 1) for t in (".xmf", "_contacts.h5")])
+
+
 def test_the_exported_times_are_the_stored_ones_to_the_last_digit(exported, tmp_path):
     """A trajectory's time counts disks deposited (A) or steps (C), which reach millions in a
     long collapse: both formats write each time as stored, to its seventh digit and beyond, so
