@@ -57,16 +57,23 @@ struct DepositKernel {
           }
         },
         Reducer(best));
+    const int q = best.loc;
+    const bool captured = q >= 0 && best.val > r;
+    const double travel = captured ? first_touch_on_pull(team, s, q, x, best.val, r, rc) : 1.0;
     Kokkos::single(Kokkos::PerTeam(team), [&]() {
       double px = x, py = r;  // the floor
-      if (best.loc >= 0 && best.val > r) {
-        const int q = best.loc;
+      if (captured) {
         const double reach = rc * (r + part.radius(q));
         const double dx = periodic_delta(x - part.x(q), width);
         const double dy = best.val - part.y(q);
         const double pull = (r + part.radius(q)) / reach;
-        px = part.x(q) + pull * dx;
-        py = part.y(q) + pull * dy;
+        if (travel < 1.0) {  // stopped on the way by another disk or the floor
+          px = x + travel * (pull - 1.0) * dx;
+          py = best.val + travel * (pull - 1.0) * dy;
+        } else {
+          px = part.x(q) + pull * dx;
+          py = part.y(q) + pull * dy;
+        }
         if (px < 0.0) px += width;
         if (px >= width) px -= width;
         if (px >= width) px = 0.0;
@@ -96,6 +103,50 @@ struct DepositKernel {
       sys.count(s) = n + 1;
       result(4 * s + 0) = 1.0;
     });
+  }
+
+  // The pull of a disk of radius r captured at (x, y) by disk q, along the line of centres to
+  // touch q: the fraction of it travelled before the disk first touches another disk or the
+  // floor (1 when nothing is in the way). With equal radii nothing ever is: every disk p is at
+  // least r_capt (r + r_p) from the capture point (else the drop line would have met p's capture
+  // circle higher), and on the pull |c - p|^2 >= lambda^2 |u|^2 + (1 - lambda) |v|^2 > (2 R)^2 for
+  // the point c = q + lambda u (u the capture point less q, v = p - q, lambda >= 1/r_capt). With
+  // unequal radii a large disk pulled onto a small one can meet a neighbour or the floor first.
+  KOKKOS_INLINE_FUNCTION double first_touch_on_pull(const team_member& team, int s, int q,
+                                                    double x, double y, double r,
+                                                    double rc) const {
+    const double width = sys.width(s);
+    const double pull = 1.0 / rc;  // (r + r_q) / (r_capt (r + r_q))
+    const double ux = (pull - 1.0) * periodic_delta(x - part.x(q), width);
+    const double uy = (pull - 1.0) * (y - part.y(q));
+    const double uu = ux * ux + uy * uy;
+    if (!(uu > 0.0)) return 1.0;
+    const int first = sys.offset(s), n = sys.count(s);
+    double travel = 1.0;
+    Kokkos::parallel_reduce(
+        Kokkos::TeamThreadRange(team, n),
+        [&](int a, double& t) {
+          const int p = first + a;
+          if (p == q) return;
+          const double touch = r + part.radius(p);
+          const double ey = y - part.y(p);
+          // Every periodic image of p within reach of the pull's path.
+          const double ex0 = periodic_delta(x - part.x(p), width);
+          const int images = static_cast<int>(kmath::fabs(ux) / width) + 1;
+          for (int k = -images; k <= images; ++k) {
+            const double ex = ex0 + k * width;
+            const double eu = ex * ux + ey * uy;  // |e + t u|^2 = touch^2 for t in [0, 1)
+            if (eu >= 0.0) continue;              // the pull goes away from this image
+            const double disc = eu * eu - uu * (ex * ex + ey * ey - touch * touch);
+            if (disc <= 0.0) continue;
+            const double enter = (-eu - kmath::sqrt(disc)) / uu;
+            if (enter < t) t = kmath::max(enter, 0.0);
+          }
+        },
+        Kokkos::Min<double>(travel));
+    travel = kmath::min(travel, 1.0);
+    if (y + uy < r) travel = kmath::min(travel, (r - y) / uy);  // y > r: the floor on the way
+    return travel;
   }
 };
 

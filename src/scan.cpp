@@ -188,9 +188,11 @@ struct SystemKey {
 const std::vector<SystemKey>& system_keys() {
   static const std::vector<SystemKey> keys = {
       {"width", [](SystemParams& p, double v) { p.width = v; },
+       // No pair of disks may reach round the periodic box both ways: a contact is kept with
+       // the nearest image alone (kernels/contacts.hpp).
        [](const SystemParams& p) {
-         const bool ok = p.width >= 4.0 * p.radius && std::isfinite(p.width);
-         return ok ? "" : "L_x must be finite and >= 4 R";
+         const bool ok = p.width >= smallest_width(p) && std::isfinite(p.width);
+         return ok ? "" : "L_x must be finite and >= 2 (2 R_max + d_c)";
        }},
       {"height", [](SystemParams& p, double v) { p.height = v; },
        [](const SystemParams& p) {

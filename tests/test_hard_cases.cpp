@@ -13,6 +13,7 @@
 #include <string>
 
 #include "loosepack/batch.hpp"
+#include "loosepack/geometry.hpp"
 #include "loosepack/scan.hpp"
 #include "loosepack/scenes.hpp"
 #include "tests/scan_errors.hpp"
@@ -494,8 +495,8 @@ TEST(HardCase, TouchingStackedAndAtTheCohesionEdge) {
 // One disk in a system: deposited (on the floor at y = R), it stays at rest on the floor under
 // gravity (y = R to 1e-12, speed 0), and a single disk dropped from 3 R lands on the floor.
 // A system with no disk at all steps without failure. A system whose H is below one diameter
-// (no disk fits below H) refuses every deposit and stays empty; a 4 R x 4 R box (the smallest
-// the scan allows) fills until the next disk would stand above H, each placed disk counted,
+// (no disk fits below H) refuses every deposit and stays empty; a box 4 R high and as narrow as the
+// scan allows (smallest_width: 4 R + 2 d_c) fills until the next disk would stand above H, each placed disk counted,
 // no more disk area than the box's, then relaxes under gravity with the count preserved.
 TEST(HardCase, OneDiskEmptyAndFullSystems) {
   SystemParams p = bare_params(20.0, 20.0);
@@ -505,7 +506,7 @@ TEST(HardCase, OneDiskEmptyAndFullSystems) {
   SystemParams tiny = p;
   tiny.height = 1.5;  // no disk fits: y + r = 2 R > H
   SystemParams box = p;
-  box.width = 4.0;
+  box.width = smallest_width(box);
   box.height = 4.0;
   std::vector<Disk> high(1);
   high[0].x = 7.0;

@@ -308,6 +308,44 @@ lower_half_from = 1.0
   expect_floor_carries_the_weight(pile, scan);
 }
 
+// Ballistic deposition with a capture radius (protocol B; docs/MODEL.md, "Protocols") among
+// unequal radii: a disk captured by a neighbour is pulled along their line of centres until it
+// touches it, or stops where it first touches another disk or the floor on the way. So every
+// disk touches (to rounding) the floor or a disk deposited before it, and no two overlap: the
+// deposit has no dynamics to undo an overlap. (A large disk pulled onto a small one used to go
+// through its neighbours: overlaps of up to 1 R, members failing at the end.)
+TEST(Polydispersity, CapturedDisksTouchTheirDepositWithoutOverlap) {
+  for (const char* capture : {"2.0", "4.0"}) {
+    SCOPED_TRACE(std::string("capture_radius = ") + capture);
+    const auto members = run_all(scan_of(std::string(R"(
+[scan]
+protocol = "B"
+seeds = 4
+[system]
+width = 40.0
+height = 30.0
+polydispersity = 0.3
+capture_radius = )") + capture + "\n"));
+    for (const auto& m : members) {
+      ASSERT_TRUE(m.ok()) << "failure " << static_cast<int>(m.failure);
+      ASSERT_GT(m.radius.size(), 20u);
+      const double width = m.member.params.width;
+      for (std::size_t i = 0; i < m.radius.size(); ++i) {
+        double nearest = m.y_i[i] - m.radius[i];  // the floor's gap
+        for (std::size_t j = 0; j < m.radius.size(); ++j) {
+          if (j == i) continue;
+          const double dx = m.x[i] - m.x[j] - width * std::round((m.x[i] - m.x[j]) / width);
+          const double gap = std::hypot(dx, m.y_i[i] - m.y_i[j]) - m.radius[i] - m.radius[j];
+          ASSERT_GT(gap, -1e-9) << "disks " << i << " and " << j;
+          if (j < i) nearest = std::min(nearest, gap);
+        }
+        ASSERT_GT(m.y_i[i] - m.radius[i], -1e-12) << "disk " << i << " below the floor";
+        EXPECT_LT(nearest, 1e-9) << "disk " << i << " touches nothing deposited before it";
+      }
+    }
+  }
+}
+
 // Relaxation regions (protocol.region_radius), the whole system checked after every disk: every
 // disk's event is recorded, nothing fails, and at the end the floor carries the whole weight
 // (the impulses written back from the regions and the whole system's check together balance

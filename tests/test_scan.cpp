@@ -190,8 +190,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\ncapture_radius = 0.5\n",
        "key 'system.capture_radius': r_capt must be in [1, 10]"},
       {"[system]\nheight = 3\n", "key 'system.height': H must be finite and >= 4 R"},
-      {"[system]\nwidth = 2\n", "key 'system.width': L_x must be finite and >= 4 R"},
-      {"[system]\nwidth = \"inf\"\n", "key 'system.width': L_x must be finite and >= 4 R"},
+      {"[system]\nwidth = 2\n", "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c)"},
+      {"[system]\nwidth = \"inf\"\n", "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c)"},
       {"[system]\nwidth = nan\n", "bad.toml:2:9: key 'system.width': nan is not a value"},
       {"[solver]\ntolerance = nan\n", "key 'solver.tolerance': nan is not a value"},
       {"[system]\nbond_number = [100, 1e3, 100]\n",
@@ -280,7 +280,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
 TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
   const std::string bo = "expected a number: Bo must be 0, in (0, 1e8], or \"inf\" (";
   EXPECT_EQ(error_of("[system]\nwidth = \"wide\"\n"),
-            "bad.toml:2:9: key 'system.width': expected a number: L_x must be finite and >= 4 R");
+            "bad.toml:2:9: key 'system.width': expected a number: L_x must be finite and >= 2 (2 R_max + d_c)");
   EXPECT_EQ(
       error_of("[system]\nheight = { from = 40, to = \"tall\", points = 2 }\n"),
       "bad.toml:2:28: key 'system.height.to': expected a number: H must be finite and >= 4 R");
@@ -288,7 +288,7 @@ TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
                 .rfind("bad.toml:2:32: key 'system.bond_number.to': " + bo, 0),
             0u);
   EXPECT_EQ(error_of("[[point]]\nwidth = \"x\"\n"),
-            "bad.toml:2:9: key 'point.width': expected a number: L_x must be finite and >= 4 R");
+            "bad.toml:2:9: key 'point.width': expected a number: L_x must be finite and >= 2 (2 R_max + d_c)");
   EXPECT_EQ(error_of("[[point]]\nbond_number = \"x\"\n")
                 .rfind("bad.toml:2:15: key 'point.bond_number': " + bo, 0),
             0u);

@@ -14,6 +14,11 @@ namespace loosepack {
 inline double largest_radius(const SystemParams& p) {
   return p.radius * (1.0 + std::sqrt(3.0) * p.polydispersity);
 }
+// The narrowest periodic box: two disks within the cohesive range of each other one way round
+// are beyond it the other way.
+inline double smallest_width(const SystemParams& p) {
+  return 2.0 * (2.0 * largest_radius(p) + p.cohesion_range);
+}
 // The smallest, bounded below at 0.2 R for the capacity of a slot.
 inline double smallest_radius(const SystemParams& p) {
   return p.radius * std::max(0.2, 1.0 - std::sqrt(3.0) * p.polydispersity);
