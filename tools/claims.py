@@ -434,6 +434,7 @@ class Histogram:
         else:
             self.kept = rows.sum(axis=1) > 0  # failed members have no disks
         self.rows = rows[self.kept]
+        self.edges = edges
         self.centre = 0.5 * (edges[1:] + edges[:-1])
         self.total = self.rows.sum(axis=0)
         self.members = len(self.rows)
@@ -512,8 +513,7 @@ class SliceMixture:
         sd = np.sqrt(np.maximum(within, 1e-12))
         bottom, top_cut = cuts(point)
         tops = point["members/top"][()]
-        width = hist.centre[1] - hist.centre[0]
-        lo, hi = hist.centre - width / 2, hist.centre + width / 2
+        lo, hi = hist.edges[:-1], hist.edges[1:]
         self.rows = []
         for m in np.flatnonzero(hist.kept):
             row = np.zeros(hist.centre.size)

@@ -454,14 +454,14 @@ def test_histogram_jackknife_keeps_a_finished_member_without_disks_in_the_band(t
         assert claims.Histogram(g, str(path)).members == 4
 
 
-def sliced_histogram_file(tmp_path, name, profile, noise, per_bin=60, seed=9):
+def sliced_histogram_file(tmp_path, name, profile, noise, per_bin=60, seed=9,
+                          edges=np.arange(0.0, 40.01, 0.5)):
     """A Bo = 1e3 point whose 16 members each hold `per_bin` disks in every bin of 4 R of y_e,
     with Delta y = profile(y_e) + noise(rng, n): the profile rows by y_e (`avalanche_by_ye`,
     pooled mean and standard deviation too) and the cut |Delta y| histogram of the same disks
     (cuts 20 R, every member's top at H)."""
     rng = np.random.default_rng(seed)
     centre = np.arange(BIN / 2, H, BIN)
-    edges = np.arange(0.0, 40.01, 0.5)
     shape = (MEMBERS, centre.size)
     count, mean, pos = np.full(shape, float(per_bin)), np.zeros(shape), np.zeros(shape)
     hist = np.zeros((MEMBERS, edges.size - 1))
@@ -540,6 +540,19 @@ def fluctuation_verdicts(path):
             out += list(claims.deposition_fluctuation_claims(f["points"][name], str(path), name))
         out += list(claims.deposition_fluctuation_order(f))
     return out
+
+
+def test_a_histogram_of_one_bin_is_not_judged_and_its_slices_sum_holds_its_disks(tmp_path):
+    """Every |Delta y| in one bin (a small cohesive deposit whose disks barely move): no shape to
+    fit, and the slices' sum puts each disk of the cut in that bin (the bins' bounds are the
+    histogram's edges, not its centres' spacing, which one bin does not have)."""
+    ok, terms, detail, mixture = sliced_histogram_file(
+        tmp_path, "one_bin", lambda y: -2.0 + 0.0 * y, lambda rng, n: rng.normal(0.0, 1.0, n),
+        edges=np.array([0.0, 40.0]))
+    assert ok is claims.NOT_JUDGED and terms is None, detail
+    with h5py.File(tmp_path / "one_bin.h5", "r") as f:
+        measured = f["points/0000/abs_dy_histogram/member_counts_cut"][()].sum()
+    assert mixture.total.sum() == pytest.approx(measured, rel=1e-9)
 
 
 def test_deposition_fluctuation_at_the_papers_width(tmp_path):
