@@ -48,7 +48,9 @@ std::string utc_now() {
 }
 
 // Why `out` cannot take a result file ("" when it can): it must be a new name in a writable
-// directory or an existing regular file, and not the input the command reads.
+// directory or an existing regular file, and not the input the command reads, and the names
+// written beside it (its temporary, lock and checkpoint) must fit the file system's limit on a
+// name, or a run would compute its members and then fail to write them.
 std::string output_path_problem(const std::string& out, const std::string& input) {
   namespace fs = std::filesystem;
   if (out.empty()) return "the output path is empty";
@@ -67,6 +69,16 @@ std::string output_path_problem(const std::string& out, const std::string& input
                : "the directory " + dir + " of " + out + " does not exist (make it first)";
   if (::access(dir.c_str(), W_OK) != 0)
     return "cannot write into " + dir + " (for " + out + "): " + std::strerror(errno);
+  long most = ::pathconf(dir.c_str(), _PC_NAME_MAX);
+  if (most <= 0) most = 255;
+  for (const std::string& beside :
+       {temporary_of(out, kLargestPid), out + ".lock", checkpoint_directory(out)}) {
+    const std::string name = fs::path(beside).filename().string();
+    if (static_cast<long>(name.size()) > most)
+      return "the name of " + out + " is too long: the program writes " + name + " beside it, " +
+             std::to_string(name.size()) + " characters where the file system allows " +
+             std::to_string(most) + "; give a shorter one";
+  }
   return "";
 }
 

@@ -90,10 +90,13 @@ inline std::string host_tag() {
   return tag;
 }
 
-// The temporary that replace_file writes `path` through, for this process.
-inline std::string temporary_of(const std::string& path) {
-  return path + ".tmp." + host_tag() + "." + std::to_string(::getpid());
+// The temporary that replace_file writes `path` through, for this process (or process `pid`).
+inline std::string temporary_of(const std::string& path, long pid = ::getpid()) {
+  return path + ".tmp." + host_tag() + "." + std::to_string(pid);
 }
+// Linux's largest process id (pid_max's bound): a temporary's longest name, for any process that
+// may write one.
+constexpr long kLargestPid = 4194304;
 
 template <class Write>
 void replace_file(const std::string& path, Write write) {

@@ -188,6 +188,15 @@ done
 [ -p "$dir/fifo" ] && [ -c /dev/null ] && [ -d "$dir/adir" ] && [ -L "$dir/link.h5" ] ||
   fail "a refused output path was replaced"
 cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "the scan file was overwritten"
+# So is a name whose temporary, lock or checkpoint beside it would be longer than the file
+# system's names (255 here): refused before any work, where the run would have computed its
+# members and then failed to write them.
+long=$(printf 'a%.0s' $(seq 1 240)).h5
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/$long" -q 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && grep -q "is too long: the program writes" <<< "$msg" || fail "long name (exit $rc): $msg"
+ls "$dir" | grep -q '^aaaa' && fail "a refused long name left a file"
 # An output another run holds (its lock, with the holder's pid in it) is refused, run or
 # analyse -o, even with --force; free again once the holder ends.
 echo 4242 > "$dir/held.h5.lock"
