@@ -12,6 +12,8 @@
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <tuple>
+#include <utility>
 
 #include "hdf5.hpp"
 #include "loosepack/output.hpp"
@@ -390,11 +392,20 @@ struct ViewerFile {
   Sidecar sidecar;
 };
 
+// The paths one member's export writes: its viewer file, and for a snapshot in XDMF the sidecar
+// of its contacts (else empty).
+std::pair<std::string, std::string> viewer_paths(const MemberData& m, ExportFormat format,
+                                                 const std::string& base) {
+  const std::string stem = base + stem_name(m);
+  if (format == ExportFormat::Extxyz) return {stem + ".extxyz", ""};
+  return {stem + ".xmf", m.kind == "trajectory" ? "" : stem + "_contacts.h5"};
+}
+
 // What one member's export writes, read from the file (check_member has passed).
 ViewerFile viewer_file(hid_t file, const MemberData& m, ExportFormat format,
                        const std::string& base, const std::string& h5) {
   ViewerFile v;
-  v.path = base + stem_name(m) + (format == ExportFormat::Extxyz ? ".extxyz" : ".xmf");
+  std::tie(v.path, v.sidecar_path) = viewer_paths(m, format, base);
   if (format == ExportFormat::Extxyz) {
     v.text = extxyz_member(file, m);
   } else if (m.kind == "trajectory") {
@@ -402,7 +413,6 @@ ViewerFile viewer_file(hid_t file, const MemberData& m, ExportFormat format,
   } else {
     // A snapshot's contact lines go to a file of its own, so that exporting another selection
     // later leaves this one's files whole.
-    v.sidecar_path = base + stem_name(m) + "_contacts.h5";
     v.sidecar = sidecar_of(file, m);
     v.text =
         xdmf_document(xdmf_snapshot(file, m, h5, fs::path(v.sidecar_path).filename().string()));
@@ -431,6 +441,15 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
   if (members.empty()) refuse_empty_selection(every, path, selection);
   const fs::path p(path);
   const std::string base = (p.parent_path() / p.stem()).string();  // the files lie next to it
+  // An earlier export's files are replaced; a result file where one would go, before anything
+  // is written, is refused.
+  for (const auto& m : members) {
+    const auto [viewer, sidecar] = viewer_paths(m, format, base);
+    for (const std::string& at : {viewer, sidecar})
+      if (!at.empty() && fs::exists(at) && result_file_problem(at).empty())
+        throw std::invalid_argument(at + " is a loosepack result file, where export writes a " +
+                                    "viewer file of " + path + ": move it away");
+  }
   std::vector<std::string> written;
   for (const auto& m : members) {  // one member's text in memory at a time
     ViewerFile v;

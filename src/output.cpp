@@ -815,14 +815,22 @@ void reanalyse(const std::string& in, const std::string& out) {
   replace_hdf5_file(
       out,
       [&](hid_t file) {
-        if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
-          check(H5Ldelete(file, "analysis", H5P_DEFAULT), "remove analysis");
-        scan_analysis(file, analysis.scan);
-        for (std::size_t k = 0; k < points.size(); ++k) {
-          H5 g = open_group(file, point_name(points[k].point.index));
-          remove_point_analysis(g);
-          point_analysis(g, points[k].point.protocol, analysis.points[k]);
+        // The copy's old analysis goes first: an error there is the input's damage, one while
+        // writing the new analysis the output's.
+        std::vector<H5> groups;
+        try {
+          if (H5Lexists(file, "analysis", H5P_DEFAULT) > 0)
+            check(H5Ldelete(file, "analysis", H5P_DEFAULT), "remove analysis");
+          for (const auto& p : points) {
+            groups.push_back(open_group(file, point_name(p.point.index)));
+            remove_point_analysis(groups.back());
+          }
+        } catch (const std::runtime_error& e) {
+          throw DamagedResultFile(in, e.what());
         }
+        scan_analysis(file, analysis.scan);
+        for (std::size_t k = 0; k < points.size(); ++k)
+          point_analysis(groups[k], points[k].point.protocol, analysis.points[k]);
       },
       &image);
 }

@@ -227,6 +227,26 @@ def test_a_file_without_snapshots_is_refused(tmp_path):
     assert done.returncode == 1 and "--snapshots" in done.stderr
 
 
+def test_a_result_file_where_a_viewer_file_goes_is_refused_and_kept(exported, tmp_path):
+    """An earlier export's files are replaced, but a result file that happens to bear a viewer
+    file's name (here seed 1's contacts sidecar) is refused before anything is written (exit 2),
+    and stays as it was."""
+    res, _ = exported
+    exe = loosepack.find_program()
+    out = tmp_path / "again.h5"
+    out.write_bytes(open(res.path, "rb").read())
+    subprocess.run([exe, "export", str(out)], capture_output=True, text=True, check=True)
+    subprocess.run([exe, "export", str(out)], capture_output=True, text=True, check=True)
+    for f in tmp_path.glob("again_*"):
+        f.unlink()
+    victim = tmp_path / "again_p0000_s1_contacts.h5"
+    victim.write_bytes(open(res.path, "rb").read())
+    done = subprocess.run([exe, "export", str(out)], capture_output=True, text=True)
+    assert done.returncode == 2 and "is a loosepack result file" in done.stderr, done.stderr
+    assert victim.read_bytes() == open(res.path, "rb").read()
+    assert sorted(f.name for f in tmp_path.glob("again_*")) == [victim.name]
+
+
 def test_a_member_without_dynamics_has_no_trajectory_to_export(tmp_path):
     """Protocol B deposits without dynamics: its trajectory groups hold no sample, and export
     writes no viewer file of them (a file of nothing else is refused, exit 1)."""
