@@ -299,14 +299,20 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
     const auto b = static_cast<unsigned char>(text[i]);
     std::size_t n = b < 0x80 ? 1 : b >= 0xF0 ? 4 : b >= 0xE0 ? 3 : b >= 0xC0 ? 2 : 1;
     char32_t c = n == 1 ? b : n == 2 ? b & 0x1F : n == 3 ? b & 0x0F : b & 0x07;
-    for (std::size_t k = 1; k < n; ++k) {
-      if (i + k >= text.size() || (static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80) {
-        n = k;  // malformed: toml++ rejects it when it gets there
-        break;
-      }
-      c = (c << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
+    // A byte that starts no UTF-8 sequence, or a sequence cut short, is refused here, where its
+    // line and column are known (toml++ places it at the end of the token before).
+    bool malformed = b >= 0x80 && (b < 0xC0 || b >= 0xF8);
+    for (std::size_t k = 1; k < n && !malformed; ++k) {
+      malformed = i + k >= text.size() || (static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80;
+      if (!malformed) c = (c << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
     }
     ++column;
+    if (malformed) {
+      std::ostringstream o;
+      o << file << ":" << line << ":" << column << ": byte 0x" << std::hex << std::uppercase
+        << static_cast<unsigned>(b) << " is not UTF-8 text (a scan file is UTF-8)";
+      throw ScanError(o.str());
+    }
     if (state == Bare && (c == ' ' || c == '\t' || c == '\n' || c == ']' || c == '}' || c == ',' ||
                           c == '#' || (key && c == '='))) {
       state = Outside;

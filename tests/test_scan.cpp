@@ -191,7 +191,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "key 'system.capture_radius': r_capt must be in [1, 10]"},
       {"[system]\nheight = 3\n", "key 'system.height': H must be finite and >= 4 R"},
       {"[system]\nwidth = 2\n", "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c)"},
-      {"[system]\nwidth = \"inf\"\n", "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c)"},
+      {"[system]\nwidth = \"inf\"\n",
+       "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c)"},
       {"[system]\nwidth = nan\n", "bad.toml:2:9: key 'system.width': nan is not a value"},
       {"[solver]\ntolerance = nan\n", "key 'solver.tolerance': nan is not a value"},
       {"[system]\nbond_number = [100, 1e3, 100]\n",
@@ -244,6 +245,9 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[scan]\nprotocol = \"C\"\n[system]\nbond_number = \"inf\"\n",
        "protocol C with Bo = inf has no collapse"},
       {"[system\nwidth = 3\n", "bad.toml:1:"},
+      // A byte that is not UTF-8, at its own line and column, with no key named.
+      {"[scan]\nseeds = 2\n\xff = 1\n", "bad.toml:3:1: byte 0xFF is not UTF-8 text"},
+      {"[scan]\nname = \"a\xc3\"\n", "bad.toml:2:10: byte 0xC3 is not UTF-8 text"},
       // toml++'s own errors name the bare key; the section is added where the line sets a key.
       {"[system]\nwidth = 24\n[box]\n[protocol]\n# [scan]\nkind = \"A\"\nkind = \"C\"\n",
        "bad.toml:7:8: key 'protocol.kind': Error while parsing key-value pair: cannot redefine"},
