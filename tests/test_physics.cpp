@@ -648,39 +648,51 @@ TEST(Validation, MotionIsInvariantUnderShiftAndMirror) {
   }
 }
 
-// 7. Cohesive cantilever: a chain standing on the wall (the floor) with gravity sideways.
+// 7. Cohesive cantilever: a chain of j disks standing on the wall (the floor) with gravity
+// sideways, stepped 300 times: how far its tip moved, and its root contact's moment and shear in
+// units of m g R and m g.
+struct Cantilever {
+  double tip = 0.0, moment = 0.0, shear = 0.0;
+  int roots = 0;  // contacts with the wall
+};
+Cantilever stand_cantilever(int j, double bo, double mu, double mu_r, double radius,
+                            const SolverSettings& solver) {
+  auto p = bare_params(60.0 * radius, 30.0 * radius);
+  p.radius = radius;
+  p.bond_number = bo;
+  p.friction = mu;
+  p.rolling_friction = mu_r;
+  p.gravity_dir_x = 1.0;
+  p.gravity_dir_y = 0.0;
+  const double x0 = 10.0 * radius;
+  Batch batch({setup(p, column(j, x0, radius))}, solver);
+  for (int k = 0; k < 300; ++k) batch.step();
+  const double mg = p.reference_mass() * p.gravity;
+  Cantilever c;
+  c.tip = batch.disks(0)[static_cast<std::size_t>(j - 1)].x - x0;
+  for (const auto& f : batch.contacts(0)) {
+    if (f.j != -1) continue;
+    ++c.roots;
+    c.moment = std::fabs(f.moment) / (mg * radius);
+    c.shear = std::fabs(f.tangential) / mg;
+  }
+  return c;
+}
+
 // At R = 1 and 2.5: the root moment j^2 m g R and the bound mu_r R (F_c + N) scale alike, so the
 // threshold is the same (a rolling lever mu_r without R_c fails it at R = 2.5).
 TEST(Validation, CantileverHoldsIffJSquaredAtMostMuRBo) {
   const double bo = 260.0, mu_r = 0.1;  // mu_r Bo = 26: j = 5 holds, j = 6 falls
   for (double radius : {1.0, 2.5})
     for (int j : {5, 6}) {
-      auto p = bare_params(60.0 * radius, 30.0 * radius);
-      p.radius = radius;
-      p.bond_number = bo;
-      p.friction = 0.3;  // j <= mu Bo = 78 either way
-      p.rolling_friction = mu_r;
-      p.gravity_dir_x = 1.0;
-      p.gravity_dir_y = 0.0;
-      const double x0 = 10.0 * radius;
-      Batch batch({setup(p, column(j, x0, radius))}, tight());
-      for (int k = 0; k < 300; ++k) batch.step();
-      const auto d = batch.disks(0);
-      const double tip = d[static_cast<std::size_t>(j - 1)].x - x0;
-      const double mg = p.reference_mass() * p.gravity;
+      const Cantilever c = stand_cantilever(j, bo, 0.3, mu_r, radius, tight());  // j <= mu Bo
       if (j * j <= mu_r * bo) {
-        EXPECT_LT(std::fabs(tip), 1e-6 * radius) << j << " disks of R = " << radius << " should hold";
-        // Root contact: moment j^2 m g R and shear j m g.
-        int roots = 0;
-        for (const auto& c : batch.contacts(0)) {
-          if (c.j != -1) continue;
-          ++roots;
-          EXPECT_NEAR(std::fabs(c.moment), j * j * mg * radius, 1e-6 * j * j * mg * radius);
-          EXPECT_NEAR(std::fabs(c.tangential), j * mg, 1e-6 * j * mg);
-        }
-        EXPECT_EQ(roots, 1) << j << " disks";
+        EXPECT_LT(std::fabs(c.tip), 1e-6 * radius) << j << " disks of R = " << radius;
+        EXPECT_EQ(c.roots, 1) << j << " disks";
+        EXPECT_NEAR(c.moment, j * j, 1e-6 * j * j);  // the root's moment j^2 m g R
+        EXPECT_NEAR(c.shear, j, 1e-6 * j);           // and its shear j m g
       } else {
-        EXPECT_GT(tip, 0.1 * radius) << j << " disks of R = " << radius << " should fall";
+        EXPECT_GT(c.tip, 0.1 * radius) << j << " disks of R = " << radius << " should fall";
       }
     }
 }
@@ -692,30 +704,45 @@ TEST(Validation, CantileverHoldsIffJSquaredAtMostMuRBo) {
 TEST(Validation, CantileverHoldsIffJAtMostMuBoWhereShearDecides) {
   const double bo = 21.0, mu = 0.3, mu_r = 5.0;
   for (int j : {6, 7}) {
-    auto p = bare_params(60.0, 30.0);
-    p.bond_number = bo;
-    p.friction = mu;
-    p.rolling_friction = mu_r;
-    p.gravity_dir_x = 1.0;
-    p.gravity_dir_y = 0.0;
-    Batch batch({setup(p, column(j, 10.0))}, tight());
-    for (int k = 0; k < 300; ++k) batch.step();
-    const auto d = batch.disks(0);
-    const double tip = d[static_cast<std::size_t>(j - 1)].x - 10.0;
+    const Cantilever c = stand_cantilever(j, bo, mu, mu_r, 1.0, tight());
     if (j <= mu * bo) {
-      EXPECT_LT(std::fabs(tip), 1e-6) << j << " disks should hold";
-      int roots = 0;
-      for (const auto& c : batch.contacts(0)) {
-        if (c.j != -1) continue;
-        ++roots;
-        EXPECT_NEAR(std::fabs(c.tangential), j * 1.0, 1e-6 * j);
-      }
-      EXPECT_EQ(roots, 1) << j << " disks";
+      EXPECT_LT(std::fabs(c.tip), 1e-6) << j << " disks should hold";
+      EXPECT_EQ(c.roots, 1) << j << " disks";
+      EXPECT_NEAR(c.shear, j, 1e-6 * j);
     } else {
-      EXPECT_GT(tip, 0.1) << j << " disks should slide off";
+      EXPECT_GT(c.tip, 0.1) << j << " disks should slide off";
     }
   }
 }
+
+// Both cantilevers' thresholds with every solver, staged and fused where it allows (the cases
+// above use the graph-coloured Gauss-Seidel): the program's default (accelerated, with Newton
+// rounds), the team solver, the sequential one and Jacobi each hold j = 5 (rolling) and j = 6
+// (shear) with the root's exact moment and shear, and let j = 6 and 7 go.
+class CantileverSolvers : public ::testing::TestWithParam<std::tuple<SolverKind, bool>> {};
+
+TEST_P(CantileverSolvers, ThresholdsHold) {
+  SolverSettings solver = tight(std::get<0>(GetParam()));
+  solver.fused_step = std::get<1>(GetParam());
+  const Cantilever rolls = stand_cantilever(5, 260.0, 0.3, 0.1, 1.0, solver);
+  EXPECT_LT(std::fabs(rolls.tip), 1e-6);
+  EXPECT_NEAR(rolls.moment, 25.0, 25e-6);
+  EXPECT_NEAR(rolls.shear, 5.0, 5e-6);
+  EXPECT_GT(stand_cantilever(6, 260.0, 0.3, 0.1, 1.0, solver).tip, 0.1);
+  const Cantilever slides = stand_cantilever(6, 21.0, 0.3, 5.0, 1.0, solver);
+  EXPECT_LT(std::fabs(slides.tip), 1e-6);
+  EXPECT_NEAR(slides.shear, 6.0, 6e-6);
+  EXPECT_GT(stand_cantilever(7, 21.0, 0.3, 5.0, 1.0, solver).tip, 0.1);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Validation, CantileverSolvers,
+    ::testing::Values(std::tuple(SolverKind::AcceleratedGaussSeidel, false),
+                      std::tuple(SolverKind::AcceleratedGaussSeidel, true),
+                      std::tuple(SolverKind::ColouredAcceleratedGaussSeidel, false),
+                      std::tuple(SolverKind::ColouredAcceleratedGaussSeidel, true),
+                      std::tuple(SolverKind::SequentialGaussSeidel, true),
+                      std::tuple(SolverKind::Jacobi, false)));
 
 // A system that goes non-finite stops with its reason; the others in the batch go on unchanged.
 TEST(Guard, NonFiniteStopsOnlyItsSystem) {
