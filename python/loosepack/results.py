@@ -1,5 +1,6 @@
 """Reading a loosepack result file (docs/OUTPUT.md) into pandas and xarray objects."""
 
+import contextlib
 import os
 
 import h5py
@@ -121,7 +122,7 @@ class Results:
 
     def _profile(self, point, group, coord):
         """A group of [bins] fields (and [members, bins] rows) as an xarray Dataset."""
-        with h5py.File(self.path, "r") as f:
+        with self._read() as f:
             g = _get(self._group(f, point), group)
             centre = _get(g, "centre")[()]
             seeds = _get(self._group(f, point), "members/seed_index")[()].astype(int)
@@ -165,7 +166,7 @@ class Results:
         scatter gives the shapes' errors (a failed member's row is zeros: members(point)'s
         `failure` tells which)."""
         name = ("member_counts" if members else "counts") + ("_cut" if cut else "")
-        with h5py.File(self.path, "r") as f:
+        with self._read() as f:
             g = self._group(f, point)
             h = _get(g, "abs_dy_histogram")
             if name not in h:
@@ -186,7 +187,7 @@ class Results:
     def members(self, point):
         """Per-member scalars (seed_index, disks, top, nu_lower_half, steps, sweeps, wall_time,
         failure, capped), one row per member."""
-        with h5py.File(self.path, "r") as f:
+        with self._read() as f:
             g = _get(self._group(f, point), "members")
             cols = {k: d[()] for k, d in g.items()
                     if isinstance(d, h5py.Dataset) and d.ndim == 1}
@@ -196,32 +197,39 @@ class Results:
                 df[k] = df[k].astype(np.int64)
         return df
 
-    def _member_group(self, point, kind, seed):
-        f = h5py.File(self.path, "r")
+    @contextlib.contextmanager
+    def _read(self):
+        """The file, open for reading; what HDF5 itself raises on it (a damaged file) as a
+        ValueError naming the file."""
         try:
+            with h5py.File(self.path, "r") as f:
+                yield f
+        except (OSError, RuntimeError) as e:
+            raise ValueError(f"{self.path}: the file is damaged or was edited (HDF5: {e})") \
+                from None
+
+    @contextlib.contextmanager
+    def _member(self, point, kind, seed):
+        """One member's group of a kind (snapshot, failure, trajectory), with the file open."""
+        with self._read() as f:
             g = _get(self._group(f, point), "members")
-        except KeyError:
-            f.close()
-            raise
-        name = "%s_%d" % (kind, seed)
-        if name not in g:
-            have = sorted(k for k in g.keys() if k.startswith(kind + "_"))
-            hint = ""
-            if kind == "snapshot":
-                failures = sorted(k for k in g.keys() if k.startswith("failure_"))
-                hint = ("" if have else "; run with --snapshots") + (
-                    "; failed members' states at the failure: %s (failure(point, seed))"
-                    % ", ".join(failures) if failures else "")
-            f.close()
-            raise KeyError("%s point %s has no %s (has: %s)%s" % (
-                self.path, point, name, ", ".join(have) or "none", hint))
-        return f, g[name]
+            name = "%s_%d" % (kind, seed)
+            if name not in g:
+                have = sorted(k for k in g.keys() if k.startswith(kind + "_"))
+                hint = ""
+                if kind == "snapshot":
+                    failures = sorted(k for k in g.keys() if k.startswith("failure_"))
+                    hint = ("" if have else "; run with --snapshots") + (
+                        "; failed members' states at the failure: %s (failure(point, seed))"
+                        % ", ".join(failures) if failures else "")
+                raise KeyError("%s point %s has no %s (has: %s)%s" % (
+                    self.path, point, name, ", ".join(have) or "none", hint))
+            yield g[name]
 
     def snapshot(self, point, seed=0):
         """The final disks of one member (written with --snapshots): x, y_i, y_e, radius and
         dy = y_e - y_i, in deposition order."""
-        f, g = self._member_group(point, "snapshot", seed)
-        with f:
+        with self._member(point, "snapshot", seed) as g:
             df = pd.DataFrame({k: _get(g, k)[()] for k in ("x", "y_i", "y_e", "radius")})
         df["dy"] = df["y_e"] - df["y_i"]
         return df
@@ -230,8 +238,7 @@ class Results:
         """A failed member's state at the failure (always written): x, y_i, y_e, radius and the
         velocities vx, vy, w of its disks, with the attributes `failure` (the reason) and
         `member` (its id, for `loosepack run --member`) in DataFrame.attrs."""
-        f, g = self._member_group(point, "failure", seed)
-        with f:
+        with self._member(point, "failure", seed) as g:
             df = pd.DataFrame({k: _get(g, k)[()]
                                for k in ("x", "y_i", "y_e", "radius", "vx", "vy", "w")})
             df.attrs = {k: (v.decode() if isinstance(v, bytes) else np.asarray(v).item())
@@ -241,8 +248,7 @@ class Results:
     def contacts(self, point, seed=0):
         """The final contacts of one member: disk indices i, j (j = -1: the floor) and the
         normal, tangential forces and rolling moment."""
-        f, g = self._member_group(point, "snapshot", seed)
-        with f:
+        with self._member(point, "snapshot", seed) as g:
             df = pd.DataFrame({k[len("contact_"):]: g[k][()] for k in g.keys()
                                if k.startswith("contact_")})
         for k in ("i", "j"):
@@ -251,8 +257,7 @@ class Results:
 
     def trajectory(self, point, seed=0):
         """Sampled positions (time, disk, x, y) of one member (observables.trajectory_every)."""
-        f, g = self._member_group(point, "trajectory", seed)
-        with f:
+        with self._member(point, "trajectory", seed) as g:
             df = pd.DataFrame({k: _get(g, k)[()] for k in ("time", "disk", "x", "y")})
         for k in ("time", "disk"):
             df[k] = df[k].astype(np.int64)
@@ -268,7 +273,7 @@ class Results:
         density predicted from the deposition density) and "nu/deviation_terms" (that
         deviation's mean and slope with their jackknife errors)."""
         out = {}
-        with h5py.File(self.path, "r") as f:
+        with self._read() as f:
             g = self._group(f, point)
 
             def visit(name, obj):
@@ -289,7 +294,7 @@ class Results:
         for, as {name: {coef, error, scan_points, valid, reduced_chi2, ...}}; scan_points are the
         indices of the points each went through."""
         out = {}
-        with h5py.File(self.path, "r") as f:
+        with self._read() as f:
             for name, g in f.get("analysis", {}).items():
                 attrs = {k: _value(v) for k, v in g.attrs.items()}
                 if not attrs.get("valid", 0) or "coef" not in g:
@@ -304,7 +309,7 @@ class Results:
         their lower and upper edges): `downward_counts` (by summed downward displacement, R),
         `moved_counts` (by disks moved), `steps_counts` (by steps to rest), and per member
         `member_*_counts` [member, bin] (files from 2026-11-26 on); attribute `without_motion`."""
-        with h5py.File(self.path, "r") as f:
+        with self._read() as f:
             g = self._group(f, point)
             if "events" not in g:
                 raise KeyError(f"{self.path}: point {point} has no events (protocol A only)")

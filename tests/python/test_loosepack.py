@@ -172,6 +172,14 @@ def test_points_are_named_by_index_and_wrong_files_are_named(result, tmp_path):
         del f["points/0000"].attrs["protocol"]
     with pytest.raises(ValueError, match="/points/0000 has no attribute 'protocol'"):
         loosepack.load(damaged)
+    # A file damaged after it was loaded (here cut short): HDF5's own error, named with the file.
+    cut = tmp_path / "cut.h5"
+    cut.write_bytes(open(result.path, "rb").read())
+    loaded = loosepack.load(cut)
+    cut.write_bytes(open(result.path, "rb").read()[:4096])
+    for read in (lambda: loaded.fits(1), lambda: loaded.snapshot(1), lambda: loaded.nu(1)):
+        with pytest.raises(ValueError, match="cut.h5: the file is damaged or was edited"):
+            read()
     (tmp_path / "text.h5").write_text("not hdf5")
     with pytest.raises(ValueError, match="not an HDF5 file"):
         loosepack.load(tmp_path / "text.h5")
