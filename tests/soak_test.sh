@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # A soak of the scheduler, the checkpoints and MPI: 10 000 tiny members (protocol A without
-# cohesion in a 4 R x 4 R box, and ballistic deposits) on 2 ranks with a checkpoint every 0.2 s.
+# cohesion in a box 4.1 R wide and 4 R high, about the narrowest the scan allows, and ballistic
+# deposits) on 2 ranks with a checkpoint every 0.2 s.
 # The file must equal a serial run's, and the ranks' peak memory with checkpoints may exceed the
 # run's without them by no more than the allocator's slack.
 # Usage: soak_test.sh LOOSEPACK MPIRUN
@@ -13,7 +14,7 @@ name = "soak"
 seeds = 5000
 [[point]]
 protocol = "A"
-width = 4
+width = 4.1
 height = 4
 bond_number = 0
 [[point]]
