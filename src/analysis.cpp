@@ -506,7 +506,10 @@ bool member_scatter(Fit& f, int degree, const std::vector<double>& x, const std:
       rest.push_back((n[i] - (*row)[bins[i]]) * m / (m - 1.0));
     const Fit r = log_count_fit(x, rest, degree);
     if (!r.valid() || r.coef.size() != f.coef.size()) {
-      f.chi2 = kNaN;  // a member without whom the bins do not determine the fit
+      // A member without whom the bins do not determine the fit: no errors from the members'
+      // scatter (as ensemble_fit), where Poisson's would pass for them.
+      f.chi2 = kNaN;
+      std::fill(f.error.begin(), f.error.end(), kNaN);
       return true;
     }
     std::vector<double> res;

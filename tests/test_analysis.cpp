@@ -288,7 +288,7 @@ TEST(Analysis, HistogramShapeNeedsAFitWithinTheMembersScatter) {
 // A histogram whose tail bins hold one member's disks alone: without that member the Gaussian has
 // two bins with counts for three parameters (no maximum of the likelihood), so its jackknife, and
 // with it the quadratic term's t, does not exist. The shapes cannot be told apart: "neither", not
-// the exponential by default.
+// the exponential by default. Nor are its errors the members' (Poisson's would pass for them).
 TEST(Analysis, HistogramShapeWithoutTheGaussiansJackknifeIsNeither) {
   const std::vector<double> edges = {0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0};
   const std::vector<double> lone = {10.0, 8.0, 12.0, 6.0, 4.0, 3.0}, rest = {10.0, 8.0, 0, 0, 0, 0};
@@ -298,6 +298,7 @@ TEST(Analysis, HistogramShapeWithoutTheGaussiansJackknifeIsNeither) {
   ASSERT_TRUE(h.gaussian.valid());  // the whole ensemble's four bins determine it
   EXPECT_TRUE(h.member_errors);
   EXPECT_TRUE(std::isnan(h.gaussian.chi2));
+  for (double e : h.gaussian.error) EXPECT_TRUE(std::isnan(e));
   EXPECT_TRUE(std::isnan(h.exponential.next_term_t));
   EXPECT_TRUE(std::isnan(h.quadratic_chi2));
   EXPECT_EQ(h.preferred, "neither");

@@ -877,9 +877,12 @@ def trajectory_claims(point, where):
     over the members."""
     width = float(point.attrs["width"])
     members = point["members"]
+    failed = set()  # seeds of failed members, whose trajectories stop at the failure
+    if "failure" in members and "seed_index" in members:
+        failed = {int(s) for s, f in zip(members["seed_index"][()], members["failure"][()]) if f}
     rows = []
     for name in sorted(k for k in members if k.startswith("trajectory_")):
-        if members[name]["time"].size == 0:  # a member that failed before its first sample
+        if members[name]["time"].size == 0 or int(name.split("_")[1]) in failed:
             continue
         t = Trajectories(members[name], width)
         rows.append([*t.displacement(), *t.cosines()])

@@ -577,16 +577,18 @@ def test_deposition_fluctuation_magnitude_only_at_the_papers_width(tmp_path):
     assert len(verdicts) == 1 and "more at Bo = 1e3" in verdicts[0][0] and verdicts[0][1]
 
 
-def trajectory_point(tmp_path, name, move, seed=7):
+def trajectory_point(tmp_path, name, move, seed=7, failure=(0, 0, 0, 0)):
     """A protocol-A point at Bo = 1e3 with 4 members' trajectories of every 5th disk: 400 disks
     deposited row by row on a lattice (20 disks of 2 R per row, 40 R wide), and after every
-    deposition `move(rng, x, y)` returns the displacement of every disk deposited so far."""
+    deposition `move(rng, x, y)` returns the displacement of every disk deposited so far; the
+    members' `failure` as given."""
     width, every = 40.0, 5
     path = tmp_path / f"{name}.h5"
     rng = np.random.default_rng(seed)
     with h5py.File(path, "w") as f:
         g = f.create_group("points/0000")
         g.attrs.update({"protocol": "A", "bond_number": 1e3, "height": 40.0, "width": width})
+        g["members/seed_index"], g["members/failure"] = np.arange(4), np.array(failure)
         for member in range(4):
             x = (np.arange(400) * 2.0) % width + 1.0
             y = 2.0 * (np.arange(400) // 20) + 1.0
@@ -625,6 +627,10 @@ def test_trajectories_move_collectively_and_mainly_downwards(tmp_path):
                                                                       together: False}
     sideways = lambda rng, x, y: avalanche(rng, x, y, sideways=0.5, downwards=0.0)
     assert trajectory_point(tmp_path, "sideways", sideways) == {down: False, together: True}
+    # A failed member's trajectory (here one that ran to the end) is left out, as every failed
+    # member is from every aggregate: three members are too few to judge.
+    assert trajectory_point(tmp_path, "failed", avalanche, failure=(0, 4, 0, 0)) == {
+        down: claims.NOT_JUDGED, together: claims.NOT_JUDGED}
 
 
 def test_a_point_without_an_ensemble_and_a_histogram_without_member_errors_are_skipped(tmp_path):
