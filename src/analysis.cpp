@@ -857,30 +857,39 @@ PointAnalysis analyse_point(const PointResult& pr, const ObservableSettings& obs
 
 // The fits across scan points: the collapse's increase against ln H and nu_i (C), and the
 // curvature and the slice model against H (A).
+// A point whose disks moved by less than `moved` (observables.event_threshold) on average takes
+// part in none: nothing there collapsed or slid, and its datum's error is the round-off of
+// positions that did not change, which would pin the fit. A power law's datum must lie beyond
+// three of its errors: sigma / y is ln y's error to first order only, and a datum within a few
+// errors of zero (a curvature that is not resolved) would enter with an ln y its error does not
+// describe.
 ScanAnalysis analyse_across(const std::vector<PointResult>& points,
-                            const std::vector<PointAnalysis>& fits) {
+                            const std::vector<PointAnalysis>& fits, double moved) {
   ScanAnalysis out;
+  const auto moving = [&](std::size_t k) { return points[k].mean_abs_dy.mean >= moved; };
+  const auto resolved = [](double y, double sigma) { return y > 3.0 * sigma; };
   using Data = const std::vector<double>&;
   const auto line = [](Data x, Data y, Data s) { return polynomial_fit(x, y, s, 1); };
   out.increase_vs_log_height =
       across_points(points, Protocol::C, Varying::Height, line, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
-        return keep_if(std::isfinite(inc.mean), {std::log(points[k].point.params.height), inc.mean,
-                                                 inc.sem, std::size_t(inc.n)});
+        return keep_if(
+            moving(k) && std::isfinite(inc.mean),
+            {std::log(points[k].point.params.height), inc.mean, inc.sem, std::size_t(inc.n)});
       });
   // The initial density varies with the capture radius; fit against the measured nu_i.
   out.increase_vs_nu_initial =
       across_points(points, Protocol::C, Varying::CaptureRadius, power_law_fit, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
-        return keep_if(inc.mean > 0.0,  // a power law's datum
+        return keep_if(moving(k) && resolved(inc.mean, inc.sem),
                        {points[k].nu_initial.mean, inc.mean, inc.sem, std::size_t(inc.n)});
       });
   out.quadratic_vs_height =
       across_points(points, Protocol::A, Varying::Height, power_law_fit, [&](std::size_t k) {
         const Fit& f = fits[k].dy_by_ye;
-        const bool curved = f.valid() && f.coef.size() >= 3 && f.coef[2] != 0.0;
-        return keep_if(curved, {points[k].point.params.height, std::fabs(coef(f, 2)), err(f, 2),
-                                jackknife_members(f)});
+        const bool curved = f.valid() && f.coef.size() >= 3 && resolved(coef(f, 2), err(f, 2));
+        return keep_if(moving(k) && curved, {points[k].point.params.height, coef(f, 2), err(f, 2),
+                                             jackknife_members(f)});
       });
   // The paper's 1/H follows from a profile H f(y/H): a slice model whose a does not change.
   const auto three_or_more = [](Data x, Data y, Data s) {
@@ -889,9 +898,9 @@ ScanAnalysis analyse_across(const std::vector<PointResult>& points,
   out.slice_vs_height =
       across_points(points, Protocol::A, Varying::Height, three_or_more, [&](std::size_t k) {
         const Fit& f = fits[k].slice_parabola;
-        const bool positive = f.valid() && !f.coef.empty() && f.coef[0] > 0.0;
-        return keep_if(
-            positive, {points[k].point.params.height, coef(f, 0), err(f, 0), jackknife_members(f)});
+        const bool positive = f.valid() && !f.coef.empty() && resolved(coef(f, 0), err(f, 0));
+        return keep_if(moving(k) && positive, {points[k].point.params.height, coef(f, 0), err(f, 0),
+                                               jackknife_members(f)});
       });
   return out;
 }
@@ -901,7 +910,7 @@ ScanAnalysis analyse_across(const std::vector<PointResult>& points,
 Analysis analyse(const Scan& scan, const std::vector<PointResult>& points) {
   Analysis out;
   for (const auto& pr : points) out.points.push_back(analyse_point(pr, scan.observables));
-  out.scan = analyse_across(points, out.points);
+  out.scan = analyse_across(points, out.points, scan.observables.event_threshold);
   return out;
 }
 

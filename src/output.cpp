@@ -1072,7 +1072,7 @@ void print_fits_across(const FitReader& f, std::ostream& out) {
   out << "# fits across points\n";
   if (!log_h.empty()) out << "  dnu/nu_i = " << log_h << "\n";
   if (!nu_i.empty()) out << "  dnu/nu_i = A nu_i^p: " << nu_i << "\n";
-  if (!c_h.empty()) out << "  abs(c2) of Delta y(y_e) = A H^p: " << c_h << "\n";
+  if (!c_h.empty()) out << "  c2 of Delta y(y_e) = A H^p: " << c_h << "\n";
   if (!a_h.empty()) out << "  slice model a = A H^p: " << a_h << "\n";
 }
 }  // namespace

@@ -770,6 +770,18 @@ capture_radius = 1.25
   one_member[4].relative_increase.n = 1;
   one_member[4].relative_increase.sem = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(analyse(scan, one_member).scan.increase_vs_nu_initial.valid());
+  // A datum within three errors of zero has an ln y its error sigma / y does not describe
+  // (here 2.5 errors), and a point whose disks moved by less than the event threshold on average
+  // one whose error is round-off: neither takes part.
+  auto unresolved = points;
+  unresolved[2].relative_increase.sem = unresolved[2].relative_increase.mean / 2.5;
+  unresolved[3].relative_increase = {1e-15, 1e-16, 8};
+  unresolved[3].mean_abs_dy.mean = 1e-13;
+  const Fit& u = analyse(scan, unresolved).scan.increase_vs_nu_initial;
+  EXPECT_FALSE(u.valid());  // two points left, 1 and 4
+  unresolved[2] = points[2];
+  EXPECT_EQ(analyse(scan, unresolved).scan.increase_vs_nu_initial.scan_points,
+            (std::vector<int>{1, 2, 4}));
   // Points that differ in another parameter too (here the disks' density) are no series in
   // r_capt: two points are left, too few for the fit.
   auto denser = points;

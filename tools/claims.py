@@ -79,7 +79,7 @@ law it claims is rejected):
                     points of one box from H = 220 on, at any width
 
   A, heights        the curvature of Delta y(y_e) scales like 1/H: the exponent p of
-                    abs(c2) = A H^p below zero and within two standard errors of -1 (fig. 7)
+                    c2 = A H^p below zero and within two standard errors of -1 (fig. 7)
   A, heights        the slice model's a stays fixed (Delta y = H f(y/H), which makes c fall
                     like 1/H): the exponent p of a = A H^p within two standard errors of 0; a
                     wide error passes it, so read it beside the exponent's error
@@ -1060,7 +1060,7 @@ def check_scan(f, path):
     a = f["analysis"]
     claims = (
         ("quadratic_vs_height", "A across heights: curvature c2 of Delta y(y_e) scales like 1/H",
-         lambda p, e: p < -2 * e and abs(p + 1) <= 2 * e, "exponent p of abs(c2) = A H^p"),
+         lambda p, e: p < -2 * e and abs(p + 1) <= 2 * e, "exponent p of c2 = A H^p"),
         ("slice_vs_height", "A across heights: the slice model's a stays fixed (Delta y = H f(y/H))",
          lambda p, e: abs(p) <= 2 * e, "exponent p of a = A H^p"),
         ("increase_vs_log_height", "C across heights: dnu/nu_i grows with ln H",

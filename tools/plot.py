@@ -341,13 +341,13 @@ def scaled_avalanche_profiles(f, points, out, written):
             if s[0][0] > 0:
                 sa.append((h, s[0][0], s[1][0]))
         fit = fit_of(a, "fit")
-        if fit is not None and len(fit[0]) > 2 and fit[0][2] != 0:
-            c2.append((h, abs(fit[0][2]), fit[1][2]))
+        if fit is not None and len(fit[0]) > 2 and fit[0][2] > 0:
+            c2.append((h, fit[0][2], fit[1][2]))
     axes[0].set_xlabel("y_e / H")
     axes[0].set_ylabel("Delta y / H")
     axes[0].set_title("scaled by H (dotted: slice model)", fontsize=9)
     axes[0].legend(fontsize=7)
-    for pts, fmt, name in ((c2, "o", "abs(c2) of Delta y(y_e)"), (sa, "s", "slice model a")):
+    for pts, fmt, name in ((c2, "o", "c2 of Delta y(y_e)"), (sa, "s", "slice model a")):
         if pts:
             axes[1].errorbar(*zip(*[(h, v) for h, v, _ in pts]), yerr=bars([e for _, _, e in pts]),
                              fmt=fmt, capsize=3, label=name)
