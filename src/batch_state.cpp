@@ -353,7 +353,8 @@ void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Di
   for (int j = 0; j < n; ++j) {
     const Disk& d = disks[static_cast<std::size_t>(j)];
     const auto put = [&](int field, double v) { h(slot_disk_at(n, field, j)) = v; };
-    put(kLoadX, std::fmod(std::fmod(d.x, width) + width, width));
+    // Wrapped only where outside [0, L_x): fmod would round an x that lies within.
+    put(kLoadX, d.x >= 0.0 && d.x < width ? d.x : std::fmod(std::fmod(d.x, width) + width, width));
     put(kLoadY, d.y);
     put(kLoadTheta, d.theta);
     put(kLoadVx, d.vx);

@@ -143,14 +143,20 @@ void MemberRun::advance_region(std::size_t k, Mask& closing) {
     regions_->stop(*batch_, s);
     state = Regions::State::Rested;
   }
+  const bool check_due = sl.final_check || sl.deposited % scan_.protocol.region_check_every == 0;
   if (state == Regions::State::Running) {
     if (sl.steps < sl.cap) return;
     regions_->stop(*batch_, s);
     sl.event_capped = true;
-    closing[k] = 1;
-  } else if (state == Regions::State::Rested && !sl.final_check &&
-             sl.deposited % scan_.protocol.region_check_every != 0) {
-    sl.event_capped = false;
+    // With no check due the event stays open, as after a region that rested: the box full, the
+    // whole system's final check belongs to it.
+    if (check_due) {
+      closing[k] = 1;
+    } else {
+      sl.event_open = true;
+      await_disk(k);
+    }
+  } else if (state == Regions::State::Rested && !check_due) {
     sl.event_open = true;
     await_disk(k);
   } else {  // rested, and the whole system's rest is checked; or the region overflowed
@@ -174,9 +180,10 @@ void MemberRun::advance_relax(std::size_t k, Mask& closing) {
     for (const auto& d : batch_->disks(s))
       if (speed(d) > wake_) seeds.push_back({d.x, d.y});
     if (start_region(k, seeds)) return;
+    sl.rounds = kMaxRegionRounds;  // it does not fit: the check goes on in the whole system
   }
   if (!done) return;
-  sl.event_capped = !st.at_rest && !quiet;
+  sl.event_capped = sl.event_capped || (!st.at_rest && !quiet);
   closing[k] = 1;
 }
 
@@ -249,6 +256,7 @@ void MemberRun::start_relaxation(std::size_t k, const Deposit& placed) {
   sl.cap = steps_for(k, scan_.protocol.max_relax_time);
   sl.checking = false;
   sl.rounds = 0;
+  sl.event_capped = false;
   if (!start_region(k, {{placed.x, placed.y}})) set_phase(k, Phase::Relax);
 }
 
@@ -266,8 +274,12 @@ void MemberRun::start_final_check(std::size_t k) {
 // A: after a region the whole system steps: its rest check where the region rested
 // (`checking`), its relaxation where the region overflowed.
 void MemberRun::relax_whole(std::size_t k, bool checking) {
-  slots_[k].checking = checking;
-  slots_[k].quiet = 0;
+  Slot& sl = slots_[k];
+  sl.checking = checking;
+  sl.quiet = 0;
+  // A check shares its disk's cap, but always has the rest.steps steps that find a quiet
+  // deposit quiet (a region that rested just before the cap left it fewer: capped at once).
+  if (checking) sl.cap = std::max(sl.cap, sl.steps + scan_.rest.steps);
   set_phase(k, Phase::Relax);
 }
 

@@ -390,8 +390,8 @@ trajectory_every = 3
       }
       expect_trajectories_end_at_final_positions(r, 3);
       // An event lasts to its last step not at rest and the rest window (10 steps), in the
-      // region and the check alike: a check that finds nothing adds no steps, so the disks that
-      // stick where they land (most at Bo = 10) end their events within 2 rest windows.
+      // region and the check alike: a check that finds the deposit at rest adds no steps, so the
+      // disks that stick where they land (most at Bo = 10) end their events within 2 rest windows.
       std::vector<long> steps;
       for (const auto& ev : r.events) {
         EXPECT_GE(ev.steps, 10);
@@ -400,6 +400,37 @@ trajectory_every = 3
       std::nth_element(steps.begin(), steps.begin() + steps.size() / 2, steps.end());
       EXPECT_LT(steps[steps.size() / 2], 20);
     }
+  }
+}
+
+// A region cut at its cap on a disk with no check due leaves the disk's event open, as one that
+// rested does, so that the box full, the whole system's final check still follows the last disk.
+// With a cap of 5 steps below the rest window (10 steps), every region and every relaxation ends
+// at its cap: without the final check a member steps 5 times a disk exactly; with it, more.
+TEST(Regions, ACappedLastRegionIsFollowedByTheFinalCheck) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 3
+[system]
+width = 12.0
+height = 12.0
+bond_number = 0
+[protocol]
+region_radius = 5
+region_check_every = 1000
+max_relax_time = 0.05
+[observables]
+lower_half_from = 1.0
+)");
+  for (const auto& r : run_all(scan)) {
+    ASSERT_TRUE(r.ok());
+    const auto cap = static_cast<long>(std::ceil(0.05 / r.member.params.time_step));
+    ASSERT_EQ(cap, 5);
+    EXPECT_EQ(r.events.size(), r.y_e.size());
+    EXPECT_EQ(r.capped, static_cast<int>(r.y_e.size()));  // every event at its cap
+    EXPECT_GT(r.steps, cap * static_cast<long>(r.y_e.size()));
+    EXPECT_LE(r.steps, cap * static_cast<long>(r.y_e.size() + 1));  // the check: its own cap
   }
 }
 

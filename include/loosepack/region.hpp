@@ -52,7 +52,8 @@ class Regions {
   enum class State {
     Running,  // still moving inside the region (it may have grown)
     Rested,   // at rest by the rest criterion; written back into the whole system
-    Overflow  // outgrew the slot, or failed; written back: relax the whole system
+    Overflow  // outgrew the slot (written back), or failed (nothing written back): relax the
+              // whole system
   };
   // After step(): the state of region s. Grows the region (a new small system around every
   // disk that moves) when a disk faster than the rest speed is further than 0.6 radius
