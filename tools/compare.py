@@ -6,9 +6,11 @@
 For two runs of the same scan points with different settings (relaxation regions against the
 whole system, two time steps, two program versions), prints per point one row per quantity:
 each file's value with its standard error, and how far apart they are in combined standard
-errors, sqrt(e_A^2 + e_B^2):
+errors, sqrt(e_A^2 + e_B^2) (a pair whose files define the observables otherwise, their bands,
+strips, bins, stop rule or event threshold, is said to be):
 
-  nu_lower_half, mean abs(Delta y) the point's ensemble means and standard errors
+  nu_lower_half, mean abs(Delta y) the point's ensemble means and standard errors (protocol C
+                                  also nu_i and dnu/nu_i)
   avalanche profile fits          a, b, c of Delta y = a + b y + c y^2 against y_i and y_e
                                   (the program's fits, errors a jackknife over the members)
   nu(y)                           every strip both ensembles fill with two or more members:
@@ -222,7 +224,10 @@ def members_in_both(pa, pb):
 
 
 def point_scalars(pa, pb, sigma, both=None):
-    for key, name in (("nu_lower_half", "nu_lower_half"), ("mean_abs_dy", "mean abs(Delta y) [R]")):
+    for key, name in (("nu_lower_half", "nu_lower_half"), ("mean_abs_dy", "mean abs(Delta y) [R]"),
+                      ("nu_initial", "nu_i"), ("relative_increase", "dnu/nu_i")):
+        if key in ("nu_initial", "relative_increase") and text(pa.attrs.get("protocol", "")) != "C":
+            continue  # protocol C's
         if f"{key}_mean" not in pa.attrs or f"{key}_mean" not in pb.attrs:
             if row := one_sided(name, f"{key}_mean" in pa.attrs, f"{key}_mean" in pb.attrs):
                 yield row
@@ -521,6 +526,23 @@ POINT_KEYS = ("protocol", "bond_number", "width", "height", "capture_radius", "r
               "disk_density", "gravity", "floor_cohesion")
 
 
+# What defines the observables rather than the physics: the bands of point attributes, and the
+# strips, bins, stop rule and event threshold of the files' settings.
+DEFINITION_KEYS = ("lower_half_from", "cut_bottom", "cut_top")
+DEFINITION_SETTINGS = ("strip_width", "bin_width", "abs_dy_bin", "stop_rule", "event_threshold")
+
+
+def definitions_differ(pa, pb):
+    """The definitions of observables two paired points' files differ in: a note, since a
+    quantity defined differently differs whatever the physics."""
+    value = lambda v: text(v) if isinstance(v, (bytes, str)) else float(v)
+    sa, sb = (p.file["settings"].attrs if "settings" in p.file else {} for p in (pa, pb))
+    return ([k for k in DEFINITION_KEYS
+             if k in pa.attrs and k in pb.attrs and value(pa.attrs[k]) != value(pb.attrs[k])] +
+            [k for k in DEFINITION_SETTINGS
+             if k in sa and k in sb and value(sa[k]) != value(sb[k])])
+
+
 def scan_keys_differ(pa, pb):
     """The scan parameters two paired points differ in (the point index pairs them): a note, so
     that a comparison of unlike points is seen as one. A parameter one point lacks differs too:
@@ -626,6 +648,9 @@ def main():
             print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)} (paired {how})\n")
             if differing := scan_keys_differ(pa, pb):
                 print(f"(the two points differ in {', '.join(differing)})\n")
+            if defined := definitions_differ(pa, pb):
+                print(f"(the files define observables differently: {', '.join(defined)}; what "
+                      "depends on them differs whatever the physics)\n")
             print("| quantity | A | B | distance | within |")
             print("|---|---|---|---|---|")
             for r in rows:

@@ -99,6 +99,22 @@ def test_points_pair_up_by_their_parameters(runs, tmp_path):
     assert out.returncode == 2 and "not a loosepack result file" in out.stderr
 
 
+def test_collapses_compare_their_densities_and_definitions_are_named(tmp_path):
+    """Protocol C's initial density and relative increase are compared; a file whose bands
+    define the observables otherwise (here lower_half_from) is said to, beside its rows."""
+    c = {"scan": {"name": "c", "seeds": 4, "protocol": "C"},
+         "system": {"width": 16.0, "height": 24.0, "bond_number": 1000.0, "capture_radius": 2.0},
+         "observables": {"lower_half_from": 2.0}}
+    a = loosepack.run(c, tmp_path / "a.h5", progress=False)
+    c["observables"]["lower_half_from"] = 4.0
+    b = loosepack.run(c, tmp_path / "b.h5", progress=False)
+    out = run_tool(a.path, a.path)
+    assert "| nu_i |" in out.stdout and "| dnu/nu_i |" in out.stdout, out.stdout
+    assert "define observables differently" not in out.stdout
+    out = run_tool(a.path, b.path)
+    assert "the files define observables differently: lower_half_from" in out.stdout, out.stdout
+
+
 def test_a_parameter_one_point_lacks_does_not_pair_it_by_parameters(runs, tmp_path):
     """A point without its Bond number attribute (an edited or damaged file) is not taken for a
     point of the other file's Bond number: the index pairs them, and the note says what lacks."""
