@@ -33,31 +33,31 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
   A, 0 < Bo < 1e4   (with `observables.trajectory_every`, 4 or more members) the avalanches
                     move disks collectively and mainly downwards (fig. 5): over the sampled
                     disks' paths after their own deposition, the mean downward displacement
-                    exceeds the mean sideways one by two standard errors; and neighbours (centres
+                    exceeds the mean sideways one beyond t95 (below); and neighbours (centres
                     within 3 R when the later one lands) move together: the cosine between two
                     disks' paths (their displacements at every later deposition as one vector)
                     is larger for neighbours than for disks at the same height (within 3 R) at
-                    least 12 R apart sideways, by two standard errors (jackknife over members)
+                    least 12 R apart sideways, beyond t95 (jackknife over members)
   C                 Delta y is a straight line in y_e and in y_i (each line acceptable: its
                     quadratic term within the 99.5 % bound), and the coefficient identity
-                    b' = b/(1+b), a' = a/(1+b) holds: each difference within two standard errors
-                    of zero, its error a jackknife of the difference itself (figs. 14, 15)
+                    b' = b/(1+b), a' = a/(1+b) holds: each difference within t95 of zero, its
+                    error a jackknife of the difference itself (figs. 14, 15)
 
-  A, Bo = 0         beyond 2 R the cut histogram decays exponentially (the slope negative by
-                    two jackknife errors, the quadratic and cubic terms within their bounds),
+  A, Bo = 0         beyond 2 R the cut histogram decays exponentially (the slope negative
+                    beyond t95 of its jackknife error, the quadratic and cubic terms within their bounds),
                     and between 1 and 2 R its probability is about constant (one constant
                     acceptable through those bins): the paper's "exponential decay" with its
                     stated deviation (fig. 9)
   A, Bo = 1e2, 1e3  (H >= 220, the paper's width of 200 R) the deposition density's fluctuation
                     at y = 200: 15 % and 20 % (sec. V), the relative standard deviation of the
                     strips of 4 R between 180 and 220 R about a line in each member, within a
-                    quarter of the paper's value or two standard errors of it (narrower boxes
+                    quarter of the paper's value or t95 of it (narrower boxes
                     are not judged: how the fluctuation scales with the width is not known)
   A, Bo >= 1e4      the parabola cannot be identified: the fluctuations are too large (the
                     parabola claim above fails)
   C                 nu_i(y) and nu_f(y) are flat in the bulk (from a quarter of the deposit's
-                    height, or `lower_half_from` if higher, to half of it: slope within two
-                    jackknife errors of zero); the final density predicted from the initial one
+                    height, or `lower_half_from` if higher, to half of it: slope within t95 of
+                    its jackknife error of zero); the final density predicted from the initial one
                     and the line Delta y(y_e) matches the measured one up to `cut_top` below
                     the lowest member's top (the deviation's mean over the strips and its slope
                     each within its 99.5 % bound, errors the program's jackknife of each over
@@ -72,10 +72,11 @@ law it claims is rejected):
 
   A, Bond numbers   the typical avalanche size falls as Bo rises: over three or more points
                     with 0 < Bo < inf that differ only in Bo, mean |Delta y| at the smallest Bo
-                    exceeds that at the largest by two combined standard errors, and it rises
-                    by no more than that between neighbouring Bond numbers
+                    exceeds that at the largest beyond t95 of their combined standard errors
+                    (the fewer members'), and it rises by no more than that between
+                    neighbouring Bond numbers
   A, Bo = 1e2, 1e3  the deposition density fluctuates more at Bo = 1e3 than at 1e2 at y = 200
-                    (the paper: 20 % against 15 %): the ratio above one by two standard errors,
+                    (the paper: 20 % against 15 %): the ratio above one beyond t95 of its error,
                     points of one box from H = 220 on, at any width
 
   A, heights        the curvature of Delta y(y_e) scales like 1/H: the exponent p of
@@ -101,6 +102,11 @@ the others makes the t's tails heavier). The histograms' shapes are judged the s
 next two terms, each within its two-sided 99.5 % bound (the program's verdict; and the tail at
 Bo = 0 here, fitted as the program fits: ln n a polynomial, the counts Poisson's, by maximum
 likelihood over the bins between the counts' 0.5 % and 99.5 % quantiles; log_count_fit).
+A difference whose error comes from n members (a jackknife over them, or their standard error)
+is a Student's t with n - 1 degrees of freedom: t95 is its two-sided 95 % bound (3.18 at 4
+members, 2.36 at 8, 2.13 at 16), where two errors would reject a true "within" claim in 14 % of
+ensembles of 4 members rather than 5 %. The exponents of the fits across points, whose errors
+follow from the points' own errors, are judged at two of them.
 
 Histogram claims use the cut histogram (`shape_cut`: without the bottom and top
 `cut_bottom`/`cut_top` of the deposit, as the paper does) when it has a verdict, else the whole
@@ -155,6 +161,20 @@ def t_quantile(nu, z=Z995):
         return math.nan
     c = (8 * nu + 1) / (8 * nu + 3)
     return math.sqrt(nu * math.expm1(z * z / (c * c * nu)))
+
+
+Z975 = 1.9600  # the standard normal's 97.5 % quantile
+
+
+def t95(members):
+    """The two-sided 95 % bound of Student's t with members - 1 degrees of freedom: how far an
+    estimate may lie from its expectation, in errors estimated from that many members (a
+    jackknife over them, or their scatter), before it differs (3.18 at 4 members, 2.36 at 8,
+    2.13 at 16; exact at 2 and 3 members, 12.71 and 4.30); NaN for fewer than 2."""
+    nu = members - 1
+    if nu < 1:
+        return math.nan
+    return {1: 12.706, 2: 4.303}.get(nu) or t_quantile(nu, Z975)
 
 
 def residual_chi2(resid, resid_err, members, params):
@@ -621,7 +641,7 @@ def bo0_histogram_claims(point, path, where):
     else:
         coef, err, chi2, dof, ts = tail
         yield (f"{where}: the |Delta y| histogram decays exponentially beyond 2 R",
-               coef[1] < -2 * err[1] and terms_hold(ts, hist.members),
+               coef[1] < -t95(hist.members) * err[1] and terms_hold(ts, hist.members),
                f"decay length {-1 / coef[1]:.3g} R (slope {coef[1]:.3g} +- {err[1]:.2g} per R), "
                f"t of the quadratic term {ts[0]:.3g}, of the cubic {ts[1]:.3g} (bound "
                f"{t_quantile(hist.members - 1, Z9975):.3g}), chi2/dof {chi2:.3g}/{dof}, "
@@ -674,8 +694,7 @@ def deposition_fluctuation_claims(point, path, where):
     """Bo = 1e2 and 1e3 in a box of the paper's width (200 R): "the fluctuations of the
     deposition density at vertical position y = 200": around 15 % and 20 %, read as the
     relative standard deviation of strips of two diameters (deposition_fluctuation). It holds
-    within a quarter of the paper's value (our reading of "around") or two standard errors of
-    it. Narrower boxes are not judged: the fluctuations come from avalanches whose lateral
+    within a quarter of the paper's value (our reading of "around") or t95 of its error. Narrower boxes are not judged: the fluctuations come from avalanches whose lateral
     extent is not known, so how they scale with the width is not either."""
     if float(point.attrs["width"]) < PAPER_WIDTH:
         return
@@ -690,14 +709,14 @@ def deposition_fluctuation_claims(point, path, where):
         return
     value, error, members, x = fl
     paper = PAPER_FLUCTUATION[bo]
-    yield (claim, abs(value - paper) <= max(0.25 * paper, 2 * error),
+    yield (claim, abs(value - paper) <= max(0.25 * paper, t95(members) * error),
            f"{value:.1%} +- {error:.1%} in strips {x[0]:g}-{x[-1]:g} R, {members} members")
 
 
 def deposition_fluctuation_order(f):
     """Points of protocol A at Bo = 1e2 and 1e3 in the same box (H >= 220): the paper's "the
     deposition density shows somewhat lower fluctuations as for Bo = 1e3" (15 % against 20 %):
-    the ratio above one by two standard errors, at any width."""
+    the ratio above one beyond t95 of its error (the fewer members'), at any width."""
     found = {}
     for name in sorted(f["points"]):
         g = f["points"][name]
@@ -715,7 +734,7 @@ def deposition_fluctuation_order(f):
         ratio = v3 / v2
         error = ratio * math.hypot(e2 / v2, e3 / v3)
         yield (f"A across Bond numbers ({width:g} x {height:g}): the deposition density "
-               f"fluctuates more at Bo = 1e3 than at 1e2", ratio - 1 > 2 * error,
+               f"fluctuates more at Bo = 1e3 than at 1e2", ratio - 1 > t95(min(n2, n3)) * error,
                f"{v2:.1%} +- {e2:.1%} ({n2} members) and {v3:.1%} +- {e3:.1%} ({n3}) at y = 200; "
                f"ratio {ratio:.3g} +- {error:.2g} (paper: 20 % / 15 % = 1.33)")
 
@@ -897,7 +916,8 @@ def trajectory_claims(point, where):
     mean, err = rows.mean(axis=0), jackknife(replicas)
     down, side, near, far = mean
     down_err = float(jackknife([r[0] - r[1] for r in replicas]))
-    yield (claims[0], down - side > 2 * down_err,
+    bound = t95(len(rows))
+    yield (claims[0], down - side > bound * down_err,
            f"mean displacement after deposition: {down:.3g} +- {err[0]:.2g} R down, "
            f"{side:.3g} +- {err[1]:.2g} R sideways (difference {down - side:.3g} +- "
            f"{down_err:.2g}), {len(rows)} members")
@@ -906,7 +926,7 @@ def trajectory_claims(point, where):
                "a member without neighbours or far pairs that both moved 1 R")
         return
     near_err = float(jackknife([r[2] - r[3] for r in replicas]))
-    yield (claims[1], near - far > 2 * near_err,
+    yield (claims[1], near - far > bound * near_err,
            f"mean cosine of the paths: neighbours (within {NEIGHBOURS:g} R) {near:.3g} +- "
            f"{err[2]:.2g}, disks at the same height at least {FAR_APART:g} R apart "
            f"{far:.3g} +- {err[3]:.2g} (difference {near - far:.3g} +- {near_err:.2g})")
@@ -944,7 +964,7 @@ def collapse_claims(point, path, where):
     loo = np.array([identity(line(ye, m), line(yi, m)) for m in range(ye.members)])
     err = jackknife(loo)
     for k, name in enumerate(("b'", "a'")):
-        yield (f"{where}: {name} = {name[0]}/(1+b)", abs(full[k]) <= 2 * err[k],
+        yield (f"{where}: {name} = {name[0]}/(1+b)", abs(full[k]) <= t95(ye.members) * err[k],
                f"{name} - {name[0]}/(1+b) = {full[k]:.3g} +- {err[k]:.2g} (jackknife of the "
                f"difference)")
 
@@ -960,7 +980,7 @@ def density_slope(group, low, high):
         return None
     slope = lambda r: np.polynomial.polynomial.polyfit(x, r.mean(axis=0), 1)[1]
     loo = [slope(np.delete(rows, m, axis=0)) for m in range(len(rows))]
-    return slope(rows), float(jackknife(loo)), x[0], x[-1]
+    return slope(rows), float(jackknife(loo)), x[0], x[-1], len(rows)
 
 
 def predicted_density_claim(nu, where):
@@ -1013,15 +1033,16 @@ def collapse_density_claims(point, path, where):
             yield (f"{where}: {label}(y) is flat in the bulk", NOT_JUDGED,
                    "too few strips or members")
             continue
-        slope, err, lo, hi = r
-        yield (f"{where}: {label}(y) is flat in the bulk", abs(slope) <= 2 * err,
+        slope, err, lo, hi, members = r
+        yield (f"{where}: {label}(y) is flat in the bulk", abs(slope) <= t95(members) * err,
                f"slope {slope:.3g} +- {err:.2g} per R over {lo:g}-{hi:g} R")
     if "predicted" in point["nu"]:
         yield predicted_density_claim(point["nu"], where)
     inc, inc_err = float(a["relative_increase_mean"]), float(a["relative_increase_sem"])
+    inc_members = int(a.get("relative_increase_n", 0))
     nu_i = float(a["nu_initial_mean"])
     limit = RCP / nu_i - 1
-    yield (f"{where}: dnu/nu_i stays below its limit nu_rcp/nu_i - 1", inc - 2 * inc_err <= limit,
+    yield (f"{where}: dnu/nu_i stays below its limit nu_rcp/nu_i - 1", inc - t95(inc_members) * inc_err <= limit,
            f"dnu/nu_i = {inc:.3g} +- {inc_err:.2g}, limit {limit:.3g} (nu_i = {nu_i:.3g})")
 
 
@@ -1039,18 +1060,19 @@ def typical_size_claims(f):
                     if k in ("width", "height", "friction", "rolling_friction", "cohesion_range",
                              "radius", "polydispersity", "capture_radius", "floor_cohesion"))
         groups.setdefault(key, []).append(
-            (bo, float(a["mean_abs_dy_mean"]), float(a["mean_abs_dy_sem"])))
+            (bo, float(a["mean_abs_dy_mean"]), float(a["mean_abs_dy_sem"]),
+             int(a.get("mean_abs_dy_n", 0))))
     for key, pts in groups.items():
         if len(pts) < 3:
             continue
         pts.sort()
-        sig = lambda p, q: 2 * math.hypot(p[2], q[2])
+        sig = lambda p, q: t95(min(p[3], q[3])) * math.hypot(p[2], q[2])
         falls = pts[0][1] - pts[-1][1] > sig(pts[0], pts[-1])
         no_rise = all(q[1] - p[1] <= sig(p, q) for p, q in zip(pts, pts[1:]))
         box = dict(key)
         yield (f"A across Bond numbers ({box.get('width', 0):g} x {box.get('height', 0):g}): the "
                f"typical avalanche size mean |Delta y| falls as Bo rises", falls and no_rise,
-               ", ".join(f"Bo {bo:g}: {m:.3g} +- {e:.2g} R" for bo, m, e in pts))
+               ", ".join(f"Bo {bo:g}: {m:.3g} +- {e:.2g} R" for bo, m, e, _ in pts))
 
 
 def check_scan(f, path):

@@ -215,6 +215,7 @@ def density_point(tmp_path, name, nu_i, nu_f, predicted, increase, seed=1):
         g.attrs.update({"protocol": "C", "bond_number": 1e3, "height": H, "members": MEMBERS,
                         "failed": 0, "lower_half_from": 8.0, "cut_top": 8.0,
                         "relative_increase_mean": increase, "relative_increase_sem": 0.01,
+                        "relative_increase_n": MEMBERS,
                         "nu_initial_mean": nu_i(H / 4)})
         g["members/top"] = np.full(MEMBERS, H - 10.0)
         for key, profile in (("nu_deposition", nu_i), ("nu", nu_f)):
@@ -250,6 +251,24 @@ def density_verdicts(path):
     with h5py.File(path, "r") as f:
         return {c.split(": ", 1)[1]: ok
                 for c, ok, _ in claims.collapse_density_claims(f["points/0000"], str(path), "C")}
+
+
+def test_t95_is_students_and_a_flat_profile_of_4_members_fails_once_in_twenty():
+    """t95 against Student's table; and the flat-density claim on profiles that are flat, each
+    strip normal about one density in 4 members: the slope's jackknife error is the standard
+    error of the members' own slopes, so |slope| / error is Student's t with 3 degrees of freedom
+    and the claim fails in 5 % of 2 000 ensembles (binomial sd 0.5 %; at two errors it failed in
+    14 %)."""
+    for members, t in {2: 12.706, 3: 4.303, 4: 3.182, 8: 2.365, 16: 2.131}.items():
+        assert claims.t95(members) == pytest.approx(t, rel=0.015)
+    rng = np.random.default_rng(4)
+    centre = np.arange(2.0, 40.0, 4.0)
+    fails = 0
+    for _ in range(2000):
+        group = {"member_mean": rng.normal(0.5, 0.02, (4, centre.size)), "centre": centre}
+        slope, err, _, _, members = claims.density_slope(group, 0.0, 40.0)
+        fails += abs(slope) > claims.t95(members) * err
+    assert 0.035 <= fails / 2000 <= 0.065, fails
 
 
 def test_collapse_densities_flat_predicted_and_below_the_limit(tmp_path):
@@ -297,7 +316,8 @@ def bond_scan(tmp_path, name, sizes):
             g = f.create_group(f"points/{k:04d}")
             g.attrs.update({"protocol": "A", "bond_number": bo, "width": 40.0, "height": 60.0,
                             "friction": 0.3, "rolling_friction": 0.1, "cohesion_range": 0.01,
-                            "mean_abs_dy_mean": mean, "mean_abs_dy_sem": sem})
+                            "mean_abs_dy_mean": mean, "mean_abs_dy_sem": sem,
+                            "mean_abs_dy_n": 16})
     return path
 
 
