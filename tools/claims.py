@@ -44,7 +44,8 @@ For every scan point it can judge (from the fits the program stored, docs/OUTPUT
                     error a jackknife of the difference itself (figs. 14, 15)
 
   A, Bo = 0         beyond 2 R the cut histogram decays exponentially (the slope negative
-                    beyond t95 of its jackknife error, the quadratic and cubic terms within their bounds),
+                    beyond t95 of its jackknife error, the quadratic and cubic terms within
+                    their bounds),
                     and between 1 and 2 R its probability is about constant (one constant
                     acceptable through those bins): the paper's "exponential decay" with its
                     stated deviation (fig. 9)
@@ -1042,7 +1043,8 @@ def collapse_density_claims(point, path, where):
     inc_members = int(a.get("relative_increase_n", 0))
     nu_i = float(a["nu_initial_mean"])
     limit = RCP / nu_i - 1
-    yield (f"{where}: dnu/nu_i stays below its limit nu_rcp/nu_i - 1", inc - t95(inc_members) * inc_err <= limit,
+    yield (f"{where}: dnu/nu_i stays below its limit nu_rcp/nu_i - 1",
+           inc - t95(inc_members) * inc_err <= limit,
            f"dnu/nu_i = {inc:.3g} +- {inc_err:.2g}, limit {limit:.3g} (nu_i = {nu_i:.3g})")
 
 
