@@ -72,16 +72,19 @@ read -r with seconds < <(peak_of_run mpi.h5 "$every")
 touch mpi.h5.checkpoint.stop
 wait "$counter"
 checkpoints=$(cat parts.count)
-# The run without checkpoints twice, its larger peak: beside other tests (ctest -j2) one such
-# peak once read 4.5 MiB below the others (115 152 KiB against 119 392-120 952 alone).
+# The run without checkpoints three times, its largest peak: beside other tests (ctest -j2) such
+# peaks have read 4.5-6 MiB below the others (115 152 and 115 780 KiB against 119 392-121 612
+# alone), twice in a row once.
 read -r without _ < <(peak_of_run plain.h5 1000000)
-read -r again _ < <(peak_of_run again.h5 1000000)
-[ "$again" -gt "$without" ] && without=$again
+for again in again.h5 third.h5; do
+  read -r peak _ < <(peak_of_run "$again" 1000000)
+  [ "$peak" -gt "$without" ] && without=$peak
+done
 same serial.h5 mpi.h5
 same serial.h5 plain.h5
 [ -d mpi.h5.checkpoint ] && fail "the checkpoint outlived the run"
 echo "soak: 10 000 members on 2 ranks in $seconds s; the ranks' peak memory $with KiB with a" \
-  "checkpoint every $every s ($checkpoints seen written), $without KiB without (the larger of two)"
+  "checkpoint every $every s ($checkpoints seen written), $without KiB without (the largest of three)"
 [ "$checkpoints" -ge 10 ] || fail "only $checkpoints checkpoints were seen written ($seconds s)"
 # Any one encoding a checkpoint holds while it is written is at most the one of all the rank's
 # results that the run without checkpoints writes at its end, so checkpoints may not raise the
