@@ -326,7 +326,9 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
       o << file << ":" << line << ":" << column << ": character U+" << std::hex << std::uppercase
         << static_cast<unsigned long>(c)
         << " is only allowed in comments and string values (toml++ 3.3.0 mishandles "
-           "U+00A1..U+0499, U+2C5E..U+2FFF, U+3001..U+3057 and U+FB26..U+FEFE elsewhere)";
+           "U+00A1..U+0499, U+2C5E..U+2FFF, U+3001..U+3057 and U+FB26..U+FEFE elsewhere"
+        << (state == MultiBasic ? R"(; a multi-line """ string is no such value, ''' is)" : "")
+        << ")";
       throw ScanError(o.str());
     }
     auto at = [&](const char* s) { return text.compare(i, std::strlen(s), s) == 0; };
