@@ -59,14 +59,18 @@ struct DepositKernel {
         Reducer(best));
     const int q = best.loc;
     const bool captured = q >= 0 && best.val > r;
-    const double travel = captured ? first_touch_on_pull(team, s, q, x, best.val, r, rc) : 1.0;
+    // The capture point less q's centre, and the share of it that leaves the disk touching q.
+    const double dx = captured ? periodic_delta(x - part.x(q), width) : 0.0;
+    const double dy = captured ? best.val - part.y(q) : 0.0;
+    const double pull = captured ? (r + part.radius(q)) / (rc * (r + part.radius(q))) : 1.0;
+    // Equal radii meet nothing on the way (first_touch_on_pull): no second pass over the disks.
+    const double travel =
+        captured && sigma > 0.0
+            ? first_touch_on_pull(team, s, q, x, best.val, r, (pull - 1.0) * dx, (pull - 1.0) * dy)
+            : 1.0;
     Kokkos::single(Kokkos::PerTeam(team), [&]() {
       double px = x, py = r;  // the floor
       if (captured) {
-        const double reach = rc * (r + part.radius(q));
-        const double dx = periodic_delta(x - part.x(q), width);
-        const double dy = best.val - part.y(q);
-        const double pull = (r + part.radius(q)) / reach;
         if (travel < 1.0) {  // stopped on the way by another disk or the floor
           px = x + travel * (pull - 1.0) * dx;
           py = best.val + travel * (pull - 1.0) * dy;
@@ -105,20 +109,17 @@ struct DepositKernel {
     });
   }
 
-  // The pull of a disk of radius r captured at (x, y) by disk q, along the line of centres to
-  // touch q: the fraction of it travelled before the disk first touches another disk or the
-  // floor (1 when nothing is in the way). With equal radii nothing ever is: every disk p is at
-  // least r_capt (r + r_p) from the capture point (else the drop line would have met p's capture
+  // The pull (ux, uy) of a disk of radius r captured at (x, y) by disk q, along the line of
+  // centres to touch q: the fraction of it travelled before the disk first touches another disk
+  // or the floor (1 when nothing is in the way). With equal radii nothing ever is: every disk p is
+  // at least r_capt (r + r_p) from the capture point (else the drop line would have met p's capture
   // circle higher), and on the pull |c - p|^2 >= lambda^2 |u|^2 + (1 - lambda) |v|^2 > (2 R)^2 for
   // the point c = q + lambda u (u the capture point less q, v = p - q, lambda >= 1/r_capt). With
   // unequal radii a large disk pulled onto a small one can meet a neighbour or the floor first.
-  KOKKOS_INLINE_FUNCTION double first_touch_on_pull(const team_member& team, int s, int q,
-                                                    double x, double y, double r,
-                                                    double rc) const {
+  KOKKOS_INLINE_FUNCTION double first_touch_on_pull(const team_member& team, int s, int q, double x,
+                                                    double y, double r, double ux,
+                                                    double uy) const {
     const double width = sys.width(s);
-    const double pull = 1.0 / rc;  // (r + r_q) / (r_capt (r + r_q))
-    const double ux = (pull - 1.0) * periodic_delta(x - part.x(q), width);
-    const double uy = (pull - 1.0) * (y - part.y(q));
     const double uu = ux * ux + uy * uy;
     if (!(uu > 0.0)) return 1.0;
     const int first = sys.offset(s), n = sys.count(s);

@@ -526,6 +526,11 @@ POINT_KEYS = ("protocol", "bond_number", "width", "height", "capture_radius", "r
               "disk_density", "gravity", "floor_cohesion")
 
 
+def attribute_value(v):
+    """An attribute as compared: a string as text, else a number."""
+    return text(v) if isinstance(v, (bytes, str)) else float(v)
+
+
 # What defines the observables rather than the physics: the bands of point attributes, and the
 # strips, bins, stop rule and event threshold of the files' settings.
 DEFINITION_KEYS = ("lower_half_from", "cut_bottom", "cut_top")
@@ -535,23 +540,20 @@ DEFINITION_SETTINGS = ("strip_width", "bin_width", "abs_dy_bin", "stop_rule", "e
 def definitions_differ(pa, pb):
     """The definitions of observables two paired points' files differ in: a note, since a
     quantity defined differently differs whatever the physics."""
-    value = lambda v: text(v) if isinstance(v, (bytes, str)) else float(v)
     sa, sb = (p.file["settings"].attrs if "settings" in p.file else {} for p in (pa, pb))
-    return ([k for k in DEFINITION_KEYS
-             if k in pa.attrs and k in pb.attrs and value(pa.attrs[k]) != value(pb.attrs[k])] +
-            [k for k in DEFINITION_SETTINGS
-             if k in sa and k in sb and value(sa[k]) != value(sb[k])])
+    differ = lambda a, b, k: k in a and k in b and attribute_value(a[k]) != attribute_value(b[k])
+    return ([k for k in DEFINITION_KEYS if differ(pa.attrs, pb.attrs, k)] +
+            [k for k in DEFINITION_SETTINGS if differ(sa, sb, k)])
 
 
 def scan_keys_differ(pa, pb):
     """The scan parameters two paired points differ in (the point index pairs them): a note, so
     that a comparison of unlike points is seen as one. A parameter one point lacks differs too:
     two points pair by their parameters only where both say them."""
-    value = lambda v: text(v) if isinstance(v, (bytes, str)) else float(v)
     differ = []
     for k in POINT_KEYS:
         if k in pa.attrs and k in pb.attrs:
-            if value(pa.attrs[k]) != value(pb.attrs[k]):
+            if attribute_value(pa.attrs[k]) != attribute_value(pb.attrs[k]):
                 differ.append(k)
         elif k in pa.attrs or k in pb.attrs:
             differ.append(f"{k} (absent from {'B' if k in pa.attrs else 'A'})")
