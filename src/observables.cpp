@@ -80,15 +80,41 @@ EnsembleProfile ensemble(const std::vector<std::vector<double>>& rows,
 
 namespace {
 
+// Standard error of a pooled mean sum_j s_j / sum_j c_j over members j (sums s_j of c_j samples
+// each): the delete-one-member jackknife of the ratio, the members being the independent units.
+// Where every member has the same count it is the standard error of the members' own means; a
+// member without samples in the bin counts as one of the ensemble's members. NaN unless two
+// members or more have samples (leaving out the only one leaves no mean).
+double pooled_mean_sem(const std::vector<double>& sums, const std::vector<double>& counts) {
+  const std::size_t n = sums.size();
+  double total = 0.0, samples = 0.0;
+  for (std::size_t j = 0; j < n; ++j) {
+    total += sums[j];
+    samples += counts[j];
+  }
+  std::vector<double> without(n);
+  double mean_without = 0.0;
+  for (std::size_t j = 0; j < n; ++j) {
+    if (!(samples - counts[j] > 0.0)) return kNaN;
+    without[j] = (total - sums[j]) / (samples - counts[j]);
+    mean_without += without[j] / static_cast<double>(n);
+  }
+  if (n < 2) return kNaN;
+  double sum2 = 0.0;
+  for (double w : without) sum2 += (w - mean_without) * (w - mean_without);
+  return std::sqrt(sum2 * static_cast<double>(n - 1) / static_cast<double>(n));
+}
+
 // Avalanche profile: Delta y binned by `key` (y_i or y_e), pooled over the members that did not
-// fail, with the standard error of the bin mean estimated from the scatter of the member means,
-// and one row per member (failed ones included, empty) of the per-member bin statistics.
+// fail, with the jackknife standard error of the pooled bin mean over those members, and one
+// row per member (failed ones included, empty) of the per-member bin statistics.
 BinnedStat binned(const std::vector<const MemberResult*>& members, bool by_initial, double bin,
                   int n_bins) {
   BinnedStat b;
   const auto N = static_cast<std::size_t>(n_bins);
   std::vector<double> sum(N, 0.0), sum2(N, 0.0), cnt(N, 0.0), keys(N, 0.0);
-  std::vector<std::vector<double>> member_means(N);
+  std::vector<std::vector<double>> member_sums(N),
+      member_counts(N);  // of members that did not fail
   for (const auto* r : members) {
     std::vector<double> ms(N, 0.0), mk(N, 0.0), mc(N, 0.0);
     for (std::size_t k = 0; r->ok() && k < r->y_e.size(); ++k) {
@@ -105,8 +131,11 @@ BinnedStat binned(const std::vector<const MemberResult*>& members, bool by_initi
       mk[u] += key;
       mc[u] += 1.0;
     }
+    for (std::size_t u = 0; r->ok() && u < N; ++u) {
+      member_sums[u].push_back(ms[u]);
+      member_counts[u].push_back(mc[u]);
+    }
     for (std::size_t u = 0; u < N; ++u) {
-      if (mc[u] > 0.0) member_means[u].push_back(ms[u] / mc[u]);
       ms[u] = mc[u] > 0.0 ? ms[u] / mc[u] : kNaN;
       mk[u] = mc[u] > 0.0 ? mk[u] / mc[u] : kNaN;
     }
@@ -129,7 +158,7 @@ BinnedStat binned(const std::vector<const MemberResult*>& members, bool by_initi
     b.stddev.push_back(cnt[u] > 1.0
                            ? std::sqrt(std::max(0.0, (sum2[u] - cnt[u] * m * m) / (cnt[u] - 1.0)))
                            : kNaN);
-    b.sem.push_back(mean_sem(member_means[u]).sem);
+    b.sem.push_back(pooled_mean_sem(member_sums[u], member_counts[u]));
   }
   return b;
 }

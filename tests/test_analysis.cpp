@@ -1052,6 +1052,52 @@ TEST(Analysis, BinsThatDoNotMoveDoNotPinTheProfileFit) {
   EXPECT_GT(fit.chi2, 10.0 * chi2_quantile99(fit.dof));
 }
 
+// A bin's pooled mean weights each member by its disks there, so its standard error is that of a
+// ratio over members: with one member of every eight holding ten times the others' disks, and each
+// member's Delta y offset by its own N(0, 1), the pooled mean's variance across ensembles is
+// (100 + 7) / 17^2 = 0.37 (disk noise aside), three times the 1/8 that the scatter of the members'
+// unweighted means gives. The stored error squared matches that variance on average (the
+// delete-one-member jackknife of the ratio).
+TEST(Analysis, BinErrorsAreThoseOfThePooledMean) {
+  const auto scan = profile_scan(8, 100);
+  const double H = 80.0;
+  constexpr int kEnsembles = 400;
+  std::normal_distribution<double> offset(0.0, 1.0), noise(0.0, 0.3);
+  std::vector<double> pooled, sem2;
+  for (int e = 0; e < kEnsembles; ++e) {
+    int member = 0;
+    double shift = 0.0;
+    const auto results = synthetic_ensemble(
+        scan, 1000 + e,
+        [&](const Member&) {
+          shift = std::numeric_limits<double>::quiet_NaN();  // drawn with the member's first disk
+          return member++ == 0 ? 800 : 80;
+        },
+        [&](const Member&, std::mt19937_64& rng) {
+          if (std::isnan(shift)) shift = offset(rng);
+          const double ye = std::uniform_real_distribution<double>(1.0, H - 1.0)(rng);
+          return std::pair(ye - shift - noise(rng), ye);
+        });
+    const auto points = aggregate(scan, results);
+    const BinnedStat& b = points.at(0).dy_by_ye;
+    for (std::size_t u = 0; u < b.mean.size(); ++u) {
+      if (b.count[u] == 0.0) continue;
+      pooled.push_back(b.mean[u]);
+      sem2.push_back(b.sem[u] * b.sem[u]);
+    }
+  }
+  ASSERT_GT(pooled.size(), std::size_t(kEnsembles));
+  // Every bin of an ensemble shares its members' offsets: the bins' variance is the offsets'.
+  double mean = 0.0, var = 0.0, mean_sem2 = 0.0;
+  for (double p : pooled) mean += p / pooled.size();
+  for (double p : pooled) var += (p - mean) * (p - mean) / (pooled.size() - 1);
+  for (double s : sem2) mean_sem2 += s / sem2.size();
+  std::printf("pooled mean variance %.4f, mean squared error %.4f\n", var, mean_sem2);
+  // 400 ensembles: the variance is known to about 7 % (sqrt(2/400)).
+  EXPECT_NEAR(mean_sem2 / var, 1.0, 0.2);
+  EXPECT_NEAR(var, 107.0 / 289.0, 0.2 * 107.0 / 289.0);
+}
+
 // A bin enters the profile fits only where every member has disks: one member of four reaches
 // only y_e = 40 (as after a deep collapse), so of the 20 bins of 4 R the 10 below 40 are used.
 TEST(Analysis, ProfileFitsUseTheBinsEveryMemberReaches) {
