@@ -87,6 +87,9 @@ with h5py.File(sys.argv[1], "r") as f:
 PY
 }
 snapshots_of sf.h5
+# The final states (contact forces included) of the resumed run are the uninterrupted run's.
+"$exe" run s.toml -o sfull.h5 --batch-size 1 --snapshots -q
+same sfull.h5 sf.h5
 # A resume without --snapshots of a run that asked for them writes them too (its checkpoint
 # says so), where it used to drop them and then delete the checkpoint that held them.
 interrupt TERM sn.h5 sn.log --snapshots

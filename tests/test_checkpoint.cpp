@@ -81,6 +81,129 @@ bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
          (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
 
+// Everything a finished member records but its wall time, bit for bit.
+void expect_same_member(const MemberResult& a, const MemberResult& b) {
+  SCOPED_TRACE("member " + std::to_string(a.member.id));
+  EXPECT_EQ(a.member.id, b.member.id);
+  EXPECT_EQ(a.failure, b.failure);
+  EXPECT_EQ(a.steps, b.steps);
+  EXPECT_EQ(a.sweeps, b.sweeps);
+  EXPECT_EQ(a.capped, b.capped);
+  for (auto f :
+       {&MemberResult::x, &MemberResult::y_i, &MemberResult::y_e, &MemberResult::radius,
+        &MemberResult::vx, &MemberResult::vy, &MemberResult::w, &MemberResult::trajectory_time,
+        &MemberResult::trajectory_disk, &MemberResult::trajectory_x, &MemberResult::trajectory_y})
+    EXPECT_TRUE(same_bits(a.*f, b.*f));
+  ASSERT_EQ(a.events.size(), b.events.size());
+  for (std::size_t k = 0; k < a.events.size(); ++k) {
+    EXPECT_EQ(a.events[k].moved, b.events[k].moved) << "event " << k;
+    EXPECT_TRUE(same_bits({a.events[k].downward}, {b.events[k].downward})) << "event " << k;
+    EXPECT_EQ(a.events[k].steps, b.events[k].steps) << "event " << k;
+    EXPECT_EQ(a.events[k].capped, b.events[k].capped) << "event " << k;
+  }
+  ASSERT_EQ(a.contacts.size(), b.contacts.size());
+  for (std::size_t k = 0; k < a.contacts.size(); ++k) {
+    const auto &p = a.contacts[k], &q = b.contacts[k];
+    EXPECT_EQ(p.i, q.i);
+    EXPECT_EQ(p.j, q.j);
+    EXPECT_TRUE(same_bits({p.nx, p.ny, p.gap, p.normal, p.tangential, p.moment},
+                          {q.nx, q.ny, q.gap, q.normal, q.tangential, q.moment}))
+        << "contact " << k;
+  }
+}
+
+// A member stopped while it runs goes on from its snapshot as if it had never stopped. A scan of
+// cohesive deposits relaxed in regions with a whole-system check every third disk (A), slow
+// deposits without cohesion (A) and collapses (C), with trajectories, on batches of 2: a
+// snapshot of every running member is asked for every 16 rounds; the run is stopped after
+// every twelfth of the rounds the whole run takes (or, every other time, crashes), each time saved
+// to a checkpoint part and read back, and resumed on batches of 3. Every member's result equals
+// the uninterrupted run's bit for bit; some went on from inside a relaxation region. `solver` is
+// the scan file's [solver] section.
+void expect_running_members_go_on(const std::string& solver) {
+  const Scan scan = parse_scan(
+      "[scan]\nseeds = 2\nbatch_size = 2\n"
+      "[[point]]\nprotocol = \"A\"\nwidth = 16\nheight = 20\nbond_number = 1000\n"
+      "time_step = 0.0028\n"
+      "[[point]]\nprotocol = \"A\"\nwidth = 8\nheight = 8\nbond_number = 0\n"
+      "[[point]]\nprotocol = \"C\"\nwidth = 12\nheight = 16\nbond_number = 30\n"
+      "[protocol]\nregion_radius = 5\nregion_check_every = 3\n"
+      "[observables]\nlower_half_from = 2\ntrajectory_every = 3\n"
+      "[solver]\n" +
+          solver,
+      "test.toml");
+  const auto members = members_of(scan);
+  long rounds = 0;  // of the run's loop: one progress report each
+  RunHooks counting;
+  counting.progress = [&](const Progress&) { ++rounds; };
+  const auto straight = run_members(scan, members, counting);
+  ASSERT_EQ(straight.size(), members.size());
+  ASSERT_GT(rounds, 100);
+
+  const ScratchDir dir("loosepack-running");
+  const std::string part = checkpoint_part(dir.string(), 1, 0);
+  Scan resumed_scan = scan;
+  resumed_scan.batch_size = 3;
+  std::vector<MemberResult> done;
+  std::vector<MemberSnapshot> started;
+  int stops = 0;
+  bool went_on_moving = false, went_on_resting = false, went_on_in_region = false;
+  while (done.size() < members.size()) {
+    ASSERT_LT(stops, 16);
+    std::vector<Member> todo;
+    for (const auto& m : members)
+      if (std::none_of(done.begin(), done.end(),
+                       [&](const MemberResult& r) { return r.member.id == m.id; }))
+        todo.push_back(m);
+    // As `loosepack run` keeps them: the latest snapshot of each member still running.
+    std::map<std::uint64_t, MemberSnapshot> latest;
+    for (const auto& s : started) latest[s.result.member.id] = s;
+    volatile std::sig_atomic_t stop = 0;
+    long n = 0;
+    RunHooks hooks;
+    hooks.stop = &stop;
+    hooks.progress = [&](const Progress&) { ++n; };
+    hooks.snapshot_wanted = [&] { return n % 16 == 0; };
+    // Stopped after the first set of snapshots past a twelfth of the rounds; the stop then
+    // takes fresh snapshots (waiting for members inside a split step to end it), which most
+    // often find the members of A inside a relaxation region. Every other stop goes on from the
+    // last set before it instead, as after a crash, and comes where that set holds a member
+    // between two disks.
+    const bool crash = stops % 2 == 1;
+    hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
+      if (stop && crash) return;  // lost in the crash
+      const bool between = std::any_of(snaps.begin(), snaps.end(), [](const MemberSnapshot& s) {
+        return s.phase == MemberPhase::Deposit || s.phase == MemberPhase::Ballistic;
+      });
+      for (auto& s : snaps) latest[s.result.member.id] = std::move(s);
+      if (n >= rounds / 12 && (!crash || between)) stop = 1;
+    };
+    hooks.finished = [&](const MemberResult& r) { latest.erase(r.member.id); };
+    for (auto& r : run_members(stops == 0 ? scan : resumed_scan, todo, hooks, started))
+      done.push_back(std::move(r));
+    std::vector<MemberSnapshot> snaps;
+    for (auto& [id, s] : latest) snaps.push_back(std::move(s));
+    write_checkpoint_part(part, scan_fingerprint(scan), done, snaps);
+    const auto ck = read_checkpoint(dir.string(), scan);
+    ASSERT_EQ(ck.members.size(), done.size());
+    started = ck.running;
+    for (const auto& s : started) {
+      (s.system.status.active || s.region ? went_on_moving : went_on_resting) = true;
+      went_on_in_region = went_on_in_region || s.region.has_value();
+    }
+    if (done.size() < members.size()) ++stops;
+  }
+  EXPECT_GE(stops, 4);
+  // Some members went on inside a relaxation or collapse, some between two disks, some inside a
+  // relaxation region.
+  EXPECT_TRUE(went_on_moving);
+  EXPECT_TRUE(went_on_resting);
+  EXPECT_TRUE(went_on_in_region);
+  std::sort(done.begin(), done.end(),
+            [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
+  for (std::size_t k = 0; k < members.size(); ++k) expect_same_member(straight[k], done[k]);
+}
+
 // A running member's snapshot with every field set (its system is not a real one).
 MemberSnapshot snapshot(const Scan& scan, std::size_t id) {
   MemberSnapshot snap;
@@ -137,29 +260,10 @@ TEST(Checkpoint, MembersRoundTripBitForBit) {
   ASSERT_EQ(out.size(), 2u);
   for (std::size_t k = 0; k < 2; ++k) {
     const auto &a = in[k], &b = out[k];
-    EXPECT_EQ(a.member.id, b.member.id);
+    expect_same_member(a, b);
     EXPECT_EQ(a.member.point, b.member.point);
     EXPECT_EQ(a.member.params.bond_number, b.member.params.bond_number);
-    EXPECT_EQ(a.failure, b.failure);
-    EXPECT_EQ(a.steps, b.steps);
-    EXPECT_EQ(a.sweeps, b.sweeps);
-    EXPECT_EQ(a.capped, b.capped);
     EXPECT_EQ(a.wall_time, b.wall_time);
-    for (auto f :
-         {&MemberResult::x, &MemberResult::y_i, &MemberResult::y_e, &MemberResult::radius,
-          &MemberResult::vx, &MemberResult::vy, &MemberResult::w, &MemberResult::trajectory_time,
-          &MemberResult::trajectory_disk, &MemberResult::trajectory_x, &MemberResult::trajectory_y})
-      EXPECT_TRUE(same_bits(a.*f, b.*f));
-    ASSERT_EQ(b.events.size(), 2u);
-    EXPECT_EQ(b.events[0].moved, 3);
-    EXPECT_EQ(b.events[0].downward, 0.75);
-    EXPECT_EQ(b.events[0].steps, 1000);
-    EXPECT_TRUE(b.events[0].capped);
-    EXPECT_FALSE(b.events[1].capped);
-    ASSERT_EQ(b.contacts.size(), 1u);
-    EXPECT_EQ(b.contacts[0].j, -1);
-    EXPECT_EQ(b.contacts[0].gap, -1e-5);
-    EXPECT_EQ(b.contacts[0].moment, 0.01);
   }
 }
 
@@ -408,130 +512,6 @@ TEST(Checkpoint, ABallisticDepositCostsTheSquareOfItsArea) {
   EXPECT_LT(running_cost(m, MemberPhase::Ballistic, 0.5), 0.3 * paper);
   EXPECT_DOUBLE_EQ(running_cost(m, MemberPhase::Ballistic, 1.0), paper);
 }
-
-namespace {
-// Everything a finished member records but its wall time, bit for bit.
-void expect_same_member(const MemberResult& a, const MemberResult& b) {
-  SCOPED_TRACE("member " + std::to_string(a.member.id));
-  EXPECT_EQ(a.member.id, b.member.id);
-  EXPECT_EQ(a.failure, b.failure);
-  EXPECT_EQ(a.steps, b.steps);
-  EXPECT_EQ(a.sweeps, b.sweeps);
-  EXPECT_EQ(a.capped, b.capped);
-  for (auto f : {&MemberResult::x, &MemberResult::y_i, &MemberResult::y_e, &MemberResult::radius,
-                 &MemberResult::trajectory_time, &MemberResult::trajectory_disk,
-                 &MemberResult::trajectory_x, &MemberResult::trajectory_y})
-    EXPECT_TRUE(same_bits(a.*f, b.*f));
-  ASSERT_EQ(a.events.size(), b.events.size());
-  for (std::size_t k = 0; k < a.events.size(); ++k) {
-    EXPECT_EQ(a.events[k].moved, b.events[k].moved) << "event " << k;
-    EXPECT_TRUE(same_bits({a.events[k].downward}, {b.events[k].downward})) << "event " << k;
-    EXPECT_EQ(a.events[k].steps, b.events[k].steps) << "event " << k;
-    EXPECT_EQ(a.events[k].capped, b.events[k].capped) << "event " << k;
-  }
-  ASSERT_EQ(a.contacts.size(), b.contacts.size());
-  for (std::size_t k = 0; k < a.contacts.size(); ++k) {
-    const auto &p = a.contacts[k], &q = b.contacts[k];
-    EXPECT_EQ(p.i, q.i);
-    EXPECT_EQ(p.j, q.j);
-    EXPECT_TRUE(same_bits({p.nx, p.ny, p.gap, p.normal, p.tangential, p.moment},
-                          {q.nx, q.ny, q.gap, q.normal, q.tangential, q.moment}))
-        << "contact " << k;
-  }
-}
-
-// A member stopped while it runs goes on from its snapshot as if it had never stopped. A scan of
-// cohesive deposits relaxed in regions with a whole-system check every third disk (A), slow
-// deposits without cohesion (A) and collapses (C), with trajectories, on batches of 2: a
-// snapshot of every running member is asked for every 16 rounds; the run is stopped after
-// every twelfth of the rounds the whole run takes (or, every other time, crashes), each time saved
-// to a checkpoint part and read back, and resumed on batches of 3. Every member's result equals
-// the uninterrupted run's bit for bit; some went on from inside a relaxation region. `solver` is
-// the scan file's [solver] section.
-void expect_running_members_go_on(const std::string& solver) {
-  const Scan scan = parse_scan(
-      "[scan]\nseeds = 2\nbatch_size = 2\n"
-      "[[point]]\nprotocol = \"A\"\nwidth = 16\nheight = 20\nbond_number = 1000\n"
-      "time_step = 0.0028\n"
-      "[[point]]\nprotocol = \"A\"\nwidth = 8\nheight = 8\nbond_number = 0\n"
-      "[[point]]\nprotocol = \"C\"\nwidth = 12\nheight = 16\nbond_number = 30\n"
-      "[protocol]\nregion_radius = 5\nregion_check_every = 3\n"
-      "[observables]\nlower_half_from = 2\ntrajectory_every = 3\n"
-      "[solver]\n" +
-          solver,
-      "test.toml");
-  const auto members = members_of(scan);
-  long rounds = 0;  // of the run's loop: one progress report each
-  RunHooks counting;
-  counting.progress = [&](const Progress&) { ++rounds; };
-  const auto straight = run_members(scan, members, counting);
-  ASSERT_EQ(straight.size(), members.size());
-  ASSERT_GT(rounds, 100);
-
-  const ScratchDir dir("loosepack-running");
-  const std::string part = checkpoint_part(dir.string(), 1, 0);
-  Scan resumed_scan = scan;
-  resumed_scan.batch_size = 3;
-  std::vector<MemberResult> done;
-  std::vector<MemberSnapshot> started;
-  int stops = 0;
-  bool went_on_moving = false, went_on_resting = false, went_on_in_region = false;
-  while (done.size() < members.size()) {
-    ASSERT_LT(stops, 16);
-    std::vector<Member> todo;
-    for (const auto& m : members)
-      if (std::none_of(done.begin(), done.end(),
-                       [&](const MemberResult& r) { return r.member.id == m.id; }))
-        todo.push_back(m);
-    // As `loosepack run` keeps them: the latest snapshot of each member still running.
-    std::map<std::uint64_t, MemberSnapshot> latest;
-    for (const auto& s : started) latest[s.result.member.id] = s;
-    volatile std::sig_atomic_t stop = 0;
-    long n = 0;
-    RunHooks hooks;
-    hooks.stop = &stop;
-    hooks.progress = [&](const Progress&) { ++n; };
-    hooks.snapshot_wanted = [&] { return n % 16 == 0; };
-    // Stopped after the first set of snapshots past a twelfth of the rounds; the stop then
-    // takes fresh snapshots (waiting for members inside a split step to end it), which most
-    // often find the members of A inside a relaxation region. Every other stop goes on from the
-    // last set before it instead, as after a crash, and comes where that set holds a member
-    // between two disks.
-    const bool crash = stops % 2 == 1;
-    hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
-      if (stop && crash) return;  // lost in the crash
-      const bool between = std::any_of(snaps.begin(), snaps.end(), [](const MemberSnapshot& s) {
-        return s.phase == MemberPhase::Deposit || s.phase == MemberPhase::Ballistic;
-      });
-      for (auto& s : snaps) latest[s.result.member.id] = std::move(s);
-      if (n >= rounds / 12 && (!crash || between)) stop = 1;
-    };
-    hooks.finished = [&](const MemberResult& r) { latest.erase(r.member.id); };
-    for (auto& r : run_members(stops == 0 ? scan : resumed_scan, todo, hooks, started))
-      done.push_back(std::move(r));
-    std::vector<MemberSnapshot> snaps;
-    for (auto& [id, s] : latest) snaps.push_back(std::move(s));
-    write_checkpoint_part(part, scan_fingerprint(scan), done, snaps);
-    const auto ck = read_checkpoint(dir.string(), scan);
-    ASSERT_EQ(ck.members.size(), done.size());
-    started = ck.running;
-    for (const auto& s : started) {
-      (s.system.status.active || s.region ? went_on_moving : went_on_resting) = true;
-      went_on_in_region = went_on_in_region || s.region.has_value();
-    }
-    if (done.size() < members.size()) ++stops;
-  }
-  EXPECT_GE(stops, 4);
-  // Some members went on inside a relaxation or collapse, some between two disks, some inside a
-  // relaxation region.
-  EXPECT_TRUE(went_on_moving);
-  EXPECT_TRUE(went_on_resting);
-  EXPECT_TRUE(went_on_in_region);
-  std::sort(done.begin(), done.end(),
-            [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
-  for (std::size_t k = 0; k < members.size(); ++k) expect_same_member(straight[k], done[k]);
-}
-}  // namespace
 
 TEST(Checkpoint, RunningMembersGoOnBitForBit) { expect_running_members_go_on(""); }
 
