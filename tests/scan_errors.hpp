@@ -2,6 +2,7 @@
 #pragma once
 #include <gtest/gtest.h>
 
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -24,13 +25,17 @@ struct Case {
   std::string expect;  // part of the message
 };
 
-// Every case is refused with a message containing its expected part.
+// Every case is refused with a message containing its expected part, which begins at the
+// file's line and column ("bad.toml:L:C: ") unless it is about the whole file ("bad.toml: ").
 inline void expect_refused(const std::vector<Case>& cases) {
+  const std::regex at_a_place(R"(^bad\.toml:[0-9]+:[0-9]+: )");
   for (const auto& c : cases) {
     const std::string msg = error_of(c.text);
     EXPECT_NE(msg.find(c.expect), std::string::npos)
         << "input:\n"
         << c.text << "message: " << msg << "\nexpected to contain: " << c.expect;
+    if (c.expect.rfind("bad.toml: ", 0) != 0)
+      EXPECT_TRUE(std::regex_search(msg, at_a_place)) << "input:\n" << c.text << "message: " << msg;
   }
 }
 

@@ -212,9 +212,6 @@ TEST(Validation, CohesiveInclineStaticIffSinBelowMuTimesCosPlusBo) {
   EXPECT_NEAR(v, a * 2.0, 1e-3 * a * 2.0);
 }
 
-// Beyond the threshold it rolls against the rolling moment mu_r R N: m a = m g sin theta - F,
-// (m R^2 / 2) a / R = F R - mu_r R m g cos theta, so a = (2/3) g (sin theta - mu_r cos theta);
-// in n steps of h the discrete motion covers a h^2 n (n + 1) / 2 (2.67e-3 R here).
 // Detachment under combined tension and shear: the same disk stuck under a ceiling (the floor,
 // gravity pulling it away at theta from the normal), rotation locked. The contact carries the
 // tension m g cos theta (held while cos theta <= Bo) and the shear m g sin theta, bounded by
@@ -245,6 +242,10 @@ TEST(Validation, CohesiveCeilingSlidesIffSinAboveMuTimesBoMinusCos) {
   EXPECT_NEAR(v, a * t, 1e-3 * a * t);
 }
 
+// A disk free to roll on an incline (mu = 0.3) is held by the rolling bound iff tan theta <= mu_r.
+// Beyond the threshold it rolls against the rolling moment mu_r R N: m a = m g sin theta - F,
+// (m R^2 / 2) a / R = F R - mu_r R m g cos theta, so a = (2/3) g (sin theta - mu_r cos theta);
+// in n steps of h the discrete motion covers a h^2 n (n + 1) / 2 (2.67e-3 R here).
 TEST(Validation, InclineRollingFrictionStaticIffTanBelowMuR) {
   const double mu = 0.3, mu_r = 0.1;  // threshold atan(0.1) = 5.71 degrees
   // At R = 1 and 2.5: the lever mu_r R_c makes the threshold and the acceleration independent

@@ -89,19 +89,18 @@ TEST(Energy, SettlingPileNeverGainsEnergy) {
           if (kind == SolverKind::Jacobi) s.relaxation = 0.5;
           Batch batch({setup(p, random_drop(n, p.width, 7))}, s);
           double e_prev = total_energy(batch.disks(0), p);
-          double worst = 0.0, v_max = 0.0;
+          double worst = -1.0;  // the largest rise over its step's bound
           for (int k = 0; k < 1000; ++k) {
             batch.step();
-            const auto d = batch.disks(0);
-            for (const Disk& q : d) v_max = std::max(v_max, speed(q));
-            const double e = total_energy(d, p);
-            worst = std::max(worst, e - e_prev);
+            const double e = total_energy(batch.disks(0), p);
+            // The impulse tolerance the step's solve ran to (the relative one from the speeds
+            // before it, kappa v_max / g in units of h m g), per contact.
+            const double tol = batch.status(0).tolerance * p.time_step;
+            worst = std::max(worst, (e - e_prev) / (3.0 * n * tol * 10.0));
             e_prev = e;
           }
           ASSERT_EQ(batch.status(0).failure, Failure::None);
-          const double tol = std::max(s.tolerance * p.time_step, kappa * v_max);
-          const double bound = 3.0 * n * tol * 10.0;
-          EXPECT_LE(worst, bound);
+          EXPECT_LE(worst, 1.0);
         }
 }
 

@@ -4,8 +4,11 @@ line of protocol C against a parabola, the collapse identity on lines that obey 
 that do not, the histogram shapes, the collapse densities, the deposition density's fluctuation,
 and the laws across scan points (1/H, a fixed slice model, dnu/nu_i against ln H and nu_i)."""
 
+import contextlib
+import io
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -14,6 +17,7 @@ import h5py
 import numpy as np
 import pytest
 
+from rates import binomial_quantile
 from script_module import load_script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -48,16 +52,21 @@ def point_file(tmp_path, name, protocol, bo, profiles, noise=0.3, seed=1):
 
 
 def verdicts(path):
-    """The profile claims of the file's point (the histogram claims, which come after them,
-    need a histogram these files lack)."""
-    out = {}
+    """The profile claims of the file's point (the claims after them may need parts these files
+    lack: the histogram, the density's member rows)."""
+    out, message = {}, io.StringIO()
     with h5py.File(path, "r") as f:
         try:
-            for claim, ok, detail in claims.check_point(f["points/0000"], str(path)):
-                out[claim.split(": ", 1)[1]] = (ok, detail)
+            with contextlib.redirect_stderr(message):
+                for claim, ok, detail in claims.check_point(f["points/0000"], str(path)):
+                    out[claim.split(": ", 1)[1]] = (ok, detail)
         except SystemExit:
+            sys.stderr.write(message.getvalue())
             if not out:
                 raise
+            # Only for a part the synthetic file lacks (the later claims' histogram or rows).
+            missing = re.search(r"'(/points/[^']*)' is missing", message.getvalue())
+            assert missing and missing.group(1) not in f, message.getvalue()
     return out
 
 
@@ -94,18 +103,20 @@ def test_residual_chi2_with_errors_from_8_members_exceeds_its_bound_once_in_a_hu
 
 
 def test_students_quantile_from_the_normal_deviate():
-    # The two-sided 1 % quantiles of t: 3.4995 at 7 dof, 2.9467 at 15; 3.5 % above at 3 (5.8409).
+    # The two-sided 1 % quantiles of t: 3.4995 at 7 dof, 2.9467 at 15; above (within 5 %) at 3
+    # (5.8409), where the approximation from the normal deviate errs on the safe side.
     assert claims.t_quantile(7) == pytest.approx(3.4995, rel=0.004)
     assert claims.t_quantile(15) == pytest.approx(2.9467, rel=0.001)
-    assert claims.t_quantile(3) == pytest.approx(5.8409 * 1.035, rel=0.005)
+    assert 5.8409 < claims.t_quantile(3) < 5.8409 * 1.05
     assert math.isnan(claims.t_quantile(2))
 
 
 def test_a_line_is_judged_by_its_quadratic_term_about_once_in_a_hundred():
     """8 members whose deviations from a true line follow one another from bin to bin (13 bins,
     correlation 0.93 between neighbours, as in protocol C's profiles): the line's quadratic term
-    is beyond its 99 % bound in about 1 % of 2 000 ensembles (1.35 % for this seed; at most 2 %),
-    where the line's chi2 exceeds its 99 % quantile in about 5 % (more than 3 %)."""
+    is beyond its 99 % bound in about 1 % of 2 000 ensembles (within the binomial's 99.9 %
+    quantile of that rate), where the line's chi2 exceeds its 99 % quantile more often than that
+    quantile allows (about 5 %)."""
     rng, members, n_bins, rho = np.random.default_rng(2), 8, 13, 0.93
     centre = np.linspace(20.0, 140.0, n_bins)
     bound = claims.t_quantile(members - 1)
@@ -122,8 +133,8 @@ def test_a_line_is_judged_by_its_quadratic_term_about_once_in_a_hundred():
         curved += abs(claims.top_t(profile.fit(2))) > bound
         _, _, chi2, dof = profile.fit(1)
         chi2_rejects += chi2 > claims.chi2_quantile99(dof)
-    assert curved <= 40, curved
-    assert chi2_rejects > 60, chi2_rejects
+    assert curved <= binomial_quantile(2000, 0.01), curved
+    assert chi2_rejects > binomial_quantile(2000, 0.01), chi2_rejects
 
 
 def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_path):

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import loosepack
+from rates import binomial_quantile
 from script_module import load_script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -216,17 +217,6 @@ def test_unusable_input_is_named():
     assert out.returncode == 2 and "a.h5" in out.stderr
     out = run_tool("/nonexistent/a.h5", "/nonexistent/b.h5", "--sigma", "-1")
     assert out.returncode == 2 and "positive number of standard errors" in out.stderr
-
-
-def binomial_quantile(n, p, q=0.999):
-    """The smallest k with P(X <= k) >= q for X ~ Binomial(n, p): how many of n tests at level p
-    may reject a true hypothesis before the level itself is in doubt."""
-    chance, k = 0.0, 0
-    while True:
-        chance += math.comb(n, k) * p**k * (1 - p)**(n - k)
-        if chance >= q:
-            return k
-        k += 1
 
 
 def test_homogeneity_tells_one_distribution_from_two():
