@@ -32,7 +32,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "python"))
-from claims import Profile, parabola_verdict  # noqa: E402
+from claims import Profile, jackknife, parabola_verdict  # noqa: E402
 from loosepack.runner import to_toml  # noqa: E402
 
 SCENES = {
@@ -101,7 +101,7 @@ class Measured:
             h = float(a["height"])
             self.band = (float(a["cut_bottom"]), h - float(a["cut_top"]))
             self.profile = Profile(point["avalanche_by_ye"], *self.band)
-            self.fits = [self.profile.fit(d) for d in (0, 1, 2)]
+            self.fits = [self.profile.fit(d) for d in range(4)]  # the parabola's verdict: 0-3
             self.mean_abs_dy = float(a["mean_abs_dy_mean"]), float(a["mean_abs_dy_sem"])
             shape = point["abs_dy_histogram/shape_cut"].attrs["preferred"]
             self.histogram = shape.decode() if isinstance(shape, bytes) else str(shape)
@@ -109,11 +109,6 @@ class Measured:
     def curvature(self, leave_out=None):
         x, y = self.profile.pooled(leave_out)
         return np.polynomial.polynomial.polyfit(x, y, 2)[2]
-
-
-def jackknife(values):
-    n = len(values)
-    return math.sqrt((n - 1) / n * ((values - values.mean()) ** 2).sum())
 
 
 def compare(base, var):
@@ -127,12 +122,12 @@ def compare(base, var):
     dnu_err = dnu.std(ddof=1) / math.sqrt(n)
     dc = var.curvature() - base.curvature()
     loo = np.array([var.curvature(m) - base.curvature(m) for m in range(n)])
-    return float(dnu.mean()), dnu_err, float(dc), jackknife(loo)
+    return float(dnu.mean()), dnu_err, float(dc), float(jackknife(loo))
 
 
 def row(name, m, d):
     nu_mean, nu_err = m.nu.mean(), m.nu.std(ddof=1) / math.sqrt(len(m.nu))
-    holds, _, _ = parabola_verdict(m.band, m.fits)
+    holds, _, _ = parabola_verdict(m.band, m.fits, m.profile.members)
     c2, c2_err = m.fits[2][0][2], m.fits[2][1][2]
     out = {"variant": name, "nu_lower_half": nu_mean, "nu_lower_half_err": nu_err, "c2": c2,
            "c2_err": c2_err, "parabola": holds, "mean_abs_dy": m.mean_abs_dy[0],

@@ -307,11 +307,16 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
     return std::make_pair(group, distinct.size());
   };
   // The group with the most values (the first such), so that a scan that varies the height in
-  // some points and the capture radius in others gets both fits.
+  // some points and the capture radius in others gets both fits. Protocol A's laws across
+  // heights are those of cohesive avalanches: points at Bo = 0 or inf form no group.
+  const auto cohesive = [](const SystemParams& p) {
+    return p.bond_number > 0.0 && std::isfinite(p.bond_number);
+  };
   std::vector<std::size_t> out;
   std::size_t most = 0;
   for (const auto& p : points) {
     if (p.point.protocol != protocol) continue;
+    if (protocol == Protocol::A && !cohesive(p.point.params)) continue;
     auto [group, values] = group_of(p.point.params);
     if (values > most) {
       most = values;

@@ -656,6 +656,48 @@ lower_half_from = 8.0
   EXPECT_NEAR(std::exp(fa.coef[0]), alpha, 0.05 * alpha);
 }
 
+// The laws across heights are those of cohesive avalanches: in a scan of Bo = 0 and 1e3 at three
+// heights each, the fits go through the three cohesive points (the cohesionless group, first in
+// the scan, has as many heights but a profile that is a constant shift, no curvature to scale).
+TEST(Analysis, LawsAcrossHeightsUseTheCohesivePoints) {
+  const Scan scan = parse_scan(R"(
+[scan]
+protocol = "A"
+seeds = 4
+[system]
+width = 40.0
+height = [60.0, 120.0, 240.0]
+bond_number = [0, 1000]
+[observables]
+lower_half_from = 8.0
+)",
+                               "synthetic.toml");
+  const double alpha = 0.2;
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  const auto results = synthetic_ensemble(
+      scan, 3,
+      [&](const Member& m) {
+        return static_cast<int>(0.4 * m.params.width * (m.params.height - 2.0) / M_PI);
+      },
+      [&](const Member& m, std::mt19937_64& rng) {
+        const double H = m.params.height, yi = 1.0 + u(rng) * (H - 2.0);
+        if (m.params.bond_number == 0.0) return std::pair(yi, yi - 0.5 + noise(rng));
+        return std::pair(yi, slice_model_final_height(yi, alpha, H));
+      });
+  const auto points = aggregate(scan, results);
+  std::vector<int> cohesive;
+  for (const auto& p : points)
+    if (p.point.params.bond_number == 1000.0) cohesive.push_back(p.point.index);
+  ASSERT_EQ(cohesive.size(), 3u);
+  const Analysis an = analyse(scan, points);
+  for (const Fit* f : {&an.scan.quadratic_vs_height, &an.scan.slice_vs_height}) {
+    ASSERT_TRUE(f->valid());
+    EXPECT_EQ(f->scan_points, cohesive);
+  }
+  EXPECT_NEAR(an.scan.quadratic_vs_height.coef[1], -1.0, 0.05);
+}
+
 // The predicted intercept a/(1+b) of the y_i line comes from a and b of one fit, which are
 // correlated. Members whose collapses differ in b' but share a' (Delta y(y_i) = a' - b'_m y_i)
 // each have a/(1+b) = a', so its error is small (a fifth of the other's here), where propagating

@@ -144,6 +144,21 @@ def render(xmf, png, size, title=None):
     lut.InvertTransferFunction()
     shown.SetScalarBarVisibility(view, True)
     label(pv.GetScalarBar(lut, view), "Delta y [R]")
+    if contacts.CellData["normal"] is not None:  # none in a snapshot without contacts (B)
+        show_contacts(pv, contacts, view)
+    if title:
+        text = pv.Show(pv.Text(Text=title), view)
+        text.WindowLocation = "Upper Left Corner"
+        text.Color = [0.8, 0, 0]
+        text.FontSize = 12
+    view.InteractionMode = "2D"
+    pv.ResetCamera(view)
+    pv.SaveScreenshot(png, view, ImageResolution=size)
+    print(png)
+
+
+def show_contacts(pv, contacts, view):
+    """The contacts as lines coloured by their normal force, about zero."""
     lines = pv.Show(contacts, view)
     pv.ColorBy(lines, ("CELLS", "normal"))
     forces = pv.GetColorTransferFunction("normal")
@@ -154,15 +169,6 @@ def render(xmf, png, size, title=None):
     lines.LineWidth = 2.0
     lines.SetScalarBarVisibility(view, True)
     label(pv.GetScalarBar(forces, view), "normal force [m g]")
-    if title:
-        text = pv.Show(pv.Text(Text=title), view)
-        text.WindowLocation = "Upper Left Corner"
-        text.Color = [0.8, 0, 0]
-        text.FontSize = 12
-    view.InteractionMode = "2D"
-    pv.ResetCamera(view)
-    pv.SaveScreenshot(png, view, ImageResolution=size)
-    print(png)
 
 
 if __name__ == "__main__":

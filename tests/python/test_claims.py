@@ -205,6 +205,15 @@ def test_collapse_lines_and_identity(tmp_path):
     curved = verdicts(point_file(tmp_path, "p", "C", 1000.0,
                                  {"avalanche_by_ye": PARABOLA, "avalanche_by_yi": PARABOLA}))
     assert not curved["Delta y is a straight line in y_e and y_i"][0]
+    # Nothing collapsed (mean |Delta y| below the event threshold): a line of round-off, whose
+    # identity would hold trivially, is not judged.
+    still = point_file(tmp_path, "s", "C", 1000.0, {"avalanche_by_ye": ye, "avalanche_by_yi": yi})
+    with h5py.File(still, "r+") as f:
+        f["points/0000"].attrs["mean_abs_dy_mean"] = 1e-14
+        f.create_group("settings").attrs["event_threshold"] = 0.1
+    judged = verdicts(still)
+    assert list(judged) == ["its collapse claims"]
+    assert judged["its collapse claims"][0] is claims.NOT_JUDGED
 
 
 def test_no_parabola_at_bo_1e4_passes_noise_and_fails_a_clear_parabola(tmp_path):
@@ -340,15 +349,21 @@ def test_typical_avalanche_size_falls_with_the_bond_number(tmp_path):
     assert verdict({10: (3.0, 0.2), 100: (1.5, 0.2), 1000: (0.2, 0.05)})
     assert not verdict({10: (0.2, 0.05), 100: (1.5, 0.2), 1000: (3.0, 0.2)})  # rises
     assert not verdict({10: (3.0, 0.2), 100: (1.0, 0.1), 1000: (2.0, 0.1)})   # rises in between
+    # One member at a point (no error): not judged, where every comparison with NaN would fail.
+    assert verdict({10: (3.0, 0.2), 100: (1.5, math.nan), 1000: (0.2, 0.05)}) is claims.NOT_JUDGED
 
 
-def across_points(tmp_path, name, key, p, e, chi2, dof=2):
+def across_points(tmp_path, name, key, p, e, chi2, dof=2, bond_numbers=()):
     """The verdict of claims.py on a file whose only across-point fit is `key`, with slope or
-    exponent p +- e and the given chi2."""
+    exponent p +- e and the given chi2 (through points at `bond_numbers` where given)."""
     path = tmp_path / f"{name}.h5"
     with h5py.File(path, "w") as f:
         f.create_group("points")
+        for k, bo in enumerate(bond_numbers):
+            f.create_group(f"points/{k:04d}").attrs.update({"protocol": "A", "bond_number": bo})
         g = f.create_group(f"analysis/{key}")
+        if bond_numbers:
+            g["scan_points"] = np.arange(len(bond_numbers))
         g["coef"], g["error"] = np.array([-5.0, p]), np.array([0.5, e])
         g.attrs.update({"valid": 1.0, "chi2": chi2, "dof": float(dof),
                         "reduced_chi2": chi2 / dof, "points": dof + 2.0})
@@ -364,6 +379,11 @@ def test_one_over_h_needs_a_resolved_exponent_near_minus_one_and_an_acceptable_f
     assert not across_heights("b", -0.31, 0.14, 0.6)  # resolved, but not -1
     assert not across_heights("c", -1.0, 0.1, 40.0)   # the points follow no power law
     assert not across_heights("d", 0.5, 2.0, 1.0)     # -1 within errors, but not falling
+    # A fit of an older program through cohesionless points: not the paper's law, not judged.
+    assert across_points(tmp_path, "e", "quadratic_vs_height", -1.05, 0.1, 1.0,
+                         bond_numbers=(0.0, 0.0, 0.0, 0.0)) is claims.NOT_JUDGED
+    assert across_points(tmp_path, "f", "quadratic_vs_height", -1.05, 0.1, 1.0,
+                         bond_numbers=(1e3, 1e3, 1e3, 1e3))
 
 
 def test_slice_model_fixed_across_heights(tmp_path):

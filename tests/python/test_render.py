@@ -58,6 +58,22 @@ def test_the_deposit_is_drawn_on_a_white_background(deposit, tmp_path):
     assert 0.05 < 1.0 - white.mean() < 0.95
 
 
+def test_a_deposit_without_contacts_is_drawn(deposit, tmp_path):
+    """A ballistic deposit (protocol B) stores no contact forces: its disks alone are drawn."""
+    import matplotlib.image
+    out = tmp_path / "ballistic.h5"
+    scan = {"scan": {"name": "ballistic", "seed": 5, "seeds": 1, "protocol": "B"},
+            "system": {"width": 16.0, "height": 16.0, "bond_number": 1000}}
+    ballistic = loosepack.run(scan, out, progress=False, args=["--snapshots"])
+    png = tmp_path / "ballistic.png"
+    done = render(ballistic, png, 24)
+    if done.returncode != 0 and "ParaView aborted" in done.stderr:
+        done = render(ballistic, png, 24)  # as above: once more on a fresh X server
+    assert done.returncode == 0, done.stderr[-2000:]
+    rgb = matplotlib.image.imread(str(png))[:, :, :3]
+    assert 0.05 < 1.0 - (rgb > 0.99).all(axis=2).mean() < 0.95
+
+
 def test_paraview_is_started_again_when_it_aborts(deposit, tmp_path):
     """On an 8-bit screen every ParaView process aborts: the tool tries ATTEMPTS times, says
     so, and fails with the screen it needs named."""
