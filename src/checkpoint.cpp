@@ -490,9 +490,16 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
 }
 
 std::string remove_checkpoint(const std::string& directory) {
+  // Renamed first, at once: a run stopped while the parts are being deleted leaves a temporary
+  // (removed by the next run that claims the output), never a checkpoint that looks like an
+  // interrupted run's beside the complete result.
+  const std::string gone = temporary_of(directory);
   std::error_code ec;
-  fs::remove_all(directory, ec);
-  return ec ? "cannot remove " + directory + ": " + ec.message() : "";
+  fs::rename(directory, gone, ec);
+  if (ec == std::errc::no_such_file_or_directory) return "";  // none was written
+  if (ec) return "cannot remove " + directory + ": " + ec.message();
+  fs::remove_all(gone, ec);
+  return "";
 }
 
 }  // namespace loosepack

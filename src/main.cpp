@@ -118,9 +118,24 @@ std::string checkpoint_path_problem(const std::string& ck_dir) {
   return "";
 }
 
-// Set by SIGINT and SIGTERM: the run stops at the end of the step, checkpoints and exits. A
-// second signal ends the program at once.
+// The signals that stop a run with its checkpoint saved: an interrupt, a batch system's end of
+// the job or its warning before it (SIGUSR1, SIGUSR2, SIGXCPU as a scheduler may be set to
+// send), a closed terminal.
+constexpr std::pair<int, const char*> kStopSignals[] = {{SIGINT, "SIGINT"},   {SIGTERM, "SIGTERM"},
+                                                        {SIGHUP, "SIGHUP"},   {SIGUSR1, "SIGUSR1"},
+                                                        {SIGUSR2, "SIGUSR2"}, {SIGXCPU, "SIGXCPU"}};
+
+const char* signal_name(int s) {
+  for (const auto& [number, name] : kStopSignals)
+    if (number == s) return name;
+  return "a signal";
+}
+
+// Set by a stop signal: the run stops at the end of the step, checkpoints and exits. A second
+// signal ends the program at once. Where g_say_stop is set (rank 0 of a run that talks) the
+// first one is acknowledged at once, since the saving can take a while.
 volatile std::sig_atomic_t g_signal = 0;
+volatile std::sig_atomic_t g_say_stop = 0;
 extern "C" void on_signal(int s) {
   if (g_signal != 0) {
     std::signal(s, SIG_DFL);
@@ -128,6 +143,10 @@ extern "C" void on_signal(int s) {
     return;
   }
   g_signal = s;
+  static constexpr char kSaving[] =
+      "loosepack: stopping at the end of the step to save the checkpoint (a second signal ends "
+      "the program at once, unsaved)\n";
+  if (g_say_stop) (void)!::write(STDERR_FILENO, kSaving, sizeof kSaving - 1);
 }
 
 // The exit codes of the program (docs/OUTPUT.md, "Exit codes").
@@ -217,6 +236,32 @@ std::string in_words(double seconds) {
       return text;
     }
   return "";
+}
+
+// Claims `out` for a command that writes it (a run, or analyse -o and merge from the files
+// `inputs`): a path that can take a result file and is none of the inputs, the lock (no run or
+// other command writes it now), an existing file only with `force` (looked for under the lock,
+// so that a run that has just finished and let go of it is seen), and the temporaries of one
+// that died while writing it or its checkpoint removed. "" when claimed, else why not.
+std::string claim_output_path(OutputLock& lock, const std::string& out,
+                              const std::vector<std::string>& inputs, bool force) {
+  std::string why = inputs.empty() ? output_path_problem(out, "") : "";
+  for (const auto& in : inputs)
+    if (why.empty()) why = output_path_problem(out, in);
+  if (why.empty()) why = lock.acquire(out);
+  if (!lock.warning().empty()) std::cerr << "loosepack: " << lock.warning() << "\n";
+  if (why.empty() && !force && std::filesystem::exists(out))
+    why = "the output file " + out + " exists; add --force to replace it";
+  if (!why.empty()) return why;
+  // What a run that died left: a temporary of the file, of the checkpoint (renamed on its way
+  // out) and of a checkpoint part.
+  const std::string ck = checkpoint_directory(out);
+  std::vector<std::string> stale = remove_stale_temporaries(out);
+  for (const auto& f : remove_stale_temporaries(ck)) stale.push_back(f);
+  for (const auto& f : remove_stale_temporaries_in(ck)) stale.push_back(f);
+  for (const auto& f : stale)
+    std::cerr << "loosepack: removed " << f << ", left by a run that ended while writing\n";
+  return why;
 }
 
 // `loosepack run`: one object per run, its steps top-down in run() below.
@@ -341,10 +386,6 @@ int RunCommand::load() {
     say(why);
     return kInvalid;
   }
-  if (!o.dry_run && !o.force && std::filesystem::exists(o.out_path)) {
-    say("the output file " + o.out_path + " exists; add --force to replace it");
-    return kInvalid;
-  }
   all_members = members_of(scan);
   if (const int rc = select_members()) return rc;
   if (!o.dry_run && claim_output() != 0) return kInvalid;
@@ -379,18 +420,11 @@ int RunCommand::select_members() {
   return 0;
 }
 
-// Rank 0 locks the output (and so its checkpoint) for the whole run and removes what a dead run
-// on this host left of a write (`<out>.tmp.<host>.<pid>`); every rank learns whether the run
-// goes on.
+// Rank 0 claims the output (claim_output_path) and holds its lock, and so its checkpoint's, for
+// the whole run; every rank learns whether the run goes on.
 int RunCommand::claim_output() {
   std::string why;
-  if (ranks.root()) {
-    why = lock.acquire(o.out_path);
-    if (!lock.warning().empty()) say(lock.warning());
-    if (why.empty())
-      for (const auto& f : remove_stale_temporaries(o.out_path))
-        say("removed " + f + ", left by a run that ended while writing");
-  }
+  if (ranks.root()) why = claim_output_path(lock, o.out_path, {o.scan_path}, o.force);
   if (!why.empty()) say(why);
   return ranks.broadcast(why.empty() ? 0 : 1);
 }
@@ -839,7 +873,7 @@ int RunCommand::wait_for_ranks() {
   ranks.poll_stop();  // a stop notice that crossed this rank's final message
   if (!stop) return 0;
   if (!talk) return 128 + stop;
-  const std::string by = stop == SIGINT ? "SIGINT" : "SIGTERM";
+  const std::string by = signal_name(stop);
   if (ranks.size() == 1 && !std::filesystem::exists(ck_dir))
     say("interrupted by " + by + " before anything could be saved; start the run again");
   else
@@ -1126,25 +1160,6 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
       ->check(CLI::Range(0, 1000000000));
 }
 
-// Claims `out` for a command that writes it from the files `inputs` (analyse -o, merge), as a
-// run claims its output: a path that can take a result file and is none of the inputs, an
-// existing file only with `force`, the lock (no run or other command writes it now), and the
-// temporaries of one that died while writing it removed. "" when claimed, else why not.
-std::string claim_output_path(OutputLock& lock, const std::string& out,
-                              const std::vector<std::string>& inputs, bool force) {
-  std::string why = inputs.empty() ? output_path_problem(out, "") : "";
-  for (const auto& in : inputs)
-    if (why.empty()) why = output_path_problem(out, in);
-  if (why.empty() && !force && std::filesystem::exists(out))
-    why = "the output file " + out + " exists; add --force to replace it";
-  if (why.empty()) why = lock.acquire(out);
-  if (!lock.warning().empty()) std::cerr << "loosepack: " << lock.warning() << "\n";
-  if (why.empty())
-    for (const auto& f : remove_stale_temporaries(out))
-      std::cerr << "loosepack: removed " << f << ", left by a run that ended while writing\n";
-  return why;
-}
-
 // `loosepack analyse`: the output checked and locked as a run's, then written atomically.
 int analyse_command(const FileCommands& f) {
   const std::string out = f.analyse_out.empty() ? f.analyse_path : f.analyse_out;
@@ -1331,8 +1346,8 @@ int main(int argc, char** argv) {
     return kInvalid;
   }
   if (*run_cmd) {
-    std::signal(SIGINT, on_signal);
-    std::signal(SIGTERM, on_signal);
+    g_say_stop = ranks.root() && !o.quiet;
+    for (const auto& [number, name] : kStopSignals) std::signal(number, on_signal);
     return run(o, ranks);
   }
   if (*merge.command) return ranks.root() ? merge_command(merge) : kOk;

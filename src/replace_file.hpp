@@ -113,28 +113,41 @@ void replace_file(const std::string& path, Write write) {
   }
 }
 
-// The temporaries of `path` written on this host (`<path>.tmp.<host>.<pid>`, or
-// `<path>.tmp.<pid>` as programs before the host was in the name wrote them) whose process no
-// longer runs: removed; returns their names (for a message). Another host's are left alone:
-// whether their process runs cannot be told from here.
-inline std::vector<std::string> remove_stale_temporaries(const std::string& path) {
+// Whether `tail`, what follows ".tmp." in a temporary's name (`<host>.<pid>`, or `<pid>` as
+// programs before the host was in the name wrote them), names a process of this host that no
+// longer runs. Another host's are never stale: whether their process runs cannot be told here.
+inline bool stale_temporary(const std::string& tail) {
+  const std::size_t dot = tail.rfind('.');
+  if (dot != std::string::npos && tail.substr(0, dot) != host_tag()) return false;
+  const std::string pid = dot == std::string::npos ? tail : tail.substr(dot + 1);
+  if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) return false;
+  return ::kill(static_cast<pid_t>(std::stol(pid)), 0) != 0 && errno == ESRCH;
+}
+
+// The stale temporaries in `directory` (files or directories) whose names begin with `prefix`
+// followed by ".tmp.", or of any name when `prefix` is empty: removed; returns their names (for
+// a message).
+inline std::vector<std::string> remove_stale_temporaries_in(const std::string& directory,
+                                                            const std::string& prefix = "") {
   namespace fs = std::filesystem;
   std::vector<std::string> removed;
-  const std::string prefix = fs::path(path).filename().string() + ".tmp.";
-  const std::string host = host_tag();
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(directory_of_path(path), ec)) {
+  for (const auto& e : fs::directory_iterator(directory, ec)) {
     const std::string name = e.path().filename().string();
-    if (name.rfind(prefix, 0) != 0) continue;
-    const std::string rest = name.substr(prefix.size());
-    const std::size_t dot = rest.rfind('.');
-    if (dot != std::string::npos && rest.substr(0, dot) != host) continue;
-    const std::string pid = dot == std::string::npos ? rest : rest.substr(dot + 1);
-    if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
-    if (::kill(static_cast<pid_t>(std::stol(pid)), 0) == 0 || errno != ESRCH) continue;
-    if (fs::remove(e.path(), ec)) removed.push_back(e.path().string());
+    const std::string mark = prefix + ".tmp.";
+    const std::size_t at =
+        prefix.empty() ? name.rfind(mark) : (name.rfind(mark, 0) == 0 ? 0 : std::string::npos);
+    if (at == std::string::npos || !stale_temporary(name.substr(at + mark.size()))) continue;
+    if (fs::remove_all(e.path(), ec) > 0 && !ec) removed.push_back(e.path().string());
   }
   return removed;
+}
+
+// The stale temporaries of `path` (`<path>.tmp.<host>.<pid>`: replace_file's, or a checkpoint
+// directory on its way out): removed; returns their names.
+inline std::vector<std::string> remove_stale_temporaries(const std::string& path) {
+  return remove_stale_temporaries_in(directory_of_path(path),
+                                     std::filesystem::path(path).filename().string());
 }
 
 }  // namespace loosepack

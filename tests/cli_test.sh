@@ -219,8 +219,11 @@ host=$(hostname | sed 's/[^A-Za-z0-9_-]/_/g')
 echo "half a file" > "$dir/held.h5.tmp.$dead"
 echo "half a file" > "$dir/held.h5.tmp.$host.$dead"
 echo "half a file" > "$dir/held.h5.tmp.other-node.$dead"
+# A checkpoint a run was removing when it died (renamed to a temporary first).
+mkdir "$dir/held.h5.checkpoint.tmp.$host.$dead"
+echo "a part" > "$dir/held.h5.checkpoint.tmp.$host.$dead/part-1-0.bin"
 msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q 2>&1)
-for stale in "held.h5.tmp.$dead" "held.h5.tmp.$host.$dead"; do
+for stale in "held.h5.tmp.$dead" "held.h5.tmp.$host.$dead" "held.h5.checkpoint.tmp.$host.$dead"; do
   grep -q "removed .*$stale, left by a run" <<< "$msg" || fail "stale temporary $stale: $msg"
   [ -e "$dir/$stale" ] && fail "the stale temporary $stale is still there"
 done
@@ -239,18 +242,18 @@ if command -v cc >/dev/null; then
     fail "no warning of the missing lock: $msg"
   [ -s "$dir/nolock.h5" ] && [ ! -e "$dir/nolock.h5.lock" ] || fail "no file, or a lock file left"
 fi
-# A checkpoint that cannot be removed after the file is written (remove() fails with EBUSY for
-# it) is named, with what to do; the file is complete and the run succeeds.
+# A checkpoint that cannot be removed after the file is written (its rename on the way out fails
+# with EBUSY) is named, with what to do; the file is complete and the run succeeds.
 if command -v cc >/dev/null; then
   cat >"$dir/keepck.c" <<'EOF'
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <errno.h>
 #include <string.h>
-int remove(const char* path) {
-  size_t n = strlen(path), k = strlen(".checkpoint");
-  if (n >= k && strcmp(path + n - k, ".checkpoint") == 0) { errno = EBUSY; return -1; }
-  return ((int (*)(const char*))dlsym(RTLD_NEXT, "remove"))(path);
+int rename(const char* from, const char* to) {
+  size_t n = strlen(from), k = strlen(".checkpoint");
+  if (n >= k && strcmp(from + n - k, ".checkpoint") == 0) { errno = EBUSY; return -1; }
+  return ((int (*)(const char*, const char*))dlsym(RTLD_NEXT, "rename"))(from, to);
 }
 EOF
   cc -shared -fPIC -o "$dir/keepck.so" "$dir/keepck.c" -ldl

@@ -104,6 +104,13 @@ grep -q "interrupted by SIGINT" i.log || fail "message: $(cat i.log)"
 [ ! -e i.h5 ] || fail "an interrupted run wrote an output file"
 "$exe" run s.toml -o i.h5 --batch-size 1 --resume -q
 same full.h5 i.h5
+# A closed terminal (SIGHUP) saves as an interrupt does; the first signal is acknowledged.
+interrupt HUP hup.h5 hup.log
+[ "$rc" -eq 129 ] || fail "SIGHUP exit code $rc: $(cat hup.log)"
+grep -q "stopping at the end of the step to save the checkpoint" hup.log &&
+  grep -q "interrupted by SIGHUP: finished members" hup.log || fail "message: $(cat hup.log)"
+"$exe" run s.toml -o hup.h5 --batch-size 1 --resume -q
+same full.h5 hup.h5
 # At a stop the running member's snapshot is written once, as it is taken, and not again as the
 # run ends (a tall deposit's snapshot is megabytes): strace counts the renames onto the running
 # part (part-1-0.bin; every part is written to a temporary file and renamed into place).

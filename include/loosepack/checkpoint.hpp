@@ -93,8 +93,9 @@ CheckpointPart decode_checkpoint_part(const std::string& bytes, const std::vecto
                                       std::uint64_t fingerprint, const std::string& what,
                                       const PartRemedies& remedy);
 
-// Removes the directory's part files and the directory (after a complete result was written);
-// returns what failed ("cannot remove DIR: reason"), or "".
+// Removes the directory's part files and the directory (after a complete result was written):
+// renamed to a temporary at once, then deleted; returns what failed ("cannot remove DIR:
+// reason"), or "".
 std::string remove_checkpoint(const std::string& directory);
 
 }  // namespace loosepack
