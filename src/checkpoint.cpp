@@ -310,9 +310,16 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
 
 }  // namespace
 
+namespace {
+// The program as a checkpoint's fingerprint knows it: version, commit, backend.
+std::string program_identity() {
+  return std::string("loosepack ") + LOOSEPACK_VERSION + " (commit " + LOOSEPACK_GIT_COMMIT + ", " +
+         Kokkos::DefaultExecutionSpace::name() + ")";
+}
+}  // namespace
+
 std::uint64_t scan_fingerprint(const Scan& scan) {
-  const std::string program = std::string(LOOSEPACK_VERSION) + " " + LOOSEPACK_GIT_COMMIT + " " +
-                              Kokkos::DefaultExecutionSpace::name();
+  const std::string program = program_identity();
   return fnv1a(scan.content.data(), scan.content.size(), fnv1a(program.data(), program.size()));
 }
 
@@ -346,7 +353,10 @@ std::string selection_name(const std::string& selection) {
 }
 
 void write_checkpoint_selection(const std::string& directory, const std::string& selection,
-                                bool snapshots) {
+                                bool snapshots, const Scan& scan) {
+  replace_file(directory + "/scan", [&](const std::string& tmp) {
+    write_bytes(tmp, program_identity() + "\n" + scan.content);
+  });
   if (snapshots)
     replace_file(directory + "/snapshots",
                  [&](const std::string& tmp) { write_bytes(tmp, "--snapshots\n"); });
@@ -436,6 +446,41 @@ CheckpointPart decode_checkpoint_part(const std::string& bytes, const std::vecto
   return part;
 }
 
+namespace {
+// What tells the checkpoint's scan and program from these (its `scan` file against them): the
+// program that wrote it, or the first setting that differs, with both values.
+std::string what_differs(const std::string& directory, const Scan& scan) {
+  std::ifstream f(directory + "/scan");
+  std::string program;
+  if (!std::getline(f, program))  // a checkpoint of a build that wrote no `scan`
+    return "a setting of the scan file was changed, or the program rebuilt, since";
+  if (program != program_identity())
+    return "it was written by " + program + ", this is " + program_identity();
+  std::istringstream here(scan.content);
+  std::string theirs, ours, section;
+  for (;;) {
+    const bool more_theirs = static_cast<bool>(std::getline(f, theirs));
+    const bool more_ours = static_cast<bool>(std::getline(here, ours));
+    if (!more_theirs && !more_ours) break;
+    if (more_theirs && more_ours && theirs == ours) {
+      if (!ours.empty() && ours.front() == '[') section = ours.substr(1, ours.find(']') - 1);
+      continue;
+    }
+    const auto key = [&](const std::string& line) {
+      const std::size_t eq = line.find(" = ");
+      return eq == std::string::npos ? std::string() : line.substr(0, eq);
+    };
+    const std::string named = key(more_ours ? ours : theirs);
+    const std::string where = named.empty()
+                                  ? "the settings"
+                                  : "key '" + (section.empty() ? "" : section + ".") + named + "'";
+    return where + " differs: `" + (more_theirs ? theirs : "(none)") +
+           "` in the checkpoint's scan, `" + (more_ours ? ours : "(none)") + "` in this one";
+  }
+  return "a setting of the scan file was changed since";
+}
+}  // namespace
+
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan) {
   CheckpointContents out;
   std::error_code ec;
@@ -452,9 +497,9 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   const PartRemedies remedy{
       "delete that part alone to keep the others (its members run again), or " + directory +
           " to start the run again",
-      "a setting of the scan file was changed, or the program rebuilt, since: restore them, or "
-      "delete " +
-          directory + " to start the run again"};
+      what_differs(directory, scan) +
+          ": restore the scan file's settings or that build, or delete " + directory +
+          " to start the run again"};
   const auto members = members_of(scan);
   const std::uint64_t fingerprint = scan_fingerprint(scan);
   std::map<std::uint64_t, MemberResult> finished;

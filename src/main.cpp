@@ -576,7 +576,7 @@ void RunCommand::save_after_error(const std::string& who) {
 void RunCommand::write_checkpoint() {
   std::filesystem::create_directories(ck_dir);
   if (!selection_written) {  // by every rank, before its first part: no part lies there without it
-    write_checkpoint_selection(ck_dir, selection(), snapshots);
+    write_checkpoint_selection(ck_dir, selection(), snapshots, scan);
     selection_written = true;
   }
   if (!fresh.empty()) {

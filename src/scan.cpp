@@ -451,10 +451,40 @@ void parse_setting(const std::string& file, const std::string& section, const st
   }
 }
 
+// Integers written as reals throughout `node` (those a double holds exactly): `24` and `24.0` are
+// one value to every key that takes a real, and a key that takes an integer has no real to be
+// told from.
+void integers_as_reals(toml::node& node) {
+  constexpr std::int64_t kExact = std::int64_t{1} << 53;
+  const auto exact = [&](const toml::node& v) {
+    const auto* i = v.as_integer();
+    return i && i->get() > -kExact && i->get() < kExact;
+  };
+  if (auto* table = node.as_table()) {
+    std::vector<std::string> keys;
+    for (auto&& [key, value] : *table) {
+      if (exact(value))
+        keys.emplace_back(key.str());
+      else
+        integers_as_reals(value);
+    }
+    for (const auto& key : keys)
+      table->insert_or_assign(key, static_cast<double>((*table)[key].as_integer()->get()));
+  } else if (auto* array = node.as_array()) {
+    for (std::size_t k = 0; k < array->size(); ++k) {
+      if (exact((*array)[k]))
+        array->replace(array->cbegin() + static_cast<std::ptrdiff_t>(k),
+                       static_cast<double>((*array)[k].as_integer()->get()));
+      else
+        integers_as_reals((*array)[k]);
+    }
+  }
+}
+
 // The settings a scan's identity (Scan::content) is made of: the parsed file less what no
 // member's result depends on, [scan] batch_size (a run may resume with another --batch-size) and
-// the table's keys that say so (SettingKey::changes_no_result). A table left empty is left out,
-// as in a file without it.
+// the table's keys that say so (SettingKey::changes_no_result), its integers as reals. A table
+// left empty is left out, as in a file without it.
 toml::table identity_of(const toml::table& root) {
   toml::table identity = root;
   auto drop = [&](const char* section, const char* key) {
@@ -466,6 +496,7 @@ toml::table identity_of(const toml::table& root) {
   drop("scan", "batch_size");
   for (const auto& k : setting_keys())
     if (k.changes_no_result) drop(k.section, k.key);
+  integers_as_reals(identity);
   return identity;
 }
 

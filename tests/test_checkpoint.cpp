@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <map>
 
@@ -393,6 +394,50 @@ TEST(Checkpoint, FinishedPartsWinOverSnapshots) {
   ASSERT_EQ(ck.running.size(), 1u);
   EXPECT_EQ(ck.running[0].result.member.id, 2u);
   EXPECT_EQ(ck.generation, 2);
+}
+
+// A checkpoint of another scan or program is refused with what differs: the first setting, with
+// its value there and here, or the program that wrote it (the `scan` file beside the parts).
+TEST(Checkpoint, ARefusedCheckpointSaysWhatDiffers) {
+  const Scan scan = small_scan();
+  const ScratchDir dir("loosepack-differs");
+  write_checkpoint_selection(dir.string(), "", false, scan);
+  write_checkpoint_part(checkpoint_part(dir.string(), 1, 0, 1), scan_fingerprint(scan),
+                        {filled(scan, 1)});
+  const auto refusal = [&](const Scan& other) {
+    try {
+      read_checkpoint(dir.string(), other);
+    } catch (const CheckpointError& e) {
+      return std::string(e.what());
+    }
+    return std::string("(used)");
+  };
+  // The same settings written otherwise (an integer as a real) are the same scan.
+  const Scan same = parse_scan(
+      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 12.0\nheight = 1.2e1\n"
+      "bond_number = [1e1, 100]\n[observables]\nlower_half_from = 2.0\n",
+      "test.toml");
+  EXPECT_EQ(refusal(same), "(used)");
+  const Scan wider = parse_scan(
+      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 14\nheight = 12\n"
+      "bond_number = [10, 100]\n[observables]\nlower_half_from = 2\n",
+      "test.toml");
+  EXPECT_NE(refusal(wider).find("key 'system.width' differs: `width = 12.0` in the checkpoint's "
+                                "scan, `width = 14.0` in this one"),
+            std::string::npos)
+      << refusal(wider);
+  // Another build: its program line (and so its fingerprint) differs.
+  std::string text;
+  {
+    std::ifstream in(dir.string() + "/scan");
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  std::ofstream(dir.string() + "/scan")
+      << "loosepack 0.0.1 (commit 0000000, Serial)" << text.substr(text.find('\n'));
+  EXPECT_NE(refusal(wider).find("it was written by loosepack 0.0.1 (commit 0000000, Serial), "
+                                "this is loosepack "),
+            std::string::npos)
+      << refusal(wider);
 }
 
 // Largest expected cost first, each to the least loaded rank: one protocol-A member as costly

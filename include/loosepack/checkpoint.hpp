@@ -45,8 +45,10 @@ std::string checkpoint_directory(const std::string& output_path);
 // std::nullopt where the file does not exist (a checkpoint of a build that wrote none) and
 // throws CheckpointError where it cannot be read or names no selection. With `snapshots` (the
 // run asked for --snapshots) the file `<directory>/snapshots` says so, and a resume writes them.
+// The file `<directory>/scan` holds the program and the scan's identity (Scan::content) the
+// fingerprint is made of, so that a refused resume can say what differs.
 void write_checkpoint_selection(const std::string& directory, const std::string& selection,
-                                bool snapshots = false);
+                                bool snapshots, const Scan& scan);
 std::optional<std::string> read_checkpoint_selection(const std::string& directory);
 // A selection as the file and the messages name it: itself, or "the whole scan" where empty.
 std::string selection_name(const std::string& selection);
