@@ -45,7 +45,8 @@ errors above too large. nu_lower_half, mean abs(Delta y) (from the members' own 
 from 2026-11-28 on) and the profile fits are then compared member by member: the standard error
 of the members' differences, and the jackknife of the fits' difference (the same member left out
 of both files), over the members that finished in both. The other quantities, distributions,
-stay as above.
+stay as above. A point with fewer than 4 members finished in both is compared unpaired, and says
+so.
 
 A strip's or bin's difference over its combined standard error, each error from the scatter
 of few members, follows Student's t (Welch's degrees of freedom), whose tails are heavier than
@@ -205,6 +206,11 @@ def paired_row(name, a, ea, b, eb, difference, error, sigma):
                (a, ea, b, eb), (difference, error))
 
 
+# The fewest members finished in both files that a paired comparison takes (the jackknife of a
+# profile fit's difference needs a few); a point with fewer is compared unpaired, and says so.
+PAIRED_MEMBERS = 4
+
+
 def members_in_both(pa, pb):
     """The mask of the members that finished in both points, when the two hold the same members
     (one scan seed, the same seeds); else why not."""
@@ -218,8 +224,8 @@ def members_in_both(pa, pb):
     if not np.array_equal(ia, ib):
         return None, "the points hold other members"
     ok = (pa["members/failure"][()] == 0) & (pb["members/failure"][()] == 0)
-    if ok.sum() < 4:
-        return None, "fewer than 4 members finished in both"
+    if ok.sum() < PAIRED_MEMBERS:
+        return None, f"fewer than {PAIRED_MEMBERS} members finished in both"
     return ok, ""
 
 
@@ -634,10 +640,14 @@ def main():
                       f"in {args.a} and {text(pb.attrs.get('protocol'))} in {args.b}: runs of "
                       "different protocols are not comparable", file=sys.stderr)
                 sys.exit(2)
-            both = None
+            both, unpaired = None, ""
             if args.paired:
                 both, why = members_in_both(pa, pb)
-                if both is None:
+                if both is None and why.startswith("fewer than"):
+                    unpaired = f"; {why}: compared unpaired"
+                    print(f"compare.py: --paired: point {name}: {why}: compared unpaired",
+                          file=sys.stderr)
+                elif both is None:
                     print(f"compare.py: --paired: point {name}: {why}", file=sys.stderr)
                     sys.exit(2)
             try:
@@ -647,7 +657,7 @@ def main():
                       f"{args.a} or {args.b} ({e}): a damaged file, or one not written by "
                       "`loosepack run`", file=sys.stderr)
                 sys.exit(2)
-            print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)} (paired {how})\n")
+            print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)} (paired {how}{unpaired})\n")
             if differing := scan_keys_differ(pa, pb):
                 print(f"(the two points differ in {', '.join(differing)})\n")
             if defined := definitions_differ(pa, pb):

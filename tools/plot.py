@@ -381,6 +381,11 @@ def fitted_points(an, name, points):
     return [held[int(k)] for k in fit["scan_points"][()] if int(k) in held]
 
 
+# An error bar whose lower end lies below this fraction of its value reaches zero but for
+# round-off (two members, one of which did not collapse: the error equals the mean).
+RELATIVE_ZERO = 1e-3
+
+
 def collapse_increase(f, points, out, written):
     """dnu/nu_i of the protocol-C points against H and, on log axes, against nu_i. There an error
     bar that reaches 0 or below is cut at a floor under every other point and ends in a "v"; a
@@ -391,6 +396,7 @@ def collapse_increase(f, points, out, written):
     fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
     increase = np.array([attr(g, "relative_increase_mean") for g in c], dtype=float)
     lower = increase - bars([attr(g, "relative_increase_sem") for g in c])
+    lower[lower <= RELATIVE_ZERO * increase] = 0.0  # a bar to 0 but for round-off reaches 0
     floor = 0.5 * min(np.concatenate([increase[increase > 0], lower[lower > 0]]), default=1.0)
     for rc in sorted({attr(g, "capture_radius") for g in c}):
         g_rc = [g for g in c if attr(g, "capture_radius") == rc]
@@ -401,7 +407,7 @@ def collapse_increase(f, points, out, written):
         axes[0].errorbar([attr(g, "height") for g in g_rc], inc, yerr=err, fmt="o", capsize=3,
                          label=lab)
         on = inc > 0  # a log axis has no place for the others
-        cut = on & (inc - err <= 0)
+        cut = on & (inc - err <= RELATIVE_ZERO * inc)
         down = np.where(cut, inc - floor, err)
         line = axes[1].errorbar(nu_i[on], inc[on], yerr=[down[on], err[on]], fmt="o", capsize=3,
                                 label=lab)
@@ -418,9 +424,12 @@ def collapse_increase(f, points, out, written):
     axes[1].set_xscale("log")
     axes[1].set_yscale("log")
     axes[1].set_xlabel("nu_i")
-    # Plain numbers at 1..9 of each decade on the log axes, which span less than a decade here.
-    for axis in (axes[0].xaxis, axes[1].xaxis, axes[1].yaxis):
-        axis.set_major_locator(matplotlib.ticker.LogLocator(subs=range(1, 10)))
+    # Plain numbers on the log axes: at 1..9 of each decade where an axis spans less than two
+    # decades (as the collapse's usually do), else at the decades alone.
+    for axis, limits in ((axes[0].xaxis, axes[0].get_xlim()), (axes[1].xaxis, axes[1].get_xlim()),
+                         (axes[1].yaxis, axes[1].get_ylim())):
+        narrow = limits[0] > 0 and limits[1] / limits[0] < 100
+        axis.set_major_locator(matplotlib.ticker.LogLocator(subs=range(1, 10) if narrow else (1,)))
         axis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
         axis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     for ax in axes:

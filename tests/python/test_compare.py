@@ -210,6 +210,18 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
         f.attrs["seed"] = f.attrs["seed"] + 1
     out = run_tool(cohesive, other, "--paired")
     assert out.returncode == 2 and "scan seeds or seed counts differ" in out.stderr, out.stderr
+    # Three members failed in one file (3 of 6 left in both): that point is compared unpaired,
+    # and says so, where the whole comparison stopped.
+    failing = tmp_path / "failing.h5"
+    shutil.copy(shifted, failing)
+    with h5py.File(failing, "r+") as f:
+        failure = f["points/0000/members/failure"]
+        failure[...] = np.array([6, 6, 6, 0, 0, 0], dtype=failure.dtype)
+    out = run_tool(cohesive, failing, "--paired", "--json", tmp_path / "few.jsonl")
+    assert out.returncode in (0, 1), out.stderr
+    assert "fewer than 4 members finished in both: compared unpaired" in out.stderr
+    few = {r["quantity"]: r for r in json.loads(open(tmp_path / "few.jsonl").read())["rows"]}
+    assert "paired_difference" not in few["nu_lower_half"]
 
 
 def test_unusable_input_is_named():
