@@ -5,13 +5,16 @@
 // overlap; the member fails at its end, Failure::Overlap); LOOSEPACK_INJECT_WRITE_FAILURE=1
 // makes the final write of a run fail, as a full disk would; LOOSEPACK_INJECT_FREE_BYTES=<n>
 // stands for the free space of the output's file system; LOOSEPACK_INJECT_ERROR=<member id>
-// throws when that member starts, as an error the run cannot go on from would (memory).
+// throws when that member starts, as an error the run cannot go on from would (memory);
+// LOOSEPACK_INJECT_ESCAPE=<member id> starts it with a fixed disk above H + 4 R_max, where a disk
+// of a solution that blew up ends (the member fails at its end, Failure::Escaped).
 #pragma once
 #include <cmath>
 #include <cstdlib>
 #include <stdexcept>
 #include <string>
 
+#include "loosepack/geometry.hpp"
 #include "loosepack/protocols.hpp"
 
 namespace loosepack {
@@ -34,6 +37,12 @@ inline void inject_faults(const Member& m, SystemSetup& setup) {
     Disk e = d;
     e.x += 1.5 * d.radius;
     setup.disks.insert(setup.disks.begin(), {d, e});
+  }
+  if (injected_into("LOOSEPACK_INJECT_ESCAPE", m)) {
+    Disk high = d;
+    high.y = m.params.height + 4.0 * largest_radius(m.params) + 2.0 * d.radius;
+    high.fixed = true;
+    setup.disks.insert(setup.disks.begin(), high);
   }
 }
 

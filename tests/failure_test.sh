@@ -39,6 +39,20 @@ rc_of env LOOSEPACK_INJECT_OVERLAP=2 "$exe" run s.toml -o overlap.h5 --batch-siz
 [ "$rc" -eq 3 ] || fail "a run with an overlapping member exited $rc, expected 3"
 grep -q "member 2 (point 0, seed 2, Bo 30) failed: two disks, or a disk and the floor, ended overlapping by more than 0.25 R" overlap.log ||
   fail "overlap not reported: $(cat overlap.log)"
+# A member that ends with a disk above H + 4 R_max (one injected there, fixed) fails, and is
+# left out of the aggregates.
+rc_of env LOOSEPACK_INJECT_ESCAPE=1 "$exe" run s.toml -o escape.h5 --batch-size 2 2>escape.log
+[ "$rc" -eq 3 ] || fail "a run with an escaped disk exited $rc, expected 3"
+grep -q "member 1 (point 0, seed 1, Bo 30) failed: a disk ended outside the box" escape.log ||
+  fail "escape not reported: $(cat escape.log)"
+/usr/bin/python3 - escape.h5 <<'PY' || fail "the escaped member's aggregates: see above"
+import sys, h5py
+with h5py.File(sys.argv[1], "r") as f:
+    g = f["points/0000"]
+    failure = list(g["members/failure"][()])
+    assert failure.count(5) == 1 and g.attrs["failed"] == 1, (failure, g.attrs["failed"])
+    assert g.attrs["nu_lower_half_n"] == g.attrs["members"] - 1
+PY
 # A solution that blows up (Jacobi without mass splitting diverges on a cohesive deposit: disks
 # thrown hundreds of R high) fails its member as soon as a disk moves faster than anything in
 # the box can make it (Failure::Runaway) instead of passing its displacements into the

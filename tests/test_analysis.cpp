@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <numeric>
 #include <random>
 #include <string>
 
@@ -1142,6 +1143,75 @@ TEST(Analysis, BinErrorsAreThoseOfThePooledMean) {
   // 400 ensembles: the variance is known to about 7 % (sqrt(2/400)).
   EXPECT_NEAR(mean_sem2 / var, 1.0, 0.2);
   EXPECT_NEAR(var, 107.0 / 289.0, 0.2 * 107.0 / 289.0);
+}
+
+// The avalanche-event histograms' edges (docs/MODEL.md, "Observables"): logarithmic bins of 4 per
+// decade from 1e-3 to 1e5; an event of more steps than the last edge is counted in the last bin;
+// an event that moved disks only upwards is in the moved histogram but in neither the downward
+// one nor `events_without_motion`; one that moved nothing is counted there only (its steps
+// still binned).
+TEST(Analysis, EventHistogramsKeepTheirEdgeRules) {
+  const auto scan = profile_scan(2, 100);
+  auto results = synthetic_ensemble(
+      scan, 5, [](const Member&) { return 10; },
+      [](const Member&, std::mt19937_64& rng) {
+        const double y = std::uniform_real_distribution<double>(1.0, 79.0)(rng);
+        return std::pair(y, y);
+      });
+  results[0].events = {{3, 0.0, 20, false},     // disks moved only upwards
+                       {0, 0.0, 12, false},     // nothing moved
+                       {5, 2.5, 200000, true},  // beyond the last edge (1e5 steps)
+                       {1, 1e-4, 10, false}};   // below the first edge (1e-3 R)
+  const PointResult pr = aggregate(scan, results).at(0);
+  ASSERT_EQ(pr.event_edges.size(), 33u);
+  EXPECT_DOUBLE_EQ(pr.event_edges.front(), 1e-3);
+  EXPECT_DOUBLE_EQ(pr.event_edges.back(), 1e5);
+  const auto bin = [&](double v) {  // the bin whose edges hold v (the first and last beyond)
+    std::size_t j = 0;
+    while (j + 1 < pr.event_edges.size() - 1 && pr.event_edges[j + 1] <= v) ++j;
+    return j;
+  };
+  const auto total = [](const std::vector<double>& c) {
+    return std::accumulate(c.begin(), c.end(), 0.0);
+  };
+  EXPECT_EQ(pr.events_without_motion, 1.0);
+  EXPECT_EQ(total(pr.event_moved_counts), 3.0);
+  EXPECT_EQ(pr.event_moved_counts[bin(3.0)], 1.0);
+  EXPECT_EQ(pr.event_moved_counts[bin(5.0)], 1.0);
+  EXPECT_EQ(pr.event_moved_counts[bin(1.0)], 1.0);
+  EXPECT_EQ(total(pr.event_downward_counts), 2.0);  // not the upward event
+  EXPECT_EQ(pr.event_downward_counts[bin(2.5)], 1.0);
+  EXPECT_EQ(pr.event_downward_counts.front(), 1.0);  // 1e-4 R, below the first edge
+  EXPECT_EQ(total(pr.event_steps_counts), 4.0);
+  EXPECT_EQ(pr.event_steps_counts.back(), 1.0);  // 2e5 steps
+  EXPECT_EQ(pr.event_steps_counts[bin(20.0)], 1.0);
+}
+
+// nu(y) has the whole strips of 3.97 R below H (H = 80: 20 strips, up to 79.4 R; a 21st would
+// reach over H), each the exact disk area in it over its own: strip k holds k + 1 disks of radius
+// 1 wholly inside it (at its middle), so nu_k = (k + 1) pi / (3.97 L_x).
+TEST(Analysis, VolumeFractionProfileHasTheWholeStripsBelowH) {
+  const auto scan = profile_scan(2, 100);
+  const double strip = 3.97, width = 40.0;
+  int k = 0, in_strip = 0;
+  const auto results = synthetic_ensemble(
+      scan, 9,
+      [&](const Member&) {
+        k = in_strip = 0;
+        return 20 * 21 / 2;
+      },
+      [&](const Member&, std::mt19937_64&) {
+        const double y = (k + 0.5) * strip;
+        if (++in_strip == k + 1) {
+          ++k;
+          in_strip = 0;
+        }
+        return std::pair(y, y);
+      });
+  const PointResult pr = aggregate(scan, results).at(0);
+  ASSERT_EQ(pr.nu.mean.size(), 20u);  // floor(80 / 3.97)
+  for (std::size_t s = 0; s < 20; ++s)
+    EXPECT_NEAR(pr.nu.mean[s], (s + 1.0) * M_PI / (strip * width), 1e-12) << "strip " << s;
 }
 
 // A bin enters the profile fits only where every member has disks: one member of four reaches

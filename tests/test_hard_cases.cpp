@@ -433,6 +433,40 @@ TEST(HardCase, ACrowdedDiskKeepsItsNearestCandidates) {
   EXPECT_EQ(batch.status(1).failure, Failure::ContactOverflow);
 }
 
+// A disk named by more contacts than its kIncident = 14 entries of incident slots hold: a large
+// disk (R = 4, the highest index, so that every pair with it is its small neighbour's) floating
+// without gravity, ringed by small disks (R = 0.5) each 1e-3 R from it, every pair within reach.
+// With 14 around it the system goes on; with 15 it fails with ContactOverflow (its solver would
+// not see the 15th contact).
+TEST(HardCase, ADiskInMoreContactsThanItsIncidentSlotsFails) {
+  auto ring = [](int n) {
+    std::vector<Disk> d;
+    for (int k = 0; k < n; ++k) {
+      const double angle = 2.0 * M_PI * k / n;
+      Disk a;
+      a.radius = 0.5;
+      a.x = 15.0 + (4.5 + 1e-3) * std::cos(angle);
+      a.y = 10.0 + (4.5 + 1e-3) * std::sin(angle);
+      d.push_back(a);
+    }
+    Disk large;
+    large.radius = 4.0;
+    large.x = 15.0;
+    large.y = 10.0;
+    d.push_back(large);
+    return d;
+  };
+  SystemParams p = bare_params(30.0, 20.0);
+  p.gravity_on = false;
+  Batch batch({setup(p, ring(14)), setup(p, ring(15))});
+  batch.step();
+  EXPECT_EQ(batch.status(0).failure, Failure::None);
+  int named = 0;
+  for (const auto& c : batch.contacts(0)) named += c.j == 14;
+  EXPECT_EQ(named, 14);
+  EXPECT_EQ(batch.status(1).failure, Failure::ContactOverflow);
+}
+
 // Exactly touching (gap 0), exactly above each other, and at the cohesion range's edge, without
 // gravity (so only the contact law acts). Contact law 2 (MODEL.md): cohesion acts while the gap
 // is below d_c. With d_c = 2^-7 R and centres at dyadic positions every gap is exact in double
