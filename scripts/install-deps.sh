@@ -11,12 +11,13 @@ packages=(
   python3-h5py python3-matplotlib python3-numpy python3-pandas python3-scipy python3-xarray
 )
 # --test: what the test suite needs beyond that (pytest; ParaView's Python and ASE, which read
-# the files `loosepack export` writes; venv and setuptools to pip-install python/ in a test; xvfb
-# for rendering with ParaView, tools/render_deposit.py; strace and procps's pgrep, with which
-# tests/resume_test.sh counts a run's checkpoint writes).
+# the files `loosepack export` writes; venv, setuptools and wheel to pip-install python/ in a
+# test; xvfb for rendering with ParaView, tools/render_deposit.py; strace and procps's pgrep,
+# with which tests/resume_test.sh counts a run's checkpoint writes; time's /usr/bin/time, with
+# which the bench scripts the suite runs measure CPU time).
 if [ "${1:-}" = "--test" ]; then
-  packages+=(python3-pytest python3-paraview python3-ase python3-venv python3-setuptools xvfb xauth
-    strace procps)
+  packages+=(python3-pytest python3-paraview python3-ase python3-venv python3-setuptools
+    python3-wheel xvfb xauth strace procps time)
 fi
 missing=()
 for p in "${packages[@]}"; do

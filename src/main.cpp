@@ -1304,7 +1304,7 @@ int main(int argc, char** argv) {
       "loosepack: ensembles of 2D cohesive granular deposits (contact dynamics)\n"
       "Exit codes: 0 done, 1 an error while running or writing, 2 invalid input, 3 the "
       "file is written but members failed, 128+N stopped by signal N (resume with "
-      "--resume). Kokkos options (--kokkos-num-threads=N, ...) pass through."};
+      "--resume). Kokkos options (--kokkos-threads=N, ...) pass through."};
   // Usage errors start with the program's name, as its own messages do (the subcommands added
   // below inherit it).
   app.failure_message([](const CLI::App* a, const CLI::Error& e) {

@@ -113,8 +113,8 @@ BinnedStat binned(const std::vector<const MemberResult*>& members, bool by_initi
   BinnedStat b;
   const auto N = static_cast<std::size_t>(n_bins);
   std::vector<double> sum(N, 0.0), sum2(N, 0.0), cnt(N, 0.0), keys(N, 0.0);
-  std::vector<std::vector<double>> member_sums(N),
-      member_counts(N);  // of members that did not fail
+  // Per bin, each member's summed Delta y and samples (the members that did not fail).
+  std::vector<std::vector<double>> member_sums(N), member_counts(N);
   for (const auto* r : members) {
     std::vector<double> ms(N, 0.0), mk(N, 0.0), mc(N, 0.0);
     for (std::size_t k = 0; r->ok() && k < r->y_e.size(); ++k) {

@@ -113,8 +113,11 @@ set +e
 rc=${PIPESTATUS[0]}
 set -e
 [ "$rc" -eq 0 ] && [ -s "$dir/piped.h5" ] || fail "a run whose stderr pipe closed exited $rc"
-# Kokkos's own options pass through.
-"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --kokkos-num-threads=1
+# Kokkos's own options pass through, as its 3.4 spells them (the help's --kokkos-threads).
+"$exe" run "$dir/good.toml" -o "$dir/good.h5" -q --snapshots --kokkos-threads=1
+"$exe" --version --kokkos-threads=1 | grep -q " backend, 1 thread(s)" ||
+  fail "--kokkos-threads=1 did not reach Kokkos: $("$exe" --version --kokkos-threads=1)"
+"$exe" --help | grep -q -- "--kokkos-threads=N" || fail "the help does not name --kokkos-threads"
 # --timing: every stage of the (staged) step, then the solve's balance. With the team solver's
 # solve split over launches of at most 4 sweeps, the first line says so, the slowest system sweeps at most 4
 # times a launch, and fewer system steps end in a launch than systems take part in it.

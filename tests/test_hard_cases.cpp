@@ -523,8 +523,9 @@ TEST(HardCase, TouchingStackedAndAtTheCohesionEdge) {
     }
     EXPECT_NEAR(gap, sc.final_gap, 1e-9) << sc.name;
     expect_within_contact_law(batch.contacts(0), d, p, sc.name);
-    if (d.size() == 2 && sc.disks[1].x == sc.disks[0].x)  // a vertical pair: no force across
+    if (d.size() == 2 && sc.disks[1].x == sc.disks[0].x) {  // a vertical pair: no force across
       for (std::size_t k = 0; k < 2; ++k) EXPECT_EQ(d[k].x, sc.disks[k].x) << sc.name;
+    }
   }
 }
 

@@ -24,8 +24,9 @@ struct BinnedStat {
   std::vector<double> mean;      // pooled over all samples of all members
   std::vector<double> stddev;    // pooled standard deviation of the samples
   std::vector<double> count;     // samples
-  std::vector<double> sem;       // standard error of `mean` over members: the delete-one-member
-                            // jackknife of the pooled ratio (NaN unless two members have samples)
+  // Standard error of `mean` over members: the delete-one-member jackknife of the pooled ratio
+  // (NaN unless two members have samples).
+  std::vector<double> sem;
   // The same per member: one row per member of the point, in the order of members/seed_index (a
   // failed member's row has count 0 and NaN means), one entry per bin. The fits' jackknife errors
   // leave one row out at a time. Empty in a file of an older program.
