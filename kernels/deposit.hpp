@@ -9,6 +9,38 @@
 
 namespace loosepack {
 
+// The largest value and, among equal largest values, the lowest index: Kokkos::MaxLoc's join
+// keeps whichever of two equal values it meets first, which on a GPU's strided threads need not
+// be the lowest index (a drop exactly between two equal disks would be captured by either).
+// Written as Kokkos 3.4's MaxLoc is, with that join.
+struct MaxLowestLoc {
+  using reducer = MaxLowestLoc;
+  using value_type = Kokkos::ValLocScalar<double, int>;
+  using result_view_type = Kokkos::View<value_type, Kokkos::HostSpace>;
+
+  KOKKOS_INLINE_FUNCTION explicit MaxLowestLoc(value_type& v) : value(&v) {}
+  KOKKOS_INLINE_FUNCTION void join(value_type& dest, const value_type& src) const {
+    if (src.val > dest.val || (src.val == dest.val && src.loc < dest.loc)) dest = src;
+  }
+  KOKKOS_INLINE_FUNCTION void join(volatile value_type& dest,
+                                   const volatile value_type& src) const {
+    if (src.val > dest.val || (src.val == dest.val && src.loc < dest.loc)) {
+      dest.val = src.val;
+      dest.loc = src.loc;
+    }
+  }
+  KOKKOS_INLINE_FUNCTION void init(value_type& v) const {
+    v.val = Kokkos::reduction_identity<double>::max();
+    v.loc = -1;  // no disk
+  }
+  KOKKOS_INLINE_FUNCTION value_type& reference() const { return *value.data(); }
+  KOKKOS_INLINE_FUNCTION result_view_type view() const { return value; }
+  KOKKOS_INLINE_FUNCTION bool references_scalar() const { return true; }
+
+ private:
+  result_view_type value;
+};
+
 // Reads: request, given_x; sys.{failure, draws, seed, member, width, radius, polydispersity,
 // capture_radius, offset, count, height, capacity, disk_density}; part.{x, y, radius}.
 // Writes: result; sys.{draws, count, failure (kParticleOverflow)}; the new disk's
@@ -41,11 +73,10 @@ struct DepositKernel {
     }
     const double rc = capture ? sys.capture_radius(s) : 1.0;
     const int first = sys.offset(s), n = sys.count(s);
-    using Reducer = Kokkos::MaxLoc<double, int>;
-    typename Reducer::value_type best;
+    MaxLowestLoc::value_type best;
     Kokkos::parallel_reduce(
         Kokkos::TeamThreadRange(team, n),
-        [&](int a, typename Reducer::value_type& acc) {
+        [&](int a, MaxLowestLoc::value_type& acc) {
           const int q = first + a;
           const double dx = periodic_delta(part.x(q) - x, width);
           const double reach = rc * (r + part.radius(q));
@@ -56,7 +87,7 @@ struct DepositKernel {
             acc.loc = q;
           }
         },
-        Reducer(best));
+        MaxLowestLoc(best));
     const int q = best.loc;
     const bool captured = q >= 0 && best.val > r;
     // The capture point less q's centre, and the share of it that leaves the disk touching q.

@@ -19,25 +19,16 @@ struct EventMeasure {
     const int s = team.league_rank();
     if (!request(s)) return;
     const int first = sys.offset(s), n = sys.count(s);
-    double moved = 0.0, down = 0.0;
-    Kokkos::parallel_reduce(
-        Kokkos::TeamThreadRange(team, n),
-        [&](int a, double& m) {
-          const double d = part.y(first + a) - part.y_mark(first + a);
-          if (kmath::fabs(d) > threshold) m += 1.0;
-        },
-        moved);
-    Kokkos::parallel_reduce(
-        Kokkos::TeamThreadRange(team, n),
-        [&](int a, double& acc) {
-          const double d = part.y(first + a) - part.y_mark(first + a);
-          if (d < -threshold) acc -= d;  // a disk that moved beyond the threshold, downwards
-        },
-        down);
-    team.team_barrier();
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, n),
-                         [&](int a) { part.y_mark(first + a) = part.y(first + a); });
+    // One thread, in index order: the downward sum is the same on every backend and team size
+    // (a team reduction's order follows them), and it runs once an event, not once a step.
     Kokkos::single(Kokkos::PerTeam(team), [&]() {
+      double moved = 0.0, down = 0.0;
+      for (int q = first; q < first + n; ++q) {
+        const double d = part.y(q) - part.y_mark(q);
+        if (kmath::fabs(d) > threshold) moved += 1.0;
+        if (d < -threshold) down -= d;  // a disk that moved beyond the threshold, downwards
+        part.y_mark(q) = part.y(q);
+      }
       result(2 * s) = moved;
       result(2 * s + 1) = down;
     });

@@ -206,19 +206,24 @@ struct Batch::Impl {
     return std::max(shortest_newton_wait(),
                     sweep_cap[static_cast<std::size_t>(s)] - shortest_newton_wait());
   }
-  // The team solver's threads per team: solver.team_size lowered to the backend's largest team,
-  // or 0 (Kokkos::AUTO) where the scan sets none. Found once; team_threads keeps the size the
-  // teams get (for AUTO the backend's recommended size) for --timing.
+  // The threads per team of a launch of f: solver.team_size lowered to the backend's largest
+  // team for f, or where the scan sets none (0) the backend's recommended size for f, rounded
+  // down to a power of two (a team scan on CUDA needs one). A GPU's limits differ from kernel to
+  // kernel (registers): found once for each kernel type. team_threads keeps the last launch's
+  // size for --timing.
   template <class Functor>
   int team_size_of(const Functor& f) {
-    if (team_threads == 0) {
-      const Kokkos::TeamPolicy<ExecSpace> policy(n_systems, 1);
-      team_threads =
-          solver.team_size > 0
-              ? std::min(solver.team_size, policy.team_size_max(f, Kokkos::ParallelForTag()))
-              : policy.team_size_recommended(f, Kokkos::ParallelForTag());
-    }
-    return solver.team_size > 0 ? team_threads : 0;
+    static const std::pair<int, int> largest_and_recommended = [&] {
+      const Kokkos::TeamPolicy<ExecSpace> policy(1, 1);
+      return std::make_pair(policy.team_size_max(f, Kokkos::ParallelForTag()),
+                            policy.team_size_recommended(f, Kokkos::ParallelForTag()));
+    }();
+    const auto [largest, recommended] = largest_and_recommended;
+    const int size = solver.team_size > 0 ? std::min(solver.team_size, largest) : recommended;
+    int power = 1;
+    while (2 * power <= size) power *= 2;
+    team_threads = power;
+    return power;
   }
   int team_threads = 0;
   // A step's sweep limit before its first Newton round (the cap where the pace skips the rounds
@@ -234,9 +239,7 @@ struct Batch::Impl {
   // One team per system, of team_size_of(f) threads.
   template <class Functor>
   Kokkos::TeamPolicy<ExecSpace> team_policy(const Functor& f) {
-    const int threads = team_size_of(f);
-    return threads > 0 ? Kokkos::TeamPolicy<ExecSpace>(n_systems, threads)
-                       : Kokkos::TeamPolicy<ExecSpace>(n_systems, Kokkos::AUTO);
+    return Kokkos::TeamPolicy<ExecSpace>(n_systems, team_size_of(f));
   }
   int colour();
   void step();

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
 #include <sstream>
 
 #define TOML_EXCEPTIONS 1
@@ -451,40 +452,60 @@ void parse_setting(const std::string& file, const std::string& section, const st
   }
 }
 
-// Integers written as reals throughout `node` (those a double holds exactly): `24` and `24.0` are
-// one value to every key that takes a real, and a key that takes an integer has no real to be
-// told from.
-void integers_as_reals(toml::node& node) {
+// An integer that a double holds exactly, as that double.
+std::optional<double> exact_real(const toml::node* v) {
   constexpr std::int64_t kExact = std::int64_t{1} << 53;
-  const auto exact = [&](const toml::node& v) {
-    const auto* i = v.as_integer();
-    return i && i->get() > -kExact && i->get() < kExact;
-  };
-  if (auto* table = node.as_table()) {
-    std::vector<std::string> keys;
-    for (auto&& [key, value] : *table) {
-      if (exact(value))
-        keys.emplace_back(key.str());
-      else
-        integers_as_reals(value);
+  const auto* i = v ? v->as_integer() : nullptr;
+  if (!i || i->get() <= -kExact || i->get() >= kExact) return std::nullopt;
+  return static_cast<double>(i->get());
+}
+
+// Whether `section.key` takes a real: every system key (in [system] and [[point]]) and the
+// settings of Type::Real.
+bool real_valued(const std::string& section, const std::string& key) {
+  if (section == "system" || section == "point") return true;
+  for (const auto& k : setting_keys())
+    if (section == k.section && key == k.key) return k.type == SettingKey::Type::Real;
+  return false;
+}
+
+// The integers of a table's real-valued keys written as reals, so that `24` and `24.0`, `100`
+// and `1e2` are one setting: a value, an axis's values, a range's `from` and `to`. Integer-valued
+// keys (seeds, a range's `points`, the integer settings) keep theirs, so that the identity still
+// parses as a scan.
+void reals_in(toml::table& table, const std::string& section) {
+  std::vector<std::string> keys;
+  for (auto&& [key, value] : table)
+    if (real_valued(section, std::string(key.str()))) keys.emplace_back(key.str());
+  for (const auto& key : keys) {
+    toml::node* value = table.get(key);
+    if (const auto real = exact_real(value)) {
+      table.insert_or_assign(key, *real);
+    } else if (auto* axis = value->as_array()) {
+      for (std::size_t k = 0; k < axis->size(); ++k)
+        if (const auto r = exact_real(axis->get(k)))
+          axis->replace(axis->cbegin() + static_cast<std::ptrdiff_t>(k), *r);
+    } else if (auto* range = value->as_table()) {
+      for (const char* end : {"from", "to"})
+        if (const auto r = exact_real(range->get(end))) range->insert_or_assign(end, *r);
     }
-    for (const auto& key : keys)
-      table->insert_or_assign(key, static_cast<double>((*table)[key].as_integer()->get()));
-  } else if (auto* array = node.as_array()) {
-    for (std::size_t k = 0; k < array->size(); ++k) {
-      if (exact((*array)[k]))
-        array->replace(array->cbegin() + static_cast<std::ptrdiff_t>(k),
-                       static_cast<double>((*array)[k].as_integer()->get()));
-      else
-        integers_as_reals((*array)[k]);
-    }
+  }
+}
+
+void integers_as_reals(toml::table& identity) {
+  for (auto&& [section, node] : identity) {
+    const std::string name(section.str());
+    if (auto* table = node.as_table()) reals_in(*table, name);
+    if (auto* points = node.as_array())
+      for (auto& point : *points)
+        if (auto* table = point.as_table()) reals_in(*table, name);
   }
 }
 
 // The settings a scan's identity (Scan::content) is made of: the parsed file less what no
 // member's result depends on, [scan] batch_size (a run may resume with another --batch-size) and
-// the table's keys that say so (SettingKey::changes_no_result), its integers as reals. A table
-// left empty is left out, as in a file without it.
+// the table's keys that say so (SettingKey::changes_no_result), the integers of real-valued keys
+// as reals. A table left empty is left out, as in a file without it.
 toml::table identity_of(const toml::table& root) {
   toml::table identity = root;
   auto drop = [&](const char* section, const char* key) {

@@ -161,7 +161,7 @@ same full.h5 e.h5 --except scan_text --except scan_file
 sed -i 's/seeds = 4 # edited/seeds = 5/' edited.toml
 cp -r t.h5.checkpoint e5.h5.checkpoint
 msg=$("$exe" run edited.toml -o e5.h5 --resume 2>&1) && fail "a checkpoint of another scan was used"
-grep -q "belongs to a scan of other settings.*key 'scan.seeds' differs: \`seeds = 4.0\` in the checkpoint's scan, \`seeds = 5.0\` in this one" <<< "$msg" ||
+grep -q "belongs to a scan of other settings.*key 'scan.seeds' differs: \`seeds = 4\` in the checkpoint's scan, \`seeds = 5\` in this one" <<< "$msg" ||
   fail "message: $msg"
 # A number written another way is the same setting (24 and 24.0, 100 and 1e2).
 sed 's/width = 24/width = 24.0/; s/\[10, 100\]/[1e1, 1e2]/' s.toml > renumbered.toml
