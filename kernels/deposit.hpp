@@ -63,8 +63,7 @@ struct DepositKernel {
     double x = given ? given_x(s) : width * uniform01(sys.seed(s), sys.member(s), d0);
     // A given abscissa may lie anywhere (x = L_x is x = 0): wrap it into [0, L_x), or a disk
     // dropped onto the bare floor keeps it (and the minimum image below needs |dx| < 1.5 L_x).
-    x -= width * kmath::floor(x / width);
-    if (x >= width) x = 0.0;  // -tiny + width rounds to width
+    x = wrap_into_box(x, width);
     double r = sys.radius(s);
     const double sigma = sys.polydispersity(s);
     if (sigma > 0.0 && !given) {

@@ -5,13 +5,6 @@
 
 namespace loosepack {
 
-// x wrapped into [0, L_x) after a move of less than one period.
-KOKKOS_INLINE_FUNCTION double wrap_periodic(double x, double width) {
-  if (x >= width) x -= width;
-  if (x < 0.0) x += width;
-  return x >= width ? 0.0 : x;  // -tiny + width rounds to width
-}
-
 // Reads: sys.{time_step, gravity_x, gravity_y}; part.{cell, system, inv_mass, vx, vy, w}.
 // Writes: part.{vfx, vfy, wf}.
 struct FreeVelocity {
@@ -51,7 +44,7 @@ struct Integrate {
     if (!sys.active(s) || sys.solving(s) || p >= sys.offset(s) + sys.count(s)) return;
     if (sys.failure(s) == kContactOverflow || sys.failure(s) == kParticleOverflow) return;
     const double h = sys.time_step(s);
-    const double x = wrap_periodic(part.x(p) + h * part.vx(p), sys.width(s));
+    const double x = wrap_into_box(part.x(p) + h * part.vx(p), sys.width(s));
     const double y = part.y(p) + h * part.vy(p);
     part.x(p) = x;
     part.y(p) = y;
@@ -103,9 +96,9 @@ struct OverlapCorrection {
       const double delta = part.radius(p) + part.radius(q) - d;
       if (!(delta > 0.0) || !(d > 0.0)) continue;
       const double move = push(delta, kmath::min(part.radius(p), part.radius(q))) / (d * (wp + wq));
-      part.x(p) = wrap_periodic(part.x(p) - wp * move * dx, width);
+      part.x(p) = wrap_into_box(part.x(p) - wp * move * dx, width);
       part.y(p) -= wp * move * dy;
-      part.x(q) = wrap_periodic(part.x(q) + wq * move * dx, width);
+      part.x(q) = wrap_into_box(part.x(q) + wq * move * dx, width);
       part.y(q) += wq * move * dy;
     }
   }

@@ -50,6 +50,15 @@ KOKKOS_INLINE_FUNCTION void sort_range(const KView<int>& v, int first, int end) 
   }
 }
 
+// x wrapped into the periodic box [0, L_x): as it is, to the bit, where it lies within (a wrap by
+// fmod(fmod(x, L) + L, L) would round it), else shifted by whole periods.
+KOKKOS_INLINE_FUNCTION double wrap_into_box(double x, double width) {
+  if (x >= 0.0 && x < width) return x;
+  x -= width * kmath::floor(x / width);
+  if (x < 0.0) x += width;      // x / width rounded up to the next integer
+  return x >= width ? 0.0 : x;  // -tiny + width rounds to width
+}
+
 // Minimum-image difference a - b in a periodic interval of length width.
 KOKKOS_INLINE_FUNCTION double periodic_delta(double d, double width) {
   if (d > 0.5 * width) return d - width;

@@ -267,7 +267,7 @@ void stage_disks(const SystemSetup& su, int cap, const DView<double>::HostMirror
     for (int a = 0; a < cap; ++a)
       h(field * cap + a) = a < count ? f(su.disks[static_cast<std::size_t>(a)]) : 0.0;
   };
-  put(kLoadX, [&](const Disk& d) { return std::fmod(std::fmod(d.x, width) + width, width); });
+  put(kLoadX, [&](const Disk& d) { return wrap_into_box(d.x, width); });
   put(kLoadY, [](const Disk& d) { return d.y; });
   put(kLoadTheta, [](const Disk& d) { return d.theta; });
   put(kLoadVx, [](const Disk& d) { return d.vx; });
@@ -353,8 +353,7 @@ void Batch::set_disks(int s, const std::vector<int>& index, const std::vector<Di
   for (int j = 0; j < n; ++j) {
     const Disk& d = disks[static_cast<std::size_t>(j)];
     const auto put = [&](int field, double v) { h(slot_disk_at(n, field, j)) = v; };
-    // Wrapped only where outside [0, L_x): fmod would round an x that lies within.
-    put(kLoadX, d.x >= 0.0 && d.x < width ? d.x : std::fmod(std::fmod(d.x, width) + width, width));
+    put(kLoadX, wrap_into_box(d.x, width));
     put(kLoadY, d.y);
     put(kLoadTheta, d.theta);
     put(kLoadVx, d.vx);

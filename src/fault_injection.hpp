@@ -40,7 +40,7 @@ inline void inject_faults(const Member& m, SystemSetup& setup) {
   }
   if (injected_into("LOOSEPACK_INJECT_ESCAPE", m)) {
     Disk high = d;
-    high.y = m.params.height + 4.0 * largest_radius(m.params) + 2.0 * d.radius;
+    high.y = escape_height(m.params) + 2.0 * d.radius;
     high.fixed = true;
     setup.disks.insert(setup.disks.begin(), high);
   }

@@ -17,8 +17,9 @@
 
 namespace loosepack {
 
-// Relaxation regions that end at rest and then find motion in the whole system start a new
-// region around it at most this many times per disk; then the whole system relaxes.
+// Relaxation regions per deposited disk, the first included: a region that ends at rest and
+// then finds motion in the whole system starts a new one around it until there have been this
+// many; then the whole system relaxes.
 constexpr int kMaxRegionRounds = 4;
 // The check of the whole system after a region finds motion where a disk is faster than this
 // many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).

@@ -241,7 +241,7 @@ void add_abs_dy_histograms(const ScanPoint& pt, const ObservableSettings& obs,
       max_abs = std::max(max_abs, std::fabs(r->y_e[k] - r->y_i[k]));
   // Bounded by the box (a member whose disk left it has failed, Failure::Escaped), so the bin
   // count stays small and within int whatever a member reports.
-  max_abs = std::min(max_abs, H + 4.0 * largest_radius(pt.params));
+  max_abs = std::min(max_abs, escape_height(pt.params));
   const int n_hist = std::max(1, static_cast<int>(std::floor(max_abs / obs.abs_dy_bin)) + 1);
   for (int k = 0; k <= n_hist; ++k) pr.abs_dy_edges.push_back(k * obs.abs_dy_bin);
   pr.abs_dy_counts.assign(static_cast<std::size_t>(n_hist), 0.0);

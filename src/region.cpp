@@ -19,8 +19,9 @@ namespace {
 // A region grows when a moving disk comes this fraction of its radius near its edge.
 constexpr double kMargin = 0.4;
 
-// Seeds binned in square cells of edge `cutoff` (periodic in x): the (squared) distance from a
-// point to the nearest seed, exact whenever it is below the cutoff.
+// Seeds binned in cells at least `cutoff` on a side (L_x / floor(L_x / cutoff) wide, periodic in
+// x): the (squared) distance from a point to the nearest seed, exact whenever it is below the
+// cutoff.
 class SeedGrid {
  public:
   SeedGrid() = default;

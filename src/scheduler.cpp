@@ -102,7 +102,6 @@ MemberRun::MemberRun(const Scan& scan, const std::vector<Member>& members, const
   make_regions();
   slots_.resize(n_slots_);
   for (const auto& snap : resume) snapshot_of_[snap.result.member.id] = &snap;
-  progress_.members_total = static_cast<int>(members.size());
   for (const auto& m : members) total_cost_ += expected_cost(m);
   wake_ = kWakeFactor * scan_.rest.speed;
 }
@@ -111,7 +110,7 @@ SystemSetup MemberRun::setup_of(const Member& m) const {
   SystemSetup su;
   su.params = m.params;
   su.params.gravity_on = !deposits_ballistically(m);              // B and C deposit without gravity
-  if (m.protocol == Protocol::A) su.params.capture_radius = 1.0;  // Bo = inf: plain BD
+  if (m.protocol == Protocol::A) su.params.capture_radius = 1.0;  // A drops by touch: none
   su.capacity = capacity_;
   su.grid_cells = cells_;
   su.seed = scan_.seed;
@@ -270,12 +269,11 @@ void MemberRun::go_on_from(std::size_t k, const MemberSnapshot& snap) {
   progress_.disks_before += sl.deposited;
 }
 
-// Whether a disk of a finished member lies outside its box: above H + 4 R_max (no disk is placed
-// above H, and none rises under gravity and inelastic contacts) or with its centre below the
-// floor. Only a solution that blew up gets there; its member fails (Failure::Escaped) instead of
-// passing its displacements of hundreds of R into the aggregates.
+// Whether a disk of a finished member lies outside its box: above escape_height or with its
+// centre below the floor. Only a solution that blew up gets there; its member fails
+// (Failure::Escaped) instead of passing its displacements of hundreds of R into the aggregates.
 static bool escaped(const std::vector<Disk>& disks, const SystemParams& p) {
-  const double top = p.height + 4.0 * largest_radius(p);
+  const double top = escape_height(p);
   return std::any_of(disks.begin(), disks.end(),
                      [&](const Disk& d) { return !(d.y <= top) || d.y < 0.0; });
 }

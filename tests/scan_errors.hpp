@@ -34,8 +34,9 @@ inline void expect_refused(const std::vector<Case>& cases) {
     EXPECT_NE(msg.find(c.expect), std::string::npos)
         << "input:\n"
         << c.text << "message: " << msg << "\nexpected to contain: " << c.expect;
-    if (c.expect.rfind("bad.toml: ", 0) != 0)
+    if (c.expect.rfind("bad.toml: ", 0) != 0) {
       EXPECT_TRUE(std::regex_search(msg, at_a_place)) << "input:\n" << c.text << "message: " << msg;
+    }
   }
 }
 

@@ -447,6 +447,24 @@ TEST(Batch, ASystemReadsBackInOneCopy) {
   EXPECT_EQ(batch.state(1).draws, far.draws);
 }
 
+// A system's disks load into the periodic box as given where they lie within it, to the bit (x =
+// 0.1 in a box 200 R wide: fmod(fmod(x, L) + L, L) gives 0.1 - 5.7e-15), and shifted by whole
+// periods where they lie outside it.
+TEST(Batch, DisksLoadIntoTheBoxWithoutRounding) {
+  SystemParams p = bare_params(200.0, 20.0);
+  p.gravity_on = false;
+  std::vector<Disk> d(3);
+  d[0].x = 0.1;
+  d[1].x = -0.25;  // 199.75
+  d[2].x = 210.5;  // 10.5
+  for (std::size_t k = 0; k < 3; ++k) d[k].y = 5.0 + 3.0 * static_cast<double>(k);
+  Batch batch({setup(p, d)});
+  const auto loaded = batch.disks(0);
+  EXPECT_EQ(loaded[0].x, 0.1);
+  EXPECT_EQ(loaded[1].x, 200.0 - 0.25);
+  EXPECT_EQ(loaded[2].x, 10.5);
+}
+
 // Writing a system is one kernel and one copy too (on a device, one transfer and no wait), and a
 // write that names a disk twice, a disk or a contact slot that is not there changes nothing.
 // Disks by index: the values read back as written (x wrapped into the box), and the fastest disk
@@ -470,10 +488,11 @@ TEST(Batch, DisksAreWrittenInOneCopy) {
   once([&] { batch.set_disks(s, {last, 0}, written); });
   expect[static_cast<std::size_t>(last)] = written[0];
   expect[0] = written[1];
-  for (int a : {last, 0}) {  // wrapped into [0, width) where outside it, an x within kept exactly
-    double& x = expect[static_cast<std::size_t>(a)].x;
-    if (!(x >= 0.0 && x < width)) x = std::fmod(std::fmod(x, width) + width, width);
-  }
+  // Wrapped into [0, width) by a whole period where outside it (x - L_x is exact for x in
+  // [L_x, 2 L_x)), an x within kept exactly.
+  double& moved = expect[static_cast<std::size_t>(last)].x;
+  ASSERT_TRUE(moved >= width && moved < 2.0 * width);
+  moved -= width;
   expect_same_disks(batch.disks(s), expect, s);
   double fastest = 0.0;  // as the device measures a disk's speed (kernels/integrate.hpp)
   for (const auto& d : expect)

@@ -193,6 +193,13 @@ def residual_chi2(resid, resid_err, members, params):
     return z2 * (terms - params) / terms
 
 
+def scaled_replicas(total, rows):
+    """The total of the members' rows without each member in turn, scaled to the whole
+    ensemble's (n / (n - 1)): the replicas a jackknife of counts refits."""
+    n = len(rows)
+    return [(total - r) * n / (n - 1) for r in rows]
+
+
 def jackknife(values):
     """The jackknife error of leave-one-out estimates (rows: the member left out)."""
     v = np.asarray(values, float)
@@ -463,8 +470,7 @@ class Histogram:
 
     def replicas(self):
         """The other members' counts scaled to the whole ensemble's, one per member left out."""
-        n = self.members
-        return [(self.total - r) * n / (n - 1) for r in self.rows]
+        return scaled_replicas(self.total, self.rows)
 
     def fit(self, degree, use):
         """(coefficients (c0, c1, ...) of ln n, their errors, chi2, dof, the t's of the next two
@@ -564,10 +570,8 @@ class SliceMixture:
         return "the file has no per-member histogram counts, profile rows or members' tops"
 
     def replicas(self):
-        """The sum without each member in turn, scaled to the whole ensemble's (as
-        Histogram.replicas)."""
-        n = len(self.rows)
-        return [(self.total - r) * n / (n - 1) for r in self.rows]
+        """The sum without each member in turn, scaled to the whole ensemble's."""
+        return scaled_replicas(self.total, self.rows)
 
 
 def mixture_terms(hist, mixture):
@@ -715,13 +719,16 @@ def deposition_fluctuation_claims(point, path, where):
            f"{value:.1%} +- {error:.1%} in strips {x[0]:g}-{x[-1]:g} R, {members} members")
 
 
+# A point's system parameters but its protocol and Bond number, and what follows from Bo (the
+# cohesive force, the default time step) or sets units only (gravity, the disks' density): points
+# equal in these differ only in Bo, as far as the physics goes.
+SYSTEM_BUT_BOND = ("width", "height", "friction", "rolling_friction", "cohesion_range", "radius",
+                   "polydispersity", "capture_radius", "floor_cohesion")
+
+
 def same_system(attrs):
-    """A point's parameters but its Bond number (and what follows from it: the cohesive force, the
-    time step): points with equal keys differ only in Bo. Gravity and the disks' density set the
-    units, not the physics, which Bo carries."""
-    return tuple((k, float(attrs[k])) for k in sorted(attrs)
-                 if k in ("width", "height", "friction", "rolling_friction", "cohesion_range",
-                          "radius", "polydispersity", "capture_radius", "floor_cohesion"))
+    """The key of a point's SYSTEM_BUT_BOND values: points with equal keys differ only in Bo."""
+    return tuple((k, float(attrs[k])) for k in sorted(attrs) if k in SYSTEM_BUT_BOND)
 
 
 def deposition_fluctuation_order(f):

@@ -435,8 +435,7 @@ def mean_log(edges, counts, member_rows=None):
         if len(rows) >= 2:
             rest = rows.sum(axis=0) - rows  # each member left out in turn
             loo = (rest * centre).sum(axis=1) / rest.sum(axis=1)
-            k = len(rows)
-            return m, math.sqrt((k - 1) / k * ((loo - loo.mean()) ** 2).sum())
+            return m, float(jackknife(loo))
     var = (counts * (centre - m) ** 2).sum() / (n - 1)
     return m, math.sqrt(var / n)
 

@@ -45,8 +45,8 @@ except ImportError as e:  # pragma: no cover
 # Input the figures cannot be drawn from: the message and exit status 2, as claims.py and
 # compare.py (1 is left for errors while writing).
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from claims import (SHAPE_TAIL, Histogram, SliceMixture, check_result_file,  # noqa: E402
-                    shape_band, unusable)
+from claims import (SHAPE_TAIL, SYSTEM_BUT_BOND, Histogram, SliceMixture,  # noqa: E402
+                    check_result_file, shape_band, unusable)
 
 
 
@@ -157,8 +157,9 @@ def density_profiles(points, out, written):
     save(fig, out, "density_profiles.png", written)
 
 
-SCAN_KEYS = ("protocol", "bond_number", "capture_radius", "width", "height", "radius",
-             "polydispersity", "cohesion_range", "friction", "rolling_friction")
+# What tells series apart (claims.SYSTEM_BUT_BOND: not the time step, which the default sets
+# from Bo, nor gravity and the density, which set units).
+SCAN_KEYS = ("protocol", "bond_number") + SYSTEM_BUT_BOND
 
 
 def scan_value(g, key):

@@ -83,7 +83,8 @@ struct SystemStatus {
   double max_centre_speed = 0.0;  // max |v|
   // The largest speed the rest criterion compares with rest.speed (RestSettings::spin).
   double rest_speed(bool spin) const { return spin ? max_speed : max_centre_speed; }
-  int rest_steps = 0;  // consecutive steps below the rest speed with the solver converged
+  int rest_steps = 0;  // consecutive steps below the rest speed (the solver converged, where
+                       // RestSettings::converged asks it)
   bool at_rest = false;
   // The system is inside a step: its solve goes on in the next step() (the team solver's
   // SolverSettings::sweeps_per_launch, or a fused step's Newton round between the launches of

@@ -1,6 +1,6 @@
 // Formulas of the disks' sizes and of contact detection that the scan's validation
-// (src/scan.cpp), the batch's grid (src/batch.cpp), the relaxation regions (src/region.cpp) and
-// the slots' capacity (src/protocols.cpp) share (docs/MODEL.md, "Time step" and "Supported
+// (src/scan.cpp), the batch's grid (src/batch_state.cpp), the relaxation regions (src/region.cpp)
+// and the slots' capacity (src/protocols.cpp) share (docs/MODEL.md, "Time step" and "Supported
 // ranges").
 #pragma once
 #include <algorithm>
@@ -41,13 +41,17 @@ inline double grid_margin(const SystemParams& p, double height) {
                   detection_margin(p.time_step, fall_speed(g, height), g));
 }
 
+// Above it no disk of a sound solution lies: no disk is placed above H, and none rises under
+// gravity and inelastic contacts (a member with a disk beyond fails, Failure::Escaped).
+inline double escape_height(const SystemParams& p) { return p.height + 4.0 * largest_radius(p); }
+
 // Faster than any disk of the box can move: twice the speed of a fall from H + 4 R_max plus
 // what the cohesive pull-in of six contacts can add, m v^2 / 2 = 6 F_c d_c. A disk beyond it has
 // taken energy from no source in the model: the solution blew up (Failure::Runaway). Infinite
 // where nothing bounds it (Bo = inf has no gravity and no dynamics).
 inline double runaway_speed(const SystemParams& p) {
   const double g = std::abs(p.gravity);
-  const double fall = fall_speed(g, p.height + 4.0 * largest_radius(p));
+  const double fall = fall_speed(g, escape_height(p));
   const double pull = std::sqrt(2.0 * 6.0 * p.cohesive_force() * p.cohesion_range /
                                 p.reference_mass());
   const double v = 2.0 * (fall + pull);

@@ -114,7 +114,6 @@ constexpr long kLongRelaxation = 1000;
 // Reported periodically during a run (and after the last member) for progress messages.
 struct Progress {
   int members_done = 0;
-  int members_total = 0;
   // Disks deposited by this run's members, those deposited before a resume included.
   long disks_deposited = 0;
   // Of those, the disks the members that went on from their snapshots had deposited before this

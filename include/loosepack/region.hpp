@@ -3,8 +3,9 @@
 // until it is at rest again, the disks within a radius of the new disk are stepped in a small
 // system of their own (a slot of a second batch), with the disks around them held fixed; when
 // motion reaches the region's margin the region grows around every moving disk. When the region
-// is at rest its disks are written back into the whole system, whose rest is then checked with
-// the ordinary rest criterion (by the protocol, in the whole system).
+// is at rest its disks are written back into the whole system, whose rest is then checked there
+// by the protocol: rest.steps steps without a disk above the check's speed, converged or not
+// (docs/MODEL.md, "Relaxation regions").
 #pragma once
 #include <memory>
 #include <vector>
@@ -52,8 +53,8 @@ class Regions {
   enum class State {
     Running,  // still moving inside the region (it may have grown)
     Rested,   // at rest by the rest criterion; written back into the whole system
-    Overflow  // outgrew the slot (written back), or failed (nothing written back): relax the
-              // whole system
+    Overflow  // outgrew the slot (written back), failed (nothing written back), or no region
+              // runs in slot s: relax the whole system
   };
   // After step(): the state of region s. Grows the region (a new small system around every
   // disk that moves) when a disk faster than the rest speed is further than 0.6 radius
