@@ -398,11 +398,6 @@ double polynomial(const Fit& f, double x) {
   return v;
 }
 
-Fit slice_parabola_fit(const std::vector<double>& ye, const std::vector<double>& dy,
-                       const std::vector<double>& sigma, double H) {
-  return basis_fit(ye, dy, sigma, 1, slice_basis(H));
-}
-
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& sigma) {
   std::vector<double> lx, ly, ls;

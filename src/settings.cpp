@@ -26,10 +26,12 @@ using Type = SettingKey::Type;
       nullptr, nullptr, nullptr, nullptr,                                         \
       [](const Scan& s) { return s.observables.name##_given; }
 
-std::vector<SettingKey> make_table() {
-  constexpr double kLarge = 1e9;
+// The upper end of a range that bounds nothing in practice.
+constexpr double kLarge = 1e9;
+
+// [solver]
+std::vector<SettingKey> solver_keys() {
   return {
-      // [solver]
       {"solver", "kind", Type::Choice, 0, 0, "", "the contact solver", "solver_kind", nullptr,
        nullptr,
        [] {
@@ -93,14 +95,24 @@ std::vector<SettingKey> make_table() {
       {"solver", "overlap_correction", Type::Real, 0.0, 1.0, "",
        "beta: fraction of every overlap removed per step", "solver_overlap_correction",
        LOOSEPACK_FIELD(solver.overlap_correction), nullptr, nullptr},
-      // [rest]
+  };
+}
+
+// [rest]
+std::vector<SettingKey> rest_keys() {
+  return {
       {"rest", "speed", Type::Real, 1e-12, 1.0, "sqrt(g R)", "at rest below this speed",
        "rest_speed", LOOSEPACK_FIELD(rest.speed), nullptr, nullptr},
       {"rest", "steps", Type::Integer, 1, 1e6, "steps", "at rest for this many steps in a row",
        "rest_steps", LOOSEPACK_FIELD(rest.steps), nullptr, nullptr},
       {"rest", "converged", Type::Bool, 0, 1, "", "rest needs converged solves", "rest_converged",
        LOOSEPACK_FIELD(rest.converged), nullptr, nullptr},
-      // [protocol]
+  };
+}
+
+// [protocol]
+std::vector<SettingKey> protocol_keys() {
+  return {
       {"protocol", "max_relax_time", Type::Real, 1e-3, kLarge, "sqrt(R/g)",
        "A: relaxation after one disk capped here", "max_relax_time",
        LOOSEPACK_FIELD(protocol.max_relax_time), nullptr, nullptr},
@@ -144,7 +156,12 @@ std::vector<SettingKey> make_table() {
          return false;
        },
        nullptr, nullptr},
-      // [observables]
+  };
+}
+
+// [observables]
+std::vector<SettingKey> observables_keys() {
+  return {
       {"observables", "strip_width", Type::Real, 1e-3, 1e6, "R", "nu(y) strip width", "strip_width",
        LOOSEPACK_FIELD(observables.strip_width), nullptr, nullptr},
       {"observables", "lower_half_from", Type::Real, 0.0, kLarge, "R",
@@ -169,6 +186,14 @@ std::vector<SettingKey> make_table() {
        "C: steps between trajectory samples", "trajectory_interval",
        LOOSEPACK_FIELD(observables.trajectory_interval), nullptr, nullptr},
   };
+}
+
+// Every row, section by section.
+std::vector<SettingKey> make_table() {
+  std::vector<SettingKey> table;
+  for (auto section : {solver_keys(), rest_keys(), protocol_keys(), observables_keys()})
+    table.insert(table.end(), section.begin(), section.end());
+  return table;
 }
 
 #undef LOOSEPACK_FIELD

@@ -49,10 +49,6 @@ Fit polynomial_fit(const std::vector<double>& x, const std::vector<double>& y,
                    const std::vector<double>& sigma, int degree);
 double polynomial(const Fit& f, double x);
 
-// The slice model's parabola Delta y(y_e) = -a y_e (1 - y_e / H): one parameter a.
-Fit slice_parabola_fit(const std::vector<double>& ye, const std::vector<double>& dy,
-                       const std::vector<double>& sigma, double H);
-
 // Power law y = A x^p, fitted as ln y = ln A + p ln x (sigma_ln = sigma / y); coef = {ln A, p}.
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& sigma);
