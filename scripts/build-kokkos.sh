@@ -28,17 +28,19 @@ case "$backend" in
     ;;
 esac
 bash scripts/install-deps.sh
+SUDO=""  # as scripts/install-deps.sh: root writes the sources and /opt, anyone else through sudo
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
 add_source() {  # add_source FILE TYPES COMPONENTS: a bookworm entry, unless present
   [ -f "/etc/apt/sources.list.d/$1" ] && return 0
-  cat >"/etc/apt/sources.list.d/$1" <<SRC
+  $SUDO tee "/etc/apt/sources.list.d/$1" >/dev/null <<SRC
 Types: $2
 URIs: http://deb.debian.org/debian
 Suites: bookworm
 Components: $3
 Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
 SRC
-  apt-get update -qq
+  $SUDO apt-get update -qq
 }
 
 kokkos_options=(-DKokkos_ENABLE_SERIAL=ON -DCMAKE_CXX_STANDARD=17)
@@ -54,7 +56,7 @@ if [ "$backend" = cuda ]; then
   esac
   if [ ! -x /usr/lib/nvidia-cuda-toolkit/bin/nvcc ] || ! command -v g++-11 >/dev/null; then
     add_source loosepack-nonfree.sources deb "contrib non-free"
-    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+    $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
       nvidia-cuda-toolkit g++-11 >/dev/null
   fi
   # Debian's CUDA first, and its ptxas in /usr/bin (a machine may have another toolkit, whose
@@ -95,11 +97,14 @@ if [ ! -f "$prefix/lib/cmake/Kokkos/KokkosConfig.cmake" ]; then
     "${kokkos_options[@]}" >"$work/configure.log" 2>&1 ||
     { cat "$work/configure.log"; echo "build-kokkos.sh: Kokkos configure failed" >&2; exit 1; }
   cmake --build "$work/build" -j"$(nproc)"
-  cmake --install "$work/build" >/dev/null
-  if [ "$backend" = cuda ]; then echo "$arch" >"$stamp"; fi
+  $SUDO cmake --install "$work/build" >/dev/null
+  if [ "$backend" = cuda ]; then echo "$arch" | $SUDO tee "$stamp" >/dev/null; fi
   rm -rf "$work"
 fi
+log=$(mktemp)
 cmake -S . -B "build-$backend" -DKokkos_ROOT="$prefix" -DCMAKE_BUILD_TYPE=Release \
-  "${loosepack_options[@]}" >/dev/null
+  "${loosepack_options[@]}" >"$log" 2>&1 ||
+  { cat "$log"; echo "build-kokkos.sh: configuring build-$backend failed" >&2; exit 1; }
+rm -f "$log"
 cmake --build "build-$backend" -j"$(nproc)"
 echo "build-kokkos.sh: built build-$backend/ against $prefix"
