@@ -1,12 +1,13 @@
 """bench/histogram_calibration.py: its synthetic members have the shapes they claim, disk by disk
-(the mean |Delta y| of each shape's formula, within the members' scatter), and a short run of the
-study gives shares of ensembles."""
+(the mean |Delta y| of each shape's formula, within the members' scatter), and the study's
+rejection rates are the tests' design rate for a right shape."""
 import math
 import os
 
 import numpy as np
 from scipy.special import ndtr
 
+from rates import binomial_quantile
 from script_module import load_script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -30,6 +31,14 @@ def test_members_have_the_shapes_mean():
             assert abs(means.mean() - mean) < 4 * error + 0.03, (shape, sizes, means.mean(), mean)
 
 
-def test_a_short_study_gives_shares():
-    shares = calibration.rejections(4, "gaussian", "light", 3, np.random.default_rng(1))
-    assert all(0.0 <= s <= 1.0 for s in shares) and len(shares) == 3
+def test_a_right_shape_is_rejected_at_the_terms_rate_and_a_wrong_one_mostly():
+    """100 ensembles of 8 members: the true shape's next two terms reject it at their design
+    rate, 1 % (at most the binomial's 99.9 % quantile of 100 draws); the exponential's terms
+    reject it for a Gaussian more often than not (the study's power with light avalanches)."""
+    bound = binomial_quantile(100, 0.01) / 100
+    by_terms, _, _ = calibration.rejections(8, "exponential", "light", 100,
+                                            np.random.default_rng(1))
+    assert by_terms <= bound
+    by_terms, _, exponential_rejected = calibration.rejections(8, "gaussian", "light", 100,
+                                                               np.random.default_rng(2))
+    assert by_terms <= bound and exponential_rejected > 0.5

@@ -1,11 +1,12 @@
 """bench/slice_sum_calibration.py: its synthetic disks scatter about the profile as it says (the
-avalanche's shared offset and each disk's own jitter add their variances), and a short run of the
-study gives shares of ensembles."""
+avalanche's shared offset and each disk's own jitter add their variances), and the study rejects
+a right sum at its bound's rate."""
 import math
 import os
 
 import numpy as np
 
+from rates import binomial_quantile
 from script_module import load_script
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -28,7 +29,10 @@ def test_disks_scatter_about_the_profile():
         assert abs(np.mean(variances) - expected) < 0.1 * expected, (sizes, np.mean(variances))
 
 
-def test_a_short_study_gives_shares():
-    trials, failed, sum_t = calibration.rejections(8, "light", 2, np.random.default_rng(1))
-    assert trials == 2 and 0 <= failed <= trials
-    assert sum_t < 0  # the arch's sum has a longer tail towards small |Delta y|
+def test_a_right_sum_is_rejected_at_the_bounds_rate():
+    """40 ensembles of 8 members: the right sum's cubic is beyond its 99 % bound in at most the
+    binomial's 99.9 % quantile of 40 draws at 1 %; the arch's sum has a longer tail towards small
+    |Delta y| (its cubic's mean t negative)."""
+    trials, failed, sum_t = calibration.rejections(8, "light", 40, np.random.default_rng(1))
+    assert trials == 40 and failed <= binomial_quantile(40, 0.01)
+    assert sum_t < 0
