@@ -46,7 +46,7 @@ except ImportError as e:  # pragma: no cover
 # compare.py (1 is left for errors while writing).
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from claims import (SHAPE_TAIL, SYSTEM_BUT_BOND, Histogram, SliceMixture,  # noqa: E402
-                    check_result_file, shape_band, unusable)
+                    check_result_file, shape_band, text, unusable)
 
 
 
@@ -79,10 +79,6 @@ def sem(group):
 
 
 SEVERAL_FILES = False  # main(): several files drawn together, each point labelled with its file
-
-
-def text(v):
-    return v.decode() if isinstance(v, bytes) else str(v)
 
 
 def file_tag(g):
