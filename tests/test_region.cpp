@@ -270,6 +270,59 @@ TEST(Region, NoSeedStartsNoRegion) {
   EXPECT_TRUE(regions.begin(batch, 0, {{bottom.x, bottom.y}}, accurate().tolerance));
 }
 
+namespace {
+// The whole system's disks that move in a region.
+std::vector<int> moving_of(const RegionCut& cut) {
+  std::vector<int> moving;
+  for (std::size_t k = 0; k < cut.index.size(); ++k)
+    if (cut.moving[k]) moving.push_back(cut.index[k]);
+  return moving;
+}
+}  // namespace
+
+// A region grows where motion reaches its edge (docs/MODEL.md, "Relaxation regions"): a row of
+// disks 2.5 R apart on the floor, without gravity, a region of radius 5.5 R seeded on the first;
+// the third, 5 R from the seed (beyond 0.6 of the radius), moves at 0.5 sqrt(gR): after the first
+// step the region is made again around it (its seed there) and holds the disks near it. In a slot
+// of 5 disks, which the first region fits and the grown one does not, the region hands the
+// system back (Overflow) with its disks written back.
+TEST(Region, MotionNearTheEdgeGrowsTheRegionOrHandsItBack) {
+  auto p = bare_params(40.0, 10.0);
+  p.gravity_on = false;
+  std::vector<Disk> row(10);
+  for (std::size_t k = 0; k < row.size(); ++k) {
+    row[k].x = 2.0 + 2.5 * static_cast<double>(k);
+    row[k].y = 1.0;
+  }
+  row[2].vx = 0.5;
+  for (const int slot : {64, 5}) {
+    SCOPED_TRACE("slot of " + std::to_string(slot) + " disks");
+    Batch batch({setup(p, row, 64)}, accurate());
+    RegionSettings rs;
+    rs.radius = 5.5;
+    rs.max_disks = slot;
+    rs.max_height = 10.0;
+    Regions regions(1, {p}, rs, accurate(), RestSettings{});
+    ASSERT_TRUE(regions.begin(batch, 0, {{2.0, 1.0}}, accurate().tolerance));
+    ASSERT_EQ(regions.state(0).cut.seeds.size(), 1u);
+    EXPECT_EQ(moving_of(regions.state(0).cut), (std::vector<int>{0, 1, 2}));  // within 5.5 R of 2
+    regions.step();
+    const Regions::State state = regions.poll(batch, 0);
+    if (slot == 5) {
+      EXPECT_EQ(state, Regions::State::Overflow);
+      EXPECT_GT(batch.disks(0)[2].x, row[2].x);  // its step written back
+      continue;
+    }
+    ASSERT_EQ(state, Regions::State::Running);
+    const RegionCut cut = regions.state(0).cut;
+    const bool seeded_there = std::any_of(cut.seeds.begin(), cut.seeds.end(), [&](const auto& q) {
+      return std::fabs(q.x - row[2].x) < 0.1 && std::fabs(q.y - 1.0) < 1e-9;
+    });
+    EXPECT_TRUE(seeded_there);
+    EXPECT_EQ(moving_of(cut), (std::vector<int>{0, 1, 2, 3, 4}));  // within 5.5 R of x = 7
+  }
+}
+
 // The pace of the Newton rounds (Batch::SolverPace) belongs to the deposit, not to one region:
 // a region starts from the whole system's pace and hands its own back, and only reset() starts
 // afresh. A column's new top disk relaxed in a region, with a sweep cap of 40 that some steps
