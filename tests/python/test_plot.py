@@ -34,17 +34,23 @@ def point(f, k, protocol="C", height=16.0, **attrs):
     return g
 
 
+def collapse_increase_axis(path, figures, mean, sem):
+    """The log-axis panel of collapse_increase for protocol-C points of these dnu/nu_i and errors
+    (heights 16, 32, ... R; nu_i 0.30, 0.35, ...)."""
+    with h5py.File(path, "w") as f:
+        points = [point(f, k, height=16.0 * (k + 1), relative_increase_mean=m,
+                        relative_increase_sem=s, nu_initial_mean=0.3 + 0.05 * k)
+                  for k, (m, s) in enumerate(zip(mean, sem))]
+        plot.collapse_increase(None, points, os.path.dirname(path), [])
+    return figures["collapse_increase.png"].axes[1]
+
+
 def test_a_bar_to_zero_but_for_round_off_is_cut(tmp_path, figures):
     """Two members of which one did not collapse: the error is the mean, less round-off; its bar
     is cut like one that reaches 0, and the log axis does not stretch over decades for it."""
     mean = [0.02, 0.03, 0.05]
     sem = [0.005, 0.03 * (1 - 1e-12), 0.01]
-    with h5py.File(tmp_path / "r.h5", "w") as f:
-        points = [point(f, k, height=16.0 * (k + 1), relative_increase_mean=m,
-                        relative_increase_sem=s, nu_initial_mean=0.3 + 0.05 * k)
-                  for k, (m, s) in enumerate(zip(mean, sem))]
-        plot.collapse_increase(None, points, str(tmp_path), [])
-    ax = figures["collapse_increase.png"].axes[1]
+    ax = collapse_increase_axis(tmp_path / "r.h5", figures, mean, sem)
     cut = [line for line in ax.lines if line.get_marker() == "v"]
     assert len(cut) == 1 and len(cut[0].get_ydata()) == 1
     low, high = ax.get_ylim()
@@ -56,12 +62,7 @@ def test_collapse_increase_on_a_log_axis_cuts_bars_that_reach_zero(tmp_path, fig
     every point, marked "v"; a point at or below 0 is left out; the title says both."""
     mean = [0.02, 0.01, 0.05, -0.01]
     sem = [0.005, 0.015, 0.01, 0.02]  # the second reaches -0.005
-    with h5py.File(tmp_path / "c.h5", "w") as f:
-        points = [point(f, k, height=16.0 * (k + 1), relative_increase_mean=m,
-                        relative_increase_sem=s, nu_initial_mean=0.3 + 0.05 * k)
-                  for k, (m, s) in enumerate(zip(mean, sem))]
-        plot.collapse_increase(None, points, str(tmp_path), [])
-    ax = figures["collapse_increase.png"].axes[1]
+    ax = collapse_increase_axis(tmp_path / "c.h5", figures, mean, sem)
     bars = [seg for c in ax.collections if isinstance(c, LineCollection)
             for seg in c.get_segments()]
     assert len(bars) == 3
