@@ -9,6 +9,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <type_traits>
 
@@ -456,28 +457,10 @@ std::string what_differs(const std::string& directory, const Scan& scan) {
     return "a setting of the scan file was changed, or the program rebuilt, since";
   if (program != program_identity())
     return "it was written by " + program + ", this is " + program_identity();
-  std::istringstream here(scan.content);
-  std::string theirs, ours, section;
-  for (;;) {
-    const bool more_theirs = static_cast<bool>(std::getline(f, theirs));
-    const bool more_ours = static_cast<bool>(std::getline(here, ours));
-    if (!more_theirs && !more_ours) break;
-    if (more_theirs && more_ours && theirs == ours) {
-      if (!ours.empty() && ours.front() == '[') section = ours.substr(1, ours.find(']') - 1);
-      continue;
-    }
-    const auto key = [&](const std::string& line) {
-      const std::size_t eq = line.find(" = ");
-      return eq == std::string::npos ? std::string() : line.substr(0, eq);
-    };
-    const std::string named = key(more_ours ? ours : theirs);
-    const std::string where = named.empty()
-                                  ? "the settings"
-                                  : "key '" + (section.empty() ? "" : section + ".") + named + "'";
-    return where + " differs: `" + (more_theirs ? theirs : "(none)") +
-           "` in the checkpoint's scan, `" + (more_ours ? ours : "(none)") + "` in this one";
-  }
-  return "a setting of the scan file was changed since";
+  const std::string theirs((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::string differs =
+      first_difference(theirs, scan.content, "the checkpoint's scan", "this one");
+  return differs.empty() ? "a setting of the scan file was changed since" : differs;
 }
 }  // namespace
 
@@ -544,7 +527,9 @@ std::string remove_checkpoint(const std::string& directory) {
   if (ec == std::errc::no_such_file_or_directory) return "";  // none was written
   if (ec) return "cannot remove " + directory + ": " + ec.message();
   fs::remove_all(gone, ec);
-  return "";
+  return ec ? "cannot remove " + gone + " (" + directory +
+                  ", renamed on its way out): " + ec.message()
+            : "";
 }
 
 }  // namespace loosepack

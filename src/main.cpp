@@ -8,6 +8,7 @@
 #include <Kokkos_Core.hpp>
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -72,7 +73,8 @@ std::string output_path_problem(const std::string& out, const std::string& input
   long most = ::pathconf(dir.c_str(), _PC_NAME_MAX);
   if (most <= 0) most = 255;
   for (const std::string& beside :
-       {temporary_of(out, kLargestPid), out + ".lock", checkpoint_directory(out)}) {
+       {temporary_of(out, kLargestPid), out + ".lock",
+        temporary_of(checkpoint_directory(out), kLargestPid)}) {  // the checkpoint on its way out
     const std::string name = fs::path(beside).filename().string();
     if (static_cast<long>(name.size()) > most)
       return "the name of " + out + " is too long: the program writes " + name + " beside it, " +
@@ -132,21 +134,26 @@ const char* signal_name(int s) {
 }
 
 // Set by a stop signal: the run stops at the end of the step, checkpoints and exits. A second
-// signal ends the program at once. Where g_say_stop is set (rank 0 of a run that talks) the
-// first one is acknowledged at once, since the saving can take a while.
+// SIGINT or SIGTERM ends the program at once (a user's, or a batch system's last word); the
+// others are not repeated by a user and may be by the system (SIGXCPU every CPU second past the
+// soft limit), so a repeat of them leaves the saving to go on. Where g_say_stop is set (rank 0
+// of a run that talks) the first one is acknowledged at once, since the saving can take a while.
 volatile std::sig_atomic_t g_signal = 0;
 volatile std::sig_atomic_t g_say_stop = 0;
 extern "C" void on_signal(int s) {
   if (g_signal != 0) {
+    if (s != SIGINT && s != SIGTERM) return;
     std::signal(s, SIG_DFL);
     std::raise(s);
     return;
   }
   g_signal = s;
   static constexpr char kSaving[] =
-      "loosepack: stopping at the end of the step to save the checkpoint (a second signal ends "
-      "the program at once, unsaved)\n";
+      "loosepack: stopping at the end of the step to save the checkpoint (a second SIGINT or "
+      "SIGTERM ends the program at once, unsaved)\n";
+  const int saved = errno;  // the interrupted code may read it (a write to a closed stderr sets it)
   if (g_say_stop) (void)!::write(STDERR_FILENO, kSaving, sizeof kSaving - 1);
+  errno = saved;
 }
 
 // The exit codes of the program (docs/OUTPUT.md, "Exit codes").
@@ -257,8 +264,8 @@ std::string claim_output_path(OutputLock& lock, const std::string& out,
   // out) and of a checkpoint part.
   const std::string ck = checkpoint_directory(out);
   std::vector<std::string> stale = remove_stale_temporaries(out);
-  for (const auto& f : remove_stale_temporaries(ck)) stale.push_back(f);
-  for (const auto& f : remove_stale_temporaries_in(ck)) stale.push_back(f);
+  for (const auto& f : remove_stale_temporaries(ck, true)) stale.push_back(f);
+  for (const auto& f : remove_stale_temporaries_in(ck, "")) stale.push_back(f);
   for (const auto& f : stale)
     std::cerr << "loosepack: removed " << f << ", left by a run that ended while writing\n";
   return why;

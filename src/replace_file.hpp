@@ -124,30 +124,42 @@ inline bool stale_temporary(const std::string& tail) {
   return ::kill(static_cast<pid_t>(std::stol(pid)), 0) != 0 && errno == ESRCH;
 }
 
-// The stale temporaries in `directory` (files or directories) whose names begin with `prefix`
-// followed by ".tmp.", or of any name when `prefix` is empty: removed; returns their names (for
-// a message).
+// The stale temporaries in `directory` whose names begin with `prefix` followed by ".tmp.", or
+// of any name when `prefix` is empty: removed; returns their names (for a message). Files only,
+// unless `directories`: then a directory too, where its name holds this host (as the program
+// names a checkpoint on its way out), with everything in it. A user's file or directory that
+// merely looks like one is left alone where it can be told apart.
 inline std::vector<std::string> remove_stale_temporaries_in(const std::string& directory,
-                                                            const std::string& prefix = "") {
+                                                            const std::string& prefix,
+                                                            bool directories = false) {
   namespace fs = std::filesystem;
   std::vector<std::string> removed;
   std::error_code ec;
+  const std::string mark = prefix + ".tmp.";
   for (const auto& e : fs::directory_iterator(directory, ec)) {
     const std::string name = e.path().filename().string();
-    const std::string mark = prefix + ".tmp.";
     const std::size_t at =
         prefix.empty() ? name.rfind(mark) : (name.rfind(mark, 0) == 0 ? 0 : std::string::npos);
-    if (at == std::string::npos || !stale_temporary(name.substr(at + mark.size()))) continue;
-    if (fs::remove_all(e.path(), ec) > 0 && !ec) removed.push_back(e.path().string());
+    if (at == std::string::npos) continue;
+    const std::string tail = name.substr(at + mark.size());
+    if (!stale_temporary(tail)) continue;
+    std::error_code kind;
+    if (e.is_directory(kind)) {
+      if (!directories || tail.rfind(host_tag() + ".", 0) != 0) continue;
+      if (fs::remove_all(e.path(), ec) > 0 && !ec) removed.push_back(e.path().string());
+    } else if (e.is_regular_file(kind) && fs::remove(e.path(), ec)) {
+      removed.push_back(e.path().string());
+    }
   }
   return removed;
 }
 
-// The stale temporaries of `path` (`<path>.tmp.<host>.<pid>`: replace_file's, or a checkpoint
-// directory on its way out): removed; returns their names.
-inline std::vector<std::string> remove_stale_temporaries(const std::string& path) {
+// The stale temporaries of `path` (`<path>.tmp.<host>.<pid>`): replace_file's files, and with
+// `directories` a directory of that name (a checkpoint on its way out); returns their names.
+inline std::vector<std::string> remove_stale_temporaries(const std::string& path,
+                                                         bool directories = false) {
   return remove_stale_temporaries_in(directory_of_path(path),
-                                     std::filesystem::path(path).filename().string());
+                                     std::filesystem::path(path).filename().string(), directories);
 }
 
 }  // namespace loosepack

@@ -469,10 +469,17 @@ bool real_valued(const std::string& section, const std::string& key) {
   return false;
 }
 
+// An array's integers written as reals.
+void reals_in(toml::array& values) {
+  for (std::size_t k = 0; k < values.size(); ++k)
+    if (const auto r = exact_real(values.get(k)))
+      values.replace(values.cbegin() + static_cast<std::ptrdiff_t>(k), *r);
+}
+
 // The integers of a table's real-valued keys written as reals, so that `24` and `24.0`, `100`
-// and `1e2` are one setting: a value, an axis's values, a range's `from` and `to`. Integer-valued
-// keys (seeds, a range's `points`, the integer settings) keep theirs, so that the identity still
-// parses as a scan.
+// and `1e2` are one setting: a value, an axis's values, a range's `from`, `to` and `also`.
+// Integer-valued keys (seeds, a range's `points`, the integer settings) keep theirs, so that the
+// identity still parses as a scan.
 void reals_in(toml::table& table, const std::string& section) {
   std::vector<std::string> keys;
   for (auto&& [key, value] : table)
@@ -482,12 +489,11 @@ void reals_in(toml::table& table, const std::string& section) {
     if (const auto real = exact_real(value)) {
       table.insert_or_assign(key, *real);
     } else if (auto* axis = value->as_array()) {
-      for (std::size_t k = 0; k < axis->size(); ++k)
-        if (const auto r = exact_real(axis->get(k)))
-          axis->replace(axis->cbegin() + static_cast<std::ptrdiff_t>(k), *r);
+      reals_in(*axis);
     } else if (auto* range = value->as_table()) {
       for (const char* end : {"from", "to"})
         if (const auto r = exact_real(range->get(end))) range->insert_or_assign(end, *r);
+      if (auto* also = range->get_as<toml::array>("also")) reals_in(*also);
     }
   }
 }
@@ -1115,6 +1121,52 @@ void ScanParser::warn_unresolved_barrier(const std::vector<ScanPoint>& points) {
 }
 
 }  // namespace
+
+namespace {
+// Every leaf of a parsed identity as (key, value as toml++ writes it), in the table's order:
+// `section.key`, `point[k].key` for the k-th [[point]], a range's `system.height.from`.
+void leaves(const toml::node& node, const std::string& key,
+            std::vector<std::pair<std::string, std::string>>& out) {
+  if (const auto* table = node.as_table()) {
+    for (auto&& [k, v] : *table)
+      leaves(v, key.empty() ? std::string(k.str()) : key + "." + std::string(k.str()), out);
+  } else if (const auto* array = node.as_array(); array && array->is_array_of_tables()) {
+    for (std::size_t i = 0; i < array->size(); ++i)
+      leaves(*array->get(i), key + "[" + std::to_string(i) + "]", out);
+  } else {
+    std::ostringstream value;
+    if (const auto* a = node.as_array())
+      value << *a;
+    else
+      node.visit([&](auto&& v) { value << v; });
+    out.emplace_back(key, value.str());
+  }
+}
+}  // namespace
+
+std::string first_difference(const std::string& a, const std::string& b, const std::string& a_name,
+                             const std::string& b_name) {
+  std::vector<std::pair<std::string, std::string>> in_a, in_b;
+  try {
+    leaves(toml::parse(a), "", in_a);
+    leaves(toml::parse(b), "", in_b);
+  } catch (const toml::parse_error&) {
+    return a == b ? "" : "the settings of " + a_name + " and " + b_name + " differ";
+  }
+  const auto value_in = [](const auto& leaves_of, const std::string& key) {
+    for (const auto& [k, v] : leaves_of)
+      if (k == key) return v;
+    return std::string("(none)");
+  };
+  for (const auto* side : {&in_b, &in_a})
+    for (const auto& leaf : *side) {
+      const std::string& key = leaf.first;
+      const std::string va = value_in(in_a, key), vb = value_in(in_b, key);
+      if (va != vb)
+        return "key '" + key + "' is `" + va + "` in " + a_name + " and `" + vb + "` in " + b_name;
+    }
+  return "";
+}
 
 Scan parse_scan(const std::string& text, const std::string& file) {
   return ScanParser(text, file).parse();

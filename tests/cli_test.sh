@@ -200,6 +200,16 @@ msg=$("$exe" run "$dir/good.toml" -o "$dir/$long" -q 2>&1); rc=$?
 set -e
 [ "$rc" -eq 2 ] && grep -q "is too long: the program writes" <<< "$msg" || fail "long name (exit $rc): $msg"
 ls "$dir" | grep -q '^aaaa' && fail "a refused long name left a file"
+# ... and one whose own temporary fits but whose checkpoint's, renamed on its way out
+# (`<out>.checkpoint.tmp.<host>.<pid>`), would not: a finished run would leave its checkpoint.
+host=$(hostname | sed 's/[^A-Za-z0-9_-]/_/g')
+fits=$((255 - ${#host} - 13 - 5))  # the name's own temporary 5 characters short of the limit
+short=$(printf 'b%.0s' $(seq 1 $((fits - 3)))).h5
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/$short" -q 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && grep -q "is too long: the program writes $short.checkpoint.tmp." <<< "$msg" ||
+  fail "a name whose checkpoint's temporary is too long (exit $rc): $msg"
 # An output another run holds (its lock, with the holder's pid in it) is refused, run or
 # analyse -o, even with --force; free again once the holder ends.
 echo 4242 > "$dir/held.h5.lock"
@@ -222,14 +232,19 @@ host=$(hostname | sed 's/[^A-Za-z0-9_-]/_/g')
 echo "half a file" > "$dir/held.h5.tmp.$dead"
 echo "half a file" > "$dir/held.h5.tmp.$host.$dead"
 echo "half a file" > "$dir/held.h5.tmp.other-node.$dead"
-# A checkpoint a run was removing when it died (renamed to a temporary first).
-mkdir "$dir/held.h5.checkpoint.tmp.$host.$dead"
+# A checkpoint a run was removing when it died (renamed to a temporary first). A directory that
+# only looks like a temporary of the output (the program writes none) is a user's: left alone.
+sleep 0 & gone=$!; wait "$gone"
+mkdir "$dir/held.h5.checkpoint.tmp.$host.$dead" "$dir/held.h5.tmp.$gone"
 echo "a part" > "$dir/held.h5.checkpoint.tmp.$host.$dead/part-1-0.bin"
+echo "data" > "$dir/held.h5.tmp.$gone/keep.txt"
 msg=$("$exe" run "$dir/good.toml" -o "$dir/held.h5" -q 2>&1)
 for stale in "held.h5.tmp.$dead" "held.h5.tmp.$host.$dead" "held.h5.checkpoint.tmp.$host.$dead"; do
   grep -q "removed .*$stale, left by a run" <<< "$msg" || fail "stale temporary $stale: $msg"
   [ -e "$dir/$stale" ] && fail "the stale temporary $stale is still there"
 done
+[ -f "$dir/held.h5.tmp.$gone/keep.txt" ] || fail "a user's directory was removed: $msg"
+rm -r "$dir/held.h5.tmp.$gone"
 [ -e "$dir/held.h5.tmp.other-node.$dead" ] || fail "another host's temporary was removed: $msg"
 rm "$dir/held.h5.tmp.other-node.$dead"
 [ -e "$dir/held.h5.lock" ] && fail "the lock file outlived its run"

@@ -422,10 +422,19 @@ TEST(Checkpoint, ARefusedCheckpointSaysWhatDiffers) {
       "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 14\nheight = 12\n"
       "bond_number = [10, 100]\n[observables]\nlower_half_from = 2\n",
       "test.toml");
-  EXPECT_NE(refusal(wider).find("key 'system.width' differs: `width = 12.0` in the checkpoint's "
-                                "scan, `width = 14.0` in this one"),
+  EXPECT_NE(refusal(wider).find("key 'system.width' is `12.0` in the checkpoint's scan and `14.0` "
+                                "in this one"),
             std::string::npos)
       << refusal(wider);
+  // A key set on one side only, and a [[point]] table's key, are named as such.
+  const Scan rough = parse_scan(
+      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 12\nheight = 12\n"
+      "bond_number = [10, 100]\nfriction = 0.5\n[observables]\nlower_half_from = 2\n",
+      "test.toml");
+  EXPECT_NE(refusal(rough).find("key 'system.friction' is `(none)` in the checkpoint's scan and "
+                                "`0.5` in this one"),
+            std::string::npos)
+      << refusal(rough);
   // Another build: its program line (and so its fingerprint) differs.
   std::string text;
   {

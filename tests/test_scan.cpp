@@ -85,6 +85,25 @@ TEST(Scan, ContentIsTheSettingsWithoutCommentsOrLayoutOrWhatNoResultDependsOn) {
   EXPECT_NE(with("[10, 100]", "[100, 10]"), scan.content);
 }
 
+// Two scans' first differing setting, named by its key: a value, a key on one side only, a
+// [[point]] table's key by the table's index; none where only a number's spelling differs.
+TEST(Scan, FirstDifferenceNamesTheKey) {
+  const auto content = [](const std::string& text) { return parse_scan(text, "s.toml").content; };
+  const std::string points =
+      "[system]\nwidth = 20\n[[point]]\nheight = 30\n[[point]]\nheight = 40\n"
+      "[observables]\nlower_half_from = 2\n";
+  std::string taller = points;
+  taller.replace(taller.find("height = 40"), 11, "height = 50");
+  EXPECT_EQ(first_difference(content(points), content(taller), "A", "B"),
+            "key 'point[1].height' is `40.0` in A and `50.0` in B");
+  std::string spelt = points;
+  spelt.replace(spelt.find("width = 20"), 10, "width = 2e1");
+  EXPECT_EQ(first_difference(content(points), content(spelt), "A", "B"), "");
+  const std::string seeded = "[scan]\nseeds = 3\n" + points;
+  EXPECT_EQ(first_difference(content(points), content(seeded), "A", "B"),
+            "key 'scan.seeds' is `(none)` in A and `3` in B");
+}
+
 // A logarithmic range holds its decades exactly (each 10^k, so a point compares equal to the
 // number a user writes), with `also` values merged in ascending order and infinity last; values
 // between decades are spaced evenly in log10.

@@ -105,9 +105,10 @@ struct Scan {
   std::string file;  // path as given
   std::string text;  // the whole scan file
   // What identifies the scan to a checkpoint and to a merge of shards: its settings as parsed
-  // and written out again by toml++ (keys sorted; no comments, blank lines or spacing; 12 and
-  // 12.0 differ), without what changes no member's result (the batch size, the sweeps a launch:
-  // identity_of in src/scan.cpp), under a first line naming the version of the toml++ headers
+  // and written out again by toml++ (keys sorted; no comments, blank lines or spacing; a
+  // real-valued key's 12 and 12.0 the same), without what changes no member's result (the batch
+  // size, the sweeps a launch: identity_of in src/scan.cpp), under a first line naming the
+  // version of the toml++ headers
   // it was built with (another version may write a number otherwise, so a build against it
   // counts the same file as another scan: the safe side).
   std::string content;
@@ -150,5 +151,11 @@ class ScanError : public std::runtime_error {
 
 Scan load_scan(const std::string& path);
 Scan parse_scan(const std::string& text, const std::string& file);
+
+// The first setting in which two scans' identities (Scan::content) differ, as "key 'K' is `V` in
+// <a_name> and `W` in <b_name>" (`(none)` for a key one of them lacks; K such as
+// `system.height` or `point[1].height`), or "" where they are the same settings.
+std::string first_difference(const std::string& a, const std::string& b, const std::string& a_name,
+                             const std::string& b_name);
 
 }  // namespace loosepack
