@@ -17,7 +17,7 @@ namespace loosepack {
 namespace {
 
 // A region grows when a moving disk comes this fraction of its radius near its edge.
-constexpr double kMargin = 0.4;
+constexpr double kGrowthBand = 0.4;
 
 // Seeds binned in cells at least `cutoff` on a side (L_x / floor(L_x / cutoff) wide, periodic in
 // x): the (squared) distance from a point to the nearest seed, exact whenever it is below the
@@ -284,7 +284,7 @@ Regions::State Regions::poll(Batch& whole, int s) {
   // Grow when a moving disk is in the margin; the new seeds are every moving disk.
   bool grow = false;
   std::vector<Point> fresh;
-  const double inner = (1.0 - kMargin) * sl.cut.radius;
+  const double inner = (1.0 - kGrowthBand) * sl.cut.radius;
   for (std::size_t k = 0; k < region.size(); ++k) {
     if (!sl.cut.moving[k] || !(speed(region[k], I.rest.spin) > I.rest.speed)) continue;
     const Point p{region[k].x, region[k].y + sl.cut.y0};
