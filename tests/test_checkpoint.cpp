@@ -35,11 +35,11 @@ struct ScratchDir {
   std::filesystem::path path;
 };
 
-Scan small_scan() {
-  return parse_scan(
-      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 12\nheight = 12\n"
-      "bond_number = [10, 100]\n[observables]\nlower_half_from = 2\n",
-      "test.toml");
+// Protocol C, 2 seeds at two Bond numbers, with the [system] lines `system`.
+Scan small_scan(const std::string& system = "width = 12\nheight = 12\nbond_number = [10, 100]\n") {
+  return parse_scan("[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\n" + system +
+                        "[observables]\nlower_half_from = 2\n",
+                    "test.toml");
 }
 
 // A member result with every field set, including a NaN with a payload and signed zeros.
@@ -412,29 +412,21 @@ TEST(Checkpoint, ARefusedCheckpointSaysWhatDiffers) {
     }
     return std::string("(used)");
   };
-  // The same settings written otherwise (an integer as a real) are the same scan.
-  const Scan same = parse_scan(
-      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 12.0\nheight = 1.2e1\n"
-      "bond_number = [1e1, 100]\n[observables]\nlower_half_from = 2.0\n",
-      "test.toml");
-  EXPECT_EQ(refusal(same), "(used)");
-  const Scan wider = parse_scan(
-      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 14\nheight = 12\n"
-      "bond_number = [10, 100]\n[observables]\nlower_half_from = 2\n",
-      "test.toml");
+  // The same settings written otherwise (integers as reals) are the same scan.
+  EXPECT_EQ(refusal(small_scan("width = 12.0\nheight = 1.2e1\nbond_number = [1e1, 100]\n")),
+            "(used)");
+  const Scan wider = small_scan("width = 14\nheight = 12\nbond_number = [10, 100]\n");
   EXPECT_NE(refusal(wider).find("key 'system.width' is `12.0` in the checkpoint's scan and `14.0` "
                                 "in this one"),
             std::string::npos)
       << refusal(wider);
-  // A key set on one side only, and a [[point]] table's key, are named as such.
-  const Scan rough = parse_scan(
-      "[scan]\nprotocol = \"C\"\nseeds = 2\n[system]\nwidth = 12\nheight = 12\n"
-      "bond_number = [10, 100]\nfriction = 0.5\n[observables]\nlower_half_from = 2\n",
-      "test.toml");
-  EXPECT_NE(refusal(rough).find("key 'system.friction' is `(none)` in the checkpoint's scan and "
-                                "`0.5` in this one"),
+  // A key set on one side only is named with `(none)` on the other.
+  const std::string rough =
+      refusal(small_scan("width = 12\nheight = 12\nbond_number = [10, 100]\nfriction = 0.5\n"));
+  EXPECT_NE(rough.find("key 'system.friction' is `(none)` in the checkpoint's scan and `0.5` in "
+                       "this one"),
             std::string::npos)
-      << refusal(rough);
+      << rough;
   // Another build: its program line (and so its fingerprint) differs.
   std::string text;
   {

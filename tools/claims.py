@@ -376,6 +376,11 @@ def text(v):
     return v.decode() if isinstance(v, bytes) else str(v)
 
 
+def attribute_value(v):
+    """An attribute as compared: a string as text, else a number."""
+    return text(v) if isinstance(v, (bytes, str)) else float(v)
+
+
 def histogram_verdict(point, path):
     name = "abs_dy_histogram"
     if name not in point:

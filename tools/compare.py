@@ -100,8 +100,8 @@ except ImportError as e:  # pragma: no cover
     sys.exit(f"compare.py: {e}; install python3-h5py and python3-scipy (scripts/install-deps.sh)")
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from claims import (Profile, check_result_file, chi2_quantile99, jackknife,  # noqa: E402
-                    text)
+from claims import (Profile, attribute_value, check_result_file, chi2_quantile99,  # noqa: E402
+                    jackknife, text)
 
 
 class Row:
@@ -529,11 +529,6 @@ def describe(point):
 POINT_KEYS = ("protocol", "bond_number", "width", "height", "capture_radius", "radius",
               "polydispersity", "cohesion_range", "friction", "rolling_friction", "time_step",
               "disk_density", "gravity", "floor_cohesion")
-
-
-def attribute_value(v):
-    """An attribute as compared: a string as text, else a number."""
-    return text(v) if isinstance(v, (bytes, str)) else float(v)
 
 
 # What defines the observables rather than the physics: the bands of point attributes, and the

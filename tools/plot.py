@@ -46,7 +46,7 @@ except ImportError as e:  # pragma: no cover
 # compare.py (1 is left for errors while writing).
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from claims import (SHAPE_TAIL, SYSTEM_BUT_BOND, Histogram, SliceMixture,  # noqa: E402
-                    check_result_file, shape_band, text, unusable)
+                    attribute_value, check_result_file, shape_band, text, unusable)
 
 
 
@@ -158,11 +158,6 @@ def density_profiles(points, out, written):
 SCAN_KEYS = ("protocol", "bond_number") + SYSTEM_BUT_BOND
 
 
-def scan_value(g, key):
-    v = attr(g, key)
-    return text(v) if isinstance(v, (bytes, str)) else float(v)
-
-
 def nu_lower_half(points, out, written):
     """nu_lower_half against the Bond number, or against the capture radius where all points
     share one Bond number (figs. 2-3, 13): a series for each set of the other scan parameters,
@@ -175,10 +170,10 @@ def nu_lower_half(points, out, written):
     if x_key is None:
         return
     others = [k for k in SCAN_KEYS if k != x_key and k in points[0].attrs]
-    varying = [k for k in others if len({scan_value(g, k) for g in points}) > 1]
+    varying = [k for k in others if len({attribute_value(attr(g, k)) for g in points}) > 1]
     series = {}
     for g in points:  # a series per file too, where several are drawn
-        series.setdefault(tuple(scan_value(g, k) for k in others) + (file_tag(g),), []).append(g)
+        series.setdefault(tuple(attribute_value(attr(g, k)) for k in others) + (file_tag(g),), []).append(g)
     xs = sorted({float(attr(g, x_key)) for g in points})
     finite = [b for b in xs if b > 0 and not math.isinf(b)]
     lo = min(finite) / 10 if finite else 0.1
