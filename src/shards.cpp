@@ -93,9 +93,13 @@ MergedShards read_shards(const std::vector<std::string>& paths) {
   const std::uint64_t fingerprint = scan_fingerprint(out.scan);
   std::map<int, std::string> given;  // shard -> its file
   for (const auto& f : files) {
-    if (f.scan_text != first.scan_text && content_of(f) != out.scan.content)
-      throw ShardError(f.path + " is a shard of another scan than " + first.path +
-                       " (the settings of their scan_text differ)");
+    if (f.scan_text != first.scan_text) {
+      const std::string differs =
+          first_difference(out.scan.content, content_of(f), first.path, f.path);
+      if (!differs.empty())
+        throw ShardError(f.path + " is a shard of another scan than " + first.path + ": " +
+                         differs);
+    }
     if (f.info.shards != n || f.info.shard < 0 || f.info.shard >= n)
       throw ShardError(f.path + " is shard " + std::to_string(f.info.shard) + "/" +
                        std::to_string(f.info.shards) + ", " + first.path + " one of " +

@@ -156,7 +156,7 @@ refused "half1.h5 is shard 1/2, p0.h5 one of 3: merge the shards of one split" \
 refused "whole.h5: not a shard's file" "$exe" merge p0.h5 whole.h5 -o bad.h5
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > other.toml
 "$exe" run other.toml --shard 1/3 -o other1.h5 -q 2>/dev/null || true
-refused "other1.h5 is a shard of another scan than p0.h5" \
+refused "other1.h5 is a shard of another scan than p0.h5: key 'scan.seed' is \`(none)\` in p0.h5 and \`2\` in other1.h5" \
   "$exe" merge p0.h5 other1.h5 -o bad.h5
 # A shard of the scan file with a comment added, other spacing and the keys of [scan] in another
 # order is of the same scan: it merges, and the merged file, given in any order, is the whole
