@@ -18,7 +18,7 @@ struct LastContacts {
 // A particle of a system stepped now (one with a cell) reads its last contacts and impulses,
 // then builds its new ones in their place; every other particle's contacts stay where they are:
 // a system that sits out steps keeps its warm start, and a system inside a step (no cells;
-// sys.solving) keeps the contacts and impulses its solve goes on with.
+// sys.mid_step) keeps the contacts and impulses its solve goes on with.
 // Reads: sys.{time_step, cohesion_range, margin, radius, cohesive_force, floor_cohesion,
 // grid_nx, grid_ny, cell_offset, width}; part.{cell, system, x, y, radius}; grid;
 // con.{partner, pn, pt, pm} (its own slots).

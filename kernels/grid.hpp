@@ -30,17 +30,17 @@ KOKKOS_INLINE_FUNCTION ColumnRange grid_columns(int cx, int nx) {
 }
 
 // The cell of disk p (of system s) for this step, or -1: a system not stepped, one inside a
-// step's solve (sys.solving) and the empty tail of a slot get no cells.
+// step's solve (sys.mid_step) and the empty tail of a slot get no cells.
 KOKKOS_INLINE_FUNCTION int step_cell(const SystemViews& sys, const ParticleViews& part, int s,
                                      int p) {
-  if (!sys.active(s) || sys.solving(s) || p >= sys.offset(s) + sys.count(s)) return -1;
+  if (!sys.active(s) || sys.mid_step(s) || p >= sys.offset(s) + sys.count(s)) return -1;
   const int nx = sys.grid_nx(s);
   const int cx = grid_column(part.x(p), sys.width(s), nx);
   const int cy = grid_row(part.y(p), sys.cell_size(s), sys.grid_ny(s));
   return sys.cell_offset(s) + cy * nx + cx;
 }
 
-// Reads: sys.{active, solving, offset, count, width, cell_size, grid_nx, grid_ny,
+// Reads: sys.{active, mid_step, offset, count, width, cell_size, grid_nx, grid_ny,
 // cell_offset}; part.{system, x, y}. Writes: part.cell; grid.{cell_start, cell_fill,
 // cell_particles}.
 inline void build_grid(const SystemViews& sys, const ParticleViews& part, const GridViews& grid,
@@ -101,7 +101,7 @@ KOKKOS_INLINE_FUNCTION void build_system_grid(const Member& team, const SystemVi
     if (c >= 0) Kokkos::atomic_increment(&fill(c));
   });
   team.team_barrier();
-  if (!sys.active(s) || sys.solving(s)) return;  // no cells
+  if (!sys.active(s) || sys.mid_step(s)) return;  // no cells
   Kokkos::parallel_scan(Kokkos::TeamThreadRange(team, c0, c1 + 1),
                         [&](int c, int& partial, bool final) {
                           const int n = c < c1 ? fill(c) : 0;

@@ -31,7 +31,7 @@ KOKKOS_INLINE_FUNCTION double disk_speed(const ParticleViews& part, int p) {
 }
 
 // x += h v (wrapped into [0, L_x)), theta += h w; flags non-finite state; records max speed.
-// Reads: sys.{active, solving, offset, count, failure, time_step, width}; part.{system, vx, vy,
+// Reads: sys.{active, mid_step, offset, count, failure, time_step, width}; part.{system, vx, vy,
 // w, radius}.
 // Writes: part.{x, y, theta}; sys.{failure (kNonFinite), max_speed, max_centre_speed}.
 struct Integrate {
@@ -41,7 +41,7 @@ struct Integrate {
     // The disks of the systems whose step ends now: not of one whose solve goes on, and also of
     // one whose step began in an earlier launch (the grid gave it no cells then).
     const int s = part.system(p);
-    if (!sys.active(s) || sys.solving(s) || p >= sys.offset(s) + sys.count(s)) return;
+    if (!sys.active(s) || sys.mid_step(s) || p >= sys.offset(s) + sys.count(s)) return;
     if (sys.failure(s) == kContactOverflow || sys.failure(s) == kParticleOverflow) return;
     const double h = sys.time_step(s);
     const double x = wrap_into_box(part.x(p) + h * part.vx(p), sys.width(s));
@@ -66,7 +66,7 @@ struct Integrate {
 // system's contacts. Positions only: velocities are left as they are, so no kinetic energy is
 // injected (docs/MODEL.md, "Contact law": overlaps resolved without adding kinetic energy), and an
 // overlap that a capped solve leaves decays by (1 - beta) per step instead of being held.
-// Reads: sys.{active, solving, failure, width, offset, count}; con.partner; part.{inv_mass,
+// Reads: sys.{active, mid_step, failure, width, offset, count}; con.partner; part.{inv_mass,
 // radius}.
 // Reads and writes: part.{x, y}.
 struct OverlapCorrection {
@@ -75,7 +75,7 @@ struct OverlapCorrection {
   ContactViews con;
   double beta;
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
-    if (!sys.active(s) || sys.solving(s) || sys.failure(s) != kOk) return;
+    if (!sys.active(s) || sys.mid_step(s) || sys.failure(s) != kOk) return;
     const double width = sys.width(s);
     const SlotRange range = system_slots(sys, s);
     for (int c = range.first; c < range.end; ++c) {

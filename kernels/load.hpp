@@ -108,7 +108,7 @@ struct LoadSlot {
     sys.grid_nx(s) = v.grid_nx;
     sys.grid_ny(s) = v.grid_ny;
     sys.unconverged(s) = 0;
-    sys.solving(s) = 0;
+    sys.mid_step(s) = 0;
     sys.failure(s) = kOk;
     sys.max_speed(s) = v.max_speed;
   }

@@ -407,11 +407,11 @@ KOKKOS_INLINE_FUNCTION bool nncg_step(const ContactViews& con, int c, double bet
 // `sweep_limit` (sweeps of this step, [S]); the host then takes a Newton step (src/newton.hpp)
 // and launches again, which restarts the iteration from the new impulses. In a fused step
 // (pause_at_limit) a system stopped at its limit below the cap stays inside its step
-// (sys.solving) for the host's round, and goes on in the next launch.
+// (sys.mid_step) for the host's round, and goes on in the next launch.
 // Reads: sweep_limit; sys.{active, unconverged, offset, count, max_sweeps, step_tolerance};
 // part.{inv_mass, inv_inertia} and what the local solve reads (local_solve). Writes: con.{pn,
 // pt, pm, start_pn, start_pt, start_pm, dir_pn, dir_pt, dir_pm}; part.{vx, vy, w};
-// sys.{unconverged, gradient2, solving (pause_at_limit)}; sweeps.
+// sys.{unconverged, gradient2, mid_step (pause_at_limit)}; sweeps.
 template <class Fx>
 struct AcceleratedGaussSeidel {
   SystemViews sys;
@@ -436,7 +436,7 @@ struct AcceleratedGaussSeidel {
     const int limit = sweep_limit.extent(0) > 0 ? kmath::imin(sweep_limit(s), cap) : cap;
     bool converged = false;
     while (!converged && sweeps(s) < limit) converged = iterate(s, first, end);
-    if (pause_at_limit) sys.solving(s) = !converged && sweeps(s) < cap ? 1 : 0;
+    if (pause_at_limit) sys.mid_step(s) = !converged && sweeps(s) < cap ? 1 : 0;
   }
 
   // One iteration (a symmetric pair of sweeps and the NNCG step) over the contacts of disks
@@ -491,10 +491,10 @@ struct AcceleratedGaussSeidel {
 // slowest system's whole solve: a system that has not converged keeps its colours, its sweeps
 // and NNCG's last |d|^2 (sys.{colours, gradient2}) and goes on in the next launch, while the
 // others take their next steps (Batch::step). The iterates are the same as in one launch.
-// Reads: sys.{active, unconverged, solving, offset, count, max_sweeps, step_tolerance}; what
+// Reads: sys.{active, unconverged, mid_step, offset, count, max_sweeps, step_tolerance}; what
 // the colouring reads (ColourRound) and what the local solve reads (local_solve), of the slots.
 // Writes: con.{colour, coloured_partner, pn, pt, pm}; list, starts; packed, owner; part.{vx, vy,
-// w}; sys.{unconverged, solving, colours, coloured_count, gradient2}; sweeps.
+// w}; sys.{unconverged, mid_step, colours, coloured_count, gradient2}; sweeps.
 template <class Fx>
 struct ColouredAcceleratedGaussSeidel {
   using Member = Kokkos::TeamPolicy<ExecSpace>::member_type;
@@ -505,7 +505,7 @@ struct ColouredAcceleratedGaussSeidel {
   DView<int> list, starts;
   double omega;
   // At most this many sweeps a launch (rounded up to whole iterations of two); a system still
-  // iterating then goes on from where it stopped in the next launch (sys.solving). 0: to
+  // iterating then goes on from where it stopped in the next launch (sys.mid_step). 0: to
   // convergence or the cap in one launch.
   int sweeps_per_launch = 0;
 
@@ -524,7 +524,7 @@ struct ColouredAcceleratedGaussSeidel {
     const SlotRange range = system_slots(sys, s);
     const int base = range.first + s;
     const int done = sweeps(s);  // > 0 where the step's solve goes on from the last launch
-    const bool goes_on = sys.solving(s);
+    const bool goes_on = sys.mid_step(s);
     const int n_colours = goes_on ? sys.colours(s) : start_step(team, s, range, base);
     const int first = range.first, end = starts(base + n_colours);  // the packed contacts
     if (!goes_on) pack(team, first, end);  // a solve that goes on has its copy
@@ -547,7 +547,7 @@ struct ColouredAcceleratedGaussSeidel {
         unpack(team, first, end);
         Kokkos::single(Kokkos::PerTeam(team), [&]() {
           sys.unconverged(s) = 0;
-          sys.solving(s) = 0;
+          sys.mid_step(s) = 0;
         });
         return;
       }
@@ -564,7 +564,7 @@ struct ColouredAcceleratedGaussSeidel {
     // Capped (the step ends unconverged), or paused until the next launch.
     unpack(team, first, end);
     Kokkos::single(Kokkos::PerTeam(team), [&]() {
-      sys.solving(s) = sweep < cap ? 1 : 0;
+      sys.mid_step(s) = sweep < cap ? 1 : 0;
       sys.gradient2(s) = previous;
     });
   }
@@ -583,7 +583,7 @@ struct ColouredAcceleratedGaussSeidel {
   // At the start of a step's solve, the contacts [first, end) of list copied from their slots
   // into `packed`, and the impulses the iteration starts from kept (nncg_keep_start). The copy
   // serves the step's every launch: between them no other stage touches a system inside its
-  // solve (sys.solving), and each launch writes the impulses back to the slots as it ends.
+  // solve (sys.mid_step), and each launch writes the impulses back to the slots as it ends.
   KOKKOS_INLINE_FUNCTION void pack(const Member& team, int first, int end) const {
     Kokkos::parallel_for(Kokkos::TeamThreadRange(team, first, end), [&](int a) {
       const int c = list(a);

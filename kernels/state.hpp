@@ -94,7 +94,7 @@ struct SystemViews {
   KView<double> gradient2;  // accelerated Gauss-Seidel: squared norm of the last iteration's change
   // 1 while the system is inside a step whose solve goes on in the next launch (the team
   // solver's SolverSettings::sweeps_per_launch): every stage but the solve leaves it alone.
-  KView<int> solving;
+  KView<int> mid_step;
   KView<int> colours;  // the team solver: the colour count of the system's current step
   // The team solver: the disk count when the system's colouring was made, plus one (0: none).
   KView<int> coloured_count;

@@ -13,8 +13,8 @@ namespace loosepack {
 
 // The detection margin and the solver tolerance from the last step's speeds (or those of the
 // disks Batch::set_disks wrote since); the step's counters reset. A system inside a step
-// (sys.solving) keeps its step's.
-// Reads: sys.{solving, active, time_step, gravity_x, gravity_y, radius, tolerance, max_margin,
+// (sys.mid_step) keeps its step's.
+// Reads: sys.{mid_step, active, time_step, gravity_x, gravity_y, radius, tolerance, max_margin,
 // max_speed, max_centre_speed}. Writes: sys.{step_tolerance, margin, unconverged,
 // sweep_change, max_speed, max_centre_speed}; sweeps.
 struct StepStart {
@@ -23,7 +23,7 @@ struct StepStart {
   double kappa;       // SolverSettings::relative_tolerance
 
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
-    if (sys.solving(s)) return;
+    if (sys.mid_step(s)) return;
     sweeps(s) = 0;
     const double h = sys.time_step(s);
     const double g =
@@ -51,12 +51,12 @@ enum StatusField : int {
   kUnconverged,
   kSweeps,
   kCount,
-  kSolving,
+  kMidStep,
   kStatusFields
 };
 
 // Reads: sys.{failure, max_speed, max_centre_speed, step_tolerance, unconverged, count,
-// solving}; sweeps. Writes: report (system s's fields).
+// mid_step}; sweeps. Writes: report (system s's fields).
 struct StatusReport {
   SystemViews sys;
   DView<int> sweeps;
@@ -71,7 +71,7 @@ struct StatusReport {
     r[kUnconverged] = sys.unconverged(s);
     r[kSweeps] = sweeps(s);
     r[kCount] = sys.count(s);
-    r[kSolving] = sys.solving(s);
+    r[kMidStep] = sys.mid_step(s);
   }
 };
 

@@ -634,7 +634,7 @@ void Batch::Impl::status_stage() {
   read_status();
 }
 
-// The status report read back and acted on. A system whose solve goes on (sys.solving) has
+// The status report read back and acted on. A system whose solve goes on (sys.mid_step) has
 // finished no step yet: only the solve's balance counts it.
 void Batch::Impl::read_status() {
   Kokkos::deep_copy(host_report, report);
@@ -648,7 +648,7 @@ void Batch::Impl::read_status() {
     int& earlier = sweeps_before[static_cast<std::size_t>(s)];
     const int step_sweeps = whole(s, kSweeps);
     balance.add(whole(s, kCount), step_sweeps - (st.mid_step ? earlier : 0));
-    st.mid_step = whole(s, kSolving) != 0;
+    st.mid_step = whole(s, kMidStep) != 0;
     if (st.mid_step) {  // nothing else of the step is done yet
       earlier = step_sweeps;
       continue;

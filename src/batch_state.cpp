@@ -113,7 +113,7 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   own(sys.margin, "margin", S);
   own(sys.max_margin, "max_margin", S);
   own(sys.gradient2, "gradient2", S);
-  own(sys.solving, "solving", S);
+  own(sys.mid_step, "mid_step", S);
   own(sys.colours, "colours", S);
   own(sys.coloured_count, "coloured_count", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);

@@ -201,7 +201,7 @@ void encode(Writer& w, const MemberSnapshot& snap) {
   w.put<double>(st.filled);
   for (bool b : {st.gave_up, st.checking, st.event_capped, st.event_open, st.final_check})
     w.put<std::uint8_t>(b ? 1 : 0);
-  w.put<std::int32_t>(st.quiet);
+  w.put<std::int32_t>(st.below_wake);
   w.put<std::int32_t>(st.rounds);
   w.put(st.column_top);
   encode(w, snap.system);
@@ -295,7 +295,7 @@ MemberSnapshot decode_snapshot(Reader& in, const std::vector<Member>& members) {
   st.filled = in.get<double>();
   for (bool* b : {&st.gave_up, &st.checking, &st.event_capped, &st.event_open, &st.final_check})
     *b = in.get<std::uint8_t>() != 0;
-  st.quiet = in.get<std::int32_t>();
+  st.below_wake = in.get<std::int32_t>();
   st.rounds = in.get<std::int32_t>();
   st.column_top = in.vec();
   const std::string who = "running member " + std::to_string(snap.result.member.id);

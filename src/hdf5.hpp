@@ -4,6 +4,10 @@
 #pragma once
 #include <hdf5.h>
 
+#include <array>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,31 +38,89 @@ inline void check(herr_t e, const std::string& what) {
   if (e < 0) throw std::runtime_error("HDF5: cannot " + what);
 }
 
+// The bytes of a file that the core driver holds, taken as HDF5 frees them on closing the file,
+// when the superblock has been written whole. (H5Fget_file_image on an open file clears the
+// superblock's status flags but, before HDF5 2.0, leaves the 1.8 format's checksum over them
+// stale, and the image does not open: HDFGroup/hdf5#5489.) `size` is the file's size, its end of
+// allocation before the close; the driver's buffer is at least that long.
+class ClosedFileImage {
+ public:
+  std::string bytes;
+  std::size_t size = 0;
+
+  H5FD_file_image_callbacks_t callbacks() {
+    return {&allocate, &copy, &reallocate, &release, &same, &keep, this};
+  }
+
+ private:
+  static void* allocate(std::size_t n, H5FD_file_image_op_t, void*) { return std::malloc(n); }
+  static void* copy(void* to, const void* from, std::size_t n, H5FD_file_image_op_t, void*) {
+    return std::memcpy(to, from, n);
+  }
+  static void* reallocate(void* p, std::size_t n, H5FD_file_image_op_t, void*) {
+    return std::realloc(p, n);
+  }
+  static herr_t release(void* p, H5FD_file_image_op_t op, void* self_) {
+    auto* self = static_cast<ClosedFileImage*>(self_);
+    if (op == H5FD_FILE_IMAGE_OP_FILE_CLOSE && p)
+      self->bytes.assign(static_cast<const char*>(p), self->size);
+    std::free(p);
+    return 0;
+  }
+  static void* same(void* self) { return self; }
+  static herr_t keep(void*) { return 0; }
+};
+
+// The end-of-file address a 1.8-format superblock (version 2 or 3) records, or 0 for another
+// superblock: its fixed layout has 8-byte addresses at offsets 12 (base), 20 (extension), 28 (end
+// of file).
+inline std::size_t superblock_end_of_file(const std::string& b) {
+  const bool v2 = b.size() >= 48 && b.compare(0, 8, "\x89HDF\r\n\x1a\n") == 0 &&
+                  (b[8] == 2 || b[8] == 3) && b[9] == 8;
+  if (!v2) return 0;
+  std::uint64_t eof = 0;
+  for (int k = 7; k >= 0; --k) eof = (eof << 8) | static_cast<unsigned char>(b[28 + k]);
+  return static_cast<std::size_t>(eof);
+}
+
 // An HDF5 file built in memory (the core driver, no backing store): `fill(file)` writes into it,
 // and its bytes come back for the caller to write, so that HDF5 never writes to a disk that may
 // fill up (HDF5 1.10 kept a file whose flush had failed open, and crashed closing it again at
 // exit). With `image` the file starts as those bytes (a file read whole), else empty; `name`
-// names it in errors.
+// names it in errors. New files have the 1.8 format, whose superblock, object headers and group
+// indices carry checksums: a damaged file's metadata is an error on reading (the 1.6 format's
+// damaged object headers could crash HDF5 1.10's reader); HDF5 1.8 and later read it.
 template <class Fill>
 std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string* image = nullptr) {
-  H5 fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "make the file access list of " + name);
-  check(H5Pset_fapl_core(fapl, std::size_t{1} << 20, 0), "build " + name + " in memory");
-  if (image)
-    check(H5Pset_file_image(fapl, const_cast<char*>(image->data()), image->size()),
-          "read " + name + " into memory");
-  // The core driver refuses to open an image under the name of a file that exists: a name no
-  // file can have.
-  H5 file(image ? H5Fopen("/proc/self/loosepack-in-memory.h5", H5F_ACC_RDWR, fapl)
-                : H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl),
-          H5Fclose, (image ? "open " : "create ") + name);
-  fill(static_cast<hid_t>(file));
-  check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + name);
-  const ssize_t size = H5Fget_file_image(file, nullptr, 0);
-  if (size < 0) throw std::runtime_error("HDF5: cannot get the bytes of " + name);
-  std::string bytes(static_cast<std::size_t>(size), '\0');
-  if (H5Fget_file_image(file, bytes.data(), bytes.size()) != size)
+  ClosedFileImage closed;
+  {
+    H5 fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "make the file access list of " + name);
+    check(H5Pset_fapl_core(fapl, std::size_t{1} << 20, 0), "build " + name + " in memory");
+    check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18),
+          "choose the file format of " + name);
+    check(H5Pset_file_image_callbacks(fapl, std::array{closed.callbacks()}.data()),
+          "keep the bytes of " + name);
+    if (image)
+      check(H5Pset_file_image(fapl, const_cast<char*>(image->data()), image->size()),
+            "read " + name + " into memory");
+    // The core driver refuses to open an image under the name of a file that exists: a name no
+    // file can have.
+    H5 file(image ? H5Fopen("/proc/self/loosepack-in-memory.h5", H5F_ACC_RDWR, fapl)
+                  : H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl),
+            H5Fclose, (image ? "open " : "create ") + name);
+    fill(static_cast<hid_t>(file));
+    check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + name);
+    const ssize_t size = H5Fget_file_image(file, nullptr, 0);
+    if (size < 0) throw std::runtime_error("HDF5: cannot get the size of " + name);
+    closed.size = static_cast<std::size_t>(size);
+  }
+  // The close can give back free space at the file's end: a 1.8-format file ends where its
+  // superblock says.
+  const std::size_t eof = superblock_end_of_file(closed.bytes);
+  if (closed.bytes.size() != closed.size || eof > closed.size)
     throw std::runtime_error("HDF5: cannot get the bytes of " + name);
-  return bytes;
+  if (eof != 0) closed.bytes.resize(eof);
+  return closed.bytes;
 }
 
 // The HDF5 file `path` written whole or not at all: built in memory by `fill` (hdf5_in_memory,

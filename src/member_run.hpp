@@ -91,7 +91,7 @@ class MemberRun {
   bool start_region(std::size_t k, const std::vector<Regions::Point>& seeds);
   void await_disk(std::size_t k);
   // Bookkeeping shared by the phases.
-  bool inside_step(std::size_t k) const;
+  bool mid_step(std::size_t k) const;
   bool whole_step_counted(std::size_t k);
   void count_step(Slot& sl, const SystemStatus& st, const SystemParams& p);
   void count_disk(std::size_t k, const Deposit& d);

@@ -185,15 +185,22 @@ void attribute(hid_t obj, const std::string& name, const std::string& v) {
 }
 
 // A text as a scalar string dataset (unlike an attribute, 64 KiB at most, of any length) with its
-// long name.
+// long name. Of fixed length, not variable: a variable-length string's reference into HDF5's
+// global heap would lie in the dataset's raw data, which no checksum covers, and a damaged one
+// made HDF5 1.10 read out of bounds. (An attribute's reference lies in its object header,
+// which the file format checksums.)
 void string_dataset(hid_t parent, const std::string& name, const std::string& v,
                     const std::string& long_name) {
-  H5 type = utf8_string_type();
+  H5 type(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
+  check(H5Tset_size(type, std::max<std::size_t>(v.size(), 1)), "set string size");
+  check(H5Tset_strpad(type, H5T_STR_NULLPAD), "set string padding");
+  check(H5Tset_cset(type, H5T_CSET_UTF8), "set string encoding");
   H5 space(H5Screate(H5S_SCALAR), H5Sclose, "create dataspace");
   H5 set(H5Dcreate2(parent, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
          H5Dclose, "create dataset " + name);
-  const char* p = v.c_str();
-  check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, &p), "write dataset " + name);
+  std::string padded = v;
+  padded.resize(std::max<std::size_t>(v.size(), 1), '\0');
+  check(H5Dwrite(set, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, padded.data()), "write dataset " + name);
   string_attribute_on(set, "long_name", long_name);
 }
 
@@ -628,8 +635,9 @@ std::vector<std::vector<double>> rows(hid_t loc, const std::string& name) {
   return out;
 }
 
-// A scalar string of an attribute or a dataset, variable-length (files from 2026-11-25 on) or
-// of fixed length (older files); `read` reads it into memory of the given type.
+// A scalar string of an attribute or a dataset, variable-length (attributes; /scan_text of files
+// from 2026-11-25 to 2026-12-05) or of fixed length (/scan_text from 2026-12-05 on, and older
+// files); `read` reads it into memory of the given type.
 template <class Read>
 std::string read_string(hid_t type, const std::string& what, Read&& read) {
   if (H5Tget_class(type) != H5T_STRING) throw std::runtime_error(what + " is not a string");
@@ -643,8 +651,9 @@ std::string read_string(hid_t type, const std::string& what, Read&& read) {
   }
   const std::size_t n = H5Tget_size(type);
   std::string s(n, '\0');
-  H5 mem(H5Tcopy(H5T_C_S1), H5Tclose, "copy string type");
-  check(H5Tset_size(mem, n), "set string size");
+  // The file's own type: a conversion would cut a null-padded string's last character to fit a
+  // terminator, and HDF5 converts no ASCII to UTF-8.
+  H5 mem(H5Tcopy(type), H5Tclose, "copy string type");
   check(read(static_cast<hid_t>(mem), static_cast<void*>(s.data())), "read " + what);
   while (!s.empty() && s.back() == '\0') s.pop_back();
   return s;

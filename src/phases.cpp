@@ -102,13 +102,13 @@ void MemberRun::redraw_where_room(const Mask& depositing, DropRule rule,
 }
 
 // One step of every system in a dynamic phase (the batch's and the regions'), then what each
-// slot's step means for its phase; a step whose solve goes on (inside_step) means nothing yet.
+// slot's step means for its phase; a step whose solve goes on (mid_step) means nothing yet.
 void MemberRun::advance_dynamics() {
   batch_->step();
   if (regions_) regions_->step();
   Mask closing(n_slots_, 0);
   for (std::size_t k = 0; k < n_slots_; ++k) {
-    if (inside_step(k)) continue;  // its step goes on
+    if (mid_step(k)) continue;  // its step goes on
     switch (slots_[k].phase) {
       case Phase::Region:
         advance_region(k, closing);
@@ -139,7 +139,7 @@ void MemberRun::advance_region(std::size_t k, Mask& closing) {
   // A region the check started (not the disk's first) is part of the check and ends as it
   // does: rest.steps steps without a disk above the wake speed, converged or not.
   auto state = regions_->poll(*batch_, s);
-  if (state == Regions::State::Running && sl.rounds > 1 && sl.quiet >= scan_.rest.steps) {
+  if (state == Regions::State::Running && sl.rounds > 1 && sl.below_wake >= scan_.rest.steps) {
     regions_->stop(*batch_, s);
     state = Regions::State::Rested;
   }
@@ -172,8 +172,8 @@ void MemberRun::advance_relax(std::size_t k, Mask& closing) {
   const auto& st = batch_->status(s);
   // The check after a region: rest.steps steps without motion suffice, converged or not (a
   // tall deposit's solve misses the tolerance on some steps; docs/MODEL.md).
-  const bool quiet = sl.checking && sl.quiet >= scan_.rest.steps;
-  const bool done = st.at_rest || quiet || sl.steps >= sl.cap;
+  const bool still = sl.checking && sl.below_wake >= scan_.rest.steps;
+  const bool done = st.at_rest || still || sl.steps >= sl.cap;
   if (!done && sl.checking && st.max_speed > wake_ && sl.rounds < kMaxRegionRounds) {
     // The whole system moves after the region came to rest: relax around what moves.
     std::vector<Regions::Point> seeds;
@@ -183,7 +183,7 @@ void MemberRun::advance_relax(std::size_t k, Mask& closing) {
     sl.rounds = kMaxRegionRounds;  // it does not fit: the check goes on in the whole system
   }
   if (!done) return;
-  sl.event_capped = sl.event_capped || (!st.at_rest && !quiet);
+  sl.event_capped = sl.event_capped || (!st.at_rest && !still);
   closing[k] = 1;
 }
 
@@ -266,7 +266,7 @@ void MemberRun::start_final_check(std::size_t k) {
   Slot& sl = slots_[k];
   sl.final_check = true;
   sl.checking = true;
-  sl.quiet = 0;
+  sl.below_wake = 0;
   sl.cap = sl.steps + steps_for(k, scan_.protocol.max_relax_time);
   set_phase(k, Phase::Relax);
 }
@@ -276,7 +276,7 @@ void MemberRun::start_final_check(std::size_t k) {
 void MemberRun::relax_whole(std::size_t k, bool checking) {
   Slot& sl = slots_[k];
   sl.checking = checking;
-  sl.quiet = 0;
+  sl.below_wake = 0;
   // A check shares its disk's cap, but always has the rest.steps steps that find a quiet
   // deposit quiet (a region that rested just before the cap left it fewer: capped at once).
   if (checking) sl.cap = std::max(sl.cap, sl.steps + scan_.rest.steps);
@@ -293,7 +293,7 @@ bool MemberRun::start_region(std::size_t k, const std::vector<Regions::Point>& s
   const double radius = scan_.protocol.region_radius * std::ldexp(1.0, sl.rounds);
   if (!regions_ || !regions_->begin(*batch_, s, seeds, scan_.tolerance(Protocol::A), radius))
     return false;
-  sl.quiet = 0;
+  sl.below_wake = 0;
   ++sl.rounds;
   set_phase(k, Phase::Region);
   return true;
@@ -307,7 +307,7 @@ void MemberRun::await_disk(std::size_t k) { set_phase(k, Phase::Deposit); }
 // Whether slot k's system (its region's in a region) is inside a step whose solve goes on in
 // the next launch (SolverSettings::sweeps_per_launch, or a fused step's Newton round): nothing of
 // it is to be read or changed.
-bool MemberRun::inside_step(std::size_t k) const {
+bool MemberRun::mid_step(std::size_t k) const {
   const int s = static_cast<int>(k);
   return slots_[k].phase == Phase::Region ? regions_->status(s).mid_step
                                           : batch_->status(s).mid_step;
@@ -335,7 +335,7 @@ void MemberRun::count_step(Slot& sl, const SystemStatus& st, const SystemParams&
   sl.unconverged = st.converged || !scan_.rest.converged ? 0 : sl.unconverged + 1;
   sl.gave_up =
       static_cast<double>(sl.unconverged) * p.time_step > scan_.protocol.max_unconverged_time;
-  sl.quiet = st.max_speed < wake_ ? sl.quiet + 1 : 0;
+  sl.below_wake = st.max_speed < wake_ ? sl.below_wake + 1 : 0;
   sl.runaway = st.max_speed > runaway_speed(p);
 }
 

@@ -267,11 +267,11 @@ void Regions::step() { impl_->batch->step(); }
 Regions::State Regions::poll(Batch& whole, int s) {
   auto& I = *impl_;
   auto& sl = I.slots.at(static_cast<std::size_t>(s));
-  if (!sl.running) return State::Overflow;
+  if (!sl.running) return State::RelaxWhole;
   const auto& st = I.batch->status(s);
   if (st.failure != Failure::None) {
     I.end(s);  // nothing written back: the whole system relaxes from where it was
-    return State::Overflow;
+    return State::RelaxWhole;
   }
   if (!st.at_rest && !(st.rest_speed(I.rest.spin) > I.rest.speed))
     return State::Running;  // nothing to grow
@@ -296,7 +296,8 @@ Regions::State Regions::poll(Batch& whole, int s) {
   seeds.insert(seeds.end(), fresh.begin(), fresh.end());
   I.write_back(whole, s, region);
   I.end(s);
-  return begin(whole, s, seeds, sl.cut.tolerance, sl.cut.radius) ? State::Running : State::Overflow;
+  return begin(whole, s, seeds, sl.cut.tolerance, sl.cut.radius) ? State::Running
+                                                                 : State::RelaxWhole;
 }
 
 void Regions::stop(Batch& whole, int s) {

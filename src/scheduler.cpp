@@ -363,7 +363,7 @@ bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
     const auto have = std::find_if(taken_.begin(), taken_.end(), [&](const MemberSnapshot& t) {
       return t.result.member.id == id;
     });
-    if (!goes_on_from(sl.phase) || inside_step(k)) {
+    if (!goes_on_from(sl.phase) || mid_step(k)) {
       all = all && have != taken_.end();
       continue;
     }

@@ -6,8 +6,11 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <sstream>
 #include <fstream>
+#include <functional>
+#include <iterator>
+#include <sstream>
+#include <vector>
 
 #include "loosepack/observables.hpp"
 #include "loosepack/output.hpp"
@@ -65,6 +68,60 @@ lower_half_from = 3.0
     ++files;
   }
   EXPECT_EQ(files, 1);
+}
+
+// A result file's metadata carries checksums (HDF5's 1.8 format, superblock version 2): a byte
+// damaged in a point's object header is refused, naming the file, where HDF5 1.10 read the 1.6
+// format's damaged headers unchecked and could crash.
+TEST(Output, DamagedMetadataIsRefused) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "B"
+[system]
+width = 12.0
+height = 12.0
+[observables]
+lower_half_from = 2.0
+)");
+  const auto members = run_all(scan);
+  const auto points = aggregate(scan, members);
+  const TempDir dir;
+  const std::string good = dir / "good.h5";
+  write_results(good, scan, RunInfo{}, points, analyse(scan, points), members, false);
+  std::string bytes;
+  {
+    std::ifstream in(good, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_GT(bytes.size(), 48u);
+  EXPECT_EQ(bytes[8], 2) << "superblock version";
+  haddr_t header = 0;
+  {
+    const hid_t file = H5Fopen(good.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    H5O_info_t info;
+    ASSERT_GE(H5Oget_info_by_name2(file, "points/0000", &info, H5O_INFO_BASIC, H5P_DEFAULT), 0);
+    header = info.addr;
+    H5Fclose(file);
+  }
+  ASSERT_LT(header + 8, bytes.size());
+  bytes[header + 8] = static_cast<char>(bytes[header + 8] ^ 0x5a);
+  const std::string bad = dir / "bad.h5";
+  std::ofstream(bad, std::ios::binary) << bytes;
+  for (const auto& read :
+       std::vector<std::function<void()>>{[&] { reanalyse(bad, dir / "out.h5"); },
+                                          [&] {
+                                            std::ostringstream text;
+                                            print_summary(bad, text);
+                                          }}) {
+    try {
+      read();
+      ADD_FAILURE() << "a file with a damaged object header was read";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.h5"));
 }
 
 // Final contact forces and trajectories: the floor carries the whole weight of a deposit at

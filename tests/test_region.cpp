@@ -285,7 +285,7 @@ std::vector<int> moving_of(const RegionCut& cut) {
 // the third, 5 R from the seed (beyond 0.6 of the radius), moves at 0.5 sqrt(gR): after the first
 // step the region is made again around it (its seed there) and holds the disks near it. In a slot
 // of 5 disks, which the first region fits and the grown one does not, the region hands the
-// system back (Overflow) with its disks written back.
+// system back (RelaxWhole) with its disks written back.
 TEST(Region, MotionNearTheEdgeGrowsTheRegionOrHandsItBack) {
   auto p = bare_params(40.0, 10.0);
   p.gravity_on = false;
@@ -309,7 +309,7 @@ TEST(Region, MotionNearTheEdgeGrowsTheRegionOrHandsItBack) {
     regions.step();
     const Regions::State state = regions.poll(batch, 0);
     if (slot == 5) {
-      EXPECT_EQ(state, Regions::State::Overflow);
+      EXPECT_EQ(state, Regions::State::RelaxWhole);
       EXPECT_GT(batch.disks(0)[2].x, row[2].x);  // its step written back
       continue;
     }

@@ -85,7 +85,7 @@ struct MemberStage {
   // (the box is full when its lowest column is, not its highest).
   std::vector<double> column_top;
   bool checking = false;      // A: a whole system's relaxation after a region is its rest check
-  int quiet = 0;              // steps in a row with no disk above the wake speed (check)
+  int below_wake = 0;         // steps in a row with no disk above the wake speed (check)
   int rounds = 0;             // relaxation regions started for the current disk
   bool event_capped = false;  // the current disk's relaxation hit max_relax_time
   // A: the disk's region came to rest where the whole system is not checked; its event closes

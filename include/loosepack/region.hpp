@@ -51,10 +51,10 @@ class Regions {
   void step();
 
   enum class State {
-    Running,  // still moving inside the region (it may have grown)
-    Rested,   // at rest by the rest criterion; written back into the whole system
-    Overflow  // outgrew the slot (written back), failed (nothing written back), or no region
-              // runs in slot s: relax the whole system
+    Running,    // still moving inside the region (it may have grown)
+    Rested,     // at rest by the rest criterion; written back into the whole system
+    RelaxWhole  // relax the whole system: the region outgrew the slot (written back), failed
+                // (nothing written back), or no region runs in slot s
   };
   // After step(): the state of region s. Grows the region (a new small system around every
   // disk that moves) when a disk faster than the rest speed is further than 0.6 radius
