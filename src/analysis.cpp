@@ -7,8 +7,10 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <set>
+#include <tuple>
 #include <utility>
 
 namespace loosepack {
@@ -328,10 +330,12 @@ std::vector<std::size_t> group_varying(const std::vector<PointResult>& points, P
 }
 
 // One datum of a fit across points: x, y, y's standard error and the number of members that
-// error comes from (their scatter or a jackknife over them).
+// error comes from (their scatter or a jackknife over them); where x is measured on the same
+// members too, x's standard error and the covariance of the two means.
 struct Datum {
   double x, y, sigma;
   std::size_t members;
+  double sigma_x = 0.0, cov = 0.0;
 };
 // The members behind a profile fit's jackknife errors; a fit without replicas (a file without
 // per-member rows) has its errors from the residuals' scatter over many bins instead, which
@@ -343,19 +347,20 @@ std::optional<Datum> keep_if(bool usable, const Datum& d) {
   return usable ? std::optional<Datum>(d) : std::nullopt;
 }
 
-// The fit `fit(x, y, sigma)` over the points of `protocol` that differ only in `varying`
-// (group_varying) and have a datum (`datum(k)` for point k); the fit keeps their indices.
+// The fit `fit(x, y, sigma, sigma_x, cov)` over the points of `protocol` that differ only in
+// `varying` (group_varying) and have a datum (`datum(k)` for point k); the fit keeps their
+// indices.
 // A standard error estimated from n members is itself uncertain: a datum's (y - model) / sigma
 // then follows Student's t with n - 1 degrees of freedom, of variance (n - 1)/(n - 3), and chi2
 // against the estimated errors has that factor in its expectation. Each sigma is widened by the
-// t's spread, sqrt((n - 1)/(n - 3)), so that a law the points follow has chi2/dof near 1 and
-// the coefficients' errors hold the errors' own uncertainty. With 3 or fewer members behind a
-// datum that spread is unbounded: the fit keeps the errors as estimated and has no chi2 (NaN),
-// so that nothing judges the law by it.
+// t's spread, sqrt((n - 1)/(n - 3)) (sigma_x too, cov by its square), so that a law the points
+// follow has chi2/dof near 1 and the coefficients' errors hold the errors' own uncertainty. With 3
+// or fewer members behind a datum that spread is unbounded: the fit keeps the errors as estimated
+// and has no chi2 (NaN), so that nothing judges the law by it.
 template <class FitFn, class DatumFn>
 Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Varying varying,
                   FitFn fit, DatumFn datum) {
-  std::vector<double> x, y, sigma;
+  std::vector<double> x, y, sigma, sigma_x, cov;
   std::vector<int> used;
   bool few_members = false;
   for (std::size_t k : group_varying(points, protocol, varying)) {
@@ -367,13 +372,16 @@ Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Var
     few_members = few_members || n <= 3.0;
     x.push_back(d->x);
     y.push_back(d->y);
-    sigma.push_back(n > 3.0 ? d->sigma * std::sqrt((n - 1.0) / (n - 3.0)) : d->sigma);
+    const double widen = n > 3.0 ? (n - 1.0) / (n - 3.0) : 1.0;
+    sigma.push_back(d->sigma * std::sqrt(widen));
+    sigma_x.push_back(d->sigma_x * std::sqrt(widen));
+    cov.push_back(d->cov * widen);
     used.push_back(points[k].point.index);  // K of points/K, not the position among those held
   }
   // A law through fewer than three values of the varying parameter has no degree of freedom
   // left to be tested by (group_varying asks for three; a datum may have dropped out): no fit.
   if (std::set<double>(x.begin(), x.end()).size() < 3) return Fit{};
-  Fit f = fit(x, y, sigma);
+  Fit f = fit(x, y, sigma, sigma_x, cov);
   if (!f.valid()) return f;
   f.scan_points = std::move(used);
   if (few_members) f.chi2 = kNaN;
@@ -408,6 +416,35 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
     if (!sigma.empty()) ls.push_back(sigma[i] / y[i]);
   }
   return polynomial_fit(lx, ly, ls, 1);
+}
+
+Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
+                  const std::vector<double>& sigma, const std::vector<double>& sigma_x,
+                  const std::vector<double>& cov) {
+  constexpr int kIterations = 100;
+  constexpr double kSettled = 1e-12;
+  std::vector<double> lx, ly, sy, sx, c;
+  for (std::size_t i = 0; i < x.size() && i < y.size() && i < sigma.size(); ++i) {
+    if (!(x[i] > 0.0) || !(y[i] > 0.0) || !std::isfinite(sigma_x[i]) || !std::isfinite(cov[i]))
+      continue;
+    lx.push_back(std::log(x[i]));
+    ly.push_back(std::log(y[i]));
+    sy.push_back(sigma[i] / y[i]);
+    sx.push_back(sigma_x[i] / x[i]);
+    c.push_back(cov[i] / (x[i] * y[i]));
+  }
+  Fit f = polynomial_fit(lx, ly, sy, 1);
+  for (int it = 0; it < kIterations && f.valid(); ++it) {
+    const double p = f.coef[1];
+    std::vector<double> effective(lx.size());
+    for (std::size_t i = 0; i < lx.size(); ++i) {
+      const double var = sy[i] * sy[i] + p * p * sx[i] * sx[i] - 2.0 * p * c[i];
+      effective[i] = var > 0.0 ? std::sqrt(var) : kNaN;  // NaN: skipped by the fit
+    }
+    f = polynomial_fit(lx, ly, effective, 1);
+    if (f.valid() && std::fabs(f.coef[1] - p) <= kSettled * (1.0 + std::fabs(p))) return f;
+  }
+  return Fit{};
 }
 
 double chi2_term_of_t(double t, double nu) {
@@ -855,6 +892,32 @@ PointAnalysis analyse_point(const PointResult& pr, const ObservableSettings& obs
   return a;
 }
 
+// A C point's nu_i's standard error and the covariance of the means of nu_i and dnu/nu_i over its
+// members, from their nu_i (members/nu_initial) and nu_f (members/nu_lower_half): a member whose
+// initial deposit came out denser has a smaller increase. Files of programs before 2026-12-05
+// lack the members' nu_i: {0, 0}, nu_i taken as exact (their fits were made so).
+std::pair<double, double> initial_density_errors(const PointResult& pr) {
+  if (pr.m_nu_initial.empty() || pr.m_nu_initial.size() != pr.m_nu_lower_half.size())
+    return {0.0, 0.0};
+  std::vector<double> ni, inc;
+  for (std::size_t m = 0; m < pr.m_nu_initial.size(); ++m) {
+    const double i = pr.m_nu_initial[m], f = pr.m_nu_lower_half[m];
+    if (!std::isfinite(i) || !std::isfinite(f) || !(i > 0.0)) continue;
+    ni.push_back(i);
+    inc.push_back((f - i) / i);
+  }
+  const double n = static_cast<double>(ni.size());
+  if (n < 2.0) return {kNaN, kNaN};
+  const double mi = std::accumulate(ni.begin(), ni.end(), 0.0) / n;
+  const double mc = std::accumulate(inc.begin(), inc.end(), 0.0) / n;
+  double vi = 0.0, ci = 0.0;
+  for (std::size_t m = 0; m < ni.size(); ++m) {
+    vi += (ni[m] - mi) * (ni[m] - mi);
+    ci += (ni[m] - mi) * (inc[m] - mc);
+  }
+  return {std::sqrt(vi / (n - 1.0) / n), ci / (n - 1.0) / n};
+}
+
 // The fits across scan points: the collapse's increase against ln H and nu_i (C), and the
 // curvature and the slice model against H (A).
 // A point whose disks moved by less than `moved` (observables.event_threshold) on average takes
@@ -869,7 +932,8 @@ ScanAnalysis analyse_across(const std::vector<PointResult>& points,
   const auto moving = [&](std::size_t k) { return points[k].mean_abs_dy.mean >= moved; };
   const auto resolved = [](double y, double sigma) { return y > 3.0 * sigma; };
   using Data = const std::vector<double>&;
-  const auto line = [](Data x, Data y, Data s) { return polynomial_fit(x, y, s, 1); };
+  const auto line = [](Data x, Data y, Data s, Data, Data) { return polynomial_fit(x, y, s, 1); };
+  const auto power_law = [](Data x, Data y, Data s, Data, Data) { return power_law_fit(x, y, s); };
   out.increase_vs_log_height =
       across_points(points, Protocol::C, Varying::Height, line, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
@@ -877,22 +941,27 @@ ScanAnalysis analyse_across(const std::vector<PointResult>& points,
             moving(k) && std::isfinite(inc.mean),
             {std::log(points[k].point.params.height), inc.mean, inc.sem, std::size_t(inc.n)});
       });
-  // The initial density varies with the capture radius; fit against the measured nu_i.
+  // The initial density varies with the capture radius; fit against the measured nu_i, with its
+  // error and its covariance with dnu/nu_i (measured on the same members).
+  const auto power_law_xy = [](Data x, Data y, Data s, Data sx, Data c) {
+    return power_law_fit(x, y, s, sx, c);
+  };
   out.increase_vs_nu_initial =
-      across_points(points, Protocol::C, Varying::CaptureRadius, power_law_fit, [&](std::size_t k) {
+      across_points(points, Protocol::C, Varying::CaptureRadius, power_law_xy, [&](std::size_t k) {
         const auto& inc = points[k].relative_increase;
-        return keep_if(moving(k) && resolved(inc.mean, inc.sem),
-                       {points[k].nu_initial.mean, inc.mean, inc.sem, std::size_t(inc.n)});
+        Datum d{points[k].nu_initial.mean, inc.mean, inc.sem, std::size_t(inc.n)};
+        std::tie(d.sigma_x, d.cov) = initial_density_errors(points[k]);
+        return keep_if(moving(k) && resolved(inc.mean, inc.sem), d);
       });
   out.quadratic_vs_height =
-      across_points(points, Protocol::A, Varying::Height, power_law_fit, [&](std::size_t k) {
+      across_points(points, Protocol::A, Varying::Height, power_law, [&](std::size_t k) {
         const Fit& f = fits[k].dy_by_ye;
         const bool curved = f.valid() && f.coef.size() >= 3 && resolved(coef(f, 2), err(f, 2));
         return keep_if(moving(k) && curved, {points[k].point.params.height, coef(f, 2), err(f, 2),
                                              jackknife_members(f)});
       });
   // The paper's 1/H follows from a profile H f(y/H): a slice model whose a does not change.
-  const auto three_or_more = [](Data x, Data y, Data s) {
+  const auto three_or_more = [](Data x, Data y, Data s, Data, Data) {
     return x.size() >= 3 ? power_law_fit(x, y, s) : Fit{};
   };
   out.slice_vs_height =

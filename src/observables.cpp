@@ -195,6 +195,7 @@ void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips
   if (!r.ok()) {
     ++pr.failed;
     pr.m_mean_abs_dy.push_back(kNaN);
+    if (pt.protocol == Protocol::C) pr.m_nu_initial.push_back(kNaN);
     pr.nu_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
     pr.nu_deposition_member_rows.emplace_back(static_cast<std::size_t>(n_strips), kNaN);
     return;  // failed members are excluded from every aggregate
@@ -226,6 +227,7 @@ void add_member(const ScanPoint& pt, const ObservableSettings& obs, int n_strips
                           : kNaN;
     m.nu_i.push_back(ni);
     m.rel.push_back((nlh - ni) / ni);
+    pr.m_nu_initial.push_back(ni);
   }
 }
 

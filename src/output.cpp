@@ -87,6 +87,8 @@ DatasetMeta dataset_meta(const std::string& group, const std::string& name) {
         "1",
         "mean volume fraction in [lower_half_from, H/2) (A, B) or [lower_half_from, top/2) (C)"};
   if (name == "mean_abs_dy") return {"R", "mean abs(Delta y) of the member's disks"};
+  if (name == "nu_initial")
+    return {"1", "volume fraction of the ballistic deposit in [lower_half_from, top/2) (C)"};
   if (group == "events" && name == "edges")
     return {"", "logarithmic bin edges (R for displacements, disks, steps)"};
   for (const char* n : {"x", "y", "y_i", "y_e", "radius", "top", "depth", "edges"})
@@ -518,6 +520,7 @@ void write_members(hid_t m, const Scan& scan, const PointResult& pr,
   dataset(m, "top", pr.m_top);
   dataset(m, "nu_lower_half", pr.m_nu_lower_half);
   dataset(m, "mean_abs_dy", pr.m_mean_abs_dy);
+  if (pr.point.protocol == Protocol::C) dataset(m, "nu_initial", pr.m_nu_initial);
   dataset(m, "steps", pr.m_steps);
   dataset(m, "sweeps", pr.m_sweeps);
   dataset(m, "wall_time", pr.m_wall_time);
@@ -776,7 +779,8 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
     pr.relative_increase = scalar_of("relative_increase");
   }
   // What the analysis takes per member where a file has it (older programs' files may not): the
-  // members that did not fail and their tops, and their density profiles.
+  // members that did not fail and their tops, their density profiles, and their nu_f and nu_i
+  // (the covariance of a C point's nu_i and dnu/nu_i).
   for (auto [path, member] :
        {std::pair("nu/member_mean", &pr.nu_member_rows),
         std::pair("nu_deposition/member_mean", &pr.nu_deposition_member_rows)})
@@ -786,7 +790,9 @@ PointResult read_point(hid_t file, const ScanPoint& point) {
     }
   if (H5Lexists(g, "members", H5P_DEFAULT) > 0)
     for (auto [path, member] :
-         {std::pair("members/failure", &pr.m_failure), std::pair("members/top", &pr.m_top)})
+         {std::pair("members/failure", &pr.m_failure), std::pair("members/top", &pr.m_top),
+          std::pair("members/nu_lower_half", &pr.m_nu_lower_half),
+          std::pair("members/nu_initial", &pr.m_nu_initial)})
       if (H5Lexists(g, path, H5P_DEFAULT) > 0) {
         *member = doubles(g, path);
         check_member_rows(std::string(n) + "/" + path, member->size(), pr.members);

@@ -52,6 +52,17 @@ double polynomial(const Fit& f, double x);
 // Power law y = A x^p, fitted as ln y = ln A + p ln x (sigma_ln = sigma / y); coef = {ln A, p}.
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& sigma);
+// The same with errors in x too: sigma_x, x's standard errors, and cov, the covariance of each
+// x's and y's errors (a datum's x and y measured on the same members). Fitted by effective
+// variance (Orear 1982): ln y - p ln x has the variance s_y^2 + p^2 s_x^2 - 2 p c (in logs:
+// s = sigma / value, c = cov / (x y)), with which the line is refitted as p changes until p
+// settles; coefficients' errors and chi2 are the last weighted fit's. Where x's fluctuation moves
+// a datum along the law (c of the law's sign), the effective error is smaller than y's own, and
+// chi2 judges the law by the rest. A datum whose effective variance is not positive is skipped;
+// an invalid fit where p does not settle.
+Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
+                  const std::vector<double>& sigma, const std::vector<double>& sigma_x,
+                  const std::vector<double>& cov);
 
 // |Delta y| histogram shapes: ln n = alpha + beta x (exponential, decay length -1/beta) and
 // ln n = alpha + beta x + gamma x^2 (Gaussian: mean -beta / (2 gamma), width sqrt(-1 / (2 gamma))),

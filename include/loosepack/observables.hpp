@@ -81,6 +81,9 @@ struct PointResult {
   // Per member scalars (member order).
   std::vector<double> m_disks, m_top, m_nu_lower_half, m_mean_abs_dy, m_steps, m_sweeps,
       m_wall_time, m_failure, m_capped, m_seed_index;
+  // Protocol C: each member's nu_i (NaN where it failed, or where dnu/nu_i is not defined);
+  // empty for A and B.
+  std::vector<double> m_nu_initial;
 };
 
 std::vector<PointResult> aggregate(const Scan& scan, const std::vector<MemberResult>& results);
