@@ -83,6 +83,17 @@ inline std::size_t superblock_end_of_file(const std::string& b) {
   return static_cast<std::size_t>(eof);
 }
 
+// A creation list of class `cls` (groups, the file's root group) that keeps an object's
+// attributes in its header however many it has, as the 1.6 format did: the 1.8 format moves
+// more than 8 into dense storage, and HDF5 before 1.14.4 crashes copying an object whose
+// variable-length string attributes lie there (H5Ocopy: h5copy, h5repack, h5py's copy;
+// HDFGroup/hdf5#2414).
+inline H5 compact_attributes(hid_t cls) {
+  H5 list(H5Pcreate(cls), H5Pclose, "make a creation list");
+  check(H5Pset_attr_phase_change(list, 65535, 0), "keep attributes compact");
+  return list;
+}
+
 // An HDF5 file built in memory (the core driver, no backing store): `fill(file)` writes into it,
 // and its bytes come back for the caller to write, so that HDF5 never writes to a disk that may
 // fill up (HDF5 1.10 kept a file whose flush had failed open, and crashed closing it again at
@@ -105,8 +116,9 @@ std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string
             "read " + name + " into memory");
     // The core driver refuses to open an image under the name of a file that exists: a name no
     // file can have.
-    H5 file(image ? H5Fopen("/proc/self/loosepack-in-memory.h5", H5F_ACC_RDWR, fapl)
-                  : H5Fcreate(name.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl),
+    H5 file(image
+                ? H5Fopen("/proc/self/loosepack-in-memory.h5", H5F_ACC_RDWR, fapl)
+                : H5Fcreate(name.c_str(), H5F_ACC_TRUNC, compact_attributes(H5P_FILE_CREATE), fapl),
             H5Fclose, (image ? "open " : "create ") + name);
     fill(static_cast<hid_t>(file));
     check(H5Fflush(file, H5F_SCOPE_GLOBAL), "flush " + name);

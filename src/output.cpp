@@ -24,8 +24,9 @@ namespace loosepack {
 namespace {
 
 H5 group(hid_t parent, const std::string& name) {
-  return H5(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-            "create group " + name);
+  return H5(H5Gcreate2(parent, name.c_str(), H5P_DEFAULT, compact_attributes(H5P_GROUP_CREATE),
+                       H5P_DEFAULT),
+            H5Gclose, "create group " + name);
 }
 
 // What a dataset holds, by its name and its group's name (docs/OUTPUT.md): its `units` and
@@ -1102,21 +1103,25 @@ static void print_fits(hid_t file, const std::vector<std::string>& names, std::o
 
 namespace {
 
-void write_summary(const std::string& path, std::ostream& out) {
-  const H5 file = open_to_read(path, "open " + path + " (not an HDF5 file written by loosepack?)");
+// The groups under /points of the result file `path`, as points/NNNN in order.
+std::vector<std::string> point_groups(hid_t file, const std::string& path) {
   std::vector<std::string> names;
-  {
-    H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
-    H5G_info_t info;
-    check(H5Gget_info(g, &info), "list points");
-    for (hsize_t k = 0; k < info.nlinks; ++k) {
-      char buf[64];
-      H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, buf, sizeof buf, H5P_DEFAULT);
-      names.emplace_back(std::string("points/") + buf);
-    }
+  H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
+  H5G_info_t info;
+  check(H5Gget_info(g, &info), "list points");
+  for (hsize_t k = 0; k < info.nlinks; ++k) {
+    char buf[64];
+    H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, buf, sizeof buf, H5P_DEFAULT);
+    names.emplace_back(std::string("points/") + buf);
   }
-  out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', "
-      << names.size() << " points, " << double_attribute(file, "/", "wall_seconds")
+  return names;
+}
+
+// The summary's first line: the scan, its points, the run's time, and the members the file lacks.
+void print_summary_head(hid_t file, const std::string& path, std::size_t points,
+                        std::ostream& out) {
+  out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', " << points
+      << " points, " << double_attribute(file, "/", "wall_seconds")
       << " s of the run that wrote it";
   if (H5Aexists(file, "members_unfinished") > 0) {
     const double unfinished = double_attribute(file, "/", "members_unfinished");
@@ -1130,9 +1135,13 @@ void write_summary(const std::string& path, std::ostream& out) {
     out << "; shard " << count_attribute(file, "shard") << " of " << count_attribute(file, "shards")
         << " of the scan (loosepack merge joins the shards' files)";
   out << "\n";
-  // Scan parameters without a column of their own get one where the points differ in them, so
-  // that a scan over widths or radii does not read as repeated rows.
-  std::vector<std::pair<const char*, const char*>> extras;  // (attribute, column title)
+}
+
+// Scan parameters without a column of their own get one where the points differ in them, so that
+// a scan over widths or radii does not read as repeated rows: (attribute, column title).
+using ExtraColumns = std::vector<std::pair<const char*, const char*>>;
+ExtraColumns extra_columns(hid_t file, const std::vector<std::string>& names) {
+  ExtraColumns extras;
   for (const auto& [attribute, title] :
        {std::pair("width", "L_x"), std::pair("radius", "R"), std::pair("polydispersity", "sd_R/R"),
         std::pair("cohesion_range", "d_c")}) {
@@ -1142,6 +1151,61 @@ void write_summary(const std::string& path, std::ostream& out) {
         values.insert(double_attribute(file, n, attribute));
     if (values.size() > 1) extras.emplace_back(attribute, title);
   }
+  return extras;
+}
+
+// Point n's row of the table, and into `notes` what is said under it: means over fewer than the
+// finished members, collapses stopped while moving.
+void print_point_row(hid_t file, const std::string& n, const ExtraColumns& extras,
+                     std::ostream& out, std::ostream& notes) {
+  auto d = [&](const char* a) { return double_attribute(file, n, a); };
+  // A mean of one member has no error: "nan", never a zero that reads as an exact value.
+  auto pm = [](double m, double s) {
+    std::ostringstream o;
+    o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4) << s;
+    return o.str();
+  };
+  const std::string prot = string_attribute(file, n, "protocol");
+  std::string rel = "-";
+  if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
+  std::ostringstream bo;
+  bo << d("bond_number");
+  const H5 g = open_group(file, n);
+  const int members = count_attribute(g, "members"), failed = count_attribute(g, "failed");
+  // Each line whole or not at all: an attribute that cannot be read stops before it.
+  std::ostringstream line;
+  line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
+       << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
+       << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction");
+  for (const auto& [attribute, title] : extras) {
+    std::ostringstream v;
+    v << std::setprecision(6) << d(attribute);
+    line << std::setw(10) << v.str() + " ";
+  }
+  line << std::setw(22) << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
+       << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members << "("
+       << failed << ")\n";
+  out << line.str();
+  if (H5Aexists(g, "nu_lower_half_n") > 0) {
+    const std::string note =
+        members_left_out_note(std::stoi(n.substr(7)), prot == "C" ? Protocol::C : Protocol::A,
+                              count_attribute(g, "nu_lower_half_n"), members - failed);
+    if (!note.empty()) notes << "# " << note << "\n";
+  }
+  if (prot == "C" && H5Lexists(g, "members", H5P_DEFAULT) > 0 &&
+      H5Lexists(g, "members/capped", H5P_DEFAULT) > 0) {
+    const std::string note =
+        capped_collapses_note(std::stoi(n.substr(7)), doubles(file, n + "/members/failure"),
+                              doubles(file, n + "/members/capped"));
+    if (!note.empty()) notes << "# " << note << "\n";
+  }
+}
+
+void write_summary(const std::string& path, std::ostream& out) {
+  const H5 file = open_to_read(path, "open " + path + " (not an HDF5 file written by loosepack?)");
+  const std::vector<std::string> names = point_groups(file, path);
+  print_summary_head(file, path, names.size(), out);
+  const ExtraColumns extras = extra_columns(file, names);
   out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
       << std::setw(8) << "r_capt" << std::setw(8) << "H" << std::setw(8) << "mu" << std::setw(8)
       << "mu_r";
@@ -1149,50 +1213,8 @@ void write_summary(const std::string& path, std::ostream& out) {
   out << std::setw(22) << "nu_lower_half" << std::setw(20) << "<|dy|> [R]" << std::setw(22)
       << "dnu/nu_i"
       << "members(failed)\n";
-  std::ostringstream notes;  // said under the table: means over fewer than the finished members
-  for (const auto& n : names) {
-    auto d = [&](const char* a) { return double_attribute(file, n, a); };
-    // A mean of one member has no error: "nan", never a zero that reads as an exact value.
-    auto pm = [](double m, double s) {
-      std::ostringstream o;
-      o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4) << s;
-      return o.str();
-    };
-    const std::string prot = string_attribute(file, n, "protocol");
-    std::string rel = "-";
-    if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
-    std::ostringstream bo;
-    bo << d("bond_number");
-    const H5 g = open_group(file, n);
-    const int members = count_attribute(g, "members"), failed = count_attribute(g, "failed");
-    // Each line whole or not at all: an attribute that cannot be read stops before it.
-    std::ostringstream line;
-    line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
-         << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
-         << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction");
-    for (const auto& [attribute, title] : extras) {
-      std::ostringstream v;
-      v << std::setprecision(6) << d(attribute);
-      line << std::setw(10) << v.str() + " ";
-    }
-    line << std::setw(22) << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
-         << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members
-         << "(" << failed << ")\n";
-    out << line.str();
-    if (H5Aexists(g, "nu_lower_half_n") > 0) {
-      const std::string note =
-          members_left_out_note(std::stoi(n.substr(7)), prot == "C" ? Protocol::C : Protocol::A,
-                                count_attribute(g, "nu_lower_half_n"), members - failed);
-      if (!note.empty()) notes << "# " << note << "\n";
-    }
-    if (prot == "C" && H5Lexists(g, "members", H5P_DEFAULT) > 0 &&
-        H5Lexists(g, "members/capped", H5P_DEFAULT) > 0) {
-      const std::string note =
-          capped_collapses_note(std::stoi(n.substr(7)), doubles(file, n + "/members/failure"),
-                                doubles(file, n + "/members/capped"));
-      if (!note.empty()) notes << "# " << note << "\n";
-    }
-  }
+  std::ostringstream notes;  // said under the table
+  for (const auto& n : names) print_point_row(file, n, extras, out, notes);
   out << notes.str();
   print_fits(file, names, out);
 }

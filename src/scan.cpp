@@ -287,100 +287,144 @@ void for_each_key(const toml::table& tbl, F f) {
 // forms too), again refusing a superset.
 constexpr char32_t kUnsafe[][2] = {
     {0xA1, 0x499}, {0x2C5E, 0x2FFF}, {0x3001, 0x3057}, {0xFB26, 0xFEFE}};
+
+// The UTF-8 character of `text` at byte i: its code point and bytes, or malformed (a byte that
+// starts no sequence, or a sequence cut short).
+struct Utf8Char {
+  char32_t c;
+  std::size_t bytes;
+  bool malformed;
+};
+Utf8Char utf8_at(const std::string& text, std::size_t i) {
+  const auto b = static_cast<unsigned char>(text[i]);
+  const std::size_t n = b < 0x80 ? 1 : b >= 0xF0 ? 4 : b >= 0xE0 ? 3 : b >= 0xC0 ? 2 : 1;
+  char32_t c = n == 1 ? b : n == 2 ? b & 0x1F : n == 3 ? b & 0x0F : b & 0x07;
+  bool malformed = b >= 0x80 && (b < 0xC0 || b >= 0xF8);
+  for (std::size_t k = 1; k < n && !malformed; ++k) {
+    malformed = i + k >= text.size() || (static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80;
+    if (!malformed) c = (c << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
+  }
+  return {c, n, malformed};
+}
+
+// Where in TOML's lexical structure a scan file's characters fall, as far as the check of kUnsafe
+// needs (the rules above): end_bare_token() before a character is judged, safe() whether any
+// character may stand there, advance() past it (it returns the bytes taken: 3 for a triple quote).
+class TomlPlaces {
+ public:
+  enum State { Outside, Bare, Comment, Basic, Literal, MultiBasic, MultiLiteral };
+  State state = Outside;
+
+  void end_bare_token(char32_t c) {
+    if (state == Bare && (c == ' ' || c == '\t' || c == '\n' || c == ']' || c == '}' || c == ',' ||
+                          c == '#' || (key_ && c == '=')))
+      state = Outside;
+  }
+  bool safe() const {
+    return state == Comment || (value_ && state != Outside && state != Bare && state != MultiBasic);
+  }
+  std::size_t advance(char32_t c, std::size_t bytes, const std::string& text, std::size_t i) {
+    auto at = [&](const char* q) { return text.compare(i, std::strlen(q), q) == 0; };
+    const bool was_escaped = escaped_;
+    escaped_ = false;
+    if (c == '\n') {
+      if (state == Comment || state == Basic || state == Literal) state = Outside;
+      if (state == Outside) last_ = '\n';
+    } else if (state == Outside || state == Bare) {
+      return advance_outside_strings(c, at("\"\"\""), at("'''"), bytes);
+    } else if ((state == Basic || state == MultiBasic) && !was_escaped) {
+      if (c == '\\') {
+        escaped_ = true;
+      } else if (state == MultiBasic && at("\"\"\"")) {
+        state = resumed();
+        return 3;
+      } else if (state == Basic && c == '"') {
+        state = resumed();
+      }
+    } else if (state == Literal && c == '\'') {
+      state = resumed();
+    } else if (state == MultiLiteral && at("'''")) {
+      state = resumed();
+      return 3;
+    }
+    return bytes;
+  }
+
+ private:
+  bool escaped_ = false;  // the previous character was a backslash in a basic string
+  bool value_ = false;    // the string being read follows '='
+  bool in_bare_ = false;  // the string being read is inside a bare token, which resumes after it
+  bool key_ = false;      // the bare token being read is a key at the start of a line
+  int arrays_ = 0;        // arrays open (not table headers)
+  char last_ = '\n';      // the last character outside strings and comments, not space or tab
+
+  State resumed() const { return in_bare_ ? Bare : Outside; }
+
+  std::size_t advance_outside_strings(char32_t c, bool three_double, bool three_single,
+                                      std::size_t bytes) {
+    in_bare_ = state == Bare;
+    value_ = !in_bare_ && last_ == '=';
+    const char before = last_;
+    if (c != ' ' && c != '\t') last_ = static_cast<char>(c < 0x80 ? c : 0x7F);
+    // (Inside a bare token brackets are the token's, and a quote starts a string that is no
+    // value.)
+    if (!in_bare_ && c == '[' && (arrays_ > 0 || before == '=')) ++arrays_;  // else a header
+    if (!in_bare_ && c == ']' && arrays_ > 0) --arrays_;
+    if (c == '#') {
+      state = Comment;
+    } else if (three_double) {
+      state = MultiBasic;
+      return 3;
+    } else if (c == '"') {
+      state = Basic;
+    } else if (three_single) {
+      state = MultiLiteral;
+      return 3;
+    } else if (c == '\'') {
+      state = Literal;
+    } else if (!in_bare_ && c != ' ' && c != '\t' && c != '\r' && c != '=' && c != '[' &&
+               c != ']' && c != '{' && c != '}' && c != ',') {
+      state = Bare;
+      key_ = before == '\n' && arrays_ == 0;
+    }
+    return bytes;
+  }
+};
+
 void refuse_unsafe_characters(const std::string& text, const std::string& file) {
-  enum { Outside, Bare, Comment, Basic, Literal, MultiBasic, MultiLiteral } state = Outside;
-  bool escaped = false;  // the previous character was a backslash in a basic string
-  bool value = false;    // the string being read follows '='
-  bool in_bare = false;  // the string being read is inside a bare token, which resumes after it
-  bool key = false;      // the bare token being read is a key at the start of a line
-  int arrays = 0;        // arrays open (not table headers)
-  char last = '\n';      // the last character outside strings and comments, not space or tab
+  TomlPlaces places;
   long line = 1, column = 0;
   for (std::size_t i = 0; i < text.size();) {
-    const auto b = static_cast<unsigned char>(text[i]);
-    std::size_t n = b < 0x80 ? 1 : b >= 0xF0 ? 4 : b >= 0xE0 ? 3 : b >= 0xC0 ? 2 : 1;
-    char32_t c = n == 1 ? b : n == 2 ? b & 0x1F : n == 3 ? b & 0x0F : b & 0x07;
-    // A byte that starts no UTF-8 sequence, or a sequence cut short, is refused here, where its
-    // line and column are known (toml++ places it at the end of the token before).
-    bool malformed = b >= 0x80 && (b < 0xC0 || b >= 0xF8);
-    for (std::size_t k = 1; k < n && !malformed; ++k) {
-      malformed = i + k >= text.size() || (static_cast<unsigned char>(text[i + k]) & 0xC0) != 0x80;
-      if (!malformed) c = (c << 6) | (static_cast<unsigned char>(text[i + k]) & 0x3F);
-    }
+    const Utf8Char u = utf8_at(text, i);
     ++column;
-    if (malformed) {
+    // A malformed byte is refused here, where its line and column are known (toml++ places it at
+    // the end of the token before).
+    if (u.malformed) {
       std::ostringstream o;
       o << file << ":" << line << ":" << column << ": byte 0x" << std::hex << std::uppercase
-        << static_cast<unsigned>(b) << " is not UTF-8 text (a scan file is UTF-8)";
+        << static_cast<unsigned>(static_cast<unsigned char>(text[i]))
+        << " is not UTF-8 text (a scan file is UTF-8)";
       throw ScanError(o.str());
     }
-    if (state == Bare && (c == ' ' || c == '\t' || c == '\n' || c == ']' || c == '}' || c == ',' ||
-                          c == '#' || (key && c == '='))) {
-      state = Outside;
-    }
-    const bool safe =
-        state == Comment || (value && state != Outside && state != Bare && state != MultiBasic);
+    places.end_bare_token(u.c);
     bool unsafe = false;
-    for (const auto& r : kUnsafe) unsafe = unsafe || (c >= r[0] && c <= r[1]);
-    if (n > 1 && !safe && unsafe) {
+    for (const auto& r : kUnsafe) unsafe = unsafe || (u.c >= r[0] && u.c <= r[1]);
+    if (u.bytes > 1 && unsafe && !places.safe()) {
       std::ostringstream o;
       o << file << ":" << line << ":" << column << ": character U+" << std::hex << std::uppercase
-        << static_cast<unsigned long>(c)
+        << static_cast<unsigned long>(u.c)
         << " is only allowed in comments and string values (toml++ 3.3.0 mishandles "
            "U+00A1..U+0499, U+2C5E..U+2FFF, U+3001..U+3057 and U+FB26..U+FEFE elsewhere"
-        << (state == MultiBasic ? R"(; a multi-line """ string is no such value, ''' is)" : "")
+        << (places.state == TomlPlaces::MultiBasic
+                ? R"(; a multi-line """ string is no such value, ''' is)"
+                : "")
         << ")";
       throw ScanError(o.str());
     }
-    auto at = [&](const char* s) { return text.compare(i, std::strlen(s), s) == 0; };
-    std::size_t advance = n;
-    const bool was_escaped = escaped;
-    escaped = false;
-    if (c == '\n') {
+    const std::size_t advance = places.advance(u.c, u.bytes, text, i);
+    if (u.c == '\n') {
       ++line;
       column = 0;
-      if (state == Comment || state == Basic || state == Literal) state = Outside;
-      if (state == Outside) last = '\n';
-    } else if (state == Outside || state == Bare) {
-      in_bare = state == Bare;
-      value = !in_bare && last == '=';
-      const char before = last;
-      if (c != ' ' && c != '\t') last = static_cast<char>(c < 0x80 ? c : 0x7F);
-      // (Inside a bare token brackets are the token's, and a quote starts a string that is no
-      // value.)
-      if (!in_bare && c == '[' && (arrays > 0 || before == '=')) ++arrays;  // else a header
-      if (!in_bare && c == ']' && arrays > 0) --arrays;
-      if (c == '#') {
-        state = Comment;
-      } else if (at("\"\"\"")) {
-        state = MultiBasic;
-        advance = 3;
-      } else if (c == '"') {
-        state = Basic;
-      } else if (at("\'\'\'")) {
-        state = MultiLiteral;
-        advance = 3;
-      } else if (c == '\'') {
-        state = Literal;
-      } else if (!in_bare && c != ' ' && c != '\t' && c != '\r' && c != '=' && c != '[' &&
-                 c != ']' && c != '{' && c != '}' && c != ',') {
-        state = Bare;
-        key = before == '\n' && arrays == 0;
-      }
-    } else if ((state == Basic || state == MultiBasic) && !was_escaped) {
-      if (c == '\\') {
-        escaped = true;
-      } else if (state == MultiBasic && at("\"\"\"")) {
-        state = in_bare ? Bare : Outside;
-        advance = 3;
-      } else if (state == Basic && c == '"') {
-        state = in_bare ? Bare : Outside;
-      }
-    } else if (state == Literal && c == '\'') {
-      state = in_bare ? Bare : Outside;
-    } else if (state == MultiLiteral && at("\'\'\'")) {
-      state = in_bare ? Bare : Outside;
-      advance = 3;
     }
     if (advance == 3) column += 2;  // the two further quotes of a """ or '''
     i += advance;

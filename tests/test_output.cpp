@@ -72,8 +72,10 @@ lower_half_from = 3.0
 
 // A result file's metadata carries checksums (HDF5's 1.8 format, superblock version 2): a byte
 // damaged in a point's object header is refused, naming the file, where HDF5 1.10 read the 1.6
-// format's damaged headers unchecked and could crash.
-TEST(Output, DamagedMetadataIsRefused) {
+// format's damaged headers unchecked and could crash. Its groups copy with H5Ocopy (h5copy,
+// h5repack, h5py's copy), which crashed on a group of many string attributes in the 1.8
+// format's dense storage before HDF5 1.14.4.
+TEST(Output, DamagedMetadataIsRefusedAndGroupsCopy) {
   const auto scan = scan_of(R"(
 [scan]
 protocol = "B"
@@ -102,6 +104,14 @@ lower_half_from = 2.0
     H5O_info_t info;
     ASSERT_GE(H5Oget_info_by_name2(file, "points/0000", &info, H5O_INFO_BASIC, H5P_DEFAULT), 0);
     header = info.addr;
+    const hid_t copy =
+        H5Fcreate((dir / "copy.h5").c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(copy, 0);
+    for (const auto& [object, as] :
+         {std::pair("points/0000", "point"), std::pair("settings", "settings"),
+          std::pair("analysis", "analysis")})
+      EXPECT_GE(H5Ocopy(file, object, copy, as, H5P_DEFAULT, H5P_DEFAULT), 0) << object;
+    H5Fclose(copy);
     H5Fclose(file);
   }
   ASSERT_LT(header + 8, bytes.size());
