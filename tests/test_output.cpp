@@ -70,26 +70,36 @@ lower_half_from = 3.0
   EXPECT_EQ(files, 1);
 }
 
+namespace {
+// dir/good.h5: the result file of a small protocol-A scan (12 R x 12 R, Bo = 10, two seeds).
+std::string small_result_file(const TempDir& dir) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 2
+[system]
+width = 12.0
+height = 12.0
+bond_number = 10.0
+[observables]
+lower_half_from = 2.0
+)");
+  const auto members = run_all(scan);
+  const auto points = aggregate(scan, members);
+  const std::string good = dir / "good.h5";
+  write_results(good, scan, RunInfo{}, points, analyse(scan, points), members, false);
+  return good;
+}
+}  // namespace
+
 // A result file's metadata carries checksums (HDF5's 1.8 format, superblock version 2): a byte
 // damaged in a point's object header is refused, naming the file, where HDF5 1.10 read the 1.6
 // format's damaged headers unchecked and could crash. Its groups copy with H5Ocopy (h5copy,
 // h5repack, h5py's copy), which crashed on a group of many string attributes in the 1.8
 // format's dense storage before HDF5 1.14.4.
 TEST(Output, DamagedMetadataIsRefusedAndGroupsCopy) {
-  const auto scan = scan_of(R"(
-[scan]
-protocol = "B"
-[system]
-width = 12.0
-height = 12.0
-[observables]
-lower_half_from = 2.0
-)");
-  const auto members = run_all(scan);
-  const auto points = aggregate(scan, members);
   const TempDir dir;
-  const std::string good = dir / "good.h5";
-  write_results(good, scan, RunInfo{}, points, analyse(scan, points), members, false);
+  const std::string good = small_result_file(dir);
   std::string bytes;
   {
     std::ifstream in(good, std::ios::binary);
@@ -198,22 +208,8 @@ void replace_dataset(const std::string& path, const std::string& name,
 // count, a histogram whose edges do not bound its counts), naming the dataset, and writes
 // nothing back: the file stays as it was.
 TEST(Output, AnalyseRefusesInconsistentFiles) {
-  const auto scan = scan_of(R"(
-[scan]
-protocol = "A"
-seeds = 2
-[system]
-width = 12.0
-height = 12.0
-bond_number = 10.0
-[observables]
-lower_half_from = 2.0
-)");
-  const auto members = run_all(scan);
-  const auto points = aggregate(scan, members);
   const TempDir dir;
-  const std::string good = dir / "good.h5";
-  write_results(good, scan, RunInfo{}, points, analyse(scan, points), members, false);
+  const std::string good = small_result_file(dir);
   const std::vector<std::pair<std::string, std::size_t>> damages = {
       {"points/0000/nu/mean", 0},
       {"points/0000/nu_deposition/sem", 1},
