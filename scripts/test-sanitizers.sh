@@ -49,5 +49,7 @@ done
 ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
   ./build-asan/tests/loosepack_tests --gtest_filter="$damaged" >build-asan/damaged.log 2>&1 ||
   { cat build-asan/damaged.log; echo "sanitizer run of $damaged failed" >&2; failed=1; }
+grep -q "PASSED  \] 1 test" build-asan/damaged.log ||
+  { echo "sanitizer run of $damaged ran no test (renamed?)" >&2; failed=1; }
 grep -h "tests ran\|PASSED" build-asan/damaged.log
 exit "$failed"

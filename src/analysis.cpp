@@ -365,9 +365,12 @@ Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Var
   bool few_members = false;
   for (std::size_t k : group_varying(points, protocol, varying)) {
     const std::optional<Datum> d = datum(k);
-    // A datum without an error (one member finished) the fit could not weigh: it takes no part,
-    // neither in scan_points nor in whether chi2 is judged.
-    if (!d || !(std::isfinite(d->sigma) && d->sigma > 0.0)) continue;
+    // A datum without an error (one member finished; x's error or the covariance not defined)
+    // the fit could not weigh: it takes no part, neither in scan_points nor in whether chi2 is
+    // judged.
+    if (!d || !(std::isfinite(d->sigma) && d->sigma > 0.0) || !std::isfinite(d->sigma_x) ||
+        !std::isfinite(d->cov))
+      continue;
     const double n = static_cast<double>(d->members);
     few_members = few_members || n <= 3.0;
     x.push_back(d->x);

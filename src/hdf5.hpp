@@ -10,6 +10,7 @@
 #include <cstring>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "replace_file.hpp"
@@ -28,6 +29,12 @@ class H5 {
   H5& operator=(const H5&) = delete;
   H5(H5&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
   operator hid_t() const { return id_; }
+  // Closes it now: HDF5's status (negative: the close failed).
+  herr_t close() {
+    const herr_t e = id_ >= 0 ? close_(id_) : 0;
+    id_ = -1;
+    return e;
+  }
 
  private:
   hid_t id_;
@@ -99,16 +106,21 @@ inline H5 compact_attributes(hid_t cls) {
 // fill up (HDF5 1.10 kept a file whose flush had failed open, and crashed closing it again at
 // exit). With `image` the file starts as those bytes (a file read whole), else empty; `name`
 // names it in errors. New files have the 1.8 format, whose superblock, object headers and group
-// indices carry checksums: a damaged file's metadata is an error on reading (the 1.6 format's
-// damaged object headers could crash HDF5 1.10's reader); HDF5 1.8 and later read it.
+// indices carry checksums: damage there is an error on reading (the 1.6 format's damaged object
+// headers could crash HDF5 1.10's reader; the global heap of variable-length strings has no
+// checksum in any format); HDF5 1.8 and later read it.
 template <class Fill>
 std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string* image = nullptr) {
   ClosedFileImage closed;
   {
     H5 fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "make the file access list of " + name);
     check(H5Pset_fapl_core(fapl, std::size_t{1} << 20, 0), "build " + name + " in memory");
-    check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, H5F_LIBVER_V18),
+    // New objects in the 1.8 format; a file opened from its image may have a later one (a copy
+    // made by h5repack --latest), which a high bound of V18 refuses to open for writing.
+    check(H5Pset_libver_bounds(fapl, H5F_LIBVER_V18, image ? H5F_LIBVER_LATEST : H5F_LIBVER_V18),
           "choose the file format of " + name);
+    // Every object of the file closes with it, so that the bytes are taken inside H5Fclose.
+    check(H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG), "close " + name + " whole");
     check(H5Pset_file_image_callbacks(fapl, std::array{closed.callbacks()}.data()),
           "keep the bytes of " + name);
     if (image)
@@ -125,6 +137,7 @@ std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string
     const ssize_t size = H5Fget_file_image(file, nullptr, 0);
     if (size < 0) throw std::runtime_error("HDF5: cannot get the size of " + name);
     closed.size = static_cast<std::size_t>(size);
+    check(file.close(), "close " + name);
   }
   // The close can give back free space at the file's end: a 1.8-format file ends where its
   // superblock says.
@@ -132,7 +145,7 @@ std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string
   if (closed.bytes.size() != closed.size || eof > closed.size)
     throw std::runtime_error("HDF5: cannot get the bytes of " + name);
   if (eof != 0) closed.bytes.resize(eof);
-  return closed.bytes;
+  return std::move(closed.bytes);
 }
 
 // The HDF5 file `path` written whole or not at all: built in memory by `fill` (hdf5_in_memory,
