@@ -4,7 +4,6 @@
 #pragma once
 #include <hdf5.h>
 
-#include <array>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -121,8 +120,8 @@ std::string hdf5_in_memory(const std::string& name, Fill fill, const std::string
           "choose the file format of " + name);
     // Every object of the file closes with it, so that the bytes are taken inside H5Fclose.
     check(H5Pset_fclose_degree(fapl, H5F_CLOSE_STRONG), "close " + name + " whole");
-    check(H5Pset_file_image_callbacks(fapl, std::array{closed.callbacks()}.data()),
-          "keep the bytes of " + name);
+    H5FD_file_image_callbacks_t callbacks = closed.callbacks();
+    check(H5Pset_file_image_callbacks(fapl, &callbacks), "keep the bytes of " + name);
     if (image)
       check(H5Pset_file_image(fapl, const_cast<char*>(image->data()), image->size()),
             "read " + name + " into memory");

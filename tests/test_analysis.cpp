@@ -838,6 +838,43 @@ capture_radius = 1.25
   EXPECT_NEAR(f.coef[1], s, 3.0 * f.error[1]);
   EXPECT_LT(f.error[1], 0.3);
   EXPECT_NEAR(std::exp(f.coef[0]) * std::pow(0.33, s), K, 0.1 * K);
+  // nu_i's error and its covariance with dnu/nu_i come from the members: the sample variance of
+  // nu_i and the sample covariance of nu_i and (nu_f - nu_i)/nu_i over the n members, each over
+  // n, widened by (n - 1)/(n - 3) as sigma's square is. The fit is the effective-variance fit of
+  // those numbers; without the members' nu_i (a file before 2026-12-05) it takes nu_i as exact.
+  std::vector<double> x, y, sy, sx, cov;
+  for (int k : f.scan_points) {
+    const PointResult& p = points[static_cast<std::size_t>(k)];
+    std::vector<double> ni, inc;
+    for (std::size_t m = 0; m < p.m_nu_initial.size(); ++m) {
+      ni.push_back(p.m_nu_initial[m]);
+      inc.push_back((p.m_nu_lower_half[m] - ni.back()) / ni.back());
+    }
+    const double n = static_cast<double>(ni.size());
+    const double mi = std::accumulate(ni.begin(), ni.end(), 0.0) / n;
+    const double mc = std::accumulate(inc.begin(), inc.end(), 0.0) / n;
+    double vi = 0.0, ci = 0.0;
+    for (std::size_t m = 0; m < ni.size(); ++m) {
+      vi += (ni[m] - mi) * (ni[m] - mi) / (n - 1.0);
+      ci += (ni[m] - mi) * (inc[m] - mc) / (n - 1.0);
+    }
+    const double widen = (n - 1.0) / (n - 3.0);
+    x.push_back(p.nu_initial.mean);
+    y.push_back(p.relative_increase.mean);
+    sy.push_back(p.relative_increase.sem * std::sqrt(widen));
+    sx.push_back(std::sqrt(vi / n * widen));
+    cov.push_back(ci / n * widen);
+  }
+  const Fit expected = power_law_fit(x, y, sy, sx, cov);
+  ASSERT_TRUE(expected.valid());
+  EXPECT_NEAR(f.coef[1], expected.coef[1], 1e-9);
+  EXPECT_NEAR(f.error[1], expected.error[1], 1e-9);
+  auto without_members = points;
+  for (auto& p : without_members) p.m_nu_initial.clear();
+  const Fit exact_x = analyse(scan, without_members).scan.increase_vs_nu_initial;
+  ASSERT_TRUE(exact_x.valid());
+  EXPECT_NEAR(exact_x.coef[1], power_law_fit(x, y, sy).coef[1], 1e-9);
+  EXPECT_GT(std::fabs(exact_x.coef[1] - f.coef[1]), 1e-6);  // the covariance matters here
   // The members' nu_i (for nu_i's error and its covariance with dnu/nu_i) travel in the file:
   // `loosepack analyse` fits the same law.
   {

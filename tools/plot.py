@@ -173,7 +173,8 @@ def nu_lower_half(points, out, written):
     varying = [k for k in others if len({attribute_value(attr(g, k)) for g in points}) > 1]
     series = {}
     for g in points:  # a series per file too, where several are drawn
-        series.setdefault(tuple(attribute_value(attr(g, k)) for k in others) + (file_tag(g),), []).append(g)
+        key = tuple(attribute_value(attr(g, k)) for k in others) + (file_tag(g),)
+        series.setdefault(key, []).append(g)
     xs = sorted({float(attr(g, x_key)) for g in points})
     finite = [b for b in xs if b > 0 and not math.isinf(b)]
     lo = min(finite) / 10 if finite else 0.1
