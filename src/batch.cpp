@@ -90,7 +90,7 @@ void Batch::Impl::solve() {
   // The per-system solvers iterate each system to convergence in one launch.
   if (solver.kind == SolverKind::AcceleratedGaussSeidel) {
     const AcceleratedGaussSeidel<Fx> sweeper{sys, part, con, sweeps, omega, DView<int>()};
-    if (solver.newton_every > 0) {
+    if (newton_rounds()) {
       solve_with_newton(sweeper);
       return;
     }
@@ -343,7 +343,7 @@ void Batch::Impl::newton_round(const std::vector<int>& due) {
         newton_steps[su] += steps;
         newton_pace[su].after_round(residual < 0.1 * before || !(residual > tolerance),
                                     NewtonPace::round_cost(steps, ns.factor_entries, ns.contacts()),
-                                    shortest_newton_wait(), longest_newton_wait(s));
+                                    shortest_newton_wait(s), longest_newton_wait(s));
         host.scatter(ns, s, offsets[su], local);
       });
   host.write_back(part, con);
@@ -538,7 +538,7 @@ void Batch::Impl::solve_stage() {
 // launch while the others take their next steps.
 template <class Fx>
 void Batch::Impl::fused_step() {
-  const bool newton = newton_in_fused_step();
+  const bool newton = newton_rounds();
   if (newton) upload_newton_limits();
   for (int s = 0; s < n_systems; ++s)
     launched[static_cast<std::size_t>(s)] = status[static_cast<std::size_t>(s)].active ? 1 : 0;
@@ -606,7 +606,7 @@ void Batch::Impl::system_step() {
     case SolverKind::ColouredAcceleratedGaussSeidel:
       return launch(TeamSolve<Fx>{team_solver<Fx>()});
     case SolverKind::AcceleratedGaussSeidel: {
-      const bool newton = newton_in_fused_step();
+      const bool newton = newton_rounds();
       return launch(OneThreadSolve<AcceleratedGaussSeidel<Fx>>{
           {sys, part, con, sweeps, omega, newton ? sweep_limit : DView<int>(), newton}});
     }
@@ -702,6 +702,7 @@ const SystemParams& Batch::params(int s) const {
   return impl_->params.at(static_cast<std::size_t>(s));
 }
 int Batch::max_sweeps(int s) const { return impl_->sweep_cap.at(static_cast<std::size_t>(s)); }
+int Batch::newton_every(int s) const { return impl_->newton_every.at(static_cast<std::size_t>(s)); }
 const SolverSettings& Batch::solver() const { return impl_->solver; }
 
 void Batch::step() { impl_->step(); }
@@ -777,7 +778,7 @@ Batch::SolverPace Batch::solver_pace(int s) const {
 
 void Batch::set_solver_pace(int s, const SolverPace& pace) {
   NewtonPace& p = impl_->newton_pace.at(static_cast<std::size_t>(s));
-  p.wait = std::clamp(pace.wait, impl_->shortest_newton_wait(), impl_->longest_newton_wait(s));
+  p.wait = std::clamp(pace.wait, impl_->shortest_newton_wait(s), impl_->longest_newton_wait(s));
   p.credit = pace.credit;
   p.charged = 0.0;
 }

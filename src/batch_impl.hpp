@@ -81,6 +81,7 @@ struct Batch::Impl {
   std::vector<long> newton_steps;  // [S] Newton steps taken (host counters)
   std::vector<NewtonPace> newton_pace;  // [S] when Newton rounds come (src/newton.hpp)
   std::vector<int> sweep_cap;           // [S] host copy of sys.max_sweeps
+  std::vector<int> newton_every;        // [S] SystemSetup::newton_every, else the solver's
   std::vector<std::unique_ptr<KluFactor>> newton_factor;  // [S] kept for its analysis
   // The per-system status read after every step: packed on the device into `report` [S x
   // StatusField] (StatusReport, kernels/step.hpp) and read back in one copy.
@@ -186,8 +187,10 @@ struct Batch::Impl {
   void fused_step();
   template <class Fx>
   void system_step();
-  bool newton_in_fused_step() const {
-    return solver.kind == SolverKind::AcceleratedGaussSeidel && solver.newton_every > 0;
+  // Whether any system takes Newton rounds (only the accelerated solver takes them).
+  bool newton_rounds() const {
+    return solver.kind == SolverKind::AcceleratedGaussSeidel &&
+           std::any_of(newton_every.begin(), newton_every.end(), [](int n) { return n > 0; });
   }
   void upload_newton_limits();
   template <class Fx>
@@ -201,10 +204,10 @@ struct Batch::Impl {
   // The bounds of a system's wait for its next Newton round (NewtonPace), in sweeps:
   // newton_every iterations (two sweeps each), and one wait short of the sweep cap, so that a
   // step about to be capped still gets a round.
-  int shortest_newton_wait() const { return 2 * solver.newton_every; }
+  int shortest_newton_wait(int s) const { return 2 * newton_every[static_cast<std::size_t>(s)]; }
   int longest_newton_wait(int s) const {
-    return std::max(shortest_newton_wait(),
-                    sweep_cap[static_cast<std::size_t>(s)] - shortest_newton_wait());
+    return std::max(shortest_newton_wait(s),
+                    sweep_cap[static_cast<std::size_t>(s)] - shortest_newton_wait(s));
   }
   // The threads per team of a launch of f: solver.team_size lowered to the backend's largest
   // team for f, or where the scan sets none (0) the backend's recommended size for f, rounded
@@ -226,12 +229,13 @@ struct Batch::Impl {
     return power;
   }
   int team_threads = 0;
-  // A step's sweep limit before its first Newton round (the cap where the pace skips the rounds
-  // this step), and after a round at `done` sweeps.
+  // A step's sweep limit before its first Newton round (the cap for a system without rounds or
+  // where the pace skips them this step), and after a round at `done` sweeps.
   int first_newton_limit(int s) const {
     const auto su = static_cast<std::size_t>(s);
-    return newton_pace[su].skips_step(longest_newton_wait(s)) ? sweep_cap[su]
-                                                              : newton_pace[su].wait;
+    return newton_every[su] == 0 || newton_pace[su].skips_step(longest_newton_wait(s))
+               ? sweep_cap[su]
+               : newton_pace[su].wait;
   }
   int next_newton_limit(int s, int done) const {
     return done + newton_pace[static_cast<std::size_t>(s)].wait;

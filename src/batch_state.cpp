@@ -121,8 +121,9 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   sweep_limit_host = Kokkos::create_mirror_view(sweep_limit);
   launched.assign(static_cast<std::size_t>(S), 0);
   newton_steps.assign(static_cast<std::size_t>(S), 0);
-  newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{shortest_newton_wait()});
   sweep_cap.assign(static_cast<std::size_t>(S), solver.max_sweeps);
+  newton_every.assign(static_cast<std::size_t>(S), solver.newton_every);
+  newton_pace.assign(static_cast<std::size_t>(S), NewtonPace{2 * solver.newton_every});
   newton_factor.resize(static_cast<std::size_t>(S));
   for (auto& f : newton_factor) f = std::make_unique<KluFactor>();
   report = alloc<double>("status_report", static_cast<std::size_t>(S) * kStatusFields);
@@ -301,6 +302,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
     if (!(d.radius > 0.0)) throw std::invalid_argument("Batch: disk radius must be positive");
   params[k] = su.params;
   sweep_cap[k] = su.max_sweeps > 0 ? su.max_sweeps : solver.max_sweeps;
+  newton_every[k] = su.newton_every >= 0 ? su.newton_every : solver.newton_every;
 
   const int first = offsets[k], cap = slot_capacity[k];
   const double tolerance = su.tolerance > 0.0 ? su.tolerance : solver.tolerance;
@@ -316,7 +318,7 @@ void Batch::Impl::load(int s, const SystemSetup& su) {
   status[k].active = true;
   status[k].count = count;
   newton_steps[k] = 0;
-  newton_pace[k] = NewtonPace{shortest_newton_wait()};
+  newton_pace[k] = NewtonPace{shortest_newton_wait(s)};
   newton_factor[k] = std::make_unique<KluFactor>();
 }
 

@@ -467,6 +467,7 @@ void write_point(hid_t g, const Scan& scan, const PointResult& pr, const PointAn
   attribute(g, "solver_tolerance", scan.tolerance(pr.point.protocol));
   attribute(g, "solver_max_sweeps",
             static_cast<double>(scan.max_sweeps(pr.point.protocol, pr.point.params)));
+  attribute(g, "solver_newton_every", static_cast<double>(scan.newton_every(pr.point.params)));
   params(g, pr.point.params);
   const double H = pr.point.params.height;
   attribute(g, "lower_half_from", scan.observables.lower_half_from_at(H));

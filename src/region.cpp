@@ -108,6 +108,7 @@ struct Regions::Impl {
     su.capacity = settings.max_disks;
     su.tolerance = tolerance;
     su.max_sweeps = whole.max_sweeps(s);
+    su.newton_every = whole.newton_every(s);
     su.disks = std::move(disks);
     return su;
   }

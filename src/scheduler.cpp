@@ -117,6 +117,7 @@ SystemSetup MemberRun::setup_of(const Member& m) const {
   su.member = m.id;
   su.tolerance = scan_.tolerance(m.protocol);
   su.max_sweeps = scan_.max_sweeps(m.protocol, m.params);
+  su.newton_every = scan_.newton_every(m.params);
   inject_faults(m, su);
   return su;
 }

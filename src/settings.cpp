@@ -15,16 +15,16 @@ using Type = SettingKey::Type;
       [](Scan& s, double v) { s.field = static_cast<decltype(s.field)>(v); }, nullptr, nullptr, \
       nullptr
 
-// A row of an observable length that a point derives from its height unless the file sets it
-// (ObservableSettings::lower_half_from_at): stored in /settings only where set.
-#define LOOSEPACK_GIVEN_LENGTH(name)                                              \
-  [](const Scan& s) { return s.observables.name; },                               \
-      [](Scan& s, double v) {                                                     \
-        s.observables.name = v;                                                   \
-        s.observables.name##_given = true;                                        \
-      },                                                                          \
-      nullptr, nullptr, nullptr, nullptr,                                         \
-      [](const Scan& s) { return s.observables.name##_given; }
+// A row of a key whose value the program chooses unless the file sets it (per protocol, box,
+// Bond number or height): the Scan member `field`, its flag `given` set where the file sets it,
+// and stored in /settings only then (each point stores the value it used).
+#define LOOSEPACK_GIVEN_FIELD(field, given)                   \
+  [](const Scan& s) { return static_cast<double>(s.field); }, \
+      [](Scan& s, double v) {                                 \
+        s.field = static_cast<decltype(s.field)>(v);          \
+        s.given = true;                                       \
+      },                                                      \
+      nullptr, nullptr, nullptr, nullptr, [](const Scan& s) { return s.given; }
 
 // The upper end of a range that bounds nothing in practice.
 constexpr double kLarge = 1e9;
@@ -47,29 +47,19 @@ std::vector<SettingKey> solver_keys() {
        nullptr, nullptr},
       {"solver", "tolerance", Type::Real, 1e-14, 1.0, "h m g",
        "largest impulse change of a converged sweep", "solver_tolerance",
-       [](const Scan& s) { return s.solver.tolerance; },
-       [](Scan& s, double v) {
-         s.solver.tolerance = v;
-         s.tolerance_given = true;
-       },
-       nullptr, nullptr, nullptr, nullptr, [](const Scan& s) { return s.tolerance_given; }},
+       LOOSEPACK_GIVEN_FIELD(solver.tolerance, tolerance_given)},
       {"solver", "relative_tolerance", Type::Real, 0.0, 1.0, "",
        "kappa: the step's tolerance is max(tolerance, kappa v_max / (g h))",
        "solver_relative_tolerance", LOOSEPACK_FIELD(solver.relative_tolerance), nullptr, nullptr},
       {"solver", "max_sweeps", Type::Integer, 1, 1e8, "", "sweeps per step at most",
-       "solver_max_sweeps", [](const Scan& s) { return static_cast<double>(s.solver.max_sweeps); },
-       [](Scan& s, double v) {
-         s.solver.max_sweeps = static_cast<int>(v);
-         s.max_sweeps_given = true;
-       },
-       nullptr, nullptr, nullptr, nullptr, [](const Scan& s) { return s.max_sweeps_given; }},
+       "solver_max_sweeps", LOOSEPACK_GIVEN_FIELD(solver.max_sweeps, max_sweeps_given)},
       {"solver", "relaxation", Type::Real, 0.01, 1.95, "", "omega: P <- P + omega (P_local - P)",
        "solver_relaxation", LOOSEPACK_FIELD(solver.relaxation), nullptr, nullptr},
       {"solver", "mass_splitting", Type::Bool, 0, 1, "", "Jacobi: mass split over contacts",
        "solver_mass_splitting", LOOSEPACK_FIELD(solver.mass_splitting), nullptr, nullptr},
       {"solver", "newton_every", Type::Integer, 0, 1e8, "iterations",
-       "a Newton step after this many unconverged iterations (0: none)", "solver_newton_every",
-       LOOSEPACK_FIELD(solver.newton_every), nullptr, nullptr},
+       "a Newton step after this many unconverged iterations (0: none; unset: by Bond number)",
+       "solver_newton_every", LOOSEPACK_GIVEN_FIELD(solver.newton_every, newton_every_given)},
       {"solver", "team_size", Type::Integer, 0, 1024, "threads",
        "the team solver's and the fused step's threads per system (0: the backend's choice)",
        "solver_team_size", LOOSEPACK_FIELD(solver.team_size), nullptr, nullptr},
@@ -166,16 +156,17 @@ std::vector<SettingKey> observables_keys() {
        LOOSEPACK_FIELD(observables.strip_width), nullptr, nullptr},
       {"observables", "lower_half_from", Type::Real, 0.0, kLarge, "R",
        "nu_lower_half from this height to H/2", "lower_half_from",
-       LOOSEPACK_GIVEN_LENGTH(lower_half_from)},
+       LOOSEPACK_GIVEN_FIELD(observables.lower_half_from, observables.lower_half_from_given)},
       {"observables", "bin_width", Type::Real, 1e-3, 1e6, "R", "avalanche profile bins",
        "bin_width", LOOSEPACK_FIELD(observables.bin_width), nullptr, nullptr},
       {"observables", "abs_dy_bin", Type::Real, 1e-3, 1e6, "R", "|Delta y| histogram bin",
        "abs_dy_bin", LOOSEPACK_FIELD(observables.abs_dy_bin), nullptr, nullptr},
       {"observables", "cut_bottom", Type::Real, 0.0, kLarge, "R",
        "the cut histogram leaves out this much at the bottom", "cut_bottom",
-       LOOSEPACK_GIVEN_LENGTH(cut_bottom)},
+       LOOSEPACK_GIVEN_FIELD(observables.cut_bottom, observables.cut_bottom_given)},
       {"observables", "cut_top", Type::Real, 0.0, kLarge, "R",
-       "... and at the top of the final deposit", "cut_top", LOOSEPACK_GIVEN_LENGTH(cut_top)},
+       "... and at the top of the final deposit", "cut_top",
+       LOOSEPACK_GIVEN_FIELD(observables.cut_top, observables.cut_top_given)},
       {"observables", "event_threshold", Type::Real, 0.0, kLarge, "R",
        "a disk moved in an avalanche beyond this", "event_threshold",
        LOOSEPACK_FIELD(observables.event_threshold), nullptr, nullptr},
@@ -197,6 +188,7 @@ std::vector<SettingKey> make_table() {
 }
 
 #undef LOOSEPACK_FIELD
+#undef LOOSEPACK_GIVEN_FIELD
 
 }  // namespace
 

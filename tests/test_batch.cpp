@@ -277,6 +277,39 @@ INSTANTIATE_TEST_SUITE_P(
                     FusedCase{"sequential_overlap", SolverKind::SequentialGaussSeidel, 0, 0, 0.2}),
     [](const testing::TestParamInfo<FusedCase>& info) { return std::string(info.param.name); });
 
+// SystemSetup::newton_every gives each system its own Newton rounds: in a batch where one
+// cohesive column takes rounds and a copy of it none (nor the random drops), each system steps
+// bit for bit as in a batch whose solver settings give every system its rounds (or none), staged
+// and fused.
+TEST(Batch, NewtonRoundsAreEachSystemsOwn) {
+  auto systems = unequal_systems();
+  systems.push_back(systems.front());  // the column again
+  const std::vector<long> steps(systems.size(), 60);
+  for (const bool fused : {false, true}) {
+    SCOPED_TRACE(fused ? "fused step" : "staged step");
+    SolverSettings off, on;
+    off.kind = on.kind = SolverKind::AcceleratedGaussSeidel;
+    off.fused_step = on.fused_step = fused;
+    off.newton_every = 0;
+    on.newton_every = 1;
+    auto mixed = systems;
+    for (std::size_t s = 0; s < mixed.size(); ++s) mixed[s].newton_every = s == 0 ? 1 : 0;
+    Batch each(mixed, off), all_on(systems, on), all_off(systems, off);
+    for (Batch* b : {&each, &all_on, &all_off}) step_to(*b, steps);
+    EXPECT_EQ(each.newton_every(0), 1);
+    EXPECT_EQ(each.newton_every(3), 0);
+    EXPECT_GT(each.status(0).newton_steps, 0) << "no Newton step: the case tests nothing";
+    EXPECT_GT(all_on.status(3).newton_steps, 0) << "the copy would take no rounds either";
+    for (int s = 0; s < each.size(); ++s) {
+      const Batch& alone = s == 0 ? all_on : all_off;
+      EXPECT_EQ(each.status(s).steps, 60) << "system " << s;
+      EXPECT_EQ(each.status(s).sweeps, alone.status(s).sweeps) << "system " << s;
+      EXPECT_EQ(each.status(s).newton_steps, alone.status(s).newton_steps) << "system " << s;
+      expect_same_disks(each.disks(s), alone.disks(s), s);
+    }
+  }
+}
+
 // A fused step is one launch and one copy (the status read back), and timing shows it as one
 // row beside the status's.
 TEST(Batch, AFusedStepIsOneLaunchAndOneCopy) {

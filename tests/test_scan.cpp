@@ -172,11 +172,24 @@ TEST(Scan, SweepCapIsTheProtocolDefaultUnlessSet) {
   EXPECT_EQ(set.max_sweeps(Protocol::C, small), 777);
 }
 
-TEST(Scan, NewtonStepsAreOnUnlessSetToZero) {
-  EXPECT_EQ(parse_scan("[scan]\nname = \"plain\"\n", "plain.toml").solver.newton_every,
-            SolverSettings{}.newton_every);
+// Newton rounds by Bond number unless the file sets them: the solver's default from
+// kNewtonFromBond on, none below (and none without cohesion); the file's value for every member.
+TEST(Scan, NewtonStepsFollowTheBondNumberUnlessSet) {
   EXPECT_GT(SolverSettings{}.newton_every, 0);
-  EXPECT_EQ(parse_scan("[solver]\nnewton_every = 0\n", "off.toml").solver.newton_every, 0);
+  SystemParams weak, strong, dry;
+  weak.bond_number = 0.5 * kNewtonFromBond;
+  strong.bond_number = kNewtonFromBond;
+  dry.bond_number = 0.0;
+  const Scan plain = parse_scan("[scan]\nname = \"plain\"\n", "plain.toml");
+  EXPECT_FALSE(plain.newton_every_given);
+  EXPECT_EQ(plain.newton_every(strong), SolverSettings{}.newton_every);
+  EXPECT_EQ(plain.newton_every(weak), 0);
+  EXPECT_EQ(plain.newton_every(dry), 0);
+  for (const int n : {0, 3}) {
+    const Scan set = parse_scan("[solver]\nnewton_every = " + std::to_string(n) + "\n", "n.toml");
+    EXPECT_EQ(set.newton_every(strong), n);
+    EXPECT_EQ(set.newton_every(weak), n);
+  }
 }
 
 // batch_size: 0 unless set, which run_members and the program read as default_batch_size().

@@ -41,6 +41,8 @@ struct SystemSetup {
   double tolerance = 0.0;
   // Solver sweep cap per step of this system; 0: the batch's SolverSettings::max_sweeps.
   int max_sweeps = 0;
+  // Newton rounds of this system (SolverSettings::newton_every, 0: none); -1: the batch's.
+  int newton_every = -1;
 };
 
 // Contact force of one contact, in force units (impulse / h).
@@ -159,6 +161,8 @@ class Batch {
   const SystemParams& params(int s) const;
   // The solver's sweep cap per step of system s (SystemSetup::max_sweeps, else the batch's).
   int max_sweeps(int s) const;
+  // The Newton rounds of system s (SystemSetup::newton_every, else the batch's; 0: none).
+  int newton_every(int s) const;
   const SolverSettings& solver() const;
 
   // One time step of every active system. With SolverSettings::sweeps_per_launch a system whose

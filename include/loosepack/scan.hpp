@@ -26,6 +26,16 @@ bool protocol_from_name(const std::string& name, Protocol& p);
 // creeps longer before rest) and follows the tightly converged reference. B has no dynamics.
 inline double default_tolerance(Protocol p) { return p == Protocol::A ? 1e-3 : 3e-4; }
 
+// The Newton rounds (SolverSettings::newton_every) a member runs with when the scan file sets
+// none: the solver's default from Bo = kNewtonFromBond on, none below it. Against NNCG alone
+// (docs/PERFORMANCE.md, "Newton steps") the rounds make protocol A 2.7-3.6 times faster at
+// Bo = 1e3 and 1.2 times at 3e2, where the sweeps crawl through a loose cohesive network; from
+// Bo = 0 to 1e2 they rarely pay and cost 1.07-1.32 times the CPU.
+constexpr double kNewtonFromBond = 200.0;
+inline int default_newton_every(const SystemParams& params) {
+  return params.bond_number >= kNewtonFromBond ? SolverSettings{}.newton_every : 0;
+}
+
 // The solver's sweep cap per step a member runs with when the scan file sets none. From the
 // accuracy/time study and whole runs (docs/PERFORMANCE.md, "The sweep cap"): for A it grows with
 // the box, 0.2 sweeps per R^2 of width x height (about two per disk of a loose deposit), between
@@ -119,6 +129,7 @@ struct Scan {
   SolverSettings solver;  // solver.tolerance and max_sweeps only count where given
   bool tolerance_given = false;   // [solver] tolerance set in the file, for every protocol
   bool max_sweeps_given = false;  // [solver] max_sweeps set in the file, for every protocol
+  bool newton_every_given = false;  // [solver] newton_every set in the file, for every member
   // [solver] kind set in the file; else the backend's default (resolve_backend_defaults). A
   // Scan built in code that sets solver.kind sets this too.
   bool solver_kind_given = false;
@@ -140,6 +151,10 @@ struct Scan {
   // The sweep cap of a member of protocol p with these parameters: the file's, else the default.
   int max_sweeps(Protocol p, const SystemParams& params) const {
     return max_sweeps_given ? solver.max_sweeps : default_max_sweeps(p, params);
+  }
+  // The Newton rounds of a member with these parameters: the file's, else the default.
+  int newton_every(const SystemParams& params) const {
+    return newton_every_given ? solver.newton_every : default_newton_every(params);
   }
 };
 

@@ -14,8 +14,8 @@ SCALARS = ("nu_lower_half", "mean_abs_dy", "nu_initial", "nu_final", "relative_i
 PARAMETERS = (
     "width", "height", "radius", "polydispersity", "disk_density", "gravity", "bond_number",
     "cohesive_force", "cohesion_range", "floor_cohesion", "friction", "rolling_friction",
-    "time_step", "capture_radius", "solver_tolerance", "solver_max_sweeps", "lower_half_from",
-    "cut_bottom", "cut_top",
+    "time_step", "capture_radius", "solver_tolerance", "solver_max_sweeps", "solver_newton_every",
+    "lower_half_from", "cut_bottom", "cut_top",
 )
 COUNTS = ("members", "failed")
 
