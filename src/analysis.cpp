@@ -384,10 +384,11 @@ Fit across_points(const std::vector<PointResult>& points, Protocol protocol, Var
   // A law through fewer than three values of the varying parameter has no degree of freedom
   // left to be tested by (group_varying asks for three; a datum may have dropped out): no fit.
   if (std::set<double>(x.begin(), x.end()).size() < 3) return Fit{};
+  // A fit that fails there (the effective variance's iteration did not settle) keeps the points
+  // it was tried through, so that readers say which law was not fitted instead of nothing.
   Fit f = fit(x, y, sigma, sigma_x, cov);
-  if (!f.valid()) return f;
   f.scan_points = std::move(used);
-  if (few_members) f.chi2 = kNaN;
+  if (f.valid() && few_members) f.chi2 = kNaN;
   return f;
 }
 

@@ -1064,18 +1064,22 @@ void print_point_fits(const FitReader& f, const std::string& n, bool& header, st
 // a scan of a grid has several groups that differ only in one variable, and the fit takes one.
 std::string fitted_points(const FitReader& f, const std::string& object) {
   if (!f.exists(object + "/scan_points")) return "";
+  const std::vector<double> points = doubles(f.file, object + "/scan_points");
+  if (points.empty()) return "";
   std::ostringstream o;
   o << "  [points";
-  for (double k : doubles(f.file, object + "/scan_points"))
-    o << " " << std::setw(4) << std::setfill('0') << static_cast<long>(k);
+  for (double k : points) o << " " << std::setw(4) << std::setfill('0') << static_cast<long>(k);
   o << "]";
   return o.str();
 }
 
-// The fits across scan points, where the scan has the points for them.
+// The fits across scan points, where the scan has the points for them; a fit tried through
+// points that did not settle says so.
 void print_fits_across(const FitReader& f, std::ostream& out) {
   auto text = [&](const std::string& fit, const std::string& object) {
-    return fit.empty() ? fit : fit + fitted_points(f, object);
+    const std::string points = fitted_points(f, object);
+    if (fit.empty()) return points.empty() ? points : "no fit (did not settle)" + points;
+    return fit + points;
   };
   const std::string log_h = text(f.fit_text("analysis/increase_vs_log_height", "ln H"),
                                  "analysis/increase_vs_log_height");

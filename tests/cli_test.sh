@@ -373,6 +373,14 @@ printf '[scan]\nprotocol = "C"\nseeds = 3\n[system]\nwidth = 16\nheight = [16, 2
 /usr/bin/python3 -c 'import sys, h5py; f = h5py.File(sys.argv[1], "r")
 sys.exit(list(f["analysis/increase_vs_log_height/scan_points"][()]) != [0, 1, 2])' "$dir/an.h5" ||
   fail "analysis/increase_vs_log_height/scan_points is not the three heights"
+# A fit tried through points that did not settle (no coefficients) is named, not left out.
+cp "$dir/an.h5" "$dir/unsettled.h5"
+/usr/bin/python3 -c 'import sys, h5py, numpy as np; f = h5py.File(sys.argv[1], "r+")
+g = f["analysis/increase_vs_log_height"]; g.attrs["valid"] = 0.0
+for k in ("coef", "error"): del g[k]; g[k] = np.zeros(0)' "$dir/unsettled.h5"
+"$exe" summary "$dir/unsettled.h5" | grep -A1 "^# fits across points" |
+  grep -q "dnu/nu_i = no fit (did not settle)  \[points 0000 0001 0002\]" ||
+  fail "summary does not name a fit across points that did not settle"
 # Per point: the identity b' = b/(1+b) and a' = a/(1+b), and the deposition density's power law.
 "$exe" summary "$dir/an.h5" > "$dir/an_summary.txt"
 grep -q "b' = .*from b/(1+b): .*; a' = .*from a/(1+b): " "$dir/an_summary.txt" ||

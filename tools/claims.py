@@ -1135,13 +1135,15 @@ def check_scan(f, path):
             print(f"claims.py: {path}: no /analysis/{key} (an older file): `loosepack analyse "
                   f"{path}` adds it", file=sys.stderr)
             continue
-        if not a[key].attrs.get("valid", 0):
-            continue  # the scan has no three points differing in that variable
         used = [f"points/{int(k):04d}" for k in a[key]["scan_points"][()]] \
             if "scan_points" in a[key] else []
         bos = sorted({float(f[u].attrs["bond_number"]) for u in used if u in f})
         through = f" (points {', '.join(u.split('/')[1] for u in used)}, Bo = " \
             f"{', '.join(f'{b:g}' for b in bos)})" if used else ""
+        if not a[key].attrs.get("valid", 0):
+            if used:  # tried through these points, but the fit did not settle
+                yield (claim, NOT_JUDGED, f"no fit: it did not settle{through}")
+            continue  # else the scan has no three points differing in that variable
         if claim.startswith("A ") and any(not 0 < b < math.inf for b in bos):
             yield (claim, NOT_JUDGED, f"the fit goes through points without cohesion{through}: "
                    f"`loosepack analyse {path}` fits the cohesive points")

@@ -353,23 +353,30 @@ def test_typical_avalanche_size_falls_with_the_bond_number(tmp_path):
     assert verdict({10: (3.0, 0.2), 100: (1.5, math.nan), 1000: (0.2, 0.05)}) is claims.NOT_JUDGED
 
 
-def across_points(tmp_path, name, key, p, e, chi2, dof=2, bond_numbers=()):
+def across_points(tmp_path, name, key, p, e, chi2, dof=2, bond_numbers=(), valid=True):
     """The verdict of claims.py on a file whose only across-point fit is `key`, with slope or
-    exponent p +- e and the given chi2 (through points at `bond_numbers` where given)."""
+    exponent p +- e and the given chi2 (through points at `bond_numbers` where given), or one
+    that failed (`valid` false: the program writes no coefficients)."""
     path = tmp_path / f"{name}.h5"
     with h5py.File(path, "w") as f:
         f.create_group("points")
         for k, bo in enumerate(bond_numbers):
             f.create_group(f"points/{k:04d}").attrs.update({"protocol": "A", "bond_number": bo})
         g = f.create_group(f"analysis/{key}")
-        if bond_numbers:
-            g["scan_points"] = np.arange(len(bond_numbers))
-        g["coef"], g["error"] = np.array([-5.0, p]), np.array([0.5, e])
-        g.attrs.update({"valid": 1.0, "chi2": chi2, "dof": float(dof),
-                        "reduced_chi2": chi2 / dof, "points": dof + 2.0})
+        g["scan_points"] = np.arange(len(bond_numbers))
+        if valid:
+            g["coef"], g["error"] = np.array([-5.0, p]), np.array([0.5, e])
+            g.attrs.update({"valid": 1.0, "chi2": chi2, "dof": float(dof),
+                            "reduced_chi2": chi2 / dof, "points": dof + 2.0})
+        else:
+            g["coef"], g["error"] = np.zeros(0), np.zeros(0)
+            g.attrs.update({"valid": 0.0, "chi2": math.nan, "dof": 0.0, "points": 0.0})
     with h5py.File(path, "r") as f:
-        (claim, ok, _), = claims.check_scan(f, str(path))
-        return ok
+        verdicts = list(claims.check_scan(f, str(path)))
+    if not verdicts:
+        return None
+    (claim, ok, _), = verdicts
+    return ok
 
 
 def test_one_over_h_needs_a_resolved_exponent_near_minus_one_and_an_acceptable_fit(tmp_path):
@@ -384,6 +391,15 @@ def test_one_over_h_needs_a_resolved_exponent_near_minus_one_and_an_acceptable_f
                          bond_numbers=(0.0, 0.0, 0.0, 0.0)) is claims.NOT_JUDGED
     assert across_points(tmp_path, "f", "quadratic_vs_height", -1.05, 0.1, 1.0,
                          bond_numbers=(1e3, 1e3, 1e3, 1e3))
+
+
+def test_a_fit_that_did_not_settle_is_not_judged_and_no_fit_is_no_claim(tmp_path):
+    # Tried through four points, the fit failed (the effective variance did not settle).
+    assert across_points(tmp_path, "a", "increase_vs_nu_initial", 0.0, 0.0, 0.0,
+                         bond_numbers=(1e3,) * 4, valid=False) is claims.NOT_JUDGED
+    # No three points differ in the variable: no fit was tried, and there is nothing to claim.
+    assert across_points(tmp_path, "b", "increase_vs_nu_initial", 0.0, 0.0, 0.0,
+                         valid=False) is None
 
 
 def test_slice_model_fixed_across_heights(tmp_path):
