@@ -453,12 +453,16 @@ void parse_setting(const std::string& file, const std::string& section, const st
   });
   if (row == table.end())
     fail(file, v, key, "unknown key (allowed: " + joined(setting_keys_of(section)) + ")");
+  // After a range: its unit, and what the key means.
+  const std::string unit_and_meaning =
+      std::string(*row->unit ? " " : "") + row->unit + " (" + row->meaning + ")";
   switch (row->type) {
     case SettingKey::Type::Real: {
       const double x = as_number(file, v, key);
       if (!(x >= row->lo && x <= row->hi)) {
         std::ostringstream o;
-        o << "value " << x << " outside the allowed range [" << row->lo << ", " << row->hi << "]";
+        o << "value " << x << " outside the allowed range [" << row->lo << ", " << row->hi << "]"
+          << unit_and_meaning;
         fail(file, v, key, o.str());
       }
       row->set(scan, x);
@@ -470,7 +474,7 @@ void parse_setting(const std::string& file, const std::string& section, const st
           static_cast<double>(i->get()) > row->hi) {
         std::ostringstream o;
         o << "expected an integer in [" << static_cast<long>(row->lo) << ", "
-          << static_cast<long>(row->hi) << "]";
+          << static_cast<long>(row->hi) << "]" << unit_and_meaning;
         fail(file, v, key, o.str());
       }
       row->set(scan, static_cast<double>(i->get()));

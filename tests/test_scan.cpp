@@ -678,7 +678,8 @@ TEST(Scan, SettingsTableDrivesParsingAndErrors) {
         }
       }
       EXPECT_TRUE(set);
-      // Below the range and above it: refused, naming the key and the range.
+      // Below the range and above it: refused, naming the key, the range, its unit and what
+      // the key means.
       const bool integer = row.type == SettingKey::Type::Integer;
       for (double outside : {row.lo - 1.0, 2.0 * row.hi + 1.0}) {
         std::ostringstream text;
@@ -693,6 +694,10 @@ TEST(Scan, SettingsTableDrivesParsingAndErrors) {
             << error;
         EXPECT_NE(error.find(integer ? "expected an integer in [" : "outside the allowed range ["),
                   std::string::npos)
+            << error;
+        EXPECT_NE(
+            error.find(std::string("] ") + row.unit + (*row.unit ? " (" : "(") + row.meaning + ")"),
+            std::string::npos)
             << error;
       }
     }

@@ -126,7 +126,7 @@ struct Scan {
   std::uint64_t seed = 1;
   int seeds = 1;          // members per scan point
   int batch_size = 0;     // systems advanced together; 0: default_batch_size() (protocols.hpp)
-  SolverSettings solver;  // solver.tolerance and max_sweeps only count where given
+  SolverSettings solver;  // tolerance, max_sweeps and newton_every only count where given
   bool tolerance_given = false;   // [solver] tolerance set in the file, for every protocol
   bool max_sweeps_given = false;  // [solver] max_sweeps set in the file, for every protocol
   bool newton_every_given = false;  // [solver] newton_every set in the file, for every member

@@ -1,6 +1,7 @@
 // The settings sections of a scan file ([solver], [rest], [protocol], [observables]) as one
 // table: each row is a key with its member of Scan, allowed range, unit and meaning, and drives
-// the parser and its validation (src/scan.cpp), the list of allowed keys in its error messages,
+// the parser and its validation (src/scan.cpp; a value out of range is refused with the range,
+// the unit and the meaning), the list of allowed keys in its error messages,
 // the output's /settings attributes (src/output.cpp) and the check that docs/SCAN.md lists every
 // key of the scan file (tests/test_scan.cpp). A new setting is one row here, plus its member
 // and its line in docs/SCAN.md.
@@ -29,8 +30,9 @@ struct SettingKey {
   std::string (*name)(const Scan&);
   bool (*set_name)(Scan&, const std::string&);
   // Where not null: a check beyond the range ("" when valid), and whether the value is stored
-  // (solver.tolerance and max_sweeps only where the file sets them: else each protocol's
-  // default holds, and that is not one number).
+  // (solver.tolerance, max_sweeps, newton_every and the observables' lengths only where the
+  // file sets them: else each member's default holds, by protocol, box, Bond number or height,
+  // and that is not one number).
   std::string (*check)(const Scan&);
   bool (*stored)(const Scan&);
   // A setting of how a run goes that no member's result depends on (solver.sweeps_per_launch):
