@@ -27,7 +27,8 @@
 //   bench_study --study effects|size|accuracy|cost [--tiny] [--seeds N] [--budget S]
 //               [--protocol A|C] [--match TEXT] [--sides S1,S2,...]
 //               [--regions R [--region-check K]] [--newton K]
-// --newton: solver.newton_every of every ensemble (0: NNCG alone; docs/MODEL.md, "Solvers").
+// --newton: solver.newton_every of every ensemble (0: NNCG alone; docs/MODEL.md, "Solvers");
+// unset, each ensemble's default at its Bond number, as the program's.
 // --sides: the box sides (A) or widths (C) of the size study; --regions: every ensemble's
 // protocol-A members relax in relaxation regions of radius R, the whole system checked after
 // every K-th disk (protocol.region_radius, region_check_every; docs/MODEL.md).
@@ -72,7 +73,7 @@ struct Setup {
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
   double relative_tolerance = SolverSettings{}.relative_tolerance;
   int max_sweeps = 0;  // 0: the protocol's default for the box (default_max_sweeps)
-  int newton_every = SolverSettings{}.newton_every;
+  int newton_every = -1;  // -1: the program's default at this Bond number (default_newton_every)
   bool rest_converged = RestSettings{}.converged;
   double region_radius = 0.0;  // protocol.region_radius; 0: the whole system relaxes
   int region_check_every = ProtocolSettings{}.region_check_every;
@@ -105,6 +106,11 @@ struct Setup {
   int cap() const {
     return max_sweeps > 0 ? max_sweeps : bench::default_cap(protocol, width, height);
   }
+  int rounds() const {
+    SystemParams p;
+    p.bond_number = bond_number;
+    return newton_every >= 0 ? newton_every : default_newton_every(p);
+  }
 
   std::string toml() const {
     std::ostringstream o;
@@ -117,7 +123,7 @@ struct Setup {
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
       << "\"\ntolerance = " << tolerance << "\nrelative_tolerance = " << relative_tolerance
       << "\nmax_sweeps = " << cap() << "\nrelaxation = " << relaxation
-      << "\nnewton_every = " << newton_every
+      << "\nnewton_every = " << rounds()
       << "\n[rest]\nconverged = " << (rest_converged ? "true" : "false")
       << "\n[protocol]\nregion_radius = " << region_radius
       << "\nregion_check_every = " << region_check_every
@@ -139,7 +145,7 @@ struct Setup {
       << ", \"tolerance\": " << bench::json_number(tolerance)
       << ", \"relative_tolerance\": " << bench::json_number(relative_tolerance)
       << ", \"max_sweeps\": " << cap() << ", \"relaxation\": " << bench::json_number(relaxation)
-      << ", \"newton_every\": " << newton_every
+      << ", \"newton_every\": " << rounds()
       << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
       << ", \"region_radius\": " << bench::json_number(region_radius)
       << ", \"region_check_every\": " << region_check_every << ", \"seeds\": " << seeds << "}";
@@ -316,7 +322,10 @@ std::vector<Setup> accuracy_settings(const Setup& base) {
       add("relaxation=" + bench::json_number(w), [w](Setup& s) { s.relaxation = w; });
   for (const char* k : {"sequential_gauss_seidel", "gauss_seidel", "jacobi"})
     add(std::string("solver=") + k, [k](Setup& s) { s.solver = k; });
-  add("newton_every=0", [](Setup& s) { s.newton_every = 0; });
+  // The Newton rounds the other way than the default at this Bond number.
+  const int other_rounds = base.rounds() > 0 ? 0 : SolverSettings{}.newton_every;
+  add("newton_every=" + std::to_string(other_rounds),
+      [other_rounds](Setup& s) { s.newton_every = other_rounds; });
   // Rest by speeds alone, the solve capped as a fixed-iteration engine caps it.
   for (int c : {16, 64, 2000})
     add("rest=speed max_sweeps=" + std::to_string(c), [c](Setup& s) {
@@ -465,7 +474,7 @@ int main(int argc, char** argv) {
   std::string study, protocol, match;
   std::vector<int> sides_given;
   double region_radius = 0.0;
-  int newton_every = SolverSettings{}.newton_every;
+  int newton_every = -1;  // --newton; -1: by Bond number, as the program
   int region_check = ProtocolSettings{}.region_check_every;
   bool tiny = false;
   int seeds = 0;

@@ -117,10 +117,10 @@ void expect_same_member(const MemberResult& a, const MemberResult& b) {
 // cohesive deposits relaxed in regions with a whole-system check every third disk (A), slow
 // deposits without cohesion (A) and collapses (C), with trajectories, on batches of 2: a
 // snapshot of every running member is asked for every 16 rounds; the run is stopped after
-// every twelfth of the rounds the whole run takes (or, every other time, crashes), each time saved
-// to a checkpoint part and read back, and resumed on batches of 3. Every member's result equals
-// the uninterrupted run's bit for bit; some went on from inside a relaxation region. `solver` is
-// the scan file's [solver] section.
+// every sixteenth of the rounds the whole run takes (or, every other time, crashes), each time
+// saved to a checkpoint part and read back, and resumed on batches of 3. Every member's result
+// equals the uninterrupted run's bit for bit; some went on from inside a relaxation region.
+// `solver` is the scan file's [solver] section.
 void expect_running_members_go_on(const std::string& solver) {
   const Scan scan = parse_scan(
       "[scan]\nseeds = 2\nbatch_size = 2\n"
@@ -165,7 +165,7 @@ void expect_running_members_go_on(const std::string& solver) {
     hooks.stop = &stop;
     hooks.progress = [&](const Progress&) { ++n; };
     hooks.snapshot_wanted = [&] { return n % 16 == 0; };
-    // Stopped after the first set of snapshots past a twelfth of the rounds; the stop then
+    // Stopped after the first set of snapshots past a sixteenth of the rounds; the stop then
     // takes fresh snapshots (waiting for members inside a split step to end it), which most
     // often find the members of A inside a relaxation region. Every other stop goes on from the
     // last set before it instead, as after a crash, and comes where that set holds a member
@@ -177,7 +177,7 @@ void expect_running_members_go_on(const std::string& solver) {
         return s.phase == MemberPhase::Deposit || s.phase == MemberPhase::Ballistic;
       });
       for (auto& s : snaps) latest[s.result.member.id] = std::move(s);
-      if (n >= rounds / 12 && (!crash || between)) stop = 1;
+      if (n >= rounds / 16 && (!crash || between)) stop = 1;
     };
     hooks.finished = [&](const MemberResult& r) { latest.erase(r.member.id); };
     for (auto& r : run_members(stops == 0 ? scan : resumed_scan, todo, hooks, started))

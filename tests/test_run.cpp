@@ -158,6 +158,7 @@ TEST(Reproducibility, FusedStepDoesNotChangeResults) {
     Scan staged = scan_of(kSlotsScan);
     staged.solver.kind = kind;
     staged.solver.newton_every = 1;  // rounds wherever a solve takes more than two sweeps
+    staged.newton_every_given = true;
     Scan fused = staged;
     fused.solver.fused_step = true;
     if (kind == SolverKind::ColouredAcceleratedGaussSeidel) fused.solver.sweeps_per_launch = 4;
