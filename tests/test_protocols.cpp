@@ -162,13 +162,19 @@ TEST(ProtocolA, DensityDecreasesWithHeightAtIntermediateBond) {
 }
 
 // Protocol A at Bo = 0: a dense packing (near the 2D random close packing, crystallising for
-// monodisperse disks) and nearly flat in y. 4 seeds of 24 R x 48 R, bands [8, 22) and
-// [22, 36) R: the lower band is denser by 0.007 +- 0.006 (0.8 %; the paper's flat profiles are
-// 800 R tall). "Flat" is judged against the control: 32 members of the same box at Bo = 1e2,
-// whose relative difference between the bands (5.0 +- 1.5 %) must exceed Bo = 0's by more than
-// two combined standard errors.
+// monodisperse disks) and nearly flat in y. 4 seeds of 24 R x 48 R, bands [8, 22) and [22, 36)
+// R: the lower band is denser by 0.009 +- 0.004 (1 %, 0.07 % per R; the paper's flat profiles are
+// 800 R tall). "Flat" is judged against the control, the graded deposit of
+// DensityDecreasesWithHeightAtIntermediateBond (16 members of 24 R x 72 R at Bo = 1e2, bands
+// [6, 30) and [30, 54) R, 0.048 +- 0.007 apart, 0.37 % per R): its relative gradient per R
+// of height must exceed Bo = 0's by more than two combined standard errors (here by 4.7). (The
+// same bands of 24 R x 48 R boxes at Bo = 1e2 differ by 3-5 %, within 1.4-1.9 % over 32 or 64
+// members: too few standard errors above Bo = 0's to judge by whatever the draw.)
 TEST(ProtocolA, DenseAndFlatWithoutCohesion) {
-  const auto relative_gradient = [](const char* bond, int seeds, Scalar* volume_fraction) {
+  // The difference of the bands [lo, mid) and [mid, hi) relative to the volume fraction of
+  // [lo, hi), per R between the bands' centres, over `seeds` members of 24 R x `height`.
+  const auto relative_gradient = [](const char* bond, int seeds, double height, double lo,
+                                    double mid, double hi, Scalar* volume_fraction) {
     const auto results = run_all(scan_of(std::string(R"(
 [scan]
 protocol = "A"
@@ -176,24 +182,24 @@ batch_size = 4
 seeds = )" + std::to_string(seeds) + R"(
 [system]
 width = 24.0
-height = 48.0
+height = )" + std::to_string(height) + R"(
 bond_number = )" + bond + R"(
 [observables]
 lower_half_from = 4.0
 )")));
-    const Scalar d = band_difference(results, 24.0, 8.0, 22.0, 36.0);
+    const Scalar d = band_difference(results, 24.0, lo, mid, hi);
     std::vector<double> band;
     for (const auto& r : results)
-      band.push_back(band_volume_fraction(r.y_e, r.radius, 24.0, 8.0, 36.0));
+      band.push_back(band_volume_fraction(r.y_e, r.radius, 24.0, lo, hi));
     *volume_fraction = mean_sem(band);
-    const double lower = volume_fraction->mean;
-    std::printf("Bo = %s: nu[8, 36) = %.4f +- %.4f; nu[8, 22) - nu[22, 36) = %.4f +- %.4f\n", bond,
-                lower, volume_fraction->sem, d.mean, d.sem);
-    return std::pair(d.mean / lower, d.sem / lower);
+    const double whole = volume_fraction->mean, apart = (hi - lo) / 2.0;
+    std::printf("Bo = %s: nu[%g, %g) = %.4f +- %.4f; nu[%g, %g) - nu[%g, %g) = %.4f +- %.4f\n",
+                bond, lo, hi, whole, volume_fraction->sem, lo, mid, mid, hi, d.mean, d.sem);
+    return std::pair(d.mean / whole / apart, d.sem / whole / apart);
   };
   Scalar dense, loose;
-  const auto [flat, flat_err] = relative_gradient("0", 4, &dense);
-  const auto [graded, graded_err] = relative_gradient("100", 32, &loose);
+  const auto [flat, flat_err] = relative_gradient("0", 4, 48.0, 8.0, 22.0, 36.0, &dense);
+  const auto [graded, graded_err] = relative_gradient("100", 16, 72.0, 6.0, 30.0, 54.0, &loose);
   constexpr double random_close_packing = 0.84;  // 2D disks, as DensityFallsWithBondNumber
   EXPECT_GT(dense.mean, random_close_packing - 3.0 * dense.sem);
   EXPECT_GT(graded - std::fabs(flat), 2.0 * std::hypot(flat_err, graded_err));
