@@ -29,8 +29,8 @@ inline double default_tolerance(Protocol p) { return p == Protocol::A ? 1e-3 : 3
 // The Newton rounds (SolverSettings::newton_every) a member runs with when the scan file sets
 // none: the solver's default from Bo = kNewtonFromBond on, none below it. Against NNCG alone
 // (docs/PERFORMANCE.md, "Newton steps") the rounds make protocol A 2.7-3.6 times faster at
-// Bo = 1e3 and 1.2 times at 3e2, where the sweeps crawl through a loose cohesive network; from
-// Bo = 0 to 1e2 they rarely pay and cost 1.07-1.32 times the CPU.
+// Bo = 1e3 and 1.08-1.22 times at 3e2, where the sweeps crawl through a loose cohesive network;
+// from Bo = 0 to 1e2 they rarely pay and cost 1.07-1.32 times the CPU (protocols A and C).
 constexpr double kNewtonFromBond = 200.0;
 inline int default_newton_every(const SystemParams& params) {
   return params.bond_number >= kNewtonFromBond ? SolverSettings{}.newton_every : 0;
