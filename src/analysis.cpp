@@ -410,16 +410,40 @@ double polynomial(const Fit& f, double x) {
   return v;
 }
 
+namespace {
+
+// Power-law data on log axes: ln x, ln y and the errors relative to x and y (those of the
+// logarithms to first order), the covariance over x y. A point with x or y not positive, or (with
+// x errors) an x error or covariance that is not finite, is left out; absent errors stay absent.
+struct LogAxes {
+  std::vector<double> x, y, sigma, sigma_x, cov;
+};
+LogAxes on_log_axes(const std::vector<double>& x, const std::vector<double>& y,
+                    const std::vector<double>& sigma, const std::vector<double>& sigma_x = {},
+                    const std::vector<double>& cov = {}) {
+  LogAxes out;
+  const bool with_x = !sigma_x.empty();
+  for (std::size_t i = 0; i < x.size() && i < y.size() && (sigma.empty() || i < sigma.size());
+       ++i) {
+    if (!(x[i] > 0.0) || !(y[i] > 0.0)) continue;
+    if (with_x && (!std::isfinite(sigma_x[i]) || !std::isfinite(cov[i]))) continue;
+    out.x.push_back(std::log(x[i]));
+    out.y.push_back(std::log(y[i]));
+    if (!sigma.empty()) out.sigma.push_back(sigma[i] / y[i]);
+    if (with_x) {
+      out.sigma_x.push_back(sigma_x[i] / x[i]);
+      out.cov.push_back(cov[i] / (x[i] * y[i]));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& sigma) {
-  std::vector<double> lx, ly, ls;
-  for (std::size_t i = 0; i < x.size() && i < y.size(); ++i) {
-    if (!(x[i] > 0.0) || !(y[i] > 0.0)) continue;
-    lx.push_back(std::log(x[i]));
-    ly.push_back(std::log(y[i]));
-    if (!sigma.empty()) ls.push_back(sigma[i] / y[i]);
-  }
-  return polynomial_fit(lx, ly, ls, 1);
+  const LogAxes l = on_log_axes(x, y, sigma);
+  return polynomial_fit(l.x, l.y, l.sigma, 1);
 }
 
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
@@ -427,16 +451,9 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& cov) {
   constexpr int kIterations = 100;
   constexpr double kSettled = 1e-12;
-  std::vector<double> lx, ly, sy, sx, c;
-  for (std::size_t i = 0; i < x.size() && i < y.size() && i < sigma.size(); ++i) {
-    if (!(x[i] > 0.0) || !(y[i] > 0.0) || !std::isfinite(sigma_x[i]) || !std::isfinite(cov[i]))
-      continue;
-    lx.push_back(std::log(x[i]));
-    ly.push_back(std::log(y[i]));
-    sy.push_back(sigma[i] / y[i]);
-    sx.push_back(sigma_x[i] / x[i]);
-    c.push_back(cov[i] / (x[i] * y[i]));
-  }
+  if (sigma.empty() || sigma_x.empty()) return Fit{};
+  const LogAxes l = on_log_axes(x, y, sigma, sigma_x, cov);
+  const std::vector<double>&lx = l.x, &ly = l.y, &sy = l.sigma, &sx = l.sigma_x, &c = l.cov;
   Fit f = polynomial_fit(lx, ly, sy, 1);
   for (int it = 0; it < kIterations && f.valid(); ++it) {
     const double p = f.coef[1];

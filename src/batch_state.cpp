@@ -10,10 +10,10 @@ GridShape grid_shape(const SystemSetup& su) {
   for (const auto& d : su.disks) rmax = std::max(rmax, d.radius);
   GridShape g;
   // No disk moves faster than a fall through the whole box.
-  g.max_margin = grid_margin(pr, pr.height + 2.0 * rmax);
-  g.cell = 2.0 * rmax + pr.cohesion_range + g.max_margin;
+  g.max_margin = grid_margin(pr, box_top(pr, rmax));
+  g.cell = contact_reach(pr, rmax, g.max_margin);
   g.nx = std::max(1, static_cast<int>(std::floor(pr.width / g.cell)));
-  g.ny = std::max(1, static_cast<int>(std::ceil((pr.height + 2.0 * rmax) / g.cell)));
+  g.ny = std::max(1, static_cast<int>(std::ceil(box_top(pr, rmax) / g.cell)));
   return g;
 }
 

@@ -964,10 +964,6 @@ int RunCommand::write() {
 // point, and what the cost model expects them to take; nothing runs.
 int RunCommand::dry_run() const {
   if (!talk) return kOk;
-  // expected_cost is in units of about 0.039 microseconds of one core of the machine it was
-  // calibrated on (the geometric mean over the recorded protocol-A scenes, src/protocols.cpp):
-  // right within a factor of a few.
-  constexpr double kSecondsPerUnit = 3.9e-8;
   std::string selected;
   if (o.member >= 0) selected = " (one member selected)";
   if (info.shards > 0)
@@ -997,7 +993,7 @@ int RunCommand::dry_run() const {
         cost += l == left.end() ? expected_cost(m) : l->second;
       }
     if (n == 0) continue;
-    cost *= kSecondsPerUnit;
+    cost *= kSecondsPerCostUnit;  // right within a factor of a few
     total += cost;
     std::printf("%04d   %-5s %-10g %-8g %-8g %-8g %-8d %.3g\n", pt.index,
                 protocol_name(pt.protocol).c_str(), pt.params.bond_number, pt.params.capture_radius,
@@ -1327,11 +1323,16 @@ int main(int argc, char** argv) {
   MergeOptions merge;
   add_merge_command(app, merge);
   std::vector<char*> args = without_kokkos_options(argc, argv);
-  const std::set<std::string> subcommands = {"run", "summary", "analyse", "export", "merge"};
+  std::set<std::string> subcommands;
+  std::string names;
+  for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+    subcommands.insert(sub->get_name());
+    names += (names.empty() ? "" : ", ") + sub->get_name();
+  }
   if (args.size() > 1 && args[1][0] != '-' && !subcommands.count(args[1])) {
     if (ranks.root())
-      std::cerr << "loosepack: unknown subcommand '" << args[1]
-                << "' (run, merge, summary, analyse or export; loosepack --help)\n";
+      std::cerr << "loosepack: unknown subcommand '" << args[1] << "' (" << names
+                << "; loosepack --help)\n";
     return kInvalid;
   }
   try {
@@ -1348,8 +1349,7 @@ int main(int argc, char** argv) {
   }
   if (app.get_subcommands().empty()) {
     if (ranks.root())
-      std::cerr << "loosepack: a subcommand is required: run, merge, summary, analyse or "
-                   "export (loosepack --help)\n";
+      std::cerr << "loosepack: a subcommand is required: " << names << " (loosepack --help)\n";
     return kInvalid;
   }
   if (*run_cmd) {

@@ -7,6 +7,7 @@
 // (set_phase); while it is Region, the member's relaxation region is stepped instead.
 #pragma once
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <map>
 #include <memory>
@@ -21,6 +22,11 @@ namespace loosepack {
 // then finds motion in the whole system starts a new one around it until there have been this
 // many; then the whole system relaxes.
 constexpr int kMaxRegionRounds = 4;
+// The radius of a disk's region in round `round` (0 first): each round after the first has twice
+// the radius of the one before (MemberRun::start_region).
+inline double region_round_radius(double first_radius, int round) {
+  return first_radius * std::ldexp(1.0, round);
+}
 // The check of the whole system after a region finds motion where a disk is faster than this
 // many rest speeds (slower disks creeping near the rest speed are not a failure of the deposit).
 constexpr double kWakeFactor = 3.0;
@@ -55,6 +61,7 @@ class MemberRun {
 
   // Construction (src/scheduler.cpp).
   SystemSetup setup_of(const Member& m) const;
+  std::vector<Member> members_sized_for() const;
   void size_slots();
   void make_regions();
 

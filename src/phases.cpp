@@ -290,7 +290,7 @@ void MemberRun::relax_whole(std::size_t k, bool checking) {
 bool MemberRun::start_region(std::size_t k, const std::vector<Regions::Point>& seeds) {
   Slot& sl = slots_[k];
   const int s = static_cast<int>(k);
-  const double radius = scan_.protocol.region_radius * std::ldexp(1.0, sl.rounds);
+  const double radius = region_round_radius(scan_.protocol.region_radius, sl.rounds);
   if (!regions_ || !regions_->begin(*batch_, s, seeds, scan_.tolerance(Protocol::A), radius))
     return false;
   sl.below_wake = 0;

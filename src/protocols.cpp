@@ -36,8 +36,8 @@ int member_capacity(const SystemParams& p) {
 
 namespace {
 
-// The parts of expected_cost, in units of about 0.039 microseconds of one core of the AMD EPYC
-// VM the project is developed on (docs/PERFORMANCE.md, "What a member costs").
+// The parts of expected_cost, in units of kSecondsPerCostUnit (docs/PERFORMANCE.md, "What a
+// member costs").
 // Ballistic deposition: each disk looks for its landing place among all the disks of its system
 // (kernels/deposit.hpp), so a box of W H costs ~ (W H)^2 beyond a cost per disk. 1 000 R^2: one
 // core's CPU per member of protocol B at r_capt = 1, 0.5 ms at 48 R x 48 R and 1.07 s at 200 R x
@@ -113,6 +113,12 @@ double collapse_steps(const SystemParams& p) {
   return std::sqrt(4.0 * p.height / (3.0 * std::abs(p.gravity))) / p.time_step;
 }
 
+double member_progress(const Member& m, MemberPhase phase, const MemberStage& stage) {
+  return phase == MemberPhase::Collapse
+             ? static_cast<double>(stage.steps) / collapse_steps(m.params)
+             : stage.filled;
+}
+
 double running_cost(const Member& m, MemberPhase phase, double got) {
   // A collapse that runs past its expected steps counts as at most this share done.
   constexpr double kMostOfACollapse = 0.9;
@@ -131,9 +137,7 @@ double running_cost(const Member& m, MemberPhase phase, double got) {
 
 double cost_left(const MemberSnapshot& snap) {
   const Member& m = snap.result.member;
-  const double got = snap.phase == MemberPhase::Collapse
-                         ? static_cast<double>(snap.stage.steps) / collapse_steps(m.params)
-                         : snap.stage.filled;
+  const double got = member_progress(m, snap.phase, snap.stage);
   return std::max(0.0, expected_cost(m) - running_cost(m, snap.phase, got));
 }
 

@@ -209,7 +209,7 @@ bool Regions::begin(Batch& whole, int s, const std::vector<Point>& seeds, double
   // allows, from its own height (region_slot_height of it: the slots' height, or less in a lower
   // system), so that the scan's other points do not change its regions.
   const double own_height = std::min(I.settings.max_height, pr.height + kRegionHeadroom);
-  const double reach = 2.0 * rmax + pr.cohesion_range + grid_margin(pr, own_height);
+  const double reach = contact_reach(pr, rmax, grid_margin(pr, own_height));
   if (!(radius > 0.0)) radius = I.settings.radius;
   const RegionSelection sel = select_region(disks, seeds, pr.width, radius, reach);
   const bool moves =

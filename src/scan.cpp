@@ -431,15 +431,21 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
   }
 }
 
-// The keys of [scan], as the parser below reads them.
-std::vector<std::string> scan_section_keys() {
-  return {"name", "seed", "seeds", "batch_size", "protocol"};
+// Names joined by commas, each between `open` and its closing bracket or quote.
+std::string joined(const std::vector<std::string>& names, const std::string& open = "") {
+  const std::string close = open == "[" ? "]" : open;
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + (open + n + close);
+  return out;
 }
 
-std::string joined(const std::vector<std::string>& names, const char* quote = "") {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ", ") + (quote + n + quote);
-  return out;
+// The tables of a scan file besides [[point]]: [scan], [system] and the settings' sections.
+std::vector<std::string> section_names() {
+  std::vector<std::string> names = {"scan", "system"};
+  for (const auto& k : setting_keys())
+    if (std::find(names.begin(), names.end(), k.section) == names.end())
+      names.emplace_back(k.section);
+  return names;
 }
 
 // Key `k` of the settings section `section` (include/loosepack/settings.hpp), parsed into the
@@ -615,14 +621,6 @@ std::string key_on_line(const std::string& text, long line) {
 
 }  // namespace
 
-std::vector<std::string> scan_file_keys() {
-  std::vector<std::string> keys;
-  for (const auto& k : scan_section_keys()) keys.push_back("scan." + k);
-  for (const auto& k : system_keys()) keys.push_back(std::string("system.") + k.name);
-  for (const auto& k : setting_keys()) keys.push_back(std::string(k.section) + "." + k.key);
-  return keys;
-}
-
 Scan load_scan(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ScanError(path + ": cannot open the scan file: " + std::strerror(errno));
@@ -647,11 +645,19 @@ class ScanParser {
     scan.text = text;
   }
   Scan parse();
+  // The keys of [scan], each with the reader that parses it.
+  using KeyReader = void (ScanParser::*)(const toml::node& v, const std::string& key);
+  static const std::vector<std::pair<std::string, KeyReader>>& scan_keys();
 
  private:
   void read_sections(const toml::table& root);
   void read_point_tables(const toml::node& node);
   void read_scan_section(const toml::table& tbl);
+  void read_name(const toml::node& v, const std::string& key);
+  void read_seed(const toml::node& v, const std::string& key);
+  void read_seeds(const toml::node& v, const std::string& key);
+  void read_batch_size(const toml::node& v, const std::string& key);
+  void read_protocol(const toml::node& v, const std::string& key);
   void read_system_section(const toml::table& tbl);
   std::vector<ScanPoint> expand_grid();
   std::vector<ScanPoint> explicit_points_on(const ScanPoint& base, bool system_sets_time_step);
@@ -792,8 +798,7 @@ void ScanParser::read_sections(const toml::table& root) {
     auto tbl = node.as_table();
     if (!tbl)
       fail(file, node, section,
-           "expected a table ([scan], [system], [solver], [rest], [protocol], [observables]) or "
-           "[[point]] tables");
+           "expected a table (" + joined(section_names(), "[") + ") or [[point]] tables");
     if (section == "scan") {
       read_scan_section(*tbl);
     } else if (section == "system") {
@@ -804,8 +809,7 @@ void ScanParser::read_sections(const toml::table& root) {
         setting_nodes[section + "." + k] = &v;
       });
     } else {
-      fail(file, node, section,
-           "unknown section (allowed: scan, system, solver, rest, protocol, observables)");
+      fail(file, node, section, "unknown section (allowed: " + joined(section_names()) + ")");
     }
   });
 }
@@ -828,48 +832,77 @@ void ScanParser::read_point_tables(const toml::node& node) {
   }
 }
 
+const std::vector<std::pair<std::string, ScanParser::KeyReader>>& ScanParser::scan_keys() {
+  static const std::vector<std::pair<std::string, KeyReader>> keys = {
+      {"name", &ScanParser::read_name},
+      {"seed", &ScanParser::read_seed},
+      {"seeds", &ScanParser::read_seeds},
+      {"batch_size", &ScanParser::read_batch_size},
+      {"protocol", &ScanParser::read_protocol}};
+  return keys;
+}
+
+std::vector<std::string> scan_section_keys() {
+  std::vector<std::string> names;
+  for (const auto& key : ScanParser::scan_keys()) names.push_back(key.first);
+  return names;
+}
+
 void ScanParser::read_scan_section(const toml::table& tbl) {
   for_each_key(tbl, [&](const std::string& k, const toml::node& v) {
     const std::string key = "scan." + k;
-    if (k == "name") {
-      auto s = v.as_string();
-      if (!s || s->get().empty() || has_control_character(s->get()))
-        fail(file, v, key,
-             "expected a non-empty string without control characters (it labels "
-             "the output's lines)");
-      scan.name = s->get();
-    } else if (k == "seed") {
-      auto i = v.as_integer();
-      if (!i || i->get() < 0) fail(file, v, key, "expected an integer >= 0");
-      scan.seed = static_cast<std::uint64_t>(i->get());
-    } else if (k == "seeds") {
-      scan.seeds = positive_int(v, key, 1, 1000000);
-      seeds_node = &v;
-    } else if (k == "batch_size") {
-      scan.batch_size = positive_int(v, key, 1, 1000000);
-    } else if (k == "protocol") {
-      protocol_node = &v;
-      protocols.clear();
-      auto one = [&](const toml::node& e) {
-        auto s = e.as_string();
-        Protocol p;
-        if (!s || !protocol_from_name(s->get(), p))
-          fail(file, e, key, "expected \"A\", \"B\" or \"C\"");
-        // As a number axis: the same protocol twice would make two points of one system.
-        if (std::find(protocols.begin(), protocols.end(), p) != protocols.end())
-          fail(file, e, key, "the value \"" + s->get() + "\" is already in this axis");
-        protocols.push_back(p);
-      };
-      if (auto arr = v.as_array()) {
-        if (arr->empty()) fail(file, v, key, "an axis needs at least one value");
-        for (const auto& e : *arr) one(e);
-      } else {
-        one(v);
-      }
-    } else {
+    const auto& keys = scan_keys();
+    const auto known =
+        std::find_if(keys.begin(), keys.end(), [&](const auto& entry) { return entry.first == k; });
+    if (known == keys.end())
       fail(file, v, key, "unknown key (allowed: " + joined(scan_section_keys()) + ")");
-    }
+    (this->*known->second)(v, key);
   });
+}
+
+void ScanParser::read_name(const toml::node& v, const std::string& key) {
+  auto s = v.as_string();
+  if (!s || s->get().empty() || has_control_character(s->get()))
+    fail(file, v, key,
+         "expected a non-empty string without control characters (it labels "
+         "the output's lines)");
+  scan.name = s->get();
+}
+
+void ScanParser::read_seed(const toml::node& v, const std::string& key) {
+  auto i = v.as_integer();
+  if (!i || i->get() < 0) fail(file, v, key, "expected an integer >= 0");
+  scan.seed = static_cast<std::uint64_t>(i->get());
+}
+
+void ScanParser::read_seeds(const toml::node& v, const std::string& key) {
+  scan.seeds = positive_int(v, key, 1, 1000000);
+  seeds_node = &v;
+}
+
+void ScanParser::read_batch_size(const toml::node& v, const std::string& key) {
+  scan.batch_size = positive_int(v, key, 1, 1000000);
+}
+
+void ScanParser::read_protocol(const toml::node& v, const std::string& key) {
+  protocol_node = &v;
+  protocols.clear();
+  auto one = [&](const toml::node& e) {
+    auto s = e.as_string();
+    Protocol p;
+    if (!s || !protocol_from_name(s->get(), p))
+      fail(file, e, key, "expected \"A\", \"B\" or \"C\"");
+    // As a number axis: the same protocol twice would make two points of one system.
+    if (std::find(protocols.begin(), protocols.end(), p) != protocols.end())
+      fail(file, e, key, "the value \"" + s->get() + "\" is already in this axis");
+    protocols.push_back(p);
+  };
+  if (auto arr = v.as_array()) {
+    if (arr->empty()) fail(file, v, key, "an axis needs at least one value");
+    for (const auto& e : *arr) one(e);
+  } else {
+    one(v);
+  }
 }
 
 void ScanParser::read_system_section(const toml::table& tbl) {
@@ -1015,7 +1048,7 @@ void ScanParser::validate_point(const ScanPoint& sp) {
       (sp.protocol == Protocol::A && !std::isinf(sp.params.bond_number))) {
     const auto& p = sp.params;
     const double g = std::abs(p.gravity), h = p.time_step;
-    const double v = fall_speed(g, p.height + 2.0 * largest_radius(p));
+    const double v = fall_speed(g, box_top(p, largest_radius(p)));
     const double reach = detection_margin(h, v, g);
     if (reach > kMaxDetectionMargin * p.radius) {
       const double h_max =
@@ -1214,6 +1247,14 @@ std::string first_difference(const std::string& a, const std::string& b, const s
         return "key '" + key + "' is `" + va + "` in " + a_name + " and `" + vb + "` in " + b_name;
     }
   return "";
+}
+
+std::vector<std::string> scan_file_keys() {
+  std::vector<std::string> keys;
+  for (const auto& k : scan_section_keys()) keys.push_back("scan." + k);
+  for (const auto& k : system_keys()) keys.push_back(std::string("system.") + k.name);
+  for (const auto& k : setting_keys()) keys.push_back(std::string(k.section) + "." + k.key);
+  return keys;
 }
 
 Scan parse_scan(const std::string& text, const std::string& file) {

@@ -124,11 +124,16 @@ SystemSetup MemberRun::setup_of(const Member& m) const {
 
 // Slots and regions are sized for every member of the scan, not only those of this run: a
 // region's reach depends on the tallest (src/region.cpp), and a member's result must not depend
-// on which members share its run (MPI shards, resumed runs).
-void MemberRun::size_slots() {
+// on which members share its run (MPI shards, resumed runs). The run's own members count too:
+// run_members may be given members that the scan's points do not list.
+std::vector<Member> MemberRun::members_sized_for() const {
   std::vector<Member> sized = members_of(scan_);
   sized.insert(sized.end(), members_.begin(), members_.end());
-  for (const auto& m : sized) {
+  return sized;
+}
+
+void MemberRun::size_slots() {
+  for (const auto& m : members_sized_for()) {
     capacity_ = std::max(capacity_, member_capacity(m.params));
     cells_ = std::max(cells_, grid_cells_needed(setup_of(m)));
   }
@@ -140,9 +145,7 @@ void MemberRun::make_regions() {
   if (scan_.protocol.region_radius <= 0.0) return;
   std::vector<SystemParams> slow;
   double tallest = 0.0;
-  std::vector<Member> sized = members_of(scan_);
-  sized.insert(sized.end(), members_.begin(), members_.end());
-  for (const auto& m : sized)
+  for (const auto& m : members_sized_for())
     if (!deposits_ballistically(m)) {
       slow.push_back(m.params);
       tallest = std::max(tallest, m.params.height);
@@ -152,7 +155,7 @@ void MemberRun::make_regions() {
   rs.radius = scan_.protocol.region_radius;
   rs.max_disks = scan_.protocol.region_max_disks;
   // For the largest region: the last round's radius (start_region).
-  rs.max_height = region_slot_height(rs.radius * std::ldexp(1.0, kMaxRegionRounds - 1), tallest);
+  rs.max_height = region_slot_height(region_round_radius(rs.radius, kMaxRegionRounds - 1), tallest);
   regions_ =
       std::make_unique<Regions>(static_cast<int>(n_slots_), slow, rs, scan_.solver, scan_.rest);
   regions_->set_timing(hooks_.stage_costs != nullptr);
@@ -437,9 +440,7 @@ double MemberRun::speed_over_rest(std::size_t k) const {
 double MemberRun::running_share(Slot& sl) const {
   if (sl.phase == Phase::Empty) return 0.0;
   const Member& m = members_[sl.member];
-  const double got = sl.phase == Phase::Collapse
-                         ? static_cast<double>(sl.steps) / collapse_steps(m.params)
-                         : sl.filled;
+  const double got = member_progress(m, sl.phase, sl);
   if (sl.phase != sl.share_phase || got != sl.share_got) {
     sl.share = running_cost(m, sl.phase, got);
     sl.share_phase = sl.phase;

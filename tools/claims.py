@@ -201,10 +201,21 @@ def scaled_replicas(total, rows):
 
 
 def jackknife(values):
-    """The jackknife error of leave-one-out estimates (rows: the member left out)."""
+    """The jackknife error of leave-one-out estimates (rows: the member left out), column by
+    column over the finite replicas (a replica without a value there, such as a bin that only the
+    member left out fills, is skipped), NaN with fewer than two: as the program's
+    jackknife_error (src/analysis.cpp)."""
     v = np.asarray(values, float)
-    n = len(v)
-    return np.sqrt((n - 1) / n * ((v - v.mean(axis=0)) ** 2).sum(axis=0))
+    if v.ndim == 1:
+        v = v[:, None]
+        return jackknife(v)[0]
+    finite = np.isfinite(v)
+    n = finite.sum(axis=0).astype(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(finite, v, 0.0).sum(axis=0) / n
+        ss = np.where(finite, (v - mean) ** 2, 0.0).sum(axis=0)
+        err = np.sqrt((n - 1) / n * ss)
+    return np.where(n >= 2, err, np.nan)
 
 
 class Profile:

@@ -14,11 +14,19 @@ namespace loosepack {
 inline double largest_radius(const SystemParams& p) {
   return p.radius * (1.0 + std::sqrt(3.0) * p.polydispersity);
 }
+// How far apart two disks of radius at most rmax can stand and still touch or pull within
+// `margin` of motion: their radii, the cohesive range and the margin.
+inline double contact_reach(const SystemParams& p, double rmax, double margin = 0.0) {
+  return 2.0 * rmax + p.cohesion_range + margin;
+}
 // The narrowest periodic box: two disks within the cohesive range of each other one way round
 // are beyond it the other way.
 inline double smallest_width(const SystemParams& p) {
-  return 2.0 * (2.0 * largest_radius(p) + p.cohesion_range);
+  return 2.0 * contact_reach(p, largest_radius(p));
 }
+// The top of a box of disks of radius at most rmax: the highest a disk reaches (no centre is
+// placed above H) with a disk's room above it, and the farthest a disk can fall.
+inline double box_top(const SystemParams& p, double rmax) { return p.height + 2.0 * rmax; }
 // The smallest, bounded below at 0.2 R for the capacity of a slot.
 inline double smallest_radius(const SystemParams& p) {
   return p.radius * std::max(0.2, 1.0 - std::sqrt(3.0) * p.polydispersity);

@@ -213,14 +213,21 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 // Calibrated on members of this machine, and right within a factor of a few only:
 // docs/PERFORMANCE.md, "What a member costs".
 double expected_cost(const Member& m);
+// expected_cost's unit: about 0.039 microseconds of one core of the AMD EPYC VM it was calibrated
+// on (the geometric mean over the recorded protocol-A scenes), what `--dry-run` prints in seconds.
+constexpr double kSecondsPerCostUnit = 3.9e-8;
 
 // The steps a collapse (protocol C) is expected to take, for the progress line's ETA: the top of
 // the column falling freely through two thirds of its height, sqrt(4 H / (3 g)), over the time
 // step (docs/PERFORMANCE.md, "What a member costs").
 double collapse_steps(const SystemParams& p);
 
+// How far a running member got, as running_cost counts it: the deposit's height over H while it
+// deposits (stage.filled), the steps over collapse_steps while it collapses.
+double member_progress(const Member& m, MemberPhase phase, const MemberStage& stage);
+
 // The cost model's share of a running member (expected_cost, counting how far it got): `got` is
-// the deposit's height over H while it deposits, the steps over collapse_steps while it collapses.
+// member_progress.
 double running_cost(const Member& m, MemberPhase phase, double got);
 
 // What is left of the expected cost of a member that goes on from its snapshot (`--resume`,

@@ -89,6 +89,22 @@ def test_a_student_t_maps_to_the_normal_deviate_of_its_tail_probability():
         assert math.sqrt(claims.chi2_term_of_t(t, nu)) == pytest.approx(2.5758, rel=0.02)
 
 
+def test_jackknife_skips_replicas_without_a_value_as_the_program_does():
+    """A column's jackknife is taken over its finite replicas, sqrt((n-1)/n sum (v - mean)^2)
+    with n their count (src/analysis.cpp, jackknife_error); fewer than two give NaN."""
+    rng = np.random.default_rng(5)
+    reps = rng.normal(size=(8, 3))
+    reps[2, 1] = np.nan
+    reps[:7, 2] = np.nan
+    err = claims.jackknife(reps)
+    full = reps[:, 0]
+    assert err[0] == pytest.approx(math.sqrt(7 / 8 * ((full - full.mean()) ** 2).sum()))
+    kept = np.delete(reps[:, 1], 2)
+    assert err[1] == pytest.approx(math.sqrt(6 / 7 * ((kept - kept.mean()) ** 2).sum()))
+    assert math.isnan(err[2])
+    assert claims.jackknife(full) == pytest.approx(err[0])
+
+
 def test_residual_chi2_with_errors_from_8_members_exceeds_its_bound_once_in_a_hundred():
     # 20 000 sums of 38 terms, each z a t of 7 degrees of freedom (no parameter fitted): about 200
     # above chi2's 99 % bound of 38 dof (99.9 % binomial range 158-246); the sum of t^2 scaled by
