@@ -414,7 +414,8 @@ namespace {
 
 // Power-law data on log axes: ln x, ln y and the errors relative to x and y (those of the
 // logarithms to first order), the covariance over x y. A point with x or y not positive, or (with
-// x errors) an x error or covariance that is not finite, is left out; absent errors stay absent.
+// x errors) an x error or covariance that is not finite, is left out, and so are the points past
+// the end of a shorter vector that is given; absent errors stay absent.
 struct LogAxes {
   std::vector<double> x, y, sigma, sigma_x, cov;
 };
@@ -422,9 +423,11 @@ LogAxes on_log_axes(const std::vector<double>& x, const std::vector<double>& y,
                     const std::vector<double>& sigma, const std::vector<double>& sigma_x = {},
                     const std::vector<double>& cov = {}) {
   LogAxes out;
-  const bool with_x = !sigma_x.empty();
-  for (std::size_t i = 0; i < x.size() && i < y.size() && (sigma.empty() || i < sigma.size());
-       ++i) {
+  const bool with_x = !sigma_x.empty() && !cov.empty();
+  std::size_t n = std::min(x.size(), y.size());
+  if (!sigma.empty()) n = std::min(n, sigma.size());
+  if (with_x) n = std::min({n, sigma_x.size(), cov.size()});
+  for (std::size_t i = 0; i < n; ++i) {
     if (!(x[i] > 0.0) || !(y[i] > 0.0)) continue;
     if (with_x && (!std::isfinite(sigma_x[i]) || !std::isfinite(cov[i]))) continue;
     out.x.push_back(std::log(x[i]));
@@ -451,7 +454,7 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& cov) {
   constexpr int kIterations = 100;
   constexpr double kSettled = 1e-12;
-  if (sigma.empty() || sigma_x.empty()) return Fit{};
+  if (sigma.empty() || sigma_x.empty() || cov.empty()) return Fit{};
   const LogAxes l = on_log_axes(x, y, sigma, sigma_x, cov);
   const std::vector<double>&lx = l.x, &ly = l.y, &sy = l.sigma, &sx = l.sigma_x, &c = l.cov;
   Fit f = polynomial_fit(lx, ly, sy, 1);

@@ -431,7 +431,8 @@ void refuse_unsafe_characters(const std::string& text, const std::string& file) 
   }
 }
 
-// Names joined by commas, each between `open` and its closing bracket or quote.
+// Names joined by commas, each between `open` and its match: "[" closes with "]", a quote (or
+// nothing) with itself.
 std::string joined(const std::vector<std::string>& names, const std::string& open = "") {
   const std::string close = open == "[" ? "]" : open;
   std::string out;
@@ -842,6 +843,7 @@ const std::vector<std::pair<std::string, ScanParser::KeyReader>>& ScanParser::sc
   return keys;
 }
 
+// The keys of [scan], in the order of scan_keys().
 std::vector<std::string> scan_section_keys() {
   std::vector<std::string> names;
   for (const auto& key : ScanParser::scan_keys()) names.push_back(key.first);

@@ -202,13 +202,11 @@ def scaled_replicas(total, rows):
 
 def jackknife(values):
     """The jackknife error of leave-one-out estimates (rows: the member left out), column by
-    column over the finite replicas (a replica without a value there, such as a bin that only the
-    member left out fills, is skipped), NaN with fewer than two: as the program's
-    jackknife_error (src/analysis.cpp)."""
+    column over the finite replicas (a replica without a value there is skipped), NaN with
+    fewer than two: as the program's jackknife_error (src/analysis.cpp)."""
     v = np.asarray(values, float)
     if v.ndim == 1:
-        v = v[:, None]
-        return jackknife(v)[0]
+        return jackknife(v[:, None])[0]
     finite = np.isfinite(v)
     n = finite.sum(axis=0).astype(float)
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -50,6 +50,7 @@ Fit polynomial_fit(const std::vector<double>& x, const std::vector<double>& y,
 double polynomial(const Fit& f, double x);
 
 // Power law y = A x^p, fitted as ln y = ln A + p ln x (sigma_ln = sigma / y); coef = {ln A, p}.
+// Points with x or y not positive are left out; sigma may be empty (unweighted).
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& sigma);
 // The same with errors in x too: sigma_x, x's standard errors, and cov, the covariance of each
@@ -59,7 +60,7 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
 // settles; coefficients' errors and chi2 are the last weighted fit's. Where x's fluctuation moves
 // a datum along the law (c of the law's sign), the effective error is smaller than y's own, and
 // chi2 judges the law by the rest. A datum whose effective variance is not positive is skipped;
-// an invalid fit where p does not settle.
+// an invalid fit where p does not settle, or where sigma, sigma_x or cov is empty.
 Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
                   const std::vector<double>& sigma, const std::vector<double>& sigma_x,
                   const std::vector<double>& cov);

@@ -24,8 +24,9 @@ inline double contact_reach(const SystemParams& p, double rmax, double margin = 
 inline double smallest_width(const SystemParams& p) {
   return 2.0 * contact_reach(p, largest_radius(p));
 }
-// The top of a box of disks of radius at most rmax: the highest a disk reaches (no centre is
-// placed above H) with a disk's room above it, and the farthest a disk can fall.
+// The top of a box of disks of radius at most rmax: no centre is placed above H, so no disk
+// reaches above H + 2 rmax, and none falls further (the grid's height and margin, and the time
+// step's bound, are taken from it).
 inline double box_top(const SystemParams& p, double rmax) { return p.height + 2.0 * rmax; }
 // The smallest, bounded below at 0.2 R for the capacity of a slot.
 inline double smallest_radius(const SystemParams& p) {

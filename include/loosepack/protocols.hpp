@@ -213,8 +213,9 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 // Calibrated on members of this machine, and right within a factor of a few only:
 // docs/PERFORMANCE.md, "What a member costs".
 double expected_cost(const Member& m);
-// expected_cost's unit: about 0.039 microseconds of one core of the AMD EPYC VM it was calibrated
-// on (the geometric mean over the recorded protocol-A scenes), what `--dry-run` prints in seconds.
+// expected_cost's unit in seconds: about 0.039 microseconds of one core of the AMD EPYC VM it was
+// calibrated on (the geometric mean over the recorded protocol-A scenes); `--dry-run` prints the
+// cost in seconds by it.
 constexpr double kSecondsPerCostUnit = 3.9e-8;
 
 // The steps a collapse (protocol C) is expected to take, for the progress line's ETA: the top of
