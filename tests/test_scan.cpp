@@ -275,7 +275,15 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[protocol]\nregion_radius = 3\n",
        "bad.toml:2:17: key 'protocol.region_radius': must be 0 (no regions) or at least 5 radii"},
       {"[protocol]\nregion_check_every = 0\n", "key 'protocol.region_check_every': expected an"},
-      {"[colour]\nred = 1\n", "key 'colour': unknown section"},
+      {"[colour]\nred = 1\n",
+       "key 'colour': unknown section (allowed: scan, system, solver, rest, protocol, "
+       "observables)"},
+      {"scan = 3\n",
+       "bad.toml:1:8: key 'scan': expected a table ([scan], [system], [solver], [rest], "
+       "[protocol], [observables]) or [[point]] tables"},
+      {"[scan]\nseed_count = 3\n",
+       "bad.toml:2:14: key 'scan.seed_count': unknown key (allowed: name, seed, seeds, "
+       "batch_size, protocol)"},
       {"[system]\nbond_number = { from = 0, to = 10, points = 3, log = true }\n",
        "a logarithmic range needs finite positive from and to"},
       {"[scan]\nprotocol = \"C\"\n[system]\nbond_number = \"inf\"\n",
