@@ -456,16 +456,16 @@ Fit power_law_fit(const std::vector<double>& x, const std::vector<double>& y,
   constexpr double kSettled = 1e-12;
   if (sigma.empty() || sigma_x.empty() || cov.empty()) return Fit{};
   const LogAxes l = on_log_axes(x, y, sigma, sigma_x, cov);
-  const std::vector<double>&lx = l.x, &ly = l.y, &sy = l.sigma, &sx = l.sigma_x, &c = l.cov;
-  Fit f = polynomial_fit(lx, ly, sy, 1);
+  Fit f = polynomial_fit(l.x, l.y, l.sigma, 1);
   for (int it = 0; it < kIterations && f.valid(); ++it) {
     const double p = f.coef[1];
-    std::vector<double> effective(lx.size());
-    for (std::size_t i = 0; i < lx.size(); ++i) {
-      const double var = sy[i] * sy[i] + p * p * sx[i] * sx[i] - 2.0 * p * c[i];
+    std::vector<double> effective(l.x.size());
+    for (std::size_t i = 0; i < l.x.size(); ++i) {
+      const double sy = l.sigma[i], sx = l.sigma_x[i];
+      const double var = sy * sy + p * p * sx * sx - 2.0 * p * l.cov[i];
       effective[i] = var > 0.0 ? std::sqrt(var) : kNaN;  // NaN: skipped by the fit
     }
-    f = polynomial_fit(lx, ly, effective, 1);
+    f = polynomial_fit(l.x, l.y, effective, 1);
     if (f.valid() && std::fabs(f.coef[1] - p) <= kSettled * (1.0 + std::fabs(p))) return f;
   }
   return Fit{};
