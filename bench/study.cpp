@@ -26,9 +26,10 @@
 //
 //   bench_study --study effects|size|accuracy|cost [--tiny] [--seeds N] [--budget S]
 //               [--protocol A|C] [--match TEXT] [--sides S1,S2,...]
-//               [--regions R [--region-check K]] [--newton K]
+//               [--regions R [--region-check K]] [--newton K] [--overlap-correction B]
 // --newton: solver.newton_every of every ensemble (0: NNCG alone; docs/MODEL.md, "Solvers");
-// unset, each ensemble's default at its Bond number, as the program's.
+// unset, each ensemble's default at its Bond number, as the program's. --overlap-correction:
+// solver.overlap_correction of every ensemble (default 0: overlaps held as they are).
 // --sides: the box sides (A) or widths (C) of the size study; --regions: every ensemble's
 // protocol-A members relax in relaxation regions of radius R, the whole system checked after
 // every K-th disk (protocol.region_radius, region_check_every; docs/MODEL.md).
@@ -72,6 +73,7 @@ struct Setup {
   double rolling_friction = SystemParams{}.rolling_friction, time_step = step_at(bond_number);
   double tolerance = default_tolerance(Protocol::A), relaxation = SolverSettings{}.relaxation;
   double relative_tolerance = SolverSettings{}.relative_tolerance;
+  double overlap_correction = SolverSettings{}.overlap_correction;
   int max_sweeps = 0;  // 0: the protocol's default for the box (default_max_sweeps)
   int newton_every = -1;  // -1: the program's default at this Bond number (default_newton_every)
   bool rest_converged = RestSettings{}.converged;
@@ -122,8 +124,8 @@ struct Setup {
       << "\nfriction = 0.3\nrolling_friction = " << rolling_friction
       << "\ncohesion_range = 0.01\ntime_step = " << time_step << "\n[solver]\nkind = \"" << solver
       << "\"\ntolerance = " << tolerance << "\nrelative_tolerance = " << relative_tolerance
-      << "\nmax_sweeps = " << cap() << "\nrelaxation = " << relaxation
-      << "\nnewton_every = " << rounds()
+      << "\noverlap_correction = " << overlap_correction << "\nmax_sweeps = " << cap()
+      << "\nrelaxation = " << relaxation << "\nnewton_every = " << rounds()
       << "\n[rest]\nconverged = " << (rest_converged ? "true" : "false")
       << "\n[protocol]\nregion_radius = " << region_radius
       << "\nregion_check_every = " << region_check_every
@@ -144,6 +146,7 @@ struct Setup {
       << ", \"solver\": " << bench::json_string(solver)
       << ", \"tolerance\": " << bench::json_number(tolerance)
       << ", \"relative_tolerance\": " << bench::json_number(relative_tolerance)
+      << ", \"overlap_correction\": " << bench::json_number(overlap_correction)
       << ", \"max_sweeps\": " << cap() << ", \"relaxation\": " << bench::json_number(relaxation)
       << ", \"newton_every\": " << rounds()
       << ", \"rest_converged\": " << (rest_converged ? "true" : "false")
@@ -463,7 +466,7 @@ int usage() {
   std::fprintf(stderr,
                "usage: bench_study --study effects|size|accuracy|cost [--tiny] [--seeds N] "
                "[--budget S] [--protocol A|C] [--match TEXT] [--sides S1,S2,...] "
-               "[--regions R [--region-check K]] [--newton K]\n");
+               "[--regions R [--region-check K]] [--newton K] [--overlap-correction B]\n");
   return 2;
 }
 
@@ -475,6 +478,7 @@ int main(int argc, char** argv) {
   std::vector<int> sides_given;
   double region_radius = 0.0;
   int newton_every = -1;  // --newton; -1: by Bond number, as the program
+  double overlap_correction = SolverSettings{}.overlap_correction;
   int region_check = ProtocolSettings{}.region_check_every;
   bool tiny = false;
   int seeds = 0;
@@ -498,6 +502,8 @@ int main(int argc, char** argv) {
       region_check = std::atoi(argv[++a]);
     } else if (f == "--newton" && has_value) {
       newton_every = std::atoi(argv[++a]);
+    } else if (f == "--overlap-correction" && has_value) {
+      overlap_correction = std::atof(argv[++a]);
     } else if (f == "--match" && has_value) {
       match = argv[++a];
     } else if (f == "--protocol" && has_value) {
@@ -519,6 +525,7 @@ int main(int argc, char** argv) {
       s.region_radius = region_radius;
       s.region_check_every = region_check;
       s.newton_every = newton_every;
+      s.overlap_correction = overlap_correction;
     }
     return b;
   };
