@@ -33,34 +33,6 @@ struct MemberData {
   double width = 0.0, height = 0.0;
 };
 
-std::vector<std::string> children(hid_t loc, const std::string& name) {
-  H5 g = open_group(loc, name);
-  H5G_info_t info;
-  check(H5Gget_info(g, &info), "list group " + name);
-  std::vector<std::string> out;
-  for (hsize_t k = 0; k < info.nlinks; ++k) {
-    const ssize_t n =
-        H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, nullptr, 0, H5P_DEFAULT);
-    if (n < 0) throw std::runtime_error("HDF5: cannot list group " + name);
-    std::string child(static_cast<std::size_t>(n) + 1, '\0');
-    H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, child.data(), child.size(),
-                       H5P_DEFAULT);
-    child.resize(static_cast<std::size_t>(n));
-    out.push_back(child);
-  }
-  return out;
-}
-
-// The number in a group's name ("0003" of points/0003, "2" of snapshot_2), as the program writes
-// them: digits only; std::runtime_error (the file's damage) naming the group otherwise.
-int group_number(const std::string& digits, const std::string& group) {
-  const bool numbered =
-      !digits.empty() && digits.size() <= 9 &&
-      std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
-  if (!numbered) throw std::runtime_error(group + ": not a group name the program writes");
-  return std::stoi(digits);
-}
-
 // A selection that names no point or seed of the file: std::invalid_argument with the file's.
 void check_selection(hid_t file, const std::string& path, const ExportSelection& sel) {
   const std::vector<std::string> points = children(file, "points");
@@ -190,12 +162,28 @@ std::string stem_name(const MemberData& m) {
 
 // --- XDMF ---------------------------------------------------------------------------------
 
+// `text` as XML character data: a file's name may hold &, < or >.
+std::string xml_text(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '&')
+      out += "&amp;";
+    else if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else
+      out += c;
+  }
+  return out;
+}
+
 // A DataItem reading dataset `name` of `file` ([n] values, or a hyperslab of it).
 std::string item(const std::string& file, const std::string& name, std::size_t n,
                  bool integer = false) {
   std::ostringstream o;
   o << "<DataItem Dimensions=\"" << n << "\" NumberType=\"" << (integer ? "Int" : "Float")
-    << "\" Precision=\"8\" Format=\"HDF\">" << file << ":" << name << "</DataItem>";
+    << "\" Precision=\"8\" Format=\"HDF\">" << xml_text(file) << ":" << name << "</DataItem>";
   return o.str();
 }
 std::string slab(const std::string& file, const std::string& name, std::size_t total,
@@ -290,10 +278,10 @@ std::string xdmf_snapshot(hid_t file, const MemberData& m, const std::string& h5
   o << "</Grid>\n<Grid Name=\"contacts\" GridType=\"Uniform\">\n"
     << "<Topology TopologyType=\"Polyline\" NumberOfElements=\"" << nc
     << "\" NodesPerElement=\"2\"><DataItem Dimensions=\"" << nc
-    << " 2\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << side << ":" << g
+    << " 2\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << xml_text(side) << ":" << g
     << "/connectivity</DataItem></Topology>\n"
     << "<Geometry GeometryType=\"XY\"><DataItem Dimensions=\"" << 2 * nc
-    << " 2\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << side << ":" << g
+    << " 2\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << xml_text(side) << ":" << g
     << "/lines</DataItem></Geometry>\n";
   for (const char* a : {"normal", "tangential", "moment"})
     o << attribute(a, "Cell", item(h5, g + "/contact_" + std::string(a), nc));
@@ -450,14 +438,17 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
         throw std::invalid_argument(at + " is a loosepack result file, where export writes a " +
                                     "viewer file of " + path + ": move it away");
   }
-  std::vector<std::string> written;
-  for (const auto& m : members) {  // one member's text in memory at a time
-    ViewerFile v;
+  // Every file built before the first is written: data found damaged at any member writes none.
+  std::vector<ViewerFile> files;
+  for (const auto& m : members) {
     try {
-      v = viewer_file(file, m, format, base, p.filename().string());
+      files.push_back(viewer_file(file, m, format, base, p.filename().string()));
     } catch (const std::runtime_error& e) {
       throw damaged(e);
     }
+  }
+  std::vector<std::string> written;
+  for (const ViewerFile& v : files) {
     // Each file whole or not at all (replace_file).
     if (!v.sidecar_path.empty())
       replace_hdf5_file(v.sidecar_path, [&](hid_t sidecar) { write_sidecar(sidecar, v.sidecar); });

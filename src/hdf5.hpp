@@ -4,6 +4,7 @@
 #pragma once
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -176,6 +177,34 @@ inline std::vector<double> doubles(hid_t loc, const std::string& name) {
   return v;
 }
 
+// The names of the links in group `name` (below loc), in name order.
+inline std::vector<std::string> children(hid_t loc, const std::string& name) {
+  H5 g = open_group(loc, name);
+  H5G_info_t info;
+  check(H5Gget_info(g, &info), "list group " + name);
+  std::vector<std::string> out;
+  for (hsize_t k = 0; k < info.nlinks; ++k) {
+    const ssize_t n =
+        H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, nullptr, 0, H5P_DEFAULT);
+    if (n < 0) throw std::runtime_error("HDF5: cannot list group " + name);
+    std::string child(static_cast<std::size_t>(n) + 1, '\0');
+    H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, child.data(), child.size(),
+                       H5P_DEFAULT);
+    child.resize(static_cast<std::size_t>(n));
+    out.push_back(child);
+  }
+  return out;
+}
+
+// The number in a group's name ("0003" of points/0003, "2" of snapshot_2), as the program writes
+// them: digits only; std::runtime_error (the file's damage) naming the group otherwise.
+inline int group_number(const std::string& digits, const std::string& group) {
+  const bool numbered =
+      !digits.empty() && digits.size() <= 9 &&
+      std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; });
+  if (!numbered) throw std::runtime_error(group + ": not a group name the program writes");
+  return std::stoi(digits);
+}
 
 // A numeric attribute `name` of `object` (below loc), as a double.
 inline double double_attribute(hid_t loc, const std::string& object, const std::string& name) {

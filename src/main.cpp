@@ -395,6 +395,12 @@ int RunCommand::load() {
   }
   all_members = members_of(scan);
   if (const int rc = select_members()) return rc;
+  // Said before the output is claimed: an existing -o asks for --force, which would not help.
+  if (o.resume && !std::filesystem::exists(checkpoint_directory(o.out_path))) {
+    say("--resume: no checkpoint " + checkpoint_directory(o.out_path) +
+        " (written next to the output file given by -o)");
+    return kInvalid;
+  }
   if (!o.dry_run && claim_output() != 0) return kInvalid;
   resolve_backend_defaults(scan, members.size());
   return 0;
@@ -474,10 +480,6 @@ int RunCommand::read_checkpoint() {
   if (ck_exists && !o.resume) {
     say("a checkpoint of an interrupted run exists: " + ck_dir +
         "; add --resume to continue it, or delete it to start afresh");
-    return kInvalid;
-  }
-  if (!ck_exists && o.resume) {
-    say("--resume: no checkpoint " + ck_dir + " (written next to the output file given by -o)");
     return kInvalid;
   }
   if (ranks.broadcast(ranks.root() ? other_selection() : 0) != 0) return kInvalid;
@@ -1166,7 +1168,9 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
 // `loosepack analyse`: the output checked and locked as a run's, then written atomically.
 int analyse_command(const FileCommands& f) {
   const std::string out = f.analyse_out.empty() ? f.analyse_path : f.analyse_out;
-  const bool in_place = out == f.analyse_path;
+  std::error_code no_file;  // an -o that does not exist is not the input
+  const bool in_place =
+      out == f.analyse_path || std::filesystem::equivalent(out, f.analyse_path, no_file);
   OutputLock lock;
   if (const std::string why = claim_output_path(
           lock, out, in_place ? std::vector<std::string>{} : std::vector{f.analyse_path},

@@ -1096,28 +1096,35 @@ void print_fits_across(const FitReader& f, std::ostream& out) {
   if (!c_h.empty()) out << "  c2 of Delta y(y_e) = A H^p: " << c_h << "\n";
   if (!a_h.empty()) out << "  slice model a = A H^p: " << a_h << "\n";
 }
+
+// Reads what the summary prints of point group n ("points/0001"): an error names the group.
+template <class Read>
+void in_point(const std::string& n, Read read) {
+  try {
+    read();
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(n + ": " + e.what());
+  }
+}
 }  // namespace
 
 // The fits of the analysis under the summary's table, where the file has them.
 static void print_fits(hid_t file, const std::vector<std::string>& names, std::ostream& out) {
   const FitReader f{file};
   bool header = false;
-  for (const auto& n : names) print_point_fits(f, n, header, out);
+  for (const auto& n : names) in_point(n, [&] { print_point_fits(f, n, header, out); });
   print_fits_across(f, out);
 }
 
 namespace {
 
-// The groups under /points of the result file `path`, as points/NNNN in order.
-std::vector<std::string> point_groups(hid_t file, const std::string& path) {
+// The groups under /points of a result file, as points/NNNN in order; a group of another name is
+// the file's damage (std::runtime_error naming it).
+std::vector<std::string> point_groups(hid_t file) {
   std::vector<std::string> names;
-  H5 g(H5Gopen2(file, "points", H5P_DEFAULT), H5Gclose, "open group points in " + path);
-  H5G_info_t info;
-  check(H5Gget_info(g, &info), "list points");
-  for (hsize_t k = 0; k < info.nlinks; ++k) {
-    char buf[64];
-    H5Lget_name_by_idx(g, ".", H5_INDEX_NAME, H5_ITER_INC, k, buf, sizeof buf, H5P_DEFAULT);
-    names.emplace_back(std::string("points/") + buf);
+  for (const std::string& child : children(file, "points")) {
+    group_number(child, "/points/" + child);
+    names.push_back("points/" + child);
   }
   return names;
 }
@@ -1170,6 +1177,7 @@ void print_point_row(hid_t file, const std::string& n, const ExtraColumns& extra
     o << std::fixed << std::setprecision(4) << m << " +- " << std::setprecision(4) << s;
     return o.str();
   };
+  const int point = group_number(n.substr(7), "/" + n);
   const std::string prot = string_attribute(file, n, "protocol");
   std::string rel = "-";
   if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
@@ -1193,22 +1201,21 @@ void print_point_row(hid_t file, const std::string& n, const ExtraColumns& extra
   out << line.str();
   if (H5Aexists(g, "nu_lower_half_n") > 0) {
     const std::string note =
-        members_left_out_note(std::stoi(n.substr(7)), prot == "C" ? Protocol::C : Protocol::A,
+        members_left_out_note(point, prot == "C" ? Protocol::C : Protocol::A,
                               count_attribute(g, "nu_lower_half_n"), members - failed);
     if (!note.empty()) notes << "# " << note << "\n";
   }
   if (prot == "C" && H5Lexists(g, "members", H5P_DEFAULT) > 0 &&
       H5Lexists(g, "members/capped", H5P_DEFAULT) > 0) {
-    const std::string note =
-        capped_collapses_note(std::stoi(n.substr(7)), doubles(file, n + "/members/failure"),
-                              doubles(file, n + "/members/capped"));
+    const std::string note = capped_collapses_note(point, doubles(file, n + "/members/failure"),
+                                                   doubles(file, n + "/members/capped"));
     if (!note.empty()) notes << "# " << note << "\n";
   }
 }
 
 void write_summary(const std::string& path, std::ostream& out) {
   const H5 file = open_to_read(path, "open " + path + " (not an HDF5 file written by loosepack?)");
-  const std::vector<std::string> names = point_groups(file, path);
+  const std::vector<std::string> names = point_groups(file);
   print_summary_head(file, path, names.size(), out);
   const ExtraColumns extras = extra_columns(file, names);
   out << std::left << std::setw(12) << "point" << std::setw(6) << "prot" << std::setw(10) << "Bo"
@@ -1219,7 +1226,7 @@ void write_summary(const std::string& path, std::ostream& out) {
       << "dnu/nu_i"
       << "members(failed)\n";
   std::ostringstream notes;  // said under the table
-  for (const auto& n : names) print_point_row(file, n, extras, out, notes);
+  for (const auto& n : names) in_point(n, [&] { print_point_row(file, n, extras, out, notes); });
   out << notes.str();
   print_fits(file, names, out);
 }

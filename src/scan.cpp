@@ -594,6 +594,14 @@ std::string key_on_line(const std::string& text, long line) {
       ++i;
     return row.substr(from, i - from);
   };
+  auto quoted_at = [](const std::string& row, std::size_t& i) {  // "name" or 'name', no escapes
+    const std::size_t end = row.find(row[i], i + 1);
+    if (end == std::string::npos || row.find('\\', i + 1) < end) return std::string();
+    const std::string name = row.substr(i + 1, end - i - 1);
+    i = end + 1;
+    return name;
+  };
+  const std::string kUnknown = "\n";  // no section name holds a line break
   auto skip_blanks = [](const std::string& row, std::size_t& i) {
     while (i < row.size() && (row[i] == ' ' || row[i] == '\t')) ++i;
   };
@@ -606,14 +614,20 @@ std::string key_on_line(const std::string& text, long line) {
       if (i >= row.size() || row[i] != '[') continue;
       while (i < row.size() && row[i] == '[') ++i;
       skip_blanks(row, i);
-      const std::string name = name_at(row, i);
+      const bool quoted = i < row.size() && (row[i] == '"' || row[i] == '\'');
+      const std::string name = quoted ? quoted_at(row, i) : name_at(row, i);
       skip_blanks(row, i);
-      if (!name.empty() && i < row.size() && row[i] == ']') section = name;
+      // A header read otherwise (a quoted dotted name, an escape) leaves the section unknown.
+      section =
+          !name.empty() && name.find('.') == std::string::npos && i < row.size() && row[i] == ']'
+              ? name
+              : kUnknown;
       continue;
     }
     const std::string key = name_at(row, i);
     skip_blanks(row, i);
-    if (key.empty() || key.find('.') != std::string::npos || i >= row.size() || row[i] != '=')
+    if (section == kUnknown || key.empty() || key.find('.') != std::string::npos ||
+        i >= row.size() || row[i] != '=')
       return "";
     return section.empty() ? key : section + "." + key;
   }

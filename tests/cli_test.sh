@@ -332,6 +332,15 @@ rc=$?
 set -e
 [ "$rc" -eq 2 ] && grep -q "exists; add --force" <<< "$msg" || fail "analyse -o existing (exit $rc): $msg"
 cmp -s "$dir/good.toml" "$dir/good.toml.orig" || fail "analyse -o overwrote the scan file"
+# --resume where a finished run's file lies and no checkpoint does says so (not "add --force",
+# which would not help), and leaves the file as it is.
+cp "$dir/good.h5" "$dir/done.h5"
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/done.h5" --resume 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && grep -q "^loosepack: --resume: no checkpoint $dir/done.h5.checkpoint" <<< "$msg" &&
+  ! grep -q "add --force" <<< "$msg" || fail "--resume over a finished run's file (exit $rc): $msg"
+cmp -s "$dir/good.h5" "$dir/done.h5" || fail "--resume without a checkpoint changed the file"
 "$exe" summary "$dir/good.h5" | grep -q "scan 'cli'" || fail "summary header"
 "$exe" summary "$dir/good.h5" | grep -qE "^0000 +B " || fail "summary row"
 "$exe" summary "$dir/good.h5" | grep -q "L_x" && fail "summary shows a width no point differs in"
@@ -441,6 +450,10 @@ with h5py.File(sys.argv[1], "r+") as f:
 EOF_PY
 "$exe" analyse "$dir/an2.h5" 2>"$dir/an2.log"
 grep -q "wrote the analysis of $dir/an2.h5 into it" "$dir/an2.log" || fail "analyse said: $(cat "$dir/an2.log")"
+# -o naming the input by another path is in place too (without --force).
+(cd "$dir" && "$exe" analyse an2.h5 -o ./an2.h5 2>"$dir/an2b.log") ||
+  fail "analyse FILE -o ./FILE: $(cat "$dir/an2b.log")"
+grep -q "wrote the analysis of an2.h5 into it" "$dir/an2b.log" || fail "analyse -o ./FILE said: $(cat "$dir/an2b.log")"
 /usr/bin/python3 - "$dir/an.h5" "$dir/an2.h5" <<'EOF_PY' || fail "analyse did not refit the changed data"
 import sys, h5py, numpy as np
 fit = "points/0000/avalanche_by_yi/fit"
@@ -536,8 +549,27 @@ EOF_PY
 set +e
 msg=$("$exe" summary "$dir/noattr.h5" 2>&1); rc=$?
 set -e
-[ "$rc" -eq 2 ] && grep -q "noattr.h5: HDF5: cannot open attribute points/0000@protocol" <<< "$msg" ||
+[ "$rc" -eq 2 ] && grep -q "noattr.h5: points/0000: HDF5: cannot open attribute points/0000@protocol" <<< "$msg" ||
   fail "summary of a file without a point's protocol (exit $rc): $msg"
+# The summary names the point group whose data it cannot read, and a group under /points that no
+# run names so.
+/usr/bin/python3 - "$dir/good.h5" "$dir/count.h5" "$dir/extra.h5" <<'EOF_PY'
+import shutil, sys, h5py
+shutil.copy(sys.argv[1], sys.argv[2])
+with h5py.File(sys.argv[2], "r+") as f:
+    f["points/0000"].attrs["failed"] = -1.0
+shutil.copy(sys.argv[1], sys.argv[3])
+with h5py.File(sys.argv[3], "r+") as f:
+    f.copy("points/0000", "points/extra")
+EOF_PY
+for want in "count.h5: points/0000: attribute failed = -1.000000 is not a count" \
+            "extra.h5: /points/extra: not a group name the program writes"; do
+  file=${want%%:*}
+  set +e
+  msg=$("$exe" summary "$dir/$file" 2>&1); rc=$?
+  set -e
+  [ "$rc" -eq 2 ] && grep -qF "$want" <<< "$msg" || fail "summary of $file (exit $rc): $msg"
+done
 set +e
 msg=$("$exe" analyse "$dir/rows.h5" -o "$dir/rows2.h5" 2>&1); rc=$?
 set -e

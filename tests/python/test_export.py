@@ -111,11 +111,16 @@ def replace(group, name, values):
      "cannot open dataset /points/0000/members/snapshot_1/x"),
     ("renamed", lambda m: m.move("snapshot_1", "snapshot_one"),
      "/points/0000/members/snapshot_one: not a group name the program writes"),
+    # Lengths right, values unreadable as numbers: found while the second member's file is built,
+    # after the first member's.
+    ("text", lambda m: replace(m["snapshot_1"], "y_e", np.array(
+        ["x"] * len(m["snapshot_1/y_e"]), dtype=h5py.string_dtype())),
+     "snapshot_1/y_e"),
 ])
 def test_a_damaged_file_is_refused_and_nothing_is_written(exported, tmp_path, case, edit,
                                                            message):
     """Data no run writes (contact indices naming no disk, lengths that differ, a missing
-    dataset, a member's group not named as the program names them) is invalid input (exit 2) naming the file and the dataset, for both formats, and no
+    dataset, a member's group not named as the program names them, text for numbers) is invalid input (exit 2) naming the file and the dataset, for both formats, and no
     viewer file is written: each member's files are built before any is written."""
     res, _ = exported
     exe = loosepack.find_program()
@@ -127,6 +132,24 @@ def test_a_damaged_file_is_refused_and_nothing_is_written(exported, tmp_path, ca
         assert str(out) + ": " in done.stderr and message in done.stderr, done.stderr
         assert "the file is damaged or was edited" in done.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == [case + ".h5"]
+
+
+def test_a_file_name_with_xml_markup_gives_well_formed_xdmf(exported, tmp_path):
+    """The XDMF files name the result file they read: a name with &, < or > is escaped, so the
+    files still parse as XML (ParaView's reader parses them so) and name the file as it is."""
+    import xml.etree.ElementTree as ET
+    res, _ = exported
+    exe = loosepack.find_program()
+    out = tmp_path / "a&b<c>.h5"
+    out.write_bytes(open(res.path, "rb").read())
+    files = subprocess.run([exe, "export", str(out), "--point", "0", "--seed", "0"],
+                           capture_output=True, text=True, check=True).stdout.split()
+    xmf = [f for f in files if f.endswith(".xmf")]
+    assert xmf
+    for f in xmf:
+        items = [e.text for e in ET.parse(f).iter("DataItem") if e.get("Format") == "HDF"]
+        assert items and all(t.startswith(("a&b<c>.h5:", "a&b<c>_p0000_s0_contacts.h5:"))
+                             for t in items), items
 
 
 def test_a_seed_a_file_of_some_members_lacks_is_refused_with_what_it_holds(tmp_path):
