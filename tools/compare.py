@@ -39,7 +39,8 @@ strips, bins, stop rule or event threshold, is said to be):
                                   pooled counts (bins merged from the top until each holds 5
                                   expected events).
 
-With --paired the two files hold the same members (one scan seed, the same points and seeds),
+With --paired the two files hold the same members (one scan seed, the same points and seeds; a
+file of some of them, `--finished-only` or a shard's, pairs its members with the same seeds),
 each started from the same drops, so a member's two results are correlated and the combined
 errors above too large. nu_lower_half, mean abs(Delta y) (from the members' own values, in files
 from 2026-11-28 on) and the profile fits are then compared member by member: the standard error
@@ -212,8 +213,10 @@ PAIRED_MEMBERS = 4
 
 
 def members_in_both(pa, pb):
-    """The mask of the members that finished in both points, when the two hold the same members
-    (one scan seed, the same seeds); else why not."""
+    """The members that finished in both points, when the files are of one scan seed (so that a
+    seed index is the same member in both; a file of some members, `--finished-only` or a shard,
+    holds some of them): a mask over each point's members, (in A, in B), selecting the same seeds
+    in the same order; else None and why not."""
     fa, fb = pa.file.attrs, pb.file.attrs
     if fa.get("seed") != fb.get("seed") or fa.get("seeds") != fb.get("seeds"):
         return None, "the files' scan seeds or seed counts differ"
@@ -221,12 +224,13 @@ def members_in_both(pa, pb):
         if not all(f"members/{k}" in point for k in ("seed_index", "failure")):
             return None, f"{which} holds no per-member datasets (members/seed_index, failure)"
     ia, ib = pa["members/seed_index"][()], pb["members/seed_index"][()]
-    if not np.array_equal(ia, ib):
-        return None, "the points hold other members"
-    ok = (pa["members/failure"][()] == 0) & (pb["members/failure"][()] == 0)
-    if ok.sum() < PAIRED_MEMBERS:
+    finished = set(ia[pa["members/failure"][()] == 0]) & set(ib[pb["members/failure"][()] == 0])
+    ok_a, ok_b = np.isin(ia, list(finished)), np.isin(ib, list(finished))
+    if not np.array_equal(ia[ok_a], ib[ok_b]):
+        return None, "the points hold their members in another order"
+    if len(finished) < PAIRED_MEMBERS:
         return None, f"fewer than {PAIRED_MEMBERS} members finished in both"
-    return ok, ""
+    return (ok_a, ok_b), ""
 
 
 def point_scalars(pa, pb, sigma, both=None):
@@ -244,7 +248,7 @@ def point_scalars(pa, pb, sigma, both=None):
         if both is not None and per_member in pa and per_member in pb:
             # A finished member without a value (a band its collapse left empty) pairs with
             # nothing, as the means leave it out.
-            d = (pb[per_member][()] - pa[per_member][()])[both]
+            d = pb[per_member][()][both[1]] - pa[per_member][()][both[0]]
             d = d[np.isfinite(d)]
             if len(d) < 2:
                 yield Row(name, value(a, ea), value(b, eb), math.nan, sigma,
@@ -261,8 +265,8 @@ def paired_fit_difference(pa, pb, key, degree, both):
     """The difference B - A of the profile fit's coefficients through every bin both ensembles'
     members fill (as the program fits), and its jackknife error with the same member left out
     of both."""
-    prof_a = Profile(pa[key], -math.inf, math.inf, both)
-    prof_b = Profile(pb[key], -math.inf, math.inf, both)
+    prof_a = Profile(pa[key], -math.inf, math.inf, both[0])
+    prof_b = Profile(pb[key], -math.inf, math.inf, both[1])
     fit = lambda prof, m=None: np.polynomial.polynomial.polyfit(*prof.pooled(m), degree)
     full = fit(prof_b) - fit(prof_a)
     loo = [fit(prof_b, m) - fit(prof_a, m) for m in range(prof_a.members)]
@@ -626,6 +630,9 @@ def main():
             if only := sorted(set(names) - taken):
                 print(f"compare.py: the points {', '.join(only)} of {path} have no counterpart "
                       "of the same parameters in the other file: not compared", file=sys.stderr)
+        # Every point compared before anything is printed or appended to --json: a point the
+        # comparison refuses leaves neither half written.
+        compared = []
         for name_a, name_b in pairs:
             pa, pb = points_a[name_a], points_b[name_b]
             name = name_a if name_a == name_b else f"{name_a} / {name_b}"
@@ -642,7 +649,8 @@ def main():
                     print(f"compare.py: --paired: point {name}: {why}: compared unpaired",
                           file=sys.stderr)
                 elif both is None:
-                    print(f"compare.py: --paired: point {name}: {why}", file=sys.stderr)
+                    print(f"compare.py: --paired: point {name} of {args.a} and {args.b}: {why}",
+                          file=sys.stderr)
                     sys.exit(2)
             try:
                 rows = compare_point(pa, pb, args.sigma, both)
@@ -651,6 +659,8 @@ def main():
                       f"{args.a} or {args.b} ({e}): a damaged file, or one not written by "
                       "`loosepack run`", file=sys.stderr)
                 sys.exit(2)
+            compared.append((name, pa, pb, unpaired, rows))
+        for name, pa, pb, unpaired, rows in compared:
             print(f"\npoint {name}: A {describe(pa)}; B {describe(pb)} (paired {how}{unpaired})\n")
             if differing := scan_keys_differ(pa, pb):
                 print(f"(the two points differ in {', '.join(differing)})\n")

@@ -210,6 +210,7 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
         f.attrs["seed"] = f.attrs["seed"] + 1
     out = run_tool(cohesive, other, "--paired")
     assert out.returncode == 2 and "scan seeds or seed counts differ" in out.stderr, out.stderr
+    assert out.stdout == "", "a refused comparison printed a table"
     # Three members failed in one file (3 of 6 left in both): that point is compared unpaired,
     # and says so, where the whole comparison stopped.
     failing = tmp_path / "failing.h5"
@@ -222,6 +223,41 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
     assert "fewer than 4 members finished in both: compared unpaired" in out.stderr
     few = {r["quantity"]: r for r in json.loads(open(tmp_path / "few.jsonl").read())["rows"]}
     assert "paired_difference" not in few["nu_lower_half"]
+
+
+def test_paired_members_are_matched_by_seed_in_files_of_some_members(tmp_path):
+    """A file of some members (`--finished-only`, a shard) pairs with a whole run's by seed index:
+    the masks select the seeds finished in both, in the same order; with fewer than 4 the point is
+    compared unpaired (members_in_both says why)."""
+    def point(name, seeds, failures):
+        f = h5py.File(tmp_path / name, "w")
+        f.attrs["seed"], f.attrs["seeds"] = 7, 6
+        f["points/0000/members/seed_index"] = np.array(seeds, dtype=np.int64)
+        f["points/0000/members/failure"] = np.array(failures, dtype=np.int64)
+        return f, f["points/0000"]
+    fa, whole = point("whole.h5", [0, 1, 2, 3, 4, 5], [0, 0, 0, 0, 6, 0])
+    fb, some = point("some.h5", [0, 2, 3, 4, 5], [0, 0, 0, 0, 0])
+    with fa, fb:
+        (in_a, in_b), why = compare.members_in_both(whole, some)
+        assert why == ""
+        assert whole["members/seed_index"][()][in_a].tolist() == [0, 2, 3, 5]
+        assert some["members/seed_index"][()][in_b].tolist() == [0, 2, 3, 5]
+    fa, whole = point("whole2.h5", [0, 1, 2, 3, 4, 5], [0] * 6)
+    fb, some = point("some2.h5", [1, 4, 5], [0, 0, 0])
+    with fa, fb:
+        both, why = compare.members_in_both(whole, some)
+        assert both is None and why == "fewer than 4 members finished in both"
+
+
+def test_a_shard_file_is_compared_with_the_whole_run(runs, tmp_path):
+    """--paired of a whole run against one shard's file (3 of its 6 members): compared unpaired,
+    and said, not refused."""
+    d, cohesive, _ = runs
+    shard = loosepack.run(scan(100.0), tmp_path / "shard.h5", progress=False,
+                          args=["--shard", "0/2"])
+    out = run_tool(cohesive, shard.path, "--paired")
+    assert out.returncode in (0, 1), out.stderr
+    assert "fewer than 4 members finished in both: compared unpaired" in out.stderr, out.stderr
 
 
 def test_unusable_input_is_named():
