@@ -438,17 +438,20 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
         throw std::invalid_argument(at + " is a loosepack result file, where export writes a " +
                                     "viewer file of " + path + ": move it away");
   }
-  // Every file built before the first is written: data found damaged at any member writes none.
-  std::vector<ViewerFile> files;
-  for (const auto& m : members) {
+  auto build = [&](const MemberData& m) {
     try {
-      files.push_back(viewer_file(file, m, format, base, p.filename().string()));
+      return viewer_file(file, m, format, base, p.filename().string());
     } catch (const std::runtime_error& e) {
       throw damaged(e);
     }
-  }
+  };
+  // Every member's files built once before the first is written, so that data found damaged at
+  // any member writes none; then built again and written, one member's text in memory at a time
+  // (a file's trajectories and snapshots may be many times the memory of one).
+  for (const auto& m : members) build(m);
   std::vector<std::string> written;
-  for (const ViewerFile& v : files) {
+  for (const auto& m : members) {
+    const ViewerFile v = build(m);
     // Each file whole or not at all (replace_file).
     if (!v.sidecar_path.empty())
       replace_hdf5_file(v.sidecar_path, [&](hid_t sidecar) { write_sidecar(sidecar, v.sidecar); });

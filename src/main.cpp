@@ -1168,9 +1168,12 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
 // `loosepack analyse`: the output checked and locked as a run's, then written atomically.
 int analyse_command(const FileCommands& f) {
   const std::string out = f.analyse_out.empty() ? f.analyse_path : f.analyse_out;
-  std::error_code no_file;  // an -o that does not exist is not the input
-  const bool in_place =
-      out == f.analyse_path || std::filesystem::equivalent(out, f.analyse_path, no_file);
+  // The input by another spelling of its path (./FILE) is in place too; another link to the same
+  // file is not (the write replaces the path it is given), and output_path_problem refuses it.
+  std::error_code e1, e2;
+  const auto out_path = std::filesystem::weakly_canonical(out, e1);
+  const auto in_path = std::filesystem::weakly_canonical(f.analyse_path, e2);
+  const bool in_place = out == f.analyse_path || (!e1 && !e2 && out_path == in_path);
   OutputLock lock;
   if (const std::string why = claim_output_path(
           lock, out, in_place ? std::vector<std::string>{} : std::vector{f.analyse_path},

@@ -617,11 +617,12 @@ std::string key_on_line(const std::string& text, long line) {
       const bool quoted = i < row.size() && (row[i] == '"' || row[i] == '\'');
       const std::string name = quoted ? quoted_at(row, i) : name_at(row, i);
       skip_blanks(row, i);
-      // A header read otherwise (a quoted dotted name, an escape) leaves the section unknown.
-      section =
-          !name.empty() && name.find('.') == std::string::npos && i < row.size() && row[i] == ']'
-              ? name
-              : kUnknown;
+      // A quoted header this reading cannot name (a dot inside the quotes, an escape) leaves the
+      // section unknown; a line that is no header (inside a multi-line array) leaves it as it is.
+      if (!name.empty() && i < row.size() && row[i] == ']')
+        section = quoted && name.find('.') != std::string::npos ? kUnknown : name;
+      else if (quoted)
+        section = kUnknown;
       continue;
     }
     const std::string key = name_at(row, i);

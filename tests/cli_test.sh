@@ -454,6 +454,14 @@ grep -q "wrote the analysis of $dir/an2.h5 into it" "$dir/an2.log" || fail "anal
 (cd "$dir" && "$exe" analyse an2.h5 -o ./an2.h5 2>"$dir/an2b.log") ||
   fail "analyse FILE -o ./FILE: $(cat "$dir/an2b.log")"
 grep -q "wrote the analysis of an2.h5 into it" "$dir/an2b.log" || fail "analyse -o ./FILE said: $(cat "$dir/an2b.log")"
+# Another hard link to the input is not in place (the write would replace the link, not the
+# input): refused as the input file, even with --force.
+ln "$dir/an2.h5" "$dir/an2_link.h5"
+set +e
+msg=$("$exe" analyse "$dir/an2.h5" -o "$dir/an2_link.h5" --force 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && grep -q "is the input file" <<< "$msg" || fail "analyse -o a hard link of the input (exit $rc): $msg"
+rm "$dir/an2_link.h5"
 /usr/bin/python3 - "$dir/an.h5" "$dir/an2.h5" <<'EOF_PY' || fail "analyse did not refit the changed data"
 import sys, h5py, numpy as np
 fit = "points/0000/avalanche_by_yi/fit"

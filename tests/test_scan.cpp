@@ -299,6 +299,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       // A quoted header names its section too; one read no other way (an escape) names no key.
       {"[system]\nwidth = 24\n[\"scan\"]\nseeds = x\n", "bad.toml:4:9: key 'scan.seeds': "},
       {"[system]\nwidth = 24\n[\"sc\\u0061n\"]\nseeds = x\n", "bad.toml:4:9: Error"},
+      {"[system]\nwidth = 24\n[\"scan.x\"]\nseeds = x\n", "bad.toml:4:9: Error"},
       {"[system]\nheight = 40\n[observables]\nlower_half_from = 30\n",
        "bad.toml:4:19: key 'observables.lower_half_from': 30 must lie below H/2 = 20"},
       {"[system]\nheight = [40, 8]\n[observables]\nstrip_width = 16\nlower_half_from = 1\n",

@@ -210,7 +210,6 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
         f.attrs["seed"] = f.attrs["seed"] + 1
     out = run_tool(cohesive, other, "--paired")
     assert out.returncode == 2 and "scan seeds or seed counts differ" in out.stderr, out.stderr
-    assert out.stdout == "", "a refused comparison printed a table"
     # Three members failed in one file (3 of 6 left in both): that point is compared unpaired,
     # and says so, where the whole comparison stopped.
     failing = tmp_path / "failing.h5"
@@ -249,15 +248,53 @@ def test_paired_members_are_matched_by_seed_in_files_of_some_members(tmp_path):
         assert both is None and why == "fewer than 4 members finished in both"
 
 
-def test_a_shard_file_is_compared_with_the_whole_run(runs, tmp_path):
-    """--paired of a whole run against one shard's file (3 of its 6 members): compared unpaired,
-    and said, not refused."""
+def test_files_of_some_members_pair_with_the_whole_run(runs, tmp_path):
+    """--paired of a whole run against the file of its first 5 members (a run stopped by an error
+    at the sixth, then `--resume --finished-only`): the 5 pair by seed, and as the same members
+    give the same results bit for bit, every paired difference is zero. Against one shard's file
+    (3 of the 6 members) the point is compared unpaired, and says so."""
     d, cohesive, _ = runs
+    exe = loosepack.find_program()
+    toml = tmp_path / "scan.toml"
+    shutil.copy(os.path.splitext(str(cohesive))[0] + ".toml", toml)
+    some = tmp_path / "some.h5"
+    env = dict(os.environ, LOOSEPACK_INJECT_ERROR="5")
+    stopped = subprocess.run([exe, "run", str(toml), "-o", str(some), "-q", "--batch-size", "1"],
+                             env=env, capture_output=True, text=True)
+    assert stopped.returncode == 1, stopped.stderr
+    subprocess.run([exe, "run", str(toml), "-o", str(some), "--resume", "--finished-only", "-q"],
+                   check=True, capture_output=True, text=True)
+    with h5py.File(some, "r") as f:
+        assert f["points/0000/members/seed_index"][()].tolist() == [0, 1, 2, 3, 4]
+    out = run_tool(cohesive, some, "--paired", "--json", tmp_path / "some.jsonl")
+    assert out.returncode == 0, out.stdout + out.stderr
+    rows = {r["quantity"]: r for r in json.loads(open(tmp_path / "some.jsonl").read())["rows"]}
+    for q in ("nu_lower_half", "mean abs(Delta y) [R]", "Delta y(y_e): c"):
+        assert "(paired)" in rows[q]["detail"] and rows[q]["distance"] == 0, rows[q]
+    assert rows["nu_lower_half"]["paired_difference"] == 0
     shard = loosepack.run(scan(100.0), tmp_path / "shard.h5", progress=False,
                           args=["--shard", "0/2"])
     out = run_tool(cohesive, shard.path, "--paired")
     assert out.returncode in (0, 1), out.stderr
     assert "fewer than 4 members finished in both: compared unpaired" in out.stderr, out.stderr
+
+
+def test_a_refused_point_leaves_no_output(runs, tmp_path):
+    """Two points, the second without the per-member datasets --paired needs: refused (exit 2)
+    naming both files, before the first point's table is printed or its JSON line written."""
+    d, cohesive, _ = runs
+    a, b = tmp_path / "a.h5", tmp_path / "b.h5"
+    for path in (a, b):
+        shutil.copy(cohesive, path)
+        with h5py.File(path, "r+") as f:
+            f.copy("points/0000", "points/0001")
+            f["points/0001"].attrs["height"] = 99.0
+    with h5py.File(b, "r+") as f:
+        del f["points/0001/members/failure"]
+    out = run_tool(a, b, "--paired", "--json", tmp_path / "out.jsonl")
+    assert out.returncode == 2, out.stdout + out.stderr
+    assert "point 0001 of" in out.stderr and str(a) in out.stderr and str(b) in out.stderr
+    assert out.stdout == "" and not (tmp_path / "out.jsonl").exists()
 
 
 def test_unusable_input_is_named():
