@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The OpenMP backend, as CI checks it after the Serial suite (.ci/run): builds Kokkos with OpenMP
 # and loosepack against it (scripts/build-kokkos.sh openmp -> build-openmp/), then, on 2 threads,
-# the whole suite but the test labelled long (673 s on 2 idle cores, 2026-12-06), its test
+# the whole suite but the test labelled long (605-673 s on 2 idle cores, 2026-12-06), its test
 # `threads` given the Serial build's loosepack too: a scan of protocols A, B and C bit-identical
 # on 1, 2 and 4 threads and with the Serial build, with the host's solver and the team solver.
 # Run it alone: beside a one-core job, the threads' barriers made a test of 100 s take over 900.
