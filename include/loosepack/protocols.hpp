@@ -168,7 +168,7 @@ struct RunHooks {
 // Serial: a batch there runs nothing side by side and costs cache locality, so batches of small
 // systems cost more per member: docs/PERFORMANCE.md, "Batch scaling"), 64 on host threads
 // (OpenMP shares the systems of a batch out, so a batch needs at least as many as a machine's
-// threads; on two threads batches from 4 to 256 cost within a tenth of each other per member,
+// threads; on two threads batches from 4 to 256 cost within about a tenth of each other a member,
 // 64 the least), 4 096 on a
 // device (a GPU's time per member still falls from 1 024 to 4 096 members: docs/PERFORMANCE.md,
 // "Building for more cores or a GPU").
