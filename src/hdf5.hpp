@@ -1,6 +1,6 @@
 // The HDF5 pieces the result file's writer (src/output.cpp) and its exporters (src/export.cpp)
 // share: an owning handle, the error check, a file built in memory and written whole, opening a
-// group, reading a dataset or an attribute as doubles.
+// group, listing it and reading its groups' numbers, reading a dataset or an attribute as doubles.
 #pragma once
 #include <hdf5.h>
 

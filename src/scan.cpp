@@ -601,12 +601,12 @@ std::string key_on_line(const std::string& text, long line) {
     i = end + 1;
     return name;
   };
-  const std::string kUnknown = "\n";  // no section name holds a line break
   auto skip_blanks = [](const std::string& row, std::size_t& i) {
     while (i < row.size() && (row[i] == ' ' || row[i] == '\t')) ++i;
   };
   std::istringstream in(text);
-  std::string row, section;
+  std::string row;
+  std::optional<std::string> section = "";  // none where a header could not be read
   for (long k = 1; k <= line && std::getline(in, row); ++k) {
     std::size_t i = 0;
     skip_blanks(row, i);
@@ -620,17 +620,18 @@ std::string key_on_line(const std::string& text, long line) {
       // A quoted header this reading cannot name (a dot inside the quotes, an escape) leaves the
       // section unknown; a line that is no header (inside a multi-line array) leaves it as it is.
       if (!name.empty() && i < row.size() && row[i] == ']')
-        section = quoted && name.find('.') != std::string::npos ? kUnknown : name;
+        section =
+            quoted && name.find('.') != std::string::npos ? std::nullopt : std::optional(name);
       else if (quoted)
-        section = kUnknown;
+        section = std::nullopt;
       continue;
     }
     const std::string key = name_at(row, i);
     skip_blanks(row, i);
-    if (section == kUnknown || key.empty() || key.find('.') != std::string::npos ||
-        i >= row.size() || row[i] != '=')
+    if (!section || key.empty() || key.find('.') != std::string::npos || i >= row.size() ||
+        row[i] != '=')
       return "";
-    return section.empty() ? key : section + "." + key;
+    return section->empty() ? key : *section + "." + key;
   }
   return "";
 }
