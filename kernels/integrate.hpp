@@ -30,10 +30,57 @@ KOKKOS_INLINE_FUNCTION double disk_speed(const ParticleViews& part, int p) {
   return kmath::max(centre_speed(part, p), kmath::fabs(part.radius(p) * part.w(p)));
 }
 
-// x += h v (wrapped into [0, L_x)), theta += h w; flags non-finite state; records max speed.
-// Reads: sys.{active, mid_step, offset, count, failure, time_step, width}; part.{system, vx, vy,
-// w, radius}.
-// Writes: part.{x, y, theta}; sys.{failure (kNonFinite), max_speed, max_centre_speed}.
+// The averaged rest test (RestSettings::average_span) at the end of a step of system s, for disk
+// p, which moved by dx across and now stands at y: the span's sums grow; on the span's last step
+// its mean position replaces the previous span's, and how far it moved from there feeds the
+// system's largest change (span_change, from the second span on). Positions only: a disk turning
+// in place changes no observable. End of the span: end_span (kernels/step.hpp).
+// Reads: sys.{span_steps, span_step, spans}. Writes: part.span of p; sys.span_change.
+KOKKOS_INLINE_FUNCTION void add_to_span(const SystemViews& sys, const ParticleViews& part, int s,
+                                        int p, double dx, double y) {
+  const int n = sys.span_steps(s);
+  if (n <= 0) return;
+  double* a = &part.span(p * kSpanFields);
+  a[kSpanShiftX] += dx;
+  a[kSpanSumX] += a[kSpanShiftX];
+  a[kSpanSumY] += y;
+  if (sys.span_step(s) + 1 < n) return;
+  const double mean_x = a[kSpanSumX] / n, mean_y = a[kSpanSumY] / n;
+  if (sys.spans(s) > 0) {
+    const double ex = mean_x - a[kSpanMeanX], ey = mean_y - a[kSpanMeanY];
+    Kokkos::atomic_fetch_max(&sys.span_change(s), kmath::sqrt(ex * ex + ey * ey));
+  }
+  a[kSpanMeanX] = mean_x;
+  a[kSpanMeanY] = mean_y;
+  a[kSpanSumX] = 0.0;
+  a[kSpanSumY] = 0.0;
+}
+
+// Over i in [0, capacity): the averaged rest test of system s starts afresh with spans of
+// `steps` steps (0: off), from the disks' positions now (Batch::set_average_span).
+// Writes: part.span of the slot; sys.{span_steps, span_step, spans, span_change, mean_speed}.
+struct StartSpan {
+  SystemViews sys;
+  ParticleViews part;
+  int s, first, steps;
+  KOKKOS_INLINE_FUNCTION void operator()(int i) const {
+    for (int field = 0; field < kSpanFields; ++field)
+      part.span((first + i) * kSpanFields + field) = 0.0;
+    if (i != 0) return;
+    sys.span_steps(s) = steps;
+    sys.span_step(s) = 0;
+    sys.spans(s) = 0;
+    sys.span_change(s) = 0.0;
+    sys.mean_speed(s) = -1.0;
+  }
+};
+
+// x += h v (wrapped into [0, L_x)), theta += h w; flags non-finite state; records max speed and
+// the averaged rest test's sums (add_to_span).
+// Reads: sys.{active, mid_step, offset, count, failure, time_step, width, span_*}; part.{system,
+// vx, vy, w, radius}.
+// Writes: part.{x, y, theta, span}; sys.{failure (kNonFinite), max_speed, max_centre_speed,
+// span_change}.
 struct Integrate {
   SystemViews sys;
   ParticleViews part;
@@ -57,6 +104,7 @@ struct Integrate {
     }
     Kokkos::atomic_fetch_max(&sys.max_speed(s), disk_speed(part, p));
     Kokkos::atomic_fetch_max(&sys.max_centre_speed(s), v);
+    add_to_span(sys, part, s, p, h * part.vx(p), y);
   }
 };
 

@@ -111,6 +111,8 @@ struct LoadSlot {
     sys.mid_step(s) = 0;
     sys.failure(s) = kOk;
     sys.max_speed(s) = v.max_speed;
+    sys.span_steps(s) = 0;  // the averaged rest test off (Batch::set_average_span)
+    sys.mean_speed(s) = -1.0;
   }
 };
 
@@ -133,7 +135,8 @@ enum SlotContactField {
 
 // What a read or write of the whole state holds after the contact slots: the speeds the next
 // step's margin comes from, the random draws taken, as two 32-bit halves (each exact in a
-// double), and the gravity the system feels.
+// double), the gravity the system feels, and the averaged rest test's counters (each exact in a
+// double); then each disk's SpanField values.
 enum SlotValue {
   kSlotMaxSpeed,
   kSlotCentreSpeed,
@@ -141,13 +144,19 @@ enum SlotValue {
   kSlotDrawsLow,
   kSlotGravityX,
   kSlotGravityY,
+  kSlotSpanSteps,
+  kSlotSpanStep,
+  kSlotSpans,
+  kSlotSpanChange,
+  kSlotMeanSpeed,
   kSlotValues
 };
 
 // Where ReadSlot puts, and WriteSlot finds, field `field` of disk a and of contact slot c of a
-// system of `count` disks, and value `value` (SlotValue): its disks come first, then its contact
-// slots, then the values. A read or write fills, and copies, only its own part of that layout
-// (a write of disks by index lays out its n disks as slot_disk_at(n, field, k)).
+// system of `count` disks, value `value` (SlotValue) and a disk's SpanField: its disks come
+// first, then its contact slots, then the values, then the span fields. A read or write fills,
+// and copies, only its own part of that layout (a write of disks by index lays out its n disks
+// as slot_disk_at(n, field, k)).
 KOKKOS_INLINE_FUNCTION int slot_disk_at(int count, int field, int a) { return field * count + a; }
 KOKKOS_INLINE_FUNCTION int slot_contact_at(int count, int field, int c) {
   return kSlotDiskFields * count + field * count * kSlots + c;
@@ -155,13 +164,17 @@ KOKKOS_INLINE_FUNCTION int slot_contact_at(int count, int field, int c) {
 KOKKOS_INLINE_FUNCTION int slot_value_at(int count, int value) {
   return (kSlotDiskFields + kSlotContactFields * kSlots) * count + value;
 }
+KOKKOS_INLINE_FUNCTION int slot_span_at(int count, int field, int a) {
+  return slot_value_at(count, kSlotValues) + field * count + a;
+}
 
 // Over i in [0, count) for the disks, [0, count * kSlots) for the contacts, [0, max(1, count *
 // kSlots)) for the state: gathers system s's disks (SlotDiskField, kLoadYMark included), its
-// contact slots (SlotContactField) or both with the values (SlotValue) into out, where
-// slot_contact_at and slot_value_at say.
+// contact slots (SlotContactField) or both with the values (SlotValue) and the span fields into
+// out, where slot_contact_at, slot_value_at and slot_span_at say.
 // Reads: what it gathers of part.*, con.{partner, nx, ny, gap, pn, pt, pm} of the slot and
-// sys.{max_speed, max_centre_speed, draws, gravity_x, gravity_y} of s. Writes: out.
+// sys.{max_speed, max_centre_speed, draws, gravity_x, gravity_y, span_*, mean_speed} of s.
+// Writes: out.
 struct ReadSlot {
   SystemViews sys;
   ParticleViews part;
@@ -175,6 +188,9 @@ struct ReadSlot {
       for (int field = 0; field < kSlotDiskFields; ++field)
         out(slot_disk_at(count, field, i)) = disk_field(part, field)(first + i);
     if (what == SlotPart::Disks) return;
+    if (what == SlotPart::State && i < count)
+      for (int field = 0; field < kSpanFields; ++field)
+        out(slot_span_at(count, field, i)) = part.span((first + i) * kSpanFields + field);
     if (what == SlotPart::State && i == 0) {
       const std::uint64_t draws = sys.draws(s);
       out(slot_value_at(count, kSlotMaxSpeed)) = sys.max_speed(s);
@@ -183,6 +199,11 @@ struct ReadSlot {
       out(slot_value_at(count, kSlotDrawsLow)) = static_cast<double>(draws & 0xffffffffu);
       out(slot_value_at(count, kSlotGravityX)) = sys.gravity_x(s);
       out(slot_value_at(count, kSlotGravityY)) = sys.gravity_y(s);
+      out(slot_value_at(count, kSlotSpanSteps)) = sys.span_steps(s);
+      out(slot_value_at(count, kSlotSpanStep)) = sys.span_step(s);
+      out(slot_value_at(count, kSlotSpans)) = sys.spans(s);
+      out(slot_value_at(count, kSlotSpanChange)) = sys.span_change(s);
+      out(slot_value_at(count, kSlotMeanSpeed)) = sys.mean_speed(s);
     }
     if (i >= count * kSlots) return;
     const int c = first * kSlots + i;
@@ -207,8 +228,8 @@ constexpr int kWrittenIndex = kLoadW + 1;
 // - Contacts: every contact slot of the system as ReadSlot lays them out (slot_contact_at): its
 //   partner, and where it has one, its impulses; the slots from count * kSlots on, up to the
 //   slot's capacity, have none;
-// - State: the contacts with their normals and gaps too, the disks' x, y_mark, inv_mass and
-//   inv_inertia, and the values (SlotValue).
+// - State: the contacts with their normals and gaps too, the disks' x, y_mark, inv_mass,
+//   inv_inertia and span fields, and the values (SlotValue).
 // A slot without a partner keeps what it held, as the step's contact build expects.
 // Reads: in. Writes: what it puts of part.*, con.* of the slot and sys.* of s.
 struct WriteSlot {
@@ -232,6 +253,8 @@ struct WriteSlot {
       put(kLoadYMark);
       put(kLoadInvMass);
       put(kLoadInvInertia);
+      for (int field = 0; field < kSpanFields; ++field)
+        part.span((first + a) * kSpanFields + field) = in(slot_span_at(count, field, a));
     });
     Kokkos::single(Kokkos::PerTeam(team), [&]() { put_values(); });
   }
@@ -280,6 +303,11 @@ struct WriteSlot {
     sys.max_centre_speed(s) = value(kSlotCentreSpeed);
     sys.gravity_x(s) = value(kSlotGravityX);
     sys.gravity_y(s) = value(kSlotGravityY);
+    sys.span_steps(s) = static_cast<int>(value(kSlotSpanSteps));
+    sys.span_step(s) = static_cast<int>(value(kSlotSpanStep));
+    sys.spans(s) = static_cast<int>(value(kSlotSpans));
+    sys.span_change(s) = value(kSlotSpanChange);
+    sys.mean_speed(s) = value(kSlotMeanSpeed);
   }
 };
 

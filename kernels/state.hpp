@@ -66,6 +66,11 @@ KOKKOS_INLINE_FUNCTION double periodic_delta(double d, double width) {
   return d;
 }
 
+// What the averaged rest test keeps of a disk (ParticleViews::span, p * kSpanFields + field): x
+// moved since the test began (unwrapped), the sums of that x and of y over the current span's
+// steps, and the previous span's means.
+enum SpanField : int { kSpanShiftX, kSpanSumX, kSpanSumY, kSpanMeanX, kSpanMeanY, kSpanFields };
+
 struct SystemViews {
   // [S] layout
   KView<int> offset, capacity, count;
@@ -98,6 +103,12 @@ struct SystemViews {
   KView<int> colours;  // the team solver: the colour count of the system's current step
   // The team solver: the disk count when the system's colouring was made, plus one (0: none).
   KView<int> coloured_count;
+  // The averaged rest test (RestSettings::average_span; kernels/integrate.hpp, AverageSpan):
+  // steps per span (0: off), steps into the current span, spans completed, the largest change of
+  // a disk's mean position in the span ending now, and the last completed comparison's mean
+  // speed (negative before two spans).
+  KView<int> span_steps, span_step, spans;
+  KView<double> span_change, mean_speed;
 };
 
 // The contact slots of system s: [first, end).
@@ -116,6 +127,7 @@ struct ParticleViews {
   KView<double> radius, inv_mass, inv_inertia;
   KView<double> y_deposit;  // y_i, the height at which the disk was deposited
   KView<double> y_mark;     // height at the start of the current avalanche event
+  KView<double> span;       // [P*kSpanFields] the averaged rest test's sums (SpanField)
   KView<int> cell;          // grid cell (global index)
   KView<int> n_incident;    // [P] number of incident contacts
   KView<int> incident;      // [P*kIncident] contact slot ids

@@ -52,17 +52,35 @@ enum StatusField : int {
   kSweeps,
   kCount,
   kMidStep,
+  kMeanSpeed,
   kStatusFields
 };
 
+// The averaged rest test (add_to_span, kernels/integrate.hpp) after a finished step of system s:
+// on a span's last step, the largest change of a disk's mean position over the span's time
+// becomes the system's mean speed (from the second span on), and the next span begins.
+// Reads: sys.{active, mid_step, failure, time_step}. Writes: sys.{span_step, spans, span_change,
+// mean_speed}.
+KOKKOS_INLINE_FUNCTION void end_span(const SystemViews& sys, int s) {
+  const int n = sys.span_steps(s);
+  if (n <= 0 || !sys.active(s) || sys.mid_step(s) || sys.failure(s) != kOk) return;
+  if (++sys.span_step(s) < n) return;
+  if (sys.spans(s) > 0) sys.mean_speed(s) = sys.span_change(s) / (n * sys.time_step(s));
+  sys.spans(s) += 1;
+  sys.span_step(s) = 0;
+  sys.span_change(s) = 0.0;
+}
+
+// Ends the step's span (end_span), then packs the report.
 // Reads: sys.{failure, max_speed, max_centre_speed, step_tolerance, unconverged, count,
-// mid_step}; sweeps. Writes: report (system s's fields).
+// mid_step, mean_speed}; sweeps. Writes: report (system s's fields); what end_span writes.
 struct StatusReport {
   SystemViews sys;
   DView<int> sweeps;
   DView<double> report;
 
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
+    end_span(sys, s);
     double* r = &report(s * kStatusFields);
     r[kFailure] = sys.failure(s);
     r[kMaxSpeed] = sys.max_speed(s);
@@ -72,6 +90,7 @@ struct StatusReport {
     r[kSweeps] = sweeps(s);
     r[kCount] = sys.count(s);
     r[kMidStep] = sys.mid_step(s);
+    r[kMeanSpeed] = sys.mean_speed(s);
   }
 };
 

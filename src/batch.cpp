@@ -670,7 +670,9 @@ void Batch::Impl::read_status() {
     }
     const bool quiet = (st.converged || !rest.converged) && st.rest_speed(rest.spin) < rest.speed;
     st.rest_steps = quiet ? st.rest_steps + 1 : 0;
-    st.at_rest = st.rest_steps >= rest.steps;
+    st.mean_speed = field(s, kMeanSpeed);
+    const bool still_on_average = st.mean_speed >= 0.0 && st.mean_speed < rest.speed;
+    st.at_rest = st.rest_steps >= rest.steps || still_on_average;
   }
   if (timing) {
     auto& cost = solver.fused_step ? fused_cost : timer(StepStage::Solve);
@@ -791,6 +793,19 @@ void Batch::reset_rest(int s) {
   auto& st = impl_->status.at(static_cast<std::size_t>(s));
   st.rest_steps = 0;
   st.at_rest = false;
+}
+
+void Batch::set_average_span(int s, int steps) {
+  auto& I = *impl_;
+  const auto k = static_cast<std::size_t>(s);
+  if (steps < 0) throw std::invalid_argument("Batch::set_average_span: negative span");
+  if (I.status.at(k).mid_step)
+    throw std::logic_error("Batch::set_average_span: system " + std::to_string(s) +
+                           " is inside a step");
+  Kokkos::parallel_for("start_span", Kokkos::RangePolicy<ExecSpace>(0, I.slot_capacity[k]),
+                       StartSpan{I.sys, I.part, s, I.offsets[k], steps});
+  I.status[k].mean_speed = -1.0;
+  reset_rest(s);
 }
 
 std::vector<Deposit> Batch::deposit(const std::vector<char>& mask, DropRule rule) {

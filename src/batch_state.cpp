@@ -116,6 +116,11 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   own(sys.mid_step, "mid_step", S);
   own(sys.colours, "colours", S);
   own(sys.coloured_count, "coloured_count", S);
+  own(sys.span_steps, "span_steps", S);
+  own(sys.span_step, "span_step", S);
+  own(sys.spans, "spans", S);
+  own(sys.span_change, "span_change", S);
+  own(sys.mean_speed, "mean_speed", S);
   sweeps_this_step = alloc<int>("sweeps_this_step", S);
   sweep_limit = alloc<int>("sweep_limit", S);
   sweep_limit_host = Kokkos::create_mirror_view(sweep_limit);
@@ -139,8 +144,8 @@ void Batch::Impl::allocate_systems(const std::vector<int>& cell_offset) {
   const int largest = *std::max_element(slot_capacity.begin(), slot_capacity.end());
   load_disks = alloc<double>("load_disks", static_cast<std::size_t>(kSlotDiskFields * largest));
   load_host = {Kokkos::create_mirror_view(load_system), Kokkos::create_mirror_view(load_disks)};
-  slot_staging =
-      alloc<double>("slot_staging", static_cast<std::size_t>(slot_value_at(largest, kSlotValues)));
+  slot_staging = alloc<double>("slot_staging",
+                               static_cast<std::size_t>(slot_span_at(largest, kSpanFields, 0)));
   slot_host = Kokkos::create_mirror_view(slot_staging);
   fill_from(sys.offset, S, [&](std::size_t s) { return offsets[s]; });
   fill_from(sys.capacity, S, [&](std::size_t s) { return slot_capacity[s]; });
@@ -166,6 +171,7 @@ void Batch::Impl::allocate_particles() {
   own(part.inv_inertia, "inv_inertia", P);
   own(part.y_deposit, "y_deposit", P);
   own(part.y_mark, "y_mark", P);
+  own(part.span, "span", P * kSpanFields);
   own(part.cell, "cell", P);
   own(part.n_incident, "n_incident", P);
   own(part.incident, "incident", P * kIncident);
@@ -405,7 +411,7 @@ std::pair<std::size_t, std::size_t> staged_part(SlotPart what, int count, int di
   const int from = what == SlotPart::Contacts ? kSlotDiskFields * count : 0;
   const int to = what == SlotPart::Disks      ? disks_end
                  : what == SlotPart::Contacts ? slot_value_at(count, 0)
-                                              : slot_value_at(count, kSlotValues);
+                                              : slot_span_at(count, kSpanFields, 0);
   return {static_cast<std::size_t>(from), static_cast<std::size_t>(to)};
 }
 }  // namespace
@@ -533,6 +539,14 @@ Batch::SystemState Batch::state(int s) const {
               static_cast<std::uint64_t>(value(kSlotDrawsLow));
   out.speed = value(kSlotMaxSpeed);
   out.centre_speed = value(kSlotCentreSpeed);
+  out.span_steps = static_cast<int>(value(kSlotSpanSteps));
+  out.span_step = static_cast<int>(value(kSlotSpanStep));
+  out.spans = static_cast<int>(value(kSlotSpans));
+  out.span_change = value(kSlotSpanChange);
+  out.status.mean_speed = value(kSlotMeanSpeed);
+  for (int a = 0; a < count; ++a)
+    for (int field = 0; field < kSpanFields; ++field)
+      out.span.push_back(h(slot_span_at(count, field, a)));
   out.gravity_on = I.params[k].gravity_on;
   out.status.newton_steps = I.newton_steps[k];
   out.pace = solver_pace(s);
@@ -551,6 +565,7 @@ void Batch::restore(int s, const SystemState& state) {
     fits = fits && v->size() == disks;
   for (const auto* v : {&state.pn, &state.pt, &state.pm, &state.nx, &state.ny, &state.gap})
     fits = fits && v->size() == n;
+  fits = fits && state.span.size() == disks * kSpanFields;
   if (!fits)
     throw std::invalid_argument("Batch::restore: the state does not fit system " +
                                 std::to_string(s) + " (reset it with the state's disks first)");
@@ -571,6 +586,9 @@ void Batch::restore(int s, const SystemState& state) {
     h(slot_disk_at(count, kLoadYMark, a)) = state.y_mark[d];
     h(slot_disk_at(count, kLoadInvMass, a)) = state.inv_mass[d];
     h(slot_disk_at(count, kLoadInvInertia, a)) = state.inv_inertia[d];
+    for (int field = 0; field < kSpanFields; ++field)
+      h(slot_span_at(count, field, a)) =
+          state.span[d * kSpanFields + static_cast<std::size_t>(field)];
   }
   // The impulses go where the next step's warm start reads them (as set_contacts).
   stage_no_contacts(h, count);
@@ -594,6 +612,11 @@ void Batch::restore(int s, const SystemState& state) {
   value(kSlotCentreSpeed, state.centre_speed);
   value(kSlotGravityX, I.params[k].gravity_x());
   value(kSlotGravityY, I.params[k].gravity_y());
+  value(kSlotSpanSteps, state.span_steps);
+  value(kSlotSpanStep, state.span_step);
+  value(kSlotSpans, state.spans);
+  value(kSlotSpanChange, state.span_change);
+  value(kSlotMeanSpeed, state.status.mean_speed);
   I.write_slot(s, SlotPart::State);
   I.status[k] = state.status;
   I.newton_steps[k] = state.status.newton_steps;

@@ -13,6 +13,7 @@
 #include <map>
 #include <type_traits>
 
+#include "kernels/state.hpp"
 #include "loosepack_git_commit.hpp"
 #include "replace_file.hpp"
 
@@ -22,8 +23,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// "LPCKPT" and the format's version: 02 holds snapshots inside relaxation regions.
-constexpr char kMagic[8] = {'L', 'P', 'C', 'K', 'P', 'T', '0', '2'};
+// "LPCKPT" and the format's version: 02 holds snapshots inside relaxation regions, 03 the
+// averaged rest test's state of every system.
+constexpr char kMagic[8] = {'L', 'P', 'C', 'K', 'P', 'T', '0', '3'};
 constexpr std::uint32_t kByteOrder = 0x01020304u;  // refuses a file from the other endianness
 
 std::uint64_t fnv1a(const char* data, std::size_t n, std::uint64_t h = 14695981039346656037ull) {
@@ -188,6 +190,10 @@ void encode(Writer& w, const Batch::SystemState& sys) {
   w.put<double>(ss.max_centre_speed);
   w.put<std::int32_t>(sys.pace.wait);
   w.put<double>(sys.pace.credit);
+  for (int v : {sys.span_steps, sys.span_step, sys.spans}) w.put<std::int32_t>(v);
+  w.put<double>(sys.span_change);
+  w.put<double>(ss.mean_speed);
+  w.put(sys.span);
 }
 
 // A running member's snapshot: its result so far, its stage, its system and its
@@ -252,6 +258,10 @@ Batch::SystemState decode_system(Reader& in, const std::string& what) {
   ss.max_centre_speed = in.get<double>();
   sys.pace.wait = in.get<std::int32_t>();
   sys.pace.credit = in.get<double>();
+  for (int* v : {&sys.span_steps, &sys.span_step, &sys.spans}) *v = in.get<std::int32_t>();
+  sys.span_change = in.get<double>();
+  ss.mean_speed = in.get<double>();
+  sys.span = in.vec();
   // What Batch::restore needs of a state, checked now rather than when the member gets a slot.
   const std::size_t disks = sys.disks.size(), n = sys.slot.size();
   bool fits =
@@ -263,6 +273,9 @@ Batch::SystemState decode_system(Reader& in, const std::string& what) {
   for (std::size_t c = 0; c < n; ++c)
     fits = fits && sys.slot[c] >= 0 && sys.partner[c] >= -1 &&
            sys.partner[c] < static_cast<int>(disks);
+  fits = fits && sys.span.size() == disks * kSpanFields && sys.span_steps >= 0 &&
+         sys.span_step >= 0 && (sys.span_steps == 0 || sys.span_step < sys.span_steps) &&
+         sys.spans >= 0;
   if (!fits) in.fail("the state of " + what + " does not hold together");
   return sys;
 }

@@ -244,6 +244,8 @@ void MemberRun::start_collapse(std::size_t k) {
   sample(k, 0.0);
   sl.cap = steps_for(k, scan_.protocol.max_collapse_time);
   batch_->set_gravity(static_cast<int>(k), true);
+  batch_->set_average_span(static_cast<int>(k),
+                           static_cast<int>(steps_for(k, scan_.rest.average_span)));
   set_phase(k, Phase::Collapse);
 }
 

@@ -97,6 +97,9 @@ std::vector<SettingKey> rest_keys() {
        "rest_steps", LOOSEPACK_FIELD(rest.steps), nullptr, nullptr},
       {"rest", "converged", Type::Bool, 0, 1, "", "rest needs converged solves", "rest_converged",
        LOOSEPACK_FIELD(rest.converged), nullptr, nullptr},
+      {"rest", "average_span", Type::Real, 0.0, 1e4, "sqrt(R/g)",
+       "C: at rest also when positions averaged over such spans move slower than rest.speed",
+       "rest_average_span", LOOSEPACK_FIELD(rest.average_span), nullptr, nullptr},
   };
 }
 

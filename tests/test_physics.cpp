@@ -468,7 +468,9 @@ struct Rattle {
   std::vector<double> s;  // the disk's displacement across the line, after each step
   double max_gap = 0.0, min_gap = 1e9;
 };
-Rattle rattle(double g0, double v0, double h, int steps) {
+// The disk (index 1) between its two fixed neighbours, at gaps g0, set moving across their line
+// at v0.
+Batch rattling(double g0, double v0, double h) {
   auto p = bare_params(40.0, 20.0);
   p.gravity_on = false;
   p.bond_number = 1000.0;
@@ -483,7 +485,11 @@ Rattle rattle(double g0, double v0, double h, int steps) {
     d[static_cast<std::size_t>(k)].fixed = k != 1;
   }
   d[1].vy = v0;
-  Batch batch({setup(p, d)}, tight());
+  return Batch({setup(p, d)}, tight());
+}
+
+Rattle rattle(double g0, double v0, double h, int steps) {
+  Batch batch = rattling(g0, v0, h);
   Rattle r;
   for (int k = 0; k < steps; ++k) {
     batch.step();
@@ -527,6 +533,63 @@ TEST(Validation, DiskPulledFromBothSidesOscillatesWithoutLoss) {
   // Touching its neighbours, the disk stops at once.
   const Rattle touching = rattle(0.0, v0, h, 5);
   EXPECT_LT(std::fabs(touching.s.back() - touching.s[touching.s.size() - 2]), 1e-9);
+}
+
+// The averaged rest test (Batch::set_average_span, RestSettings::average_span) ends what the speed
+// test cannot: the disk of case 11 oscillating without loss at amplitude A = v0 / omega. Averaged
+// over a span of time W its position lies within 2 A / (omega W) of the centre, so two spans'
+// means differ by at most 4 A / (omega W) and the mean speed is at most 4 A / (omega W^2): 1.6e-4
+// sqrt(gR) for W = 5, under the rest speed 1e-3, and the system is at rest when the second span
+// ends, not a step before. A disk drifting at a constant v (across the periodic edge) moves its
+// mean by v W from span to span: its mean speed is v, and at 2e-3 it is not at rest.
+TEST(Validation, AveragedRestEndsAnOscillationButNotADrift) {
+  const double g0 = 0.004, v0 = 1.0, h = 0.0028, D = 2.0 + g0;
+  const double omega = std::sqrt(2.0 * 1000.0 / D), amplitude = v0 / omega;
+  const int n = static_cast<int>(std::lround(5.0 / h));
+  const double span = n * h;
+  Batch batch = rattling(g0, v0, h);
+  batch.set_average_span(0, n);
+  // Taken up from its state half-way through the second span, the test goes on bit for bit.
+  Batch again = rattling(g0, v0, h);
+  for (int k = 0; k < 2 * n - 1; ++k) {
+    batch.step();
+    ASSERT_FALSE(batch.status(0).at_rest) << "step " << k + 1;
+    ASSERT_LT(batch.status(0).mean_speed, 0.0) << "step " << k + 1;
+    if (k + 1 != 3 * n / 2) continue;
+    const Batch::SystemState state = batch.state(0);
+    EXPECT_EQ(state.spans, 1);
+    SystemSetup su = setup(batch.params(0), state.disks);
+    again.reset(0, su);
+    again.restore(0, state);
+  }
+  batch.step();
+  for (int k = 3 * n / 2; k < 2 * n; ++k) again.step();
+  EXPECT_TRUE(again.status(0).at_rest);
+  EXPECT_EQ(again.status(0).mean_speed, batch.status(0).mean_speed);
+  const SystemStatus& st = batch.status(0);
+  std::printf("averaged rest: mean speed %.3e after two spans, bound %.3e, speed %.3f\n",
+              st.mean_speed, 4.0 * amplitude / (omega * span * span), st.max_speed);
+  EXPECT_TRUE(st.at_rest);
+  EXPECT_GE(st.mean_speed, 0.0);
+  EXPECT_LT(st.mean_speed, 4.0 * amplitude / (omega * span * span));
+  EXPECT_GT(st.max_speed, 100.0 * RestSettings{}.speed);  // the speed test alone: not at rest
+  EXPECT_EQ(st.rest_steps, 0);
+
+  const double v = 2e-3;
+  auto p = bare_params(40.0, 20.0);
+  p.gravity_on = false;
+  auto d = one_disk();
+  d[0].x = 39.99;
+  d[0].y = 10.0;
+  d[0].vx = v;
+  Batch drift({setup(p, d)}, tight());
+  drift.set_average_span(0, n);
+  for (int k = 0; k < 3 * n; ++k) {
+    drift.step();
+    ASSERT_FALSE(drift.status(0).at_rest) << "step " << k + 1;
+  }
+  EXPECT_LT(drift.disks(0)[0].x, 1.0);  // it crossed the edge
+  EXPECT_NEAR(drift.status(0).mean_speed, v, 1e-9 * v);
 }
 
 // Order in h of Moreau-Jean (first order), from the discrete motion worked out in closed form.

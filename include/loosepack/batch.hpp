@@ -87,6 +87,10 @@ struct SystemStatus {
   double rest_speed(bool spin) const { return spin ? max_speed : max_centre_speed; }
   int rest_steps = 0;  // consecutive steps below the rest speed (the solver converged, where
                        // RestSettings::converged asks it)
+  // The averaged rest test (Batch::set_average_span): the largest distance a disk's position
+  // averaged over a span moved from the span before, over the span's time [sqrt(g R)];
+  // negative until two spans have ended. Below rest.speed the system is at rest too.
+  double mean_speed = -1.0;
   bool at_rest = false;
   // The system is inside a step: its solve goes on in the next step() (the team solver's
   // SolverSettings::sweeps_per_launch, or a fused step's Newton round between the launches of
@@ -203,6 +207,12 @@ class Batch {
   void set_gravity(int s, bool on);
   const SystemStatus& status(int s) const;
   void reset_rest(int s);
+  // The averaged rest test of system s (RestSettings::average_span): from now on its disks'
+  // positions are averaged over spans of `steps` steps (0: off), and the system is at rest also
+  // when none moved by more than rest.speed times a span's time from one span's mean position to
+  // the next (SystemStatus::mean_speed), converged or not. It covers the disks the system has
+  // now: no deposit after it (protocol C: the collapse).
+  void set_average_span(int s, int steps);
 
   // Drop one disk into each system s with mask[s] at a random x from its stream.
   std::vector<Deposit> deposit(const std::vector<char>& mask, DropRule rule);
@@ -249,6 +259,12 @@ class Batch {
     std::uint64_t draws = 0;                 // random draws taken
     double speed = 0.0, centre_speed = 0.0;  // the speeds the next step's margin comes from
     bool gravity_on = true;
+    // The averaged rest test (set_average_span): steps per span (0: off), steps into the span,
+    // spans ended, the span's largest change so far [R], and per disk its sums and means
+    // (kernels/state.hpp, SpanField, disk after disk).
+    int span_steps = 0, span_step = 0, spans = 0;
+    double span_change = 0.0;
+    std::vector<double> span;
     SystemStatus status;
     SolverPace pace;
   };

@@ -174,6 +174,10 @@ struct RestSettings {
   // false: the centre speeds |v| alone, not R|w| (the standard scenes' rest criterion,
   // docs/SCENES.md; bench_scenes --rest speed).
   bool spin = true;
+  // Protocol C's collapse is at rest also when every disk's position averaged over a span of
+  // this length moved by less than speed x span from the span before [sqrt(R/g)]; 0: off
+  // (Batch::set_average_span; docs/MODEL.md, "Rest").
+  double average_span = 0.0;
 };
 
 }  // namespace loosepack
