@@ -638,6 +638,7 @@ void RunCommand::show(bool force) {
         (p.collapsing == 0 || latest[r].collapse_steps > p.collapse_steps)) {
       p.collapse_steps = latest[r].collapse_steps;
       p.collapse_speed = latest[r].collapse_speed;
+      p.collapse_mean_speed = latest[r].collapse_mean_speed;
     }
     p.collapsing += latest[r].collapsing;
     if (latest[r].relaxing_long > 0 &&
@@ -664,9 +665,13 @@ void RunCommand::show(bool force) {
                p.disks_deposited);
   if (p.disks_before > 0) std::fprintf(stderr, " (%ld before the resume)", p.disks_before);
   std::fprintf(stderr, ", %.0f disks/s, %.0f s elapsed", el > 0 ? disks_here / el : 0.0, el);
-  if (p.collapsing > 0)
-    std::fprintf(stderr, ", %d collapsing (the longest for %ld steps, at %s the rest speed)",
+  if (p.collapsing > 0) {
+    std::fprintf(stderr, ", %d collapsing (the longest for %ld steps, at %s the rest speed",
                  p.collapsing, p.collapse_steps, times(p.collapse_speed).c_str());
+    if (p.collapse_mean_speed >= 0.0)
+      std::fprintf(stderr, ", averaged %s", times(p.collapse_mean_speed).c_str());
+    std::fprintf(stderr, ")");
+  }
   if (p.relaxing_long > 0)
     std::fprintf(stderr,
                  ", %d relaxing for %ld steps or more (the longest for %ld, at %s the rest speed)",

@@ -418,6 +418,9 @@ void MemberRun::report() {
   const bool collapsing = collapse < slots_.size(), relaxing = relax < slots_.size();
   progress_.collapse_steps = collapsing ? slots_[collapse].steps : 0;
   progress_.collapse_speed = collapsing ? speed_over_rest(collapse) : 0.0;
+  const double mean_speed =
+      collapsing ? batch_->status(static_cast<int>(collapse)).mean_speed : -1.0;
+  progress_.collapse_mean_speed = mean_speed >= 0.0 ? mean_speed / scan_.rest.speed : -1.0;
   progress_.relax_steps = relaxing ? slots_[relax].steps : 0;
   progress_.relax_speed = relaxing ? speed_over_rest(relax) : 0.0;
   progress_.fraction = (done_cost_ + running) / total_cost_;

@@ -13,6 +13,7 @@
 #include <limits>
 #include <map>
 
+#include "kernels/state.hpp"
 #include "loosepack/checkpoint.hpp"
 
 using namespace loosepack;
@@ -120,8 +121,8 @@ void expect_same_member(const MemberResult& a, const MemberResult& b) {
 // every sixteenth of the rounds the whole run takes (or, every other time, crashes), each time
 // saved to a checkpoint part and read back, and resumed on batches of 3. Every member's result
 // equals the uninterrupted run's bit for bit; some went on from inside a relaxation region.
-// `solver` is the scan file's [solver] section.
-void expect_running_members_go_on(const std::string& solver) {
+// `solver` is the scan file's [solver] section, `more` sections after it.
+void expect_running_members_go_on(const std::string& solver, const std::string& more = "") {
   const Scan scan = parse_scan(
       "[scan]\nseeds = 2\nbatch_size = 2\n"
       "[[point]]\nprotocol = \"A\"\nwidth = 16\nheight = 20\nbond_number = 1000\n"
@@ -131,7 +132,7 @@ void expect_running_members_go_on(const std::string& solver) {
       "[protocol]\nregion_radius = 5\nregion_check_every = 3\n"
       "[observables]\nlower_half_from = 2\ntrajectory_every = 3\n"
       "[solver]\n" +
-          solver,
+          solver + more,
       "test.toml");
   const auto members = members_of(scan);
   long rounds = 0;  // of the run's loop: one progress report each
@@ -235,6 +236,12 @@ MemberSnapshot snapshot(const Scan& scan, std::size_t id) {
   sys.status.steps = 40;
   sys.pace.wait = 12;
   sys.pace.credit = -3.5;
+  sys.span_steps = 7;
+  sys.span_step = 3;
+  sys.spans = 2;
+  sys.span_change = 0.125;
+  sys.status.mean_speed = 4e-4;
+  for (int k = 0; k < 2 * kSpanFields; ++k) sys.span.push_back(0.5 * k);
   return snap;
 }
 
@@ -313,6 +320,13 @@ TEST(Checkpoint, EveryTruncationAndFlippedByteIsRefused) {
   EXPECT_EQ(back.system.draws, 4u);
   EXPECT_EQ(back.system.status.steps, 40);
   EXPECT_EQ(back.system.pace.credit, -3.5);
+  EXPECT_EQ(back.system.span_steps, 7);
+  EXPECT_EQ(back.system.span_step, 3);
+  EXPECT_EQ(back.system.spans, 2);
+  EXPECT_EQ(back.system.span_change, 0.125);
+  EXPECT_EQ(back.system.status.mean_speed, 4e-4);
+  ASSERT_EQ(back.system.span.size(), std::size_t{2 * kSpanFields});
+  EXPECT_EQ(back.system.span.back(), 0.5 * (2 * kSpanFields - 1));
   std::ifstream f(part, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   auto refused = [&](const std::string& damaged) {
@@ -560,6 +574,13 @@ TEST(Checkpoint, ABallisticDepositCostsTheSquareOfItsArea) {
 }
 
 TEST(Checkpoint, RunningMembersGoOnBitForBit) { expect_running_members_go_on(""); }
+
+// The same with the collapse's averaged rest test (rest.average_span), whose spans a snapshot
+// takes with it: spans of 5 steps, which end one of the collapses (685 steps against 687 with
+// the speed test alone).
+TEST(Checkpoint, RunningMembersOfAveragedRestGoOnBitForBit) {
+  expect_running_members_go_on("", "[rest]\naverage_span = 0.05\n");
+}
 
 // The same where a step's solve goes on over launches (solver.sweeps_per_launch): a member
 // inside a step gives its snapshot once the step has ended.

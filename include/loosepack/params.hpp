@@ -177,7 +177,7 @@ struct RestSettings {
   // Protocol C's collapse is at rest also when every disk's position averaged over a span of
   // this length moved by less than speed x span from the span before [sqrt(R/g)]; 0: off
   // (Batch::set_average_span; docs/MODEL.md, "Rest").
-  double average_span = 0.0;
+  double average_span = 5.0;
 };
 
 }  // namespace loosepack

@@ -124,6 +124,9 @@ struct Progress {
   int collapsing = 0;
   long collapse_steps = 0;
   double collapse_speed = 0.0;  // that collapse's largest speed over rest.speed (the rest test's)
+  // ... and its mean speed over rest.speed (the averaged rest test's, rest.average_span;
+  // SystemStatus::mean_speed): negative until its second span has ended.
+  double collapse_mean_speed = -1.0;
   // Protocol A: members whose relaxation after their last disk has taken kLongRelaxation steps
   // or more so far, and the steps of the longest (an avalanche of a tall cohesive deposit runs
   // for thousands of steps, at the paper's size for hours, depositing nothing meanwhile).
