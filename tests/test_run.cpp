@@ -358,8 +358,16 @@ lower_half_from = 4.0
   EXPECT_LT(static_cast<double>(results[0].steps), 2.0 * expected);
   int rises = 0, collapsing = 0;
   double fastest = 0.0, last_speed = -1.0;
+  // The averaged speed (rest.average_span, 5 sqrt(R/g): n steps a span) is there from the end of
+  // the second span on.
+  const long n = std::lround(std::ceil(scan.rest.average_span / 0.0028));
   for (std::size_t k = 1; k < seen.size(); ++k) {
     if (seen[k].collapsing == 0) continue;
+    if (seen[k].collapse_steps < 2 * n) {
+      EXPECT_LT(seen[k].collapse_mean_speed, 0.0);
+    } else if (seen[k].collapse_steps > 2 * n) {
+      EXPECT_GE(seen[k].collapse_mean_speed, 0.0);
+    }
     ++collapsing;
     rises += seen[k].fraction > seen[k - 1].fraction ? 1 : 0;
     fastest = std::max(fastest, seen[k].collapse_speed);
