@@ -103,10 +103,10 @@ struct SystemViews {
   KView<int> colours;  // the team solver: the colour count of the system's current step
   // The team solver: the disk count when the system's colouring was made, plus one (0: none).
   KView<int> coloured_count;
-  // The averaged rest test (RestSettings::average_span; kernels/integrate.hpp, AverageSpan):
-  // steps per span (0: off), steps into the current span, spans completed, the largest change of
-  // a disk's mean position in the span ending now, and the last completed comparison's mean
-  // speed (negative before two spans).
+  // The averaged rest test (RestSettings::average_span; add_to_span in kernels/integrate.hpp,
+  // end_span in kernels/step.hpp): steps per span (0: off), steps into the current span, spans
+  // completed, the largest change of a disk's mean position in the span ending now, and the last
+  // completed comparison's mean speed (negative before two spans).
   KView<int> span_steps, span_step, spans;
   KView<double> span_change, mean_speed;
 };
