@@ -12,6 +12,7 @@
 //   final check (box full)
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "kernels/random.hpp"
 #include "loosepack/geometry.hpp"
@@ -244,8 +245,9 @@ void MemberRun::start_collapse(std::size_t k) {
   sample(k, 0.0);
   sl.cap = steps_for(k, scan_.protocol.max_collapse_time);
   batch_->set_gravity(static_cast<int>(k), true);
+  const long span = steps_for(k, scan_.rest.average_span);  // (a tiny h could overflow an int)
   batch_->set_average_span(static_cast<int>(k),
-                           static_cast<int>(steps_for(k, scan_.rest.average_span)));
+                           static_cast<int>(std::min<long>(span, std::numeric_limits<int>::max())));
   set_phase(k, Phase::Collapse);
 }
 
