@@ -20,6 +20,7 @@
 #include <map>
 #include <optional>
 #include <set>
+#include <iomanip>
 #include <sstream>
 #include <tuple>
 #include <vector>
@@ -716,6 +717,21 @@ RunHooks RunCommand::hooks() {
   // a stop: a snapshot of a tall deposit is as large as a finished member).
   h.snapshot_wanted = [this]() {
     return o.checkpoint_every > 0.0 && seconds_since(last_snapshots) >= o.checkpoint_every;
+  };
+  // A member still inside a step when the stop's grace ran out keeps the snapshot it had, if any.
+  h.missed_at_stop = [this, grace = h.stop_grace](const std::vector<std::uint64_t>& ids) {
+    const std::string who = ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "";
+    for (const std::uint64_t id : ids) {
+      std::ostringstream os;
+      os << "loosepack: " << who << "member " << id
+         << " was still inside a step " << grace << " s after the stop, so the checkpoint ";
+      if (running.count(id) > 0)
+        os << "keeps its snapshot from " << std::fixed << std::setprecision(0)
+           << seconds_since(last_snapshots) << " s before (a resume repeats that work)";
+      else
+        os << "has no snapshot of it (a resume starts it again)";
+      std::cerr << os.str() << "\n";
+    }
   };
   h.snapshots = [this](std::vector<MemberSnapshot> snaps) {
     for (auto& snap : snaps) running[snap.result.member.id] = std::move(snap);

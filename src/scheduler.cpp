@@ -15,10 +15,6 @@
 namespace loosepack {
 
 namespace {
-// After a stop, the run goes on at most this long [s] for snapshots of the members inside a step
-// whose solve goes on over launches (a batch system's grace period after SIGTERM is usually 30 s
-// or more).
-constexpr double kStopGrace = 10.0;
 // Whether the default execution space runs on a device whose memory the host cannot read.
 constexpr bool kOnDevice =
     !Kokkos::SpaceAccessibility<Kokkos::HostSpace,
@@ -329,7 +325,7 @@ void MemberRun::finish(std::size_t k) {
 }
 
 // True when the run is to return now: after a stop, once every running member has handed over
-// a snapshot (or kStopGrace has passed). Otherwise takes the snapshots a checkpoint asks for.
+// a snapshot (or RunHooks::stop_grace has passed). Otherwise takes the snapshots a checkpoint asks for.
 bool MemberRun::stopped() {
   if (!hooks_.stop || !*hooks_.stop) {
     take_snapshots(false, false);
@@ -337,14 +333,15 @@ bool MemberRun::stopped() {
   }
   if (stopped_at_ == Clock::time_point{}) stopped_at_ = Clock::now();
   const bool last_chance =
-      std::chrono::duration<double>(Clock::now() - stopped_at_).count() >= kStopGrace;
+      std::chrono::duration<double>(Clock::now() - stopped_at_).count() >= hooks_.stop_grace;
   return take_snapshots(true, last_chance);
 }
 
 // Snapshots of running members for checkpoints (RunHooks::snapshots): those asked for, taken
 // slot by slot when each can be, and handed over when every running member has one. At a stop,
-// every member's as it was then, and the run goes on (for at most kStopGrace) until the members
-// inside a step have ended it. True when handed over.
+// every member's as it was then, and the run goes on (for at most stop_grace) until the members
+// inside a step have ended it; those still inside one then go to RunHooks::missed_at_stop. True
+// when handed over.
 bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
   if (!hooks_.snapshots) return true;
   // A stop starts a round of its own (a checkpoint's round under way included), so that every
@@ -359,7 +356,7 @@ bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
   }
   if (!snapshots_wanted_) return false;
   CostLap lap(hooks_.stage_costs ? &snapshot_cost_ : nullptr);
-  bool all = true;
+  std::vector<std::uint64_t> inside_a_step;  // running members without a snapshot of this round
   for (std::size_t k = 0; k < n_slots_; ++k) {
     const Slot& sl = slots_[k];
     if (sl.phase == Phase::Empty) continue;
@@ -368,12 +365,14 @@ bool MemberRun::take_snapshots(bool stopping, bool last_chance) {
       return t.result.member.id == id;
     });
     if (!goes_on_from(sl.phase) || mid_step(k)) {
-      all = all && have != taken_.end();
+      if (have == taken_.end()) inside_a_step.push_back(id);
       continue;
     }
     if (have == taken_.end()) taken_.push_back(snapshot(k));
   }
-  if (!all && !last_chance) return false;
+  if (!inside_a_step.empty() && !last_chance) return false;
+  if (stopping && !inside_a_step.empty() && hooks_.missed_at_stop)
+    hooks_.missed_at_stop(inside_a_step);
   hooks_.snapshots(std::move(taken_));
   taken_.clear();
   snapshots_wanted_ = false;

@@ -668,3 +668,49 @@ TEST(Checkpoint, AStopTakesEachRunningMembersSnapshotOnce) {
   }
   EXPECT_TRUE(moving);  // some were stepped while the others ended their steps
 }
+
+// A stop whose grace (RunHooks::stop_grace) runs out while members are inside a step hands over
+// the others' snapshots and names those (missed_at_stop): none of the running members is left
+// out silently. With no grace, a stop that comes while a member's solve goes on over launches
+// hands over at once.
+TEST(Checkpoint, AStopPastItsGraceNamesTheMembersInsideAStep) {
+  const Scan scan = parse_scan(
+      "[scan]\nseeds = 4\nbatch_size = 4\nprotocol = \"A\"\n"
+      "[system]\nwidth = 16\nheight = 16\nbond_number = 1000\ntime_step = 0.0028\n"
+      "[solver]\nkind = \"coloured_accelerated_gauss_seidel\"\nsweeps_per_launch = 1\n",
+      "test.toml");
+  const auto members = members_of(scan);
+  bool found = false;
+  for (long at = 40; at < 400 && !found; ++at) {
+    volatile std::sig_atomic_t stop = 0;
+    long n = 0, handed_at = -1;
+    std::vector<std::uint64_t> snapped, missed;
+    RunHooks hooks;
+    hooks.stop = &stop;
+    hooks.stop_grace = 0.0;
+    hooks.progress = [&](const Progress&) {
+      if (++n == at) stop = 1;
+    };
+    hooks.snapshots = [&](std::vector<MemberSnapshot> snaps) {
+      handed_at = n;
+      for (const auto& snap : snaps) snapped.push_back(snap.result.member.id);
+    };
+    hooks.missed_at_stop = [&](const std::vector<std::uint64_t>& ids) {
+      EXPECT_TRUE(snapped.empty()) << "named after the hand-over";
+      missed = ids;
+    };
+    const auto finished = run_members(scan, members, hooks);
+    ASSERT_EQ(handed_at, at) << "the stop waited past its grace of 0 s";
+    if (missed.empty()) continue;  // every member was between two steps
+    found = true;
+    // Every member is either finished, handed over or named, exactly once.
+    std::vector<std::uint64_t> all = snapped;
+    all.insert(all.end(), missed.begin(), missed.end());
+    for (const auto& r : finished) all.push_back(r.member.id);
+    std::sort(all.begin(), all.end());
+    std::vector<std::uint64_t> expected;
+    for (const auto& m : members) expected.push_back(m.id);
+    EXPECT_EQ(all, expected);
+  }
+  EXPECT_TRUE(found) << "no stop found a member inside a step";
+}

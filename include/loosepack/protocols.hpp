@@ -162,9 +162,14 @@ struct RunHooks {
   // snapshot of every running member at its next point where it can (between two steps: not
   // while a step's solve goes on over launches, solver.sweeps_per_launch) and hands them to
   // `snapshots` together. At a stop it takes the latest it can
-  // and goes on, for at most 10 seconds, until every running member has one.
+  // and goes on, for at most `stop_grace` seconds, until every running member has one.
   std::function<bool()> snapshot_wanted;
   std::function<void(std::vector<MemberSnapshot>)> snapshots;
+  // 10 s: a batch system's grace period after SIGTERM is usually 30 s or more.
+  double stop_grace = 10.0;
+  // At a stop whose grace ran out: the ids of the running members still inside a step, which
+  // the stop's `snapshots` lack (called just before it).
+  std::function<void(const std::vector<std::uint64_t>&)> missed_at_stop;
 };
 
 // Systems per batch where the scan sets none: 4 on a backend that runs one thread (Kokkos
