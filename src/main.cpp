@@ -16,11 +16,11 @@
 #include <cstring>
 #include <ctime>
 #include <filesystem>
+#include <iomanip>
 #include <iostream>
 #include <map>
 #include <optional>
 #include <set>
-#include <iomanip>
 #include <sstream>
 #include <tuple>
 #include <vector>
@@ -723,8 +723,8 @@ RunHooks RunCommand::hooks() {
     const std::string who = ranks.size() > 1 ? "rank " + std::to_string(ranks.rank()) + ": " : "";
     for (const std::uint64_t id : ids) {
       std::ostringstream os;
-      os << "loosepack: " << who << "member " << id
-         << " was still inside a step " << grace << " s after the stop, so the checkpoint ";
+      os << "loosepack: " << who << "member " << id << " was still inside a step " << grace
+         << " s after the stop, so the checkpoint ";
       if (running.count(id) > 0)
         os << "keeps its snapshot from " << std::fixed << std::setprecision(0)
            << seconds_since(last_snapshots) << " s before (a resume repeats that work)";

@@ -325,7 +325,8 @@ void MemberRun::finish(std::size_t k) {
 }
 
 // True when the run is to return now: after a stop, once every running member has handed over
-// a snapshot (or RunHooks::stop_grace has passed). Otherwise takes the snapshots a checkpoint asks for.
+// a snapshot (or RunHooks::stop_grace has passed). Otherwise takes the snapshots a checkpoint asks
+// for.
 bool MemberRun::stopped() {
   if (!hooks_.stop || !*hooks_.stop) {
     take_snapshots(false, false);
