@@ -114,15 +114,10 @@ void expect_same_member(const MemberResult& a, const MemberResult& b) {
   }
 }
 
-// A member stopped while it runs goes on from its snapshot as if it had never stopped. A scan of
-// cohesive deposits relaxed in regions with a whole-system check every third disk (A), slow
-// deposits without cohesion (A) and collapses (C), with trajectories, on batches of 2: a
-// snapshot of every running member is asked for every 16 rounds; the run is stopped after
-// every sixteenth of the rounds the whole run takes (or, every other time, crashes), each time
-// saved to a checkpoint part and read back, and resumed on batches of 3. Every member's result
-// equals the uninterrupted run's bit for bit; some went on from inside a relaxation region.
-// `solver` is the scan file's [solver] section, `more` sections after it; `straight_out` gets
-// the uninterrupted run's results.
+// The scan of expect_running_members_go_on: cohesive deposits relaxed in regions with a
+// whole-system check every third disk (A), slow deposits without cohesion (A) and collapses (C),
+// with trajectories, on batches of 2. `solver` is the scan file's [solver] section, `more`
+// sections after it.
 Scan interrupted_scan(const std::string& solver, const std::string& more) {
   return parse_scan(
       "[scan]\nseeds = 2\nbatch_size = 2\n"
@@ -137,6 +132,12 @@ Scan interrupted_scan(const std::string& solver, const std::string& more) {
       "test.toml");
 }
 
+// A member stopped while it runs goes on from its snapshot as if it had never stopped. On the
+// interrupted_scan: a snapshot of every running member is asked for every 16 rounds; the run is
+// stopped after every sixteenth of the rounds the whole run takes (or, every other time,
+// crashes), each time saved to a checkpoint part and read back, and resumed on batches of 3.
+// Every member's result equals the uninterrupted run's bit for bit; some went on from inside a
+// relaxation region. `straight_out` gets the uninterrupted run's results.
 void expect_running_members_go_on(const std::string& solver, const std::string& more = "",
                                   std::vector<MemberResult>* straight_out = nullptr) {
   const Scan scan = interrupted_scan(solver, more);

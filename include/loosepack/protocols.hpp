@@ -160,7 +160,8 @@ struct RunHooks {
   std::vector<StageCost>* stage_costs = nullptr;
   // Checkpoints of running members. When `snapshot_wanted` returns true the run takes a
   // snapshot of every running member at its next point where it can (between two steps: not
-  // while a step's solve goes on over launches, solver.sweeps_per_launch) and hands them to
+  // while a step's solve goes on over launches, solver.sweeps_per_launch or the host's Newton
+  // rounds in a fused step) and hands them to
   // `snapshots` together. At a stop it takes the latest it can
   // and goes on, for at most `stop_grace` seconds, until every running member has one.
   std::function<bool()> snapshot_wanted;
