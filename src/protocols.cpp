@@ -76,14 +76,15 @@ double slow_cost(const SystemParams& p) {
          p.time_step;
 }
 // A collapse: its steps grow like sqrt(H) / h (the column's fall), each steps the W H deposit,
-// and a taller column takes more sweeps a step: W H^2 / h. 0.25: the collapse scenes' seconds per
-// unit lie a fourth of the protocol-A scenes' (bench/results/cost-relative-2026-11-25.jsonl) at
-// r_capt = 2 and H = 200 R. Taller columns cost more than that, (H / 200)^0.4, and a denser
-// deposit (a smaller capture radius) holds more disks and contacts and takes more sweeps,
-// (2 / r_capt)^1.3: the least-squares fit (in log) to the recorded collapses from 40 R x 60 R to
-// 200 R x 800 R and r_capt = 1 to 3, each point's members' geometric mean within 0.81-1.65 of it,
-// where H^2 (2 / r_capt) was within 0.65-3.1 (docs/PERFORMANCE.md, "What a member costs";
-// tests/python/test_cost_model.py checks the 200 R wide points).
+// and a taller column takes more sweeps a step: W H^2 / h. 0.25 (the collapse scenes' seconds per
+// unit were a fourth of the protocol-A scenes', bench/results/cost-relative-2026-11-25.jsonl)
+// prices the 200 R x 200 R collapses of r_capt = 2 within 6 %. Taller columns cost more than
+// H^2, (H / 200)^0.4, and a denser deposit (a smaller capture radius) holds more disks and
+// contacts and takes more sweeps, (2 / r_capt)^1.3: the least-squares fit (in log) to the
+// recorded collapses from 40 R x 60 R to 200 R x 800 R and r_capt = 1 to 3, each point's
+// members' geometric mean within 0.81-1.64 of it, where H^2 (2 / r_capt) was within 0.65-3.1
+// (docs/PERFORMANCE.md, "What a member costs"; tests/python/test_cost_model.py checks the 200 R
+// wide points).
 double collapse_cost(const SystemParams& p) {
   return 0.25 * p.width * p.height * p.height / p.time_step * std::pow(p.height / 200.0, 0.4) *
          std::pow(2.0 / p.capture_radius, 1.3);
