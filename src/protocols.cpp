@@ -82,7 +82,7 @@ double slow_cost(const SystemParams& p) {
 // H^2, (H / 200)^0.4, and a denser deposit (a smaller capture radius) holds more disks and
 // contacts and takes more sweeps, (2 / r_capt)^1.3: the least-squares fit (in log) to the
 // recorded collapses from 40 R x 60 R to 200 R x 800 R and r_capt = 1 to 3, each point's
-// members' geometric mean within 0.81-1.64 of it, where H^2 (2 / r_capt) was within 0.65-3.1
+// members' CPU within 0.81-1.64 of it, and within 0.65-3.1 of H^2 (2 / r_capt) alone
 // (docs/PERFORMANCE.md, "What a member costs"; tests/python/test_cost_model.py checks the 200 R
 // wide points).
 double collapse_cost(const SystemParams& p) {

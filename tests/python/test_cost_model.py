@@ -121,7 +121,8 @@ def geometric_mean(values):
 
 def collapse_points():
     """The recorded protocol-C points 200 R wide (Bo = 1e3, h = 0.0028; the boxes the records'
-    labels name) with their members' CPU seconds: {(height, capture radius): (CPU s, ...)}. The
+    labels name) with their members' CPU seconds: {(height, capture radius): (CPU s, ...)}, or
+    the run's CPU over its members where the record holds no member's own (200 R x 200 R). The
     200 R x 400 R members ran one process a core: each member's wall time times the run's CPU
     over its wall time."""
     points = {}
@@ -143,9 +144,10 @@ def collapse_points():
 
 def test_collapses_within_a_factor_of_two(tmp_path):
     """Each recorded point 200 R wide, 200 to 800 R tall, costs within a factor of 2 of the
-    model, its members' geometric mean (one member's cost spreads by up to 5x about it; the
-    r_capt = 1.5 point at 800 R holds a member of 5 320 CPU s beside two of 1 020 and 1 180). The
-    model with H^2 (2 / r_capt) alone put that point 3.1 times too low."""
+    model, its members' geometric mean (one member's cost spreads by up to 3x about it; the
+    r_capt = 1.5 point at 800 R holds a member of 5 320 CPU s beside two of 1 020 and 1 180).
+    H^2 (2 / r_capt) alone, without the height's and the density's exponents, puts that point 3.1
+    times too low."""
     if not os.path.exists(PROGRAM):
         pytest.skip(f"no program at {PROGRAM} (set LOOSEPACK)")
     points = collapse_points()
