@@ -9,9 +9,9 @@ without the Bond number's relaxation time either, and it orders the scenes as th
 costs do."""
 
 import json
-import math
 import os
 import re
+import statistics
 import subprocess
 
 import pytest
@@ -19,12 +19,13 @@ import pytest
 from loosepack.runner import to_toml
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-RECORD = os.path.join(HERE, "..", "..", "bench", "results", "cost-relative-2026-12-03.jsonl")
+RESULTS = os.path.join(HERE, "..", "..", "bench", "results")
 PROGRAM = os.environ.get("LOOSEPACK", os.path.join(HERE, "..", "..", "build", "loosepack"))
 
 
-def records():
-    with open(RECORD) as f:
+def records(name="cost-relative-2026-12-03.jsonl"):
+    """The lines of a record in bench/results/ (by default the cost study's)."""
+    with open(os.path.join(RESULTS, name)) as f:
         return [json.loads(line) for line in f if line.strip()]
 
 
@@ -110,15 +111,6 @@ def test_the_model_orders_the_scenes_as_measured(measured):
     assert pairs >= 20
 
 
-def result_record(name):
-    with open(os.path.join(HERE, "..", "..", "bench", "results", name)) as f:
-        return [json.loads(line) for line in f if line.strip()]
-
-
-def geometric_mean(values):
-    return math.exp(sum(math.log(v) for v in values) / len(values))
-
-
 def collapse_points():
     """The recorded protocol-C points 200 R wide (Bo = 1e3, h = 0.0028; the boxes the records'
     labels name) with their members' CPU seconds: {(height, capture radius): (CPU s, ...)}, or
@@ -126,14 +118,14 @@ def collapse_points():
     200 R x 400 R members ran one process a core: each member's wall time times the run's CPU
     over its wall time."""
     points = {}
-    for r in result_record("collapse-capture-cost-wide-2026-12-06.jsonl"):
+    for r in records("collapse-capture-cost-wide-2026-12-06.jsonl"):
         points[(200.0, r["capture_radius"])] = (r["cpu_per_member_s"],)
-    h400 = result_record("fig17-width-H400-2026-12-06.jsonl")[0]
+    h400 = records("fig17-width-H400-2026-12-06.jsonl")[0]
     share = h400["user_cpu_s"] / h400["wall_s"]
     for p in h400["points"]:
         points[(400.0, p["capture_radius"])] = tuple(share * w for w in p["wall_time_s"])
     h800 = {}
-    for key, cpu in result_record("fig17-H800-2026-12-06.jsonl")[0][
+    for key, cpu in records("fig17-H800-2026-12-06.jsonl")[0][
             "user_cpu_s_of_the_member_runs"].items():
         r_capt = float(re.match(r"r_capt_([0-9.]+)_seed_\d+$", key).group(1))
         h800.setdefault(r_capt, []).append(cpu)
@@ -156,5 +148,5 @@ def test_collapses_within_a_factor_of_two(tmp_path):
     setups = [{"protocol": "C", "width": 200.0, "height": h, "bond_number": 1000.0,
                "capture_radius": r, "time_step": 0.0028} for h, r in keys]
     for key, e in zip(keys, expected_seconds(tmp_path, setups)):
-        m = geometric_mean(points[key])
+        m = statistics.geometric_mean(points[key])
         assert 0.5 < m / e < 2.0, (key, m, e)
