@@ -1224,9 +1224,9 @@ struct MergeOptions {
 void add_merge_command(CLI::App& app, MergeOptions& m) {
   m.command = app.add_subcommand(
       "merge",
-      "Merge the files of shards of one scan (loosepack run SCAN --shard K/N) into the file "
-      "one run of the whole scan writes");
-  m.command->add_option("shards", m.parts, "the shards' result files (HDF5)")
+      "Merge the files of some of one scan's members (loosepack run SCAN --shard K/N, --member "
+      "N or --resume --finished-only) into the file one run of them all writes");
+  m.command->add_option("files", m.parts, "the result files (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);
   m.command
@@ -1238,22 +1238,22 @@ void add_merge_command(CLI::App& app, MergeOptions& m) {
   m.command->add_flag("--snapshots", m.snapshots,
                       "store every member's final disks and contact forces (as run --snapshots)");
   m.command->add_flag("--partial", m.partial,
-                      "merge shards that leave members out (shards not given, or files of "
-                      "their finished members only): a file of those at hand");
+                      "merge files that leave members out (shards not given, files of the "
+                      "members finished only): a file of those at hand");
   m.command->add_flag("-q,--quiet", m.quiet, "no message when done");
 }
 
-// `loosepack merge`: the output checked and locked as a run's; the shards read and checked
-// whole before anything is written.
+// `loosepack merge`: the output checked and locked as a run's; the files read and checked whole
+// before anything is written.
 int merge_command(const MergeOptions& m) {
   OutputLock lock;
   if (const std::string why = claim_output_path(lock, m.out_path, m.parts, m.force); !why.empty()) {
     std::cerr << "loosepack: " << why << "\n";
     return kInvalid;
   }
-  MergedShards merged;
+  MergedParts merged;
   try {
-    merged = read_shards(m.parts);
+    merged = read_parts(m.parts);
   } catch (const ShardError& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return kInvalid;
@@ -1264,7 +1264,7 @@ int merge_command(const MergeOptions& m) {
   std::string missing;
   for (const auto& what : merged.missing) missing += (missing.empty() ? "" : ", ") + what;
   if (!missing.empty() && !m.partial) {
-    std::cerr << "loosepack: the shards leave members out (" << missing
+    std::cerr << "loosepack: the files leave members out (" << missing
               << "): merge them all, or add --partial to merge those at hand\n";
     return kInvalid;
   }
@@ -1280,8 +1280,7 @@ int merge_command(const MergeOptions& m) {
     std::cerr << "loosepack: " << m.out_path << " leaves out " << missing << "\n";
   if (!m.quiet)
     std::cerr << "loosepack: wrote " << m.out_path << " with " << merged.members.size()
-              << " members from " << m.parts.size() << " shard files (" << failed
-              << " failed members)\n";
+              << " members from " << m.parts.size() << " files (" << failed << " failed members)\n";
   return failed > 0 ? kMembersFailed : kOk;
 }
 

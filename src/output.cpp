@@ -571,9 +571,9 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
       write_point(g, scan, pr, analysis.points.at(pk));
       write_members(group(g, "members"), scan, pr, members, snapshots);
     }
-    if (info.shards > 0)
-      bytes_dataset(file, "shard_members", checkpoint_part_bytes(scan_fingerprint(scan), members),
-                    "the shard's finished members as a checkpoint part (loosepack merge)");
+    if (info.shards > 0 || members.size() < members_of(scan).size())
+      bytes_dataset(file, "members_encoded", checkpoint_part_bytes(scan_fingerprint(scan), members),
+                    "the file's members as a checkpoint part (loosepack merge)");
   });
 }
 
@@ -893,38 +893,48 @@ std::string result_file_problem(const std::string& path) {
                       "/scan_text): give the file `loosepack run` wrote";
 }
 
-ShardFile read_shard_file(const std::string& path) {
-  ShardFile out;
+PartFile read_part_file(const std::string& path) {
+  PartFile out;
   out.path = path;
   try {
     const H5 file = open_to_read(path, "open it (not an HDF5 file written by loosepack?)");
-    if (H5Aexists(file, "shards") <= 0 || H5Lexists(file, "shard_members", H5P_DEFAULT) <= 0)
+    if (H5Lexists(file, "scan_text", H5P_DEFAULT) <= 0 && H5Aexists(file, "scan_text") <= 0)
+      throw std::runtime_error("not a loosepack result file (no scan_text)");
+    if (H5Lexists(file, "shard_members", H5P_DEFAULT) > 0)  // what earlier builds wrote
       throw std::runtime_error(
-          "not a shard's file (a shard is written by loosepack run SCAN --shard K/N)");
+          "a shard's file of an earlier build: merge it with the loosepack build that ran it "
+          "(its git_commit attribute; loosepack --version)");
+    if (H5Lexists(file, "members_encoded", H5P_DEFAULT) <= 0)
+      throw std::runtime_error(
+          "holds no encoded members: a file of a whole scan (merge takes the files of loosepack "
+          "run SCAN --shard K/N, --member N or --resume --finished-only)");
     out.scan_text = scan_text_of(file);
     out.scan_file = string_attribute(file, "/", "scan_file");
     out.info.start_time = string_attribute(file, "/", "start_time");
     out.info.end_time = string_attribute(file, "/", "end_time");
     out.info.wall_seconds = double_attribute(file, "/", "wall_seconds");
     out.info.ranks = count_attribute(file, "mpi_ranks");
-    out.info.shard = count_attribute(file, "shard");
-    out.info.shards = count_attribute(file, "shards");
-    H5 set(H5Dopen2(file, "shard_members", H5P_DEFAULT), H5Dclose, "open dataset shard_members");
-    H5 type(H5Dget_type(set), H5Tclose, "get the type of shard_members");
-    H5 space(H5Dget_space(set), H5Sclose, "get dataspace of shard_members");
+    if (H5Aexists(file, "shards") > 0) {
+      out.info.shard = count_attribute(file, "shard");
+      out.info.shards = count_attribute(file, "shards");
+    }
+    H5 set(H5Dopen2(file, "members_encoded", H5P_DEFAULT), H5Dclose,
+           "open dataset members_encoded");
+    H5 type(H5Dget_type(set), H5Tclose, "get the type of members_encoded");
+    H5 space(H5Dget_space(set), H5Sclose, "get dataspace of members_encoded");
     if (H5Tget_class(type) != H5T_INTEGER || H5Tget_size(type) != 1 ||
         H5Sget_simple_extent_ndims(space) != 1)
-      throw std::runtime_error("shard_members is not a one-dimensional dataset of bytes");
+      throw std::runtime_error("members_encoded is not a one-dimensional dataset of bytes");
     // No more bytes than the file holds: a damaged extent is refused, not allocated.
     const hssize_t n = H5Sget_simple_extent_npoints(space);
     std::error_code ec;
     const auto size = std::filesystem::file_size(path, ec);
     if (n < 0 || ec || static_cast<std::uintmax_t>(n) > size)
-      throw std::runtime_error("shard_members has a length the file cannot hold");
+      throw std::runtime_error("members_encoded has a length the file cannot hold");
     out.members.resize(static_cast<std::size_t>(n));
     if (!out.members.empty())
       check(H5Dread(set, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, out.members.data()),
-            "read dataset shard_members");
+            "read dataset members_encoded");
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(path + ": " + e.what());
   }
@@ -1135,17 +1145,20 @@ void print_summary_head(hid_t file, const std::string& path, std::size_t points,
   out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', " << points
       << " points, " << double_attribute(file, "/", "wall_seconds")
       << " s of the run that wrote it";
+  double unfinished = 0.0;
   if (H5Aexists(file, "members_unfinished") > 0) {
-    const double unfinished = double_attribute(file, "/", "members_unfinished");
+    unfinished = double_attribute(file, "/", "members_unfinished");
     if (unfinished > 0)
       out << "; " << unfinished << " members not in this file ("
-          << (H5Aexists(file, "merged_from") > 0 ? "shards not merged, or merged unfinished"
+          << (H5Aexists(file, "merged_from") > 0 ? "files not merged, or merged unfinished"
                                                  : "an unfinished run")
           << ")";
   }
   if (H5Aexists(file, "shards") > 0)
     out << "; shard " << count_attribute(file, "shard") << " of " << count_attribute(file, "shards")
         << " of the scan (loosepack merge joins the shards' files)";
+  else if (unfinished == 0 && H5Lexists(file, "members_encoded", H5P_DEFAULT) > 0)
+    out << "; some of the scan's members (loosepack merge joins the files of its members)";
   out << "\n";
 }
 

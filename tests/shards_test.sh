@@ -42,14 +42,14 @@ done
 expect_rc 3 merge.log "$exe" merge p2.h5 p0.h5 p1.h5 -o merged.h5 --snapshots
 same whole.h5 merged.h5
 [ "$(grep -c "failed: non-finite" merge.log)" -eq 1 ] || fail "merge: $(cat merge.log)"
-grep -q "with 9 members from 3 shard files" merge.log || fail "merge: $(cat merge.log)"
+grep -q "with 9 members from 3 files" merge.log || fail "merge: $(cat merge.log)"
 # The comparison can fail: without --snapshots the merged file lacks the whole run's snapshots.
 expect_rc 3 plain.log "$exe" merge p0.h5 p1.h5 p2.h5 -o plain.h5
 /usr/bin/python3 "$here/h5_equal.py" whole.h5 plain.h5 >/dev/null && fail "h5_equal saw no difference"
 # Two shards of three are refused, naming the one missing; with --partial they give a file that
 # counts the third's members as missing, and say so even with -q.
 expect_rc 2 two.log "$exe" merge p0.h5 p2.h5 -o two.h5
-grep -q "the shards leave members out (shard 1/3): merge them all, or add --partial" two.log ||
+grep -q "the files leave members out (shard 1/3): merge them all, or add --partial" two.log ||
   fail "two shards of three: $(cat two.log)"
 [ ! -e two.h5 ] || fail "a refused merge wrote its file"
 expect_rc 0 two.log "$exe" merge p0.h5 p2.h5 -o two.h5 -q --partial
@@ -63,13 +63,49 @@ read -r n1 _ <<<"$(members_of p1.h5)"
 read -r n02 missing <<<"$(members_of two.h5)"
 [ "$missing" -eq "$n1" ] && [ $((n02 + n1)) -eq 9 ] ||
   fail "two shards: $n02 members, $missing missing; shard 1 has $n1"
-"$exe" summary two.h5 | head -1 | grep -q "$n1 members not in this file (shards not merged, or merged unfinished)" ||
+"$exe" summary two.h5 | head -1 | grep -q "$n1 members not in this file (files not merged, or merged unfinished)" ||
   fail "summary of two shards: $("$exe" summary two.h5 | head -1)"
 "$exe" summary p1.h5 | head -1 | grep -q "shard 1 of 3 of the scan" || fail "summary of a shard"
+# A partial merge carries its members as a shard does: with the shard it left out, it merges to
+# the whole run's file.
+expect_rc 3 again.log "$exe" merge two.h5 p1.h5 -o again.h5 --snapshots
+same whole.h5 again.h5
+# Files of one member each (run --member N) merge as shards do, alone or beside shards: the
+# members of shard 1 one by one, with shards 0 and 2, give the whole run's file; without one of
+# them the merge names it; a member given twice is refused, naming both files.
+ids_of() {  # ids_of FILE: its member ids (point x 3 seeds + seed_index)
+  /usr/bin/python3 -c "import h5py, sys
+f = h5py.File(sys.argv[1], 'r')
+print(' '.join(str(int(p) * 3 + int(k))
+               for p in f['points'] for k in f['points'][p]['members/seed_index']))" "$1"
+}
+ids=($(ids_of p1.h5))
+[ "${#ids[@]}" -eq "$n1" ] || fail "shard 1's members: ${ids[*]} (expected $n1)"
+singles=()
+for id in "${ids[@]}"; do
+  rc_of env LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml --member "$id" -o m$id.h5 -q 2>/dev/null
+  [ -f m$id.h5 ] || fail "--member $id wrote no file"
+  singles+=(m$id.h5)
+done
+"$exe" summary "${singles[0]}" | head -1 | grep -q "; some of the scan's members" ||
+  fail "summary of one member's file: $("$exe" summary "${singles[0]}" | head -1)"
+expect_rc 3 singles.log "$exe" merge "${singles[@]}" p0.h5 p2.h5 -o singles.h5 --snapshots
+same whole.h5 singles.h5
+if [ "$n1" -gt 1 ]; then
+  expect_rc 2 short.log "$exe" merge "${singles[@]:1}" p0.h5 p2.h5 -o short.h5
+  grep -q "the files leave members out (1 member of shard 1/3)" short.log ||
+    fail "a member left out: $(cat short.log)"
+fi
+expect_rc 2 twice.log "$exe" merge p1.h5 "${singles[0]}" -o twice.h5
+grep -q "${singles[0]} and p1.h5 both hold member ${ids[0]}: merge files of disjoint members" \
+  twice.log || fail "a member given twice: $(cat twice.log)"
+# Without shards, what the files leave out is named by member id.
+expect_rc 2 ids.log "$exe" merge "${singles[0]}" -o ids.h5
+grep -q "the files leave members out (members " ids.log || fail "members left out: $(cat ids.log)"
 # Like every dataset (docs/OUTPUT.md), the shard's members say what they hold.
 /usr/bin/python3 -c "import h5py, sys
-sys.exit('long_name' not in h5py.File(sys.argv[1], 'r')['shard_members'].attrs)" p1.h5 ||
-  fail "shard_members has no long_name"
+sys.exit('long_name' not in h5py.File(sys.argv[1], 'r')['members_encoded'].attrs)" p1.h5 ||
+  fail "members_encoded has no long_name"
 # A point of one member has no standard error: the summary says nan, not a zero.
 "$exe" summary p1.h5 | grep -q "^0000 .* +- nan " || fail "summary of one member: $("$exe" summary p1.h5)"
 # A shard's file is a result file of its members (one a point here, whose errors are NaN): the
@@ -153,10 +189,11 @@ refused "p0.h5 and p0.h5 are both shard 0/3" "$exe" merge p0.h5 p0.h5 -o bad.h5
 "$exe" run s.toml --shard 1/2 -o half1.h5 -q 2>/dev/null || true
 refused "half1.h5 is shard 1/2, p0.h5 one of 3: merge the shards of one split" \
   "$exe" merge p0.h5 half1.h5 -o bad.h5
-refused "whole.h5: not a shard's file" "$exe" merge p0.h5 whole.h5 -o bad.h5
+refused "whole.h5: holds no encoded members: a file of a whole scan" "$exe" merge p0.h5 whole.h5 \
+  -o bad.h5
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > other.toml
 "$exe" run other.toml --shard 1/3 -o other1.h5 -q 2>/dev/null || true
-refused "other1.h5 is a shard of another scan than p0.h5: key 'scan.seed' is \`(none)\` in p0.h5 and \`2\` in other1.h5" \
+refused "other1.h5 holds members of another scan than p0.h5: key 'scan.seed' is \`(none)\` in p0.h5 and \`2\` in other1.h5" \
   "$exe" merge p0.h5 other1.h5 -o bad.h5
 # A shard of the scan file with a comment added, other spacing and the keys of [scan] in another
 # order is of the same scan: it merges, and the merged file, given in any order, is the whole
@@ -173,10 +210,10 @@ same whole.h5 cmerged.h5
 cp p1.h5 damaged.h5
 /usr/bin/python3 -c "import h5py, sys
 with h5py.File(sys.argv[1], 'r+') as f:
-    b = f['shard_members'][()]
+    b = f['members_encoded'][()]
     b[len(b) // 2] ^= 0x10
-    f['shard_members'][...] = b" damaged.h5
-refused "damaged.h5: shard_members is corrupt" "$exe" merge p0.h5 damaged.h5 -o bad.h5
+    f['members_encoded'][...] = b" damaged.h5
+refused "damaged.h5: members_encoded is corrupt" "$exe" merge p0.h5 damaged.h5 -o bad.h5
 echo junk > junk.h5
 refused "junk.h5: HDF5: cannot open it" "$exe" merge p0.h5 junk.h5 -o bad.h5
 before=$(md5sum merged.h5)

@@ -15,10 +15,9 @@ struct RunInfo {
   int ranks = 1;
   // Members of the scan a file of an unfinished run leaves out (`run --finished-only`).
   long members_unfinished = 0;
-  // A shard's file (`run --shard K/N`): K and N (-1 and 0 otherwise). Its members are stored
-  // with it, encoded as a checkpoint part, for `loosepack merge`.
+  // A shard's file (`run --shard K/N`): K and N (-1 and 0 otherwise).
   int shard = -1, shards = 0;
-  // A merged file: the shard files it was merged from.
+  // A merged file: the files it was merged from.
   std::vector<std::string> merged_from;
 };
 
@@ -31,7 +30,9 @@ void write_results(const std::string& path, const Scan& scan, const RunInfo& inf
 // The one way from members to a result file: aggregates `members` (in member order), analyses
 // the points and writes `path` (write_results). The points that no member of `members` belongs
 // to are left out (a file of one member, of a shard, or of the members finished so far; a run of
-// the whole scan has every point's members, failed ones included). Returns the points written.
+// the whole scan has every point's members, failed ones included). A file of fewer than all of
+// the scan's members, and a shard's, carries them encoded (/members_encoded) for `loosepack
+// merge`. Returns the points written.
 std::vector<PointResult> write_member_results(const std::string& path, const Scan& scan,
                                               const RunInfo& info,
                                               const std::vector<MemberResult>& members,
@@ -47,14 +48,15 @@ std::string members_left_out_note(int point, Protocol protocol, int over, int fi
 std::string capped_collapses_note(int point, const std::vector<double>& failure,
                                   const std::vector<double>& capped);
 
-// What `loosepack merge` reads of a shard's file: the scan file's text and name, the run's
-// provenance and its members' bytes (a checkpoint part). Throws std::runtime_error naming the
-// file when it is not a loosepack result file, or not a shard's.
-struct ShardFile {
+// What `loosepack merge` reads of a file of some of a scan's members: the scan file's text and
+// name, the run's provenance and its members' bytes (a checkpoint part, /members_encoded).
+// Throws std::runtime_error naming the file when it is not a loosepack result file, or holds no
+// encoded members (a file of a whole scan).
+struct PartFile {
   std::string path, scan_text, scan_file, members;
   RunInfo info;
 };
-ShardFile read_shard_file(const std::string& path);
+PartFile read_part_file(const std::string& path);
 
 // Recomputes the analysis of result file `in` from what it stores (its scan_text, the
 // aggregated profiles, avalanche bins, histograms and scalars) and writes it with the fits
