@@ -89,9 +89,9 @@ line=$("$exe" run "$repo/examples/paper/fig06_avalanche_profile_1e3_full.toml" -
 secs=$(sed -n 's/^# expected: about \([0-9.e+]*\) CPU s in all.*/\1/p' <<<"$line")
 want=$(awk -v s="$secs" 'BEGIN { printf "%.1f years of one core", s / (365.25 * 86400) }')
 grep -qF ", $want (" <<<"$line" || fail "--dry-run: '$line' does not say $want"
-# A scan relaxing in regions is told that the model prices the whole system's relaxation.
+# A scan relaxing in regions is told how the model prices them.
 "$exe" run "$repo/examples/paper/fig07_scaled_profiles_tall.toml" -o "$dir/tall.h5" --dry-run |
-  grep -q "^# protocol.region_radius is set: the model prices the whole system" ||
+  grep -q "^# protocol.region_radius is set: the model prices protocol-A members relaxed in" ||
   fail "--dry-run of a region scan does not say what the model prices"
 "$exe" run "$dir/good.toml" -o "$dir/out.h5" --dry-run | grep -q "out.h5 exists: the run would be refused without --force" ||
   fail "--dry-run onto an existing file does not say it would be refused"

@@ -20,6 +20,8 @@ struct Member {
   std::uint64_t id = 0;  // point * seeds + seed_index: keys the random stream
   Protocol protocol = Protocol::A;
   SystemParams params;
+  // A: relaxed in relaxation regions (protocol.region_radius > 0), which the cost model prices.
+  bool in_regions = false;
 };
 
 std::vector<Member> members_of(const Scan& scan);

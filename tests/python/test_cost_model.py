@@ -29,12 +29,16 @@ def records(name="cost-relative-2026-12-03.jsonl"):
         return [json.loads(line) for line in f if line.strip()]
 
 
-def expected_seconds(tmp_path, setups):
-    """The program's estimate of CPU seconds per member for each setup, in order."""
+def expected_seconds(tmp_path, setups, protocol=None):
+    """The program's estimate of CPU seconds per member for each setup, in order (`protocol`:
+    the scan's [protocol] table, if any)."""
     keys = ("protocol", "width", "height", "bond_number", "capture_radius", "time_step")
     scan = tmp_path / "cost.toml"
-    scan.write_text(to_toml({"scan": {"name": "cost", "seeds": 1},
-                             "point": [{k: s[k] for k in keys} for s in setups]}))
+    tables = {"scan": {"name": "cost", "seeds": 1},
+              "point": [{k: s[k] for k in keys} for s in setups]}
+    if protocol:
+        tables["protocol"] = protocol
+    scan.write_text(to_toml(tables))
     out = subprocess.run([PROGRAM, "run", str(scan), "--dry-run"], check=True,
                          capture_output=True, text=True).stdout
     rows = [line.split() for line in out.splitlines() if re.match(r"^\d{4}\s", line)]
@@ -150,3 +154,60 @@ def test_collapses_within_a_factor_of_two(tmp_path):
     for key, e in zip(keys, expected_seconds(tmp_path, setups)):
         m = statistics.geometric_mean(points[key])
         assert 0.5 < m / e < 2.0, (key, m, e)
+
+
+def region_points():
+    """The recorded protocol-A runs relaxed in regions (r = 8, checked every 10th disk), CPU
+    seconds a member: {(width, height, Bond number): [one per run, ...]}. The tall 40 R runs of
+    relative_tolerance 1e-3 (each member's CPU summed over 16), the regions of the comparison with
+    the whole system (B of each line, its user CPU over its members), and the wide runs at
+    H = 120 (their records' cpu_s_per_member, A and B)."""
+    points = {}
+
+    def add(point, cpu):  # point: a record's "protocol A, bond_number B, width W, height H, ..."
+        bond, width, height = re.search(
+            r"bond_number ([0-9.]+), width ([0-9.]+), height ([0-9.]+),", point).groups()
+        points.setdefault((float(width), float(height), float(bond)), []).append(cpu)
+
+    for r in records("relative-tolerance-2026-11-25.jsonl") + records(
+            "tall-A-H300-2026-11-25.jsonl"):
+        if r["setting"].startswith("relative_tolerance = 1e-3"):
+            height = float(re.search(r"40 R x (\d+) R", r["scene"]).group(1))
+            points.setdefault((40.0, height, 1000.0), []).append(r["cpu_s"] / 16)
+    for r in records("regions-comparison-2026-11-26.jsonl"):
+        cpu = re.search(r"region_check_every = 10\); user CPU A [0-9.]+ s, B ([0-9.]+) s",
+                        r["label"])
+        if cpu:
+            members = int(re.search(r"members (\d+)$", r["b_point"]).group(1))
+            add(r["b_point"], float(cpu.group(1)) / members)
+    for name in ("paper-width-A-H120-2026-11-26.jsonl", "paper-width-A-H120-2026-11-27.jsonl"):
+        for r in records(name):
+            for side in ("a", "b") if "cpu_s_per_member" in r else ():
+                add(r[side + "_point"], r["cpu_s_per_member"][side])
+    return points
+
+
+def test_region_members_within_a_factor_of_two(tmp_path):
+    """Members relaxed in regions grow like H^3 at most (docs/PERFORMANCE.md, "What a member
+    costs"): each recorded point at Bo = 1e2 and 1e3, 40 R to 200 R wide and 120 R to 300 R tall,
+    its runs' geometric mean (the runs of a point, on other days and at other tolerances, spread
+    by up to 2.8x: 11.3 to 31.4 s a member at 40 R x 120 R), within a factor of 2 of the model. With the whole system's height exponent q(1e3) = 4
+    for Bo = 1e3 the model puts the tallest of them more than twice too high."""
+    if not os.path.exists(PROGRAM):
+        pytest.skip(f"no program at {PROGRAM} (set LOOSEPACK)")
+    points = region_points()
+    keys = sorted(points)
+    assert len(keys) >= 8 and {b for _, _, b in keys} == {100.0, 1000.0}, keys
+    time_step = {100.0: 0.009, 1000.0: 0.0028}  # the paper files' (docs/MODEL.md)
+    setups = [{"protocol": "A", "width": w, "height": h, "bond_number": b, "capture_radius": 1.0,
+               "time_step": time_step[b]} for w, h, b in keys]
+    expected = expected_seconds(tmp_path, setups, {"region_radius": 8.0,
+                                                   "region_check_every": 10})
+    whole_exponent = []
+    for (w, h, b), e in zip(keys, expected):
+        m = statistics.geometric_mean(points[(w, h, b)])
+        assert 0.5 < m / e < 2.0, ((w, h, b), m, e)
+        q = height_exponent(b)
+        whole_exponent.append(m / (e * (h / 60.0) ** (q - min(q, 3.0))))
+    assert min(whole_exponent) < 0.5, whole_exponent
+
