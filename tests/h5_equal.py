@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Compares two loosepack result files bit for bit: every dataset and every attribute, except
 what records the run rather than the results (times, the number of MPI ranks, the batch size,
-the shard files a merged file came from, and members/wall_time, the seconds each member took),
+the files a merged file came from, and members/wall_time, the seconds each member took),
 and what `--except NAME` names (a dataset's or attribute's name; repeatable).
 Exit 0 when equal, 1 with the first differences listed."""
 import argparse
