@@ -62,7 +62,8 @@ double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_num
 // (q(1e2)). The recorded region runs at Bo = 1e2 and 1e3, 40 R to 200 R wide and 120 R to 300 R
 // tall, lie within 0.68-1.58 of the model so, where q(1e3) = 4 put those at 1e3 at 0.21-0.77 of
 // it, and the paper-size member's first 5 980 disks grew like N^3.0 (tests/python/
-// test_cost_model.py checks the points within a factor of 2).
+// test_cost_model.py checks the points within a factor of 2). q(1e2) itself is too low for tall
+// boxes: 40 R x 400 R at Bo = 1e2 cost 2.6 times the model.
 double height_exponent(const SystemParams& p, bool in_regions) {
   const double q = 2.5 + 2.0 * p.bond_number / (p.bond_number + 300.0);
   return in_regions ? std::min(q, 3.0) : q;

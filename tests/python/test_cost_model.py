@@ -193,7 +193,9 @@ def region_points():
 
 def test_region_members_within_a_factor_of_two(program, tmp_path):
     """Members relaxed in regions grow like H^3 at most (docs/PERFORMANCE.md, "What a member
-    costs"): each recorded point at Bo = 1e2 and 1e3, 40 R to 200 R wide and 120 R to 300 R tall,
+    costs"): each point of these records at Bo = 1e2 and 1e3, 40 R to 200 R wide and 120 R to 300 R
+    tall (at 400 R, Bo = 1e2 costs 2.6 times the model: bo1e2-H400-regions-2026-12-06.jsonl, and
+    docs/PERFORMANCE.md says why),
     its runs' geometric mean (the runs of a point, on other days and at other tolerances, spread
     by up to 2.8x: 11.3 to 31.4 s a member at 40 R x 120 R), within a factor of 2 of the model. With the whole system's height exponent q(1e3) = 4
     for Bo = 1e3 the model puts the tallest of them more than twice too high."""
