@@ -214,7 +214,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const std::runtime_error&) {
   }
   try {
-    loosepack::read_shards({t.work});
+    loosepack::read_parts({t.work});
   } catch (const std::runtime_error&) {
   }
   for (auto format : {loosepack::ExportFormat::Xdmf, loosepack::ExportFormat::Extxyz}) {

@@ -1225,7 +1225,8 @@ void add_merge_command(CLI::App& app, MergeOptions& m) {
   m.command = app.add_subcommand(
       "merge",
       "Merge the files of some of one scan's members (loosepack run SCAN --shard K/N, --member "
-      "N or --resume --finished-only) into the file one run of them all writes");
+      "N or --resume --finished-only, merge --partial) into the file one run of them all "
+      "writes");
   m.command->add_option("files", m.parts, "the result files (HDF5)")
       ->required()
       ->check(CLI::ExistingFile);

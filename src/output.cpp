@@ -906,8 +906,9 @@ PartFile read_part_file(const std::string& path) {
           "(its git_commit attribute; loosepack --version)");
     if (H5Lexists(file, "members_encoded", H5P_DEFAULT) <= 0)
       throw std::runtime_error(
-          "holds no encoded members: a file of a whole scan (merge takes the files of loosepack "
-          "run SCAN --shard K/N, --member N or --resume --finished-only)");
+          "holds no encoded members: a file of a whole scan, or one of an earlier build (merge "
+          "takes the files of loosepack run SCAN --shard K/N, --member N or --resume "
+          "--finished-only, and partial merges, of one build)");
     out.scan_text = scan_text_of(file);
     out.scan_file = string_attribute(file, "/", "scan_file");
     out.info.start_time = string_attribute(file, "/", "start_time");

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Compares two loosepack result files bit for bit: every dataset and every attribute, except
 what records the run rather than the results (times, the number of MPI ranks, the batch size,
-the files a merged file came from, and members/wall_time, the seconds each member took),
+the files a merged file came from, and members/wall_time and /members_encoded, which hold the
+seconds each member took),
 and what `--except NAME` names (a dataset's or attribute's name; repeatable).
 Exit 0 when equal, 1 with the first differences listed."""
 import argparse
@@ -12,7 +13,7 @@ import numpy as np
 
 RUN_ATTRIBUTES = {"start_time", "end_time", "wall_seconds", "mpi_ranks", "batch_size",
                   "merged_from"}
-RUN_DATASETS = {"wall_time"}
+RUN_DATASETS = {"wall_time", "members_encoded"}  # the latter holds each member's wall time too
 
 
 def items(path, skip=()):

@@ -4,9 +4,11 @@
 # any order, the shards give the whole run's file (tests/h5_equal.py: every dataset and
 # attribute but the run's times, ranks and the files merged), report the failure once and exit
 # with 3; a shard run under mpirun (when the second argument names it) merges as the shard run
-# without does; two of the three shards give a file that counts the third's members as missing. Bad
-# input is refused with exit code 2 and nothing written: a shard given twice, a file that is
-# no shard, a shard of another scan, a damaged shard, an existing output, bad --shard values.
+# without does; two of the three shards give a file that counts the third's members as missing,
+# and that file with the third gives the whole run's again; files of single members (--member N)
+# merge beside shards, and a member left out is named. Bad input is refused with exit code 2 and
+# nothing written: a shard given twice, a member two files hold, a file of a whole scan, a shard
+# of another scan, a damaged shard, an existing output, bad --shard values.
 source "$(dirname "$0")/common.sh"
 mpirun_cmd=${2:-}
 cd "$dir"
@@ -63,7 +65,8 @@ read -r n1 _ <<<"$(members_of p1.h5)"
 read -r n02 missing <<<"$(members_of two.h5)"
 [ "$missing" -eq "$n1" ] && [ $((n02 + n1)) -eq 9 ] ||
   fail "two shards: $n02 members, $missing missing; shard 1 has $n1"
-"$exe" summary two.h5 | head -1 | grep -q "$n1 members not in this file (files not merged, or merged unfinished)" ||
+unmerged="$n1 members not in this file (files not merged, or merged unfinished)"
+"$exe" summary two.h5 | head -1 | grep -q "$unmerged" ||
   fail "summary of two shards: $("$exe" summary two.h5 | head -1)"
 "$exe" summary p1.h5 | head -1 | grep -q "shard 1 of 3 of the scan" || fail "summary of a shard"
 # A partial merge carries its members as a shard does: with the shard it left out, it merges to
@@ -193,7 +196,8 @@ refused "whole.h5: holds no encoded members: a file of a whole scan" "$exe" merg
   -o bad.h5
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > other.toml
 "$exe" run other.toml --shard 1/3 -o other1.h5 -q 2>/dev/null || true
-refused "other1.h5 holds members of another scan than p0.h5: key 'scan.seed' is \`(none)\` in p0.h5 and \`2\` in other1.h5" \
+refused "other1.h5 holds members of another scan than p0.h5: key 'scan.seed' is \`(none)\` in \
+p0.h5 and \`2\` in other1.h5" \
   "$exe" merge p0.h5 other1.h5 -o bad.h5
 # A shard of the scan file with a comment added, other spacing and the keys of [scan] in another
 # order is of the same scan: it merges, and the merged file, given in any order, is the whole

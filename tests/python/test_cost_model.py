@@ -179,26 +179,27 @@ def region_points():
             height = float(re.search(r"40 R x (\d+) R", r["scene"]).group(1))
             points.setdefault((40.0, height, 1000.0), []).append(r["cpu_s"] / 16)
     for r in records("regions-comparison-2026-11-26.jsonl"):
-        cpu = re.search(r"region_check_every = 10\); user CPU A [0-9.]+ s, B ([0-9.]+) s",
+        cpu = re.search(r"region_check_every = 10\)[^;]*; user CPU A [0-9.]+ s, B ([0-9.]+) s",
                         r["label"])
         if cpu:
             members = int(re.search(r"members (\d+)$", r["b_point"]).group(1))
             add(r["b_point"], float(cpu.group(1)) / members)
     for name in ("paper-width-A-H120-2026-11-26.jsonl", "paper-width-A-H120-2026-11-27.jsonl"):
         for r in records(name):
-            for side in ("a", "b") if "cpu_s_per_member" in r else ():
-                add(r[side + "_point"], r["cpu_s_per_member"][side])
+            for side in ("a", "b"):
+                if side in r.get("cpu_s_per_member", {}):
+                    add(r[side + "_point"], r["cpu_s_per_member"][side])
     return points
 
 
 def test_region_members_within_a_factor_of_two(program, tmp_path):
     """Members relaxed in regions grow like H^3 at most (docs/PERFORMANCE.md, "What a member
-    costs"): each point of these records at Bo = 1e2 and 1e3, 40 R to 200 R wide and 120 R to 300 R
-    tall (at 400 R, Bo = 1e2 costs 2.6 times the model: bo1e2-H400-regions-2026-12-06.jsonl, and
-    docs/PERFORMANCE.md says why),
-    its runs' geometric mean (the runs of a point, on other days and at other tolerances, spread
-    by up to 2.8x: 11.3 to 31.4 s a member at 40 R x 120 R), within a factor of 2 of the model. With the whole system's height exponent q(1e3) = 4
-    for Bo = 1e3 the model puts the tallest of them more than twice too high."""
+    costs"): each point of these records at Bo = 1e2 and 1e3, 40 R to 200 R wide and 120 R to
+    300 R tall, its runs' geometric mean (the runs of a point, on other days and at other
+    tolerances, spread by up to 2.8x: 11.3 to 31.4 s a member at 40 R x 120 R), within a factor
+    of 2 of the model. With the whole system's height exponent q(1e3) = 4 for Bo = 1e3 the model
+    puts the tallest of them more than twice too high. (At 400 R, Bo = 1e2 costs 2.6 times the
+    model, bo1e2-H400-regions-2026-12-06.jsonl: docs/PERFORMANCE.md says why.)"""
     points = region_points()
     keys = sorted(points)
     assert len(keys) >= 8 and {b for _, _, b in keys} == {100.0, 1000.0}, keys
