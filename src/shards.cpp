@@ -99,9 +99,7 @@ int split_of(const std::vector<PartFile>& files, std::size_t members) {
     if (f.info.shards == 0) continue;
     if (f.info.shard < 0 || f.info.shard >= f.info.shards)  // what no run writes: a damaged file
       throw ShardError(f.path + ": shard " + std::to_string(f.info.shard) +
-                       " is no shard of a "
-                       "split into " +
-                       std::to_string(f.info.shards));
+                       " is no shard of a split into " + std::to_string(f.info.shards));
     if (!first) first = &f;
     if (f.info.shards != first->info.shards)
       throw ShardError(f.path + " is " + shard_name(f.info.shard, f.info.shards) + ", " +
