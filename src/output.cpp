@@ -894,12 +894,12 @@ std::string result_file_problem(const std::string& path) {
 }
 
 PartFile read_part_file(const std::string& path) {
+  if (const std::string problem = result_file_problem(path); !problem.empty())
+    throw std::runtime_error(problem);
   PartFile out;
   out.path = path;
   try {
     const H5 file = open_to_read(path, "open it (not an HDF5 file written by loosepack?)");
-    if (H5Lexists(file, "scan_text", H5P_DEFAULT) <= 0 && H5Aexists(file, "scan_text") <= 0)
-      throw std::runtime_error("not a loosepack result file (no scan_text)");
     if (H5Lexists(file, "shard_members", H5P_DEFAULT) > 0)  // what earlier builds wrote
       throw std::runtime_error(
           "a shard's file of an earlier build: merge it with the loosepack build that ran it "

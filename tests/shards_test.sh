@@ -219,7 +219,7 @@ with h5py.File(sys.argv[1], 'r+') as f:
     f['members_encoded'][...] = b" damaged.h5
 refused "damaged.h5: members_encoded is corrupt" "$exe" merge p0.h5 damaged.h5 -o bad.h5
 echo junk > junk.h5
-refused "junk.h5: HDF5: cannot open it" "$exe" merge p0.h5 junk.h5 -o bad.h5
+refused "junk.h5 is not an HDF5 file that can be opened" "$exe" merge p0.h5 junk.h5 -o bad.h5
 before=$(md5sum merged.h5)
 refused "merged.h5 exists; add --force" "$exe" merge p0.h5 p1.h5 p2.h5 -o merged.h5
 [ "$(md5sum merged.h5)" = "$before" ] || fail "an existing output was changed"

@@ -168,16 +168,19 @@ def region_points():
     H = 120 (their records' cpu_s_per_member, A and B)."""
     points = {}
 
-    def add(point, cpu):  # point: a record's "protocol A, bond_number B, width W, height H, ..."
+    def put(width, height, bond, cpu):
+        points.setdefault((float(width), float(height), float(bond)), []).append(cpu)
+
+    def add(point, cpu):  # point: "protocol A, bond_number B, width W, height H, ..."
         bond, width, height = re.search(
             r"bond_number ([0-9.]+), width ([0-9.]+), height ([0-9.]+),", point).groups()
-        points.setdefault((float(width), float(height), float(bond)), []).append(cpu)
+        put(width, height, bond, cpu)
 
     for r in records("relative-tolerance-2026-11-25.jsonl") + records(
             "tall-A-H300-2026-11-25.jsonl"):
         if r["setting"].startswith("relative_tolerance = 1e-3"):
-            height = float(re.search(r"40 R x (\d+) R", r["scene"]).group(1))
-            points.setdefault((40.0, height, 1000.0), []).append(r["cpu_s"] / 16)
+            height = re.search(r"40 R x (\d+) R", r["scene"]).group(1)
+            put(40, height, 1000, r["cpu_s"] / 16)
     for r in records("regions-comparison-2026-11-26.jsonl"):
         cpu = re.search(r"region_check_every = 10\)[^;]*; user CPU A [0-9.]+ s, B ([0-9.]+) s",
                         r["label"])
