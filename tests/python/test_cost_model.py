@@ -164,8 +164,10 @@ def region_points():
     """The recorded protocol-A runs relaxed in regions (r = 8, checked every 10th disk), CPU
     seconds a member: {(width, height, Bond number): [one per run, ...]}. The tall 40 R runs of
     relative_tolerance 1e-3 (each member's CPU summed over 16), the regions of the comparison with
-    the whole system (B of each line, its user CPU over its members), and the wide runs at
-    H = 120 (their records' cpu_s_per_member, A and B)."""
+    the whole system (B of each line, its user CPU over its members), the wide runs at H = 120
+    (their records' cpu_s_per_member, A and B; at Bo = 1e2 the wide shards' user CPU over the
+    members), and the tall fig. 7 runs at H = 400 (user CPU over 8 members) and 800 (the mean of
+    the members' wall times, each on a core it shared: at most their CPU)."""
     points = {}
 
     def put(width, height, bond, cpu):
@@ -192,17 +194,25 @@ def region_points():
             for side in ("a", "b"):
                 if side in r.get("cpu_s_per_member", {}):
                     add(r[side + "_point"], r["cpu_s_per_member"][side])
+    for r in records("paper-width-A-1e2-H120-2026-11-28.jsonl"):
+        shards = re.search(r"user CPU s: wide shards ([0-9.]+), ([0-9.]+)", r["label"]).groups()
+        members = int(re.search(r"members (\d+)$", r["a_point"]).group(1))
+        add(r["a_point"], sum(map(float, shards)) / members)
+    (h400,) = records("tall-A-H400-2026-11-26.jsonl")
+    put(40, 400, 1000, h400["cpu_s"] / int(re.search(r"seeds = (\d+)", h400["scene"]).group(1)))
+    (h800,) = records("tall-A-H800-2026-11-26.jsonl")  # each member's wall time on a shared core
+    put(40, 800, 1000, statistics.mean(h800["member_wall_s"]))
     return points
 
 
 def test_region_members_within_a_factor_of_two(program, tmp_path):
     """Members relaxed in regions grow like H^3 at most (docs/PERFORMANCE.md, "What a member
-    costs"): each point of these records at Bo = 1e2 and 1e3, 40 R to 200 R wide and 120 R to
-    300 R tall, its runs' geometric mean (the runs of a point, on other days and at other
-    tolerances, spread by up to 2.8x: 11.3 to 31.4 s a member at 40 R x 120 R), within a factor
-    of 2 of the model. With the whole system's height exponent q(1e3) = 4 for Bo = 1e3 the model
-    puts the tallest of them more than twice too high. (At 400 R, Bo = 1e2 costs 2.6 times the
-    model, bo1e2-H400-regions-2026-12-06.jsonl: docs/PERFORMANCE.md says why.)"""
+    costs"): each point of these records, 40 R to 200 R wide, 120 R to 800 R tall at Bo = 1e3
+    and up to 180 R at Bo = 1e2, its runs' geometric mean (the runs of a point, on other days and
+    at other tolerances, spread by up to 2.8x: 11.3 to 31.4 s a member at 40 R x 120 R), within a
+    factor of 2 of the model. With the whole system's height exponent q(1e3) = 4 for Bo = 1e3 the
+    model puts the tallest of them more than twice too high. (At 400 R, Bo = 1e2 costs 2.5 times
+    the model, bo1e2-H400-regions-2026-12-06.jsonl: docs/PERFORMANCE.md says so.)"""
     points = region_points()
     keys = sorted(points)
     assert len(keys) >= 8 and {b for _, _, b in keys} == {100.0, 1000.0}, keys
