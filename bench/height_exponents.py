@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
-"""The exponents of H in docs/REPRODUCTION.md, "The tall runs": weighted power laws through the
-curvatures c of Delta y(y_i) and Delta y(y_e) and the slice model's a at H = 120 to 800, over the
-spans of heights the table names, fitted as the program fits across the points of one file
-(docs/OUTPUT.md, "Fits across points"): ln y against ln H, each height's error sigma/y widened by
-sqrt((n - 1)/(n - 3)) for its n members, the exponent's error scaled by sqrt(chi2/dof) where that
-exceeds 1.
+"""The exponents of H in docs/REPRODUCTION.md, "The tall runs" (Bo = 1e3) and row 14 (Bo = 1e2):
+weighted power laws through the curvatures c of Delta y(y_i) and Delta y(y_e) and the slice
+model's a, 40 R wide, over the spans of heights each series names, fitted as the program fits
+across the points of one file (docs/OUTPUT.md, "Fits across points"): ln y against ln H, each
+height's error sigma/y widened by sqrt((n - 1)/(n - 3)) for its n members, the exponent's error
+scaled by sqrt(chi2/dof) where that exceeds 1.
 
-    /usr/bin/python3 bench/height_exponents.py [--json bench/results/height-exponents-DATE.jsonl]
+    /usr/bin/python3 bench/height_exponents.py [--bond 1e3|1e2] [--json bench/results/FILE.jsonl]
 
-The values are the table's (each height's ensemble, with its jackknife error), from the records
-RECORDS names.
+The values are the tables' (each height's ensemble, with its jackknife error), from the records
+each series names.
 """
 import argparse
 import datetime
@@ -19,29 +19,47 @@ import subprocess
 
 import numpy as np
 
-HEIGHTS = (120, 180, 240, 300, 400, 800)
-MEMBERS = (16, 16, 16, 16, 8, 4)
-RECORDS = ("relative-tolerance-2026-11-25.jsonl (H = 120 to 240: its relative_tolerance = 1e-3 rows)",
-           "tall-A-H300-2026-11-25.jsonl",
-           "tall-A-H400-2026-11-26.jsonl", "tall-A-H800-2026-11-26.jsonl")
-# Each quantity's value and error at the heights above.
-TABLE = {
-    "c of Delta y(y_i) [1e-4]": ((11.5, 12.0, 10.6, 9.9, 8.25, 3.97),
-                                 (1.9, 1.2, 0.6, 0.4, 0.47, 0.13)),
-    "c of Delta y(y_e) [1e-4]": ((12.4, 12.4, 10.9, 10.1, 8.40, 3.90),
-                                 (2.0, 1.2, 0.7, 0.5, 0.43, 0.18)),
-    "slice model a": ((0.113, 0.184, 0.235, 0.275, 0.320, 0.335),
-                      (0.016, 0.018, 0.013, 0.010, 0.013, 0.007)),
+# Each series: its heights, members per height, records, each quantity's values and errors at
+# those heights, and the spans of heights fitted.
+SERIES = {
+    "1e3": {
+        "heights": (120, 180, 240, 300, 400, 800),
+        "members": (16, 16, 16, 16, 8, 4),
+        "records": ("relative-tolerance-2026-11-25.jsonl (H = 120 to 240: its "
+                    "relative_tolerance = 1e-3 rows)", "tall-A-H300-2026-11-25.jsonl",
+                    "tall-A-H400-2026-11-26.jsonl", "tall-A-H800-2026-11-26.jsonl"),
+        "table": {
+            "c of Delta y(y_i) [1e-4]": ((11.5, 12.0, 10.6, 9.9, 8.25, 3.97),
+                                         (1.9, 1.2, 0.6, 0.4, 0.47, 0.13)),
+            "c of Delta y(y_e) [1e-4]": ((12.4, 12.4, 10.9, 10.1, 8.40, 3.90),
+                                         (2.0, 1.2, 0.7, 0.5, 0.43, 0.18)),
+            "slice model a": ((0.113, 0.184, 0.235, 0.275, 0.320, 0.335),
+                              (0.016, 0.018, 0.013, 0.010, 0.013, 0.007)),
+        },
+        "spans": ((120, 300), (120, 400), (240, 400), (400, 800), (120, 800)),
+    },
+    "1e2": {
+        "heights": (120, 180, 240, 400),
+        "members": (4, 4, 4, 4),
+        "records": ("bo1e2-heights-2026-12-06.jsonl (H = 120 to 240)",
+                    "bo1e2-H400-regions-2026-12-06.jsonl (its second line)"),
+        "table": {
+            "c of Delta y(y_i) [1e-4]": ((23.9, 16.4, 13.0, 6.62), (2.73, 0.89, 0.51, 0.149)),
+            "c of Delta y(y_e) [1e-4]": ((22.8, 15.9, 13.1, 6.73), (1.57, 0.78, 0.68, 0.076)),
+            "slice model a": ((0.263, 0.275, 0.305, 0.291), (0.017, 0.0052, 0.013, 0.0028)),
+        },
+        "spans": ((120, 240), (240, 400), (120, 400)),
+    },
 }
-SPANS = ((120, 300), (120, 400), (240, 400), (400, 800), (120, 800))
 
 
-def exponent(values, errors, low, high):
-    """(p, its error, chi2/dof or None) of y = A H^p over the heights in [low, high]."""
-    use = [k for k, h in enumerate(HEIGHTS) if low <= h <= high]
-    x = np.log([HEIGHTS[k] for k in use])
+def exponent(series, values, errors, low, high):
+    """(p, its error, chi2/dof or None) of y = A H^p over the series' heights in [low, high]."""
+    heights, members = series["heights"], series["members"]
+    use = [k for k, h in enumerate(heights) if low <= h <= high]
+    x = np.log([heights[k] for k in use])
     y = np.log([values[k] for k in use])
-    sigma = np.array([errors[k] / values[k] * math.sqrt((MEMBERS[k] - 1) / (MEMBERS[k] - 3))
+    sigma = np.array([errors[k] / values[k] * math.sqrt((members[k] - 1) / (members[k] - 3))
                       for k in use])
     w = 1.0 / sigma ** 2
     a = np.vstack([np.ones_like(x), x]).T
@@ -55,23 +73,30 @@ def exponent(values, errors, low, high):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--json", help="append the exponents as one JSON line to this file")
+    parser.add_argument("--bond", choices=sorted(SERIES), action="append",
+                        help="the series of this Bond number (default: every one)")
+    parser.add_argument("--json", help="append the exponents as one JSON line per series to this "
+                        "file")
     args = parser.parse_args()
     commit = subprocess.run(["git", "describe", "--always", "--dirty"], capture_output=True,
                             text=True).stdout.strip()
-    record = {"study": "height exponents", "date": datetime.date.today().isoformat(),
-              "commit": commit, "records": RECORDS, "exponents": {}}
-    for name, (values, errors) in TABLE.items():
-        cells = []
-        for low, high in SPANS:
-            p, e, reduced = exponent(values, errors, low, high)
-            record["exponents"].setdefault(name, {})[f"{low}-{high}"] = [p, e, reduced]
-            cells.append(f"{low}-{high}: {p:.2f} +- {e:.2f}" +
-                         (f" (chi2/dof {reduced:.1f})" if reduced is not None else ""))
-        print(f"{name}: " + "; ".join(cells))
-    if args.json:
-        with open(args.json, "a") as f:
-            f.write(json.dumps(record) + "\n")
+    for bond in args.bond or sorted(SERIES):
+        series = SERIES[bond]
+        record = {"study": f"height exponents, Bo = {bond}",
+                  "date": datetime.date.today().isoformat(), "commit": commit,
+                  "records": series["records"], "exponents": {}}
+        print(f"Bo = {bond}, H = {', '.join(map(str, series['heights']))}:")
+        for name, (values, errors) in series["table"].items():
+            cells = []
+            for low, high in series["spans"]:
+                p, e, reduced = exponent(series, values, errors, low, high)
+                record["exponents"].setdefault(name, {})[f"{low}-{high}"] = [p, e, reduced]
+                cells.append(f"{low}-{high}: {p:.2f} +- {e:.2f}" +
+                             (f" (chi2/dof {reduced:.1f})" if reduced is not None else ""))
+            print(f"  {name}: " + "; ".join(cells))
+        if args.json:
+            with open(args.json, "a") as f:
+                f.write(json.dumps(record) + "\n")
 
 
 if __name__ == "__main__":

@@ -1036,7 +1036,7 @@ int RunCommand::dry_run() const {
     std::printf(
         "# protocol.region_radius is set: the model prices protocol-A members relaxed in "
         "regions as growing like H^3 at most; the recorded region runs took 0.68 to 1.58 of it "
-        "at Bo = 1e3 (up to 800 R tall), 1.07 to 2.7 times at Bo = 1e2 (more the taller or wider "
+        "at Bo = 1e3 (up to 800 R tall), 1.4 to 2.7 times at Bo = 1e2 (more the taller or wider "
         "the box), and 0.04 at Bo = 1e4, where little moves (docs/PERFORMANCE.md, \"What a "
         "member costs\")\n");
   if (!o.force && std::filesystem::exists(o.out_path))
