@@ -211,8 +211,9 @@ def test_region_members_within_a_factor_of_two(program, tmp_path):
     and up to 180 R at Bo = 1e2, its runs' geometric mean (the runs of a point, on other days and
     at other tolerances, spread by up to 2.8x: 11.3 to 31.4 s a member at 40 R x 120 R), within a
     factor of 2 of the model. With the whole system's height exponent q(1e3) = 4 for Bo = 1e3 the
-    model puts the tallest of them more than twice too high. (At 400 R, Bo = 1e2 costs about 2.5
-    times the model, bo1e2-H400-regions-2026-12-06.jsonl: docs/PERFORMANCE.md says so.)"""
+    model puts the tallest of them more than twice too high. (With the tall settings Bo = 1e2
+    costs 1.4 to 2.7 times the model, the more the taller its box: bo1e2-heights-2026-12-06.jsonl
+    and bo1e2-H400-regions-2026-12-06.jsonl; docs/PERFORMANCE.md says so.)"""
     points = region_points()
     keys = sorted(points)
     assert len(keys) >= 8 and {b for _, _, b in keys} == {100.0, 1000.0}, keys
