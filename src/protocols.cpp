@@ -62,8 +62,8 @@ double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_num
 // (q(1e2)). The recorded region runs at Bo = 1e3, 40 R to 200 R wide and 120 R to 800 R tall, lie
 // within 0.68-1.58 of the model so, where q(1e3) = 4 put them at 0.10-0.77 of it, and the
 // paper-size member's first 5 980 disks grew like N^3.0 (tests/python/test_cost_model.py checks
-// the points within a factor of 2). Bo = 1e2 costs more the taller or wider its box: 1.4-1.5
-// of the model at 40 R x 120-180 R, 1.97 at 200 R x 120 R, about 2.5 at 40 R x 240-400 R.
+// the points within a factor of 2). Bo = 1e2 costs more than the model, the more the taller or
+// wider its box (docs/PERFORMANCE.md gives the points).
 double height_exponent(const SystemParams& p, bool in_regions) {
   const double q = 2.5 + 2.0 * p.bond_number / (p.bond_number + 300.0);
   return in_regions ? std::min(q, 3.0) : q;
