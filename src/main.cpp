@@ -1035,10 +1035,10 @@ int RunCommand::dry_run() const {
   if (regions)
     std::printf(
         "# protocol.region_radius is set: the model prices protocol-A members relaxed in "
-        "regions as growing like H^3 at most; the recorded region runs took 0.68 to 1.58 of it "
-        "at Bo = 1e3 (up to 800 R tall), 1.4 to 2.7 times at Bo = 1e2 (more the taller or wider "
-        "the box), and 0.04 at Bo = 1e4, where little moves (docs/PERFORMANCE.md, \"What a "
-        "member costs\")\n");
+        "regions as growing above 60 R like H^2.9 at Bo = 10, H^3.5-3.6 at 1e2-3e2 and H^3.0 "
+        "at 1e3; the recorded region runs from 60 R to 800 R tall took 0.60 to 1.58 of it, and "
+        "0.04 at Bo = 1e4, where little moves (docs/PERFORMANCE.md, \"What a member "
+        "costs\")\n");
   if (!o.force && std::filesystem::exists(o.out_path))
     std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());
   if (const std::string why = checkpoint_path_problem(checkpoint_directory(o.out_path));

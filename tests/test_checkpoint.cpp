@@ -504,10 +504,11 @@ Member deposit_member(double bo, double width, double height) {
 
 // The cost model's shape: at the same box and time step a protocol-A member expects less the
 // larger the Bond number (cohesion shortens each relaxation), and more in a taller or wider
-// box, growing with the height faster at Bo = 1e3 than at Bo = 0 (avalanches grow with the
-// height above them) and with the width faster than the number of disks. Its numbers are
-// checked against the recorded measurements it was fitted on, not here:
-// tests/python/test_cost_model.py.
+// box, growing with the height up to 60 R faster at Bo = 1e3 than at Bo = 0 (avalanches grow
+// with the height above them) and with the width faster than the number of disks; a share of
+// the height deposited has the same share of the cost behind it wherever it ends, below or
+// above 60 R. Its numbers are checked against the recorded measurements it was fitted on, not
+// here: tests/python/test_cost_model.py.
 TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
   double before = std::numeric_limits<double>::infinity();
   for (double bo : {0.0, 1.0, 10.0, 100.0, 1000.0}) {
@@ -521,10 +522,17 @@ TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
   EXPECT_GT(expected_cost(deposit_member(1e3, 80.0, 60.0)),
             2.0 * expected_cost(deposit_member(1e3, 40.0, 60.0)));
   const auto taller = [](double bo) {
-    return expected_cost(deposit_member(bo, 40.0, 120.0)) /
-           expected_cost(deposit_member(bo, 40.0, 60.0));
+    return expected_cost(deposit_member(bo, 40.0, 60.0)) /
+           expected_cost(deposit_member(bo, 40.0, 30.0));
   };
   EXPECT_GT(taller(1e3), taller(0.0));
+  for (double height : {30.0, 60.0, 120.0, 400.0}) {
+    const Member tall = deposit_member(1e3, 40.0, 400.0);
+    const Member part = deposit_member(1e3, 40.0, height);
+    EXPECT_NEAR(running_cost(tall, MemberPhase::Deposit, height / 400.0), expected_cost(part),
+                1e-12 * expected_cost(part))
+        << "H = " << height;
+  }
   // Disks of radius 2 in a box and with a time step scaled to them are the same system (lengths
   // in R, times in sqrt(R/g)), and cost the same.
   Member doubled = deposit_member(1e3, 80.0, 120.0);

@@ -218,10 +218,11 @@ std::vector<MemberResult> run_members(const Scan& scan, const std::vector<Member
 // Rough cost of a member in arbitrary units, for progress estimates and for sharding members
 // over MPI ranks: a protocol-A member costs ~ width * height^q / time step, times the time a
 // deposit takes to come to rest, which falls with the Bond number like (1 + Bo/4)^-0.7 (1 at
-// Bo = 0, 0.02 at Bo = 1e3); q grows with the Bond number, from 2.5 without cohesion to 4 at
-// Bo = 1e3 (avalanches grow with the height above them), at most 3 for a member relaxed in
-// relaxation regions (Member::in_regions), and a running member's share done is
-// the cost of a member as tall as its deposit so far; a collapse ~ width * height^2 / time
+// Bo = 0, 0.02 at Bo = 1e3); up to 60 R q grows with the Bond number, from 2.5 without cohesion
+// to 4 at Bo = 1e3 (avalanches grow with the height above them), at most 3 for a member relaxed
+// in relaxation regions (Member::in_regions); above 60 R it is the tall boxes' measured exponent
+// (3.7 for the whole system, 2.9 to 3.6 by the Bond number in regions); a running member's share
+// done is the cost of a member as tall as its deposit so far; a collapse ~ width * height^2 / time
 // step; ballistic deposition ~ width * height (negligible beside either); lengths in disk radii,
 // the time step in sqrt(R/g) (a system of radius 2 costs what the same system of radius 1 does).
 // Calibrated on members of this machine, and right within a factor of a few only:
