@@ -505,10 +505,10 @@ Member deposit_member(double bo, double width, double height) {
 // The cost model's shape: at the same box and time step a protocol-A member expects less the
 // larger the Bond number (cohesion shortens each relaxation), and more in a taller or wider
 // box, growing with the height up to 60 R faster at Bo = 1e3 than at Bo = 0 (avalanches grow
-// with the height above them) and with the width faster than the number of disks; a share of
-// the height deposited has the same share of the cost behind it wherever it ends, below or
-// above 60 R. Its numbers are checked against the recorded measurements it was fitted on, not
-// here: tests/python/test_cost_model.py.
+// with the height above them) and with the width faster than the number of disks; a member
+// part of the way up has behind it the cost of a member as tall as its deposit, below 60 R and
+// above (where the height exponent changes). Its numbers are checked against the recorded
+// measurements it was fitted on, not here: tests/python/test_cost_model.py.
 TEST(Checkpoint, ExpectedCostFallsWithTheBondNumberAndGrowsWithTheBox) {
   double before = std::numeric_limits<double>::infinity();
   for (double bo : {0.0, 1.0, 10.0, 100.0, 1000.0}) {
