@@ -687,10 +687,20 @@ PAPER_WIDTH = 200.0  # R: the paper's box
 
 
 def deposition_fluctuation(point):
-    """The deposition density's fluctuation at y = 200: in each member, the relative standard
-    deviation of the strips of nu_d(y_i) with centres from 180 to 220 R about a straight line
-    through them (over the strips' mean); the members' mean and its standard error, and the
-    strips' range. None where the deposit does not reach 220 R in two members or more."""
+    """The deposition density's fluctuation at y = 200 (member_fluctuations): the members' mean
+    and its standard error, their number and the strips' centres. None where the deposit does not
+    reach 220 R in two members or more."""
+    found = member_fluctuations(point)
+    if found is None:
+        return None
+    rel, x = found
+    return float(np.mean(rel)), float(np.std(rel, ddof=1) / math.sqrt(len(rel))), len(rel), x
+
+
+def member_fluctuations(point):
+    """In each member, the relative standard deviation of the strips of nu_d(y_i) with centres
+    from 180 to 220 R about a straight line through them (over the strips' mean), and the strips'
+    centres. None where the deposit does not reach 220 R in two members or more."""
     group = point.get("nu_deposition")
     if group is None or "member_mean" not in group:
         return None
@@ -706,8 +716,8 @@ def deposition_fluctuation(point):
     for row in rows:
         y = row[window]
         line = np.polynomial.polynomial.polyval(x, np.polynomial.polynomial.polyfit(x, y, 1))
-        rel.append(np.sqrt(((y - line) ** 2).sum() / (len(y) - 2)) / y.mean())
-    return float(np.mean(rel)), float(np.std(rel, ddof=1) / math.sqrt(len(rel))), len(rel), x
+        rel.append(float(np.sqrt(((y - line) ** 2).sum() / (len(y) - 2)) / y.mean()))
+    return rel, x
 
 
 def deposition_fluctuation_claims(point, path, where):
@@ -763,13 +773,20 @@ def deposition_fluctuation_order(f):
         if len(by_bo) < 2:
             continue
         width, height = dict(key)["width"], dict(key)["height"]
-        (v2, e2, n2, _), (v3, e3, n3, _) = by_bo[100.0], by_bo[1000.0]
-        ratio = v3 / v2
-        error = ratio * math.hypot(e2 / v2, e3 / v3)
         yield (f"A across Bond numbers ({width:g} x {height:g}): the deposition density "
-               f"fluctuates more at Bo = 1e3 than at 1e2", ratio - 1 > t95(min(n2, n3)) * error,
-               f"{v2:.1%} +- {e2:.1%} ({n2} members) and {v3:.1%} +- {e3:.1%} ({n3}) at y = 200; "
-               f"ratio {ratio:.3g} +- {error:.2g} (paper: 20 % / 15 % = 1.33)")
+               f"fluctuates more at Bo = 1e3 than at 1e2",
+               *fluctuation_order(by_bo[100.0], by_bo[1000.0]))
+
+
+def fluctuation_order(at_1e2, at_1e3):
+    """(ok, detail): the fluctuations (deposition_fluctuation) at Bo = 1e3 over those at 1e2
+    above one beyond t95 of the ratio's error (the fewer members')."""
+    (v2, e2, n2, _), (v3, e3, n3, _) = at_1e2, at_1e3
+    ratio = v3 / v2
+    error = ratio * math.hypot(e2 / v2, e3 / v3)
+    return (ratio - 1 > t95(min(n2, n3)) * error,
+            f"{v2:.1%} +- {e2:.1%} ({n2} members) and {v3:.1%} +- {e3:.1%} ({n3}) at y = 200; "
+            f"ratio {ratio:.3g} +- {error:.2g} (paper: 20 % / 15 % = 1.33)")
 
 
 def check_point(point, path):

@@ -599,9 +599,9 @@ def test_a_histogram_of_gaussian_slices_about_an_arch_is_skewed_as_their_sum(tmp
     assert not ok, detail
 
 
-def deposition_file(tmp_path, name, rels, width=200.0, height=240.0, seed=5):
-    """Protocol-A points at Bo = 1e2 and 1e3 (one per entry of `rels`), nu_d(y_i) of 16 members in
-    strips of 3.97 R: a rising line with relative Gaussian noise rels[bo]."""
+def deposition_file(tmp_path, name, rels, width=200.0, height=240.0, seed=5, members=16):
+    """Protocol-A points at Bo = 1e2 and 1e3 (one per entry of `rels`), nu_d(y_i) of `members`
+    members in strips of 3.97 R: a rising line with relative Gaussian noise rels[bo]."""
     rng = np.random.default_rng(seed)
     centre = (np.arange(int(height / 3.97)) + 0.5) * 3.97
     trend = 0.3 + 0.0005 * centre
@@ -612,7 +612,7 @@ def deposition_file(tmp_path, name, rels, width=200.0, height=240.0, seed=5):
             g.attrs.update({"protocol": "A", "bond_number": bo, "width": width,
                             "height": height})
             g["nu_deposition/centre"] = centre
-            g["nu_deposition/member_mean"] = trend * (1 + rng.normal(0.0, rel, (16, centre.size)))
+            g["nu_deposition/member_mean"] = trend * (1 + rng.normal(0.0, rel, (members, centre.size)))
     return path
 
 

@@ -1,0 +1,94 @@
+#!/usr/bin/env python3
+"""The deposition density's fluctuation at y = 200 pooled over runs (docs/REPRODUCTION.md, claim
+16): each member's fluctuation (`tools/claims.py`, member_fluctuations) from the protocol-A points
+at Bo = 1e2 and 1e3 of every result file given, pooled by Bond number over the points of one box
+(width, height and the other system parameters equal; independent members: files of other scan
+seeds or other points), then judged as `tools/claims.py` judges one file's: Bo = 1e3 fluctuates
+more than 1e2 when their ratio lies above one by more than t95 of its error (the fewer members').
+
+    /usr/bin/python3 bench/fluctuation_order.py RESULT.h5 [MORE.h5 ...] [--json]
+
+Prints each point's members and value, each box's pooled values and the verdict (with --json one
+JSON line a box instead). Exits 2 on unusable input: a file that cannot be read, or no box with
+both Bond numbers.
+"""
+import argparse
+import json
+import math
+import os
+import sys
+
+import h5py
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+import claims  # noqa: E402
+
+
+def unusable(message):
+    print(f"fluctuation_order.py: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def member_values(paths):
+    """{box: {Bo: [(file, point, [members' fluctuations])]}} over the files' protocol-A points at
+    Bo = 1e2 and 1e3 that reach 220 R."""
+    boxes = {}
+    for path in paths:
+        try:
+            with h5py.File(path, "r") as f:
+                for name in sorted(f["points"]):
+                    g = f["points"][name]
+                    bo = float(g.attrs["bond_number"])
+                    if claims.text(g.attrs["protocol"]) != "A" or bo not in claims.PAPER_FLUCTUATION:
+                        continue
+                    found = claims.member_fluctuations(g)
+                    if found is not None:
+                        boxes.setdefault(claims.same_system(g.attrs), {}).setdefault(
+                            bo, []).append((path, name, found[0]))
+        except (OSError, KeyError) as e:
+            unusable(f"{path}: {e}")
+    return boxes
+
+
+def pooled(runs):
+    """(mean, standard error, members, strips) of the members of every run, as
+    claims.deposition_fluctuation gives them for one point."""
+    values = [v for _, _, rel in runs for v in rel]
+    return (float(np.mean(values)), float(np.std(values, ddof=1) / math.sqrt(len(values))),
+            len(values), None)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("files", nargs="+")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args()
+    judged = 0
+    for box, by_bo in member_values(args.files).items():
+        if len(by_bo) < 2:
+            continue
+        judged += 1
+        at = {bo: pooled(runs) for bo, runs in by_bo.items()}
+        ok, detail = claims.fluctuation_order(at[100.0], at[1000.0])
+        size = dict(box)
+        if args.json:
+            print(json.dumps({
+                "box": size, "holds": bool(ok), "detail": detail,
+                "points": {f"{bo:g}": [{"file": p, "point": n, "members": rel}
+                                      for p, n, rel in runs] for bo, runs in by_bo.items()},
+                "pooled": {f"{bo:g}": {"mean": m, "sem": e, "members": n}
+                           for bo, (m, e, n, _) in at.items()}}))
+            continue
+        print(f"box {size['width']:g} R x {size['height']:g} R")
+        for bo, runs in sorted(by_bo.items()):
+            for path, name, rel in runs:
+                print(f"  Bo = {bo:g}  {path} {name}: {len(rel)} members, "
+                      f"{np.mean(rel):.1%} ({', '.join(f'{v:.1%}' for v in rel)})")
+        print(f"  Bo = 1e3 fluctuates more than 1e2: {'holds' if ok else 'not shown'}; {detail}")
+    if not judged:
+        unusable("no box holds protocol-A points at both Bo = 1e2 and 1e3 that reach 220 R")
+
+
+if __name__ == "__main__":
+    main()
