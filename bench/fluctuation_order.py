@@ -14,7 +14,6 @@ both Bond numbers.
 """
 import argparse
 import json
-import math
 import os
 import sys
 
@@ -52,11 +51,9 @@ def member_values(paths):
 
 
 def pooled(runs):
-    """(mean, standard error, members, strips) of the members of every run, as
+    """(mean, standard error, members, None) of the members of every run, as
     claims.deposition_fluctuation gives them for one point."""
-    values = [v for _, _, rel in runs for v in rel]
-    return (float(np.mean(values)), float(np.std(values, ddof=1) / math.sqrt(len(values))),
-            len(values), None)
+    return claims.fluctuation_summary([v for _, _, rel in runs for v in rel])
 
 
 def main():

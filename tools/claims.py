@@ -691,9 +691,11 @@ def deposition_fluctuation(point):
     and its standard error, their number and the strips' centres. None where the deposit does not
     reach 220 R in two members or more."""
     found = member_fluctuations(point)
-    if found is None:
-        return None
-    rel, x = found
+    return None if found is None else fluctuation_summary(*found)
+
+
+def fluctuation_summary(rel, x=None):
+    """(mean, standard error, members, strips' centres) of members' fluctuations `rel`."""
     return float(np.mean(rel)), float(np.std(rel, ddof=1) / math.sqrt(len(rel))), len(rel), x
 
 
