@@ -13,6 +13,7 @@ JSON line a box instead). Exits 2 on unusable input: a file that cannot be read,
 both Bond numbers.
 """
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -29,31 +30,23 @@ def unusable(message):
     sys.exit(2)
 
 
-def member_values(paths):
-    """{box: {Bo: [(file, point, [members' fluctuations])]}} over the files' protocol-A points at
-    Bo = 1e2 and 1e3 that reach 220 R."""
-    boxes = {}
-    for path in paths:
+def runs_by_box(paths):
+    """claims.fluctuations_by_box over every point of the files, each labelled "FILE POINT"."""
+    with contextlib.ExitStack() as files:
         try:
-            with h5py.File(path, "r") as f:
-                for name in sorted(f["points"]):
-                    g = f["points"][name]
-                    bo = float(g.attrs["bond_number"])
-                    if claims.text(g.attrs["protocol"]) != "A" or bo not in claims.PAPER_FLUCTUATION:
-                        continue
-                    found = claims.member_fluctuations(g)
-                    if found is not None:
-                        boxes.setdefault(claims.same_system(g.attrs), {}).setdefault(
-                            bo, []).append((path, name, found[0]))
+            points = []
+            for path in paths:
+                f = files.enter_context(h5py.File(path, "r"))
+                points += [(f"{path} {name}", f["points"][name]) for name in sorted(f["points"])]
+            return claims.fluctuations_by_box(points)
         except (OSError, KeyError) as e:
             unusable(f"{path}: {e}")
-    return boxes
 
 
 def pooled(runs):
-    """(mean, standard error, members, None) of the members of every run, as
-    claims.deposition_fluctuation gives them for one point."""
-    return claims.fluctuation_summary([v for _, _, rel in runs for v in rel])
+    """{mean, sem, members} of the members of every run (claims.fluctuation_summary)."""
+    summary = claims.fluctuation_summary([v for _, rel in runs for v in rel])
+    return dict(zip(("mean", "sem", "members"), summary))
 
 
 def main():
@@ -62,25 +55,23 @@ def main():
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args()
     judged = 0
-    for box, by_bo in member_values(args.files).items():
+    for box, by_bo in runs_by_box(args.files).items():
         if len(by_bo) < 2:
             continue
         judged += 1
-        at = {bo: pooled(runs) for bo, runs in by_bo.items()}
-        ok, detail = claims.fluctuation_order(at[100.0], at[1000.0])
+        ok, detail = claims.fluctuation_order(by_bo)
         size = dict(box)
         if args.json:
             print(json.dumps({
                 "box": size, "holds": bool(ok), "detail": detail,
-                "points": {f"{bo:g}": [{"file": p, "point": n, "members": rel}
-                                      for p, n, rel in runs] for bo, runs in by_bo.items()},
-                "pooled": {f"{bo:g}": {"mean": m, "sem": e, "members": n}
-                           for bo, (m, e, n, _) in at.items()}}))
+                "points": {f"{bo:g}": [{"point": label, "members": rel} for label, rel in runs]
+                           for bo, runs in by_bo.items()},
+                "pooled": {f"{bo:g}": pooled(runs) for bo, runs in by_bo.items()}}))
             continue
         print(f"box {size['width']:g} R x {size['height']:g} R")
         for bo, runs in sorted(by_bo.items()):
-            for path, name, rel in runs:
-                print(f"  Bo = {bo:g}  {path} {name}: {len(rel)} members, "
+            for label, rel in runs:
+                print(f"  Bo = {bo:g}  {label}: {len(rel)} members, "
                       f"{np.mean(rel):.1%} ({', '.join(f'{v:.1%}' for v in rel)})")
         print(f"  Bo = 1e3 fluctuates more than 1e2: {'holds' if ok else 'not shown'}; {detail}")
     if not judged:

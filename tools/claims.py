@@ -761,29 +761,37 @@ def deposition_fluctuation_order(f):
     """Points of protocol A at Bo = 1e2 and 1e3 in the same box (H >= 220): the paper's "the
     deposition density shows somewhat lower fluctuations as for Bo = 1e3" (15 % against 20 %):
     the ratio above one beyond t95 of its error (the fewer members'), at any width."""
-    found = {}
-    for name in sorted(f["points"]):
-        g = f["points"][name]
-        a = g.attrs
-        bo = float(a["bond_number"])
-        if text(a["protocol"]) != "A" or bo not in PAPER_FLUCTUATION:
-            continue
-        fl = deposition_fluctuation(g)
-        if fl is not None:
-            found.setdefault(same_system(a), {})[bo] = fl
-    for key, by_bo in found.items():
+    points = ((name, f["points"][name]) for name in sorted(f["points"]))
+    for key, by_bo in fluctuations_by_box(points).items():
         if len(by_bo) < 2:
             continue
         width, height = dict(key)["width"], dict(key)["height"]
         yield (f"A across Bond numbers ({width:g} x {height:g}): the deposition density "
-               f"fluctuates more at Bo = 1e3 than at 1e2",
-               *fluctuation_order(by_bo[100.0], by_bo[1000.0]))
+               f"fluctuates more at Bo = 1e3 than at 1e2", *fluctuation_order(by_bo))
 
 
-def fluctuation_order(at_1e2, at_1e3):
-    """(ok, detail): the fluctuations (deposition_fluctuation) at Bo = 1e3 over those at 1e2
-    above one beyond t95 of the ratio's error (the fewer members')."""
-    (v2, e2, n2, _), (v3, e3, n3, _) = at_1e2, at_1e3
+def fluctuations_by_box(points):
+    """{box (same_system): {Bo: [(label, members' fluctuations)]}} over the (label, point group)
+    pairs `points` of protocol A at Bo = 1e2 and 1e3 whose deposits reach 220 R
+    (member_fluctuations)."""
+    found = {}
+    for label, g in points:
+        bo = float(g.attrs["bond_number"])
+        if text(g.attrs["protocol"]) != "A" or bo not in PAPER_FLUCTUATION:
+            continue
+        members = member_fluctuations(g)
+        if members is not None:
+            found.setdefault(same_system(g.attrs), {}).setdefault(bo, []).append(
+                (label, members[0]))
+    return found
+
+
+def fluctuation_order(by_bo):
+    """(ok, detail): the fluctuations at Bo = 1e3 over those at 1e2, each the members of every
+    run of its Bond number pooled (fluctuations_by_box), above one beyond t95 of the ratio's error
+    (the fewer members')."""
+    (v2, e2, n2, _), (v3, e3, n3, _) = (
+        fluctuation_summary([v for _, rel in by_bo[bo] for v in rel]) for bo in (100.0, 1000.0))
     ratio = v3 / v2
     error = ratio * math.hypot(e2 / v2, e3 / v3)
     return (ratio - 1 > t95(min(n2, n3)) * error,

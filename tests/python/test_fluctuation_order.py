@@ -38,8 +38,8 @@ def test_files_of_one_bond_number_each_pool_their_members(tmp_path):
         rel = (claims.member_fluctuations(fa["points/0000"])[0] +
                claims.member_fluctuations(fb["points/0000"])[0])
         assert values == pytest.approx(rel)
-        one = claims.deposition_fluctuation(fc["points/0000"])
-    ok, _ = claims.fluctuation_order(order.pooled([("a+b", "", rel)]), one)
+        at_1e3 = claims.member_fluctuations(fc["points/0000"])[0]
+        ok, _ = claims.fluctuation_order({100.0: [("a+b", rel)], 1000.0: [("c", at_1e3)]})
     assert box["holds"] == ok
 
 
