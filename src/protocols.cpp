@@ -53,6 +53,23 @@ double ballistic_cost(const SystemParams& p, double filled = 1.0) {
 // time per disk alone; bench/results/cost-relative-2026-11-25.jsonl, docs/PERFORMANCE.md "What a
 // member costs").
 double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_number / 4.0, -0.7); }
+// Above Bo = 1e3 a deposit up to 180 R tall relaxes faster than tau says: a landed disk sticks
+// where it lands and the deposit avalanches less the stronger the cohesion, by (Bo/1e3)^-1 in
+// the whole system and (Bo/1e3)^-1.2 in regions, until nearly nothing moves (from Bo = 1e4 on):
+// what is left are the steps that find each disk at rest, a fifth of tau's cost in the whole
+// system (each step covers the deposit) and 0.03 of it in regions (each covers a region); the
+// least-squares fit (in log) to members 40 R wide, 60 R to 180 R tall, at Bo = 3e3 to 1e5
+// (bench/results/cost-bond-2026-12-07.jsonl). Taller deposits avalanche again: at 400 R and
+// Bo = 1e4 members relaxed in regions took 1.46 times tau's cost
+// (bench/results/cost-bo1e4-H400-2026-12-07.jsonl), so between 180 R and 400 R the factor
+// returns to 1, geometrically in the height (docs/PERFORMANCE.md, "What a member costs").
+double fewer_avalanches(const SystemParams& p, bool in_regions, double height) {
+  if (p.bond_number <= 1e3 || height >= 400.0) return 1.0;
+  const double fewer = in_regions ? std::max(std::pow(p.bond_number / 1e3, -1.2), 0.03)
+                                  : std::max(1e3 / p.bond_number, 0.2);
+  if (height <= 180.0) return fewer;
+  return std::pow(fewer, std::log(400.0 / height) / std::log(400.0 / 180.0));
+}
 // How the cost grows with the height, below and above the reference height of 60 R (the boxes
 // tau was fitted on were 60 R tall or less, so the cost is W^2/30 H^3 tau / h at 60 R). Up to
 // 60 R a deposit H tall costs ~ H^q: a disk rolls over a surface that grows with the deposit, and
@@ -102,8 +119,9 @@ double width_cost(const SystemParams& p) {
 }
 // `filled`: the share of H deposited.
 double slow_cost(const SystemParams& p, bool in_regions, double filled = 1.0) {
-  return width_cost(p) * std::pow(kReferenceHeight, 3.0) *
-         height_cost(p, in_regions, filled * p.height) * relaxation_time(p) / p.time_step;
+  const double height = filled * p.height;
+  return width_cost(p) * std::pow(kReferenceHeight, 3.0) * height_cost(p, in_regions, height) *
+         relaxation_time(p) * fewer_avalanches(p, in_regions, height) / p.time_step;
 }
 // A collapse: its steps grow like sqrt(H) / h (the column's fall), each steps the W H deposit,
 // and a taller column takes more sweeps a step: W H^2 / h. 0.25 (the collapse scenes' seconds per
