@@ -352,7 +352,7 @@ def test_the_avalanches_return_by_400_r(program, tmp_path):
     """At 40 R x 400 R and Bo = 1e4 the deposit avalanches again (docs/PERFORMANCE.md, "What a
     member costs"): its members relaxed in regions (bench/results/cost-bo1e4-H400-2026-12-07.jsonl,
     user CPU over the members) lie within a factor of 2 of the model, whose factor of fewer
-    avalanches is back to 1 there; kept at its value up to 180 R, it would price them far too low."""
+    avalanches is back to 1 there; kept at its value up to 180 R, it would price them too low."""
     (rec,) = records("cost-bo1e4-H400-2026-12-07.jsonl")
     (point,) = rec["points"]
     key = (point["width"], point["height"], point["bond_number"])
