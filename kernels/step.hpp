@@ -21,6 +21,7 @@ struct StepStart {
   SystemViews sys;
   DView<int> sweeps;  // [S] sweeps of this step
   double kappa;       // SolverSettings::relative_tolerance
+  double kappa_step;  // kRelativeToleranceStep [sqrt(R/g)] (loosepack/params.hpp)
 
   KOKKOS_INLINE_FUNCTION void operator()(int s) const {
     if (sys.mid_step(s)) return;
@@ -29,9 +30,12 @@ struct StepStart {
     const double g =
         kmath::sqrt(sys.gravity_x(s) * sys.gravity_x(s) + sys.gravity_y(s) * sys.gravity_y(s));
     const double r = sys.radius(s);
-    sys.step_tolerance(s) = g > 0.0
-                                ? kmath::max(sys.tolerance(s), kappa * sys.max_speed(s) / (g * h))
-                                : sys.tolerance(s);
+    double tolerance = sys.tolerance(s);
+    if (g > 0.0) {
+      const double relative_step = kmath::max(h, kappa_step * kmath::sqrt(r / g));
+      tolerance = kmath::max(tolerance, kappa * sys.max_speed(s) / (g * relative_step));
+    }
+    sys.step_tolerance(s) = tolerance;
     sys.margin(s) =
         kmath::clamp(2.0 * h * (sys.max_speed(s) + h * g), kMinMarginFactor * r, sys.max_margin(s));
     sys.unconverged(s) = sys.active(s) ? kIterating : 0;

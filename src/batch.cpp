@@ -487,8 +487,9 @@ void Batch::Impl::run_stage(StepStage stage) {
 
 // The detection margin and the solver tolerance from the last step's speeds (StepStart).
 void Batch::Impl::margin_stage() {
-  Kokkos::parallel_for("margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
-                       StepStart{sys, sweeps_this_step, solver.relative_tolerance});
+  Kokkos::parallel_for(
+      "margin", Kokkos::RangePolicy<ExecSpace>(0, n_systems),
+      StepStart{sys, sweeps_this_step, solver.relative_tolerance, kRelativeToleranceStep});
 }
 
 // Contacts, warm-started from the previous step's impulses, then the velocities those impulses
@@ -590,14 +591,15 @@ template <class Fx>
 void Batch::Impl::system_step() {
   const auto launch = [&](const auto& solve) {
     using Solve = std::decay_t<decltype(solve)>;
-    const SystemStep<Solve> step{sys,
-                                 part,
-                                 con,
-                                 grid,
-                                 StepStart{sys, sweeps_this_step, solver.relative_tolerance},
-                                 solve,
-                                 StatusReport{sys, sweeps_this_step, report},
-                                 solver.overlap_correction};
+    const SystemStep<Solve> step{
+        sys,
+        part,
+        con,
+        grid,
+        StepStart{sys, sweeps_this_step, solver.relative_tolerance, kRelativeToleranceStep},
+        solve,
+        StatusReport{sys, sweeps_this_step, report},
+        solver.overlap_correction};
     Kokkos::parallel_for("system_step", team_policy(step), step);
   };
   const auto& sweeps = sweeps_this_step;

@@ -49,7 +49,7 @@ std::vector<SettingKey> solver_keys() {
        "largest impulse change of a converged sweep", "solver_tolerance",
        LOOSEPACK_GIVEN_FIELD(solver.tolerance, tolerance_given)},
       {"solver", "relative_tolerance", Type::Real, 0.0, 1.0, "",
-       "kappa: the step's tolerance is max(tolerance, kappa v_max / (g h))",
+       "kappa: the step's tolerance is max(tolerance, kappa v_max / (g max(h, 0.0028)))",
        "solver_relative_tolerance", LOOSEPACK_FIELD(solver.relative_tolerance), nullptr, nullptr},
       {"solver", "max_sweeps", Type::Integer, 1, 1e8, "", "sweeps per step at most",
        "solver_max_sweeps", LOOSEPACK_GIVEN_FIELD(solver.max_sweeps, max_sweeps_given)},

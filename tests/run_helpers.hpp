@@ -67,13 +67,16 @@ inline std::pair<double, double> floor_force_and_weight(const MemberResult& r) {
 }
 
 // What a step's solve may leave a contact's force off at rest [m g]: the solve ends when no
-// impulse changes by more than the step's tolerance in a sweep, max(tolerance, kappa v_max / (g h))
-// [h m g] (SolverSettings::relative_tolerance kappa), and at rest v_max is below the rest speed
+// impulse changes by more than the step's tolerance in a sweep, max(tolerance, kappa v_max / (g
+// max(h, h_kappa))) [h m g] (SolverSettings::relative_tolerance kappa, kRelativeToleranceStep
+// h_kappa), and at rest v_max is below the rest speed
 // (rest_speed, in sqrt(g R)).
 inline double step_tolerance_at_rest(double tolerance, double kappa, double rest_speed,
                                      const SystemParams& p) {
   const double v_rest = rest_speed * std::sqrt(p.gravity * p.radius);
-  return std::max(tolerance, kappa * v_rest / (p.gravity * p.time_step));
+  const double step =
+      std::max(p.time_step, kRelativeToleranceStep * std::sqrt(p.radius / p.gravity));
+  return std::max(tolerance, kappa * v_rest / (p.gravity * step));
 }
 
 // A deposit at rest: the floor contacts' forces sum to its weight (the forces between disks

@@ -406,6 +406,31 @@ TEST(Solver, ToleranceIsPerSystem) {
   }
 }
 
+// Below the step h_kappa = kRelativeToleranceStep sqrt(R/g) the relative term is that of h_kappa:
+// a disk written into a column at rest with speed v sets the next step's tolerance to
+// kappa v / (g max(h, h_kappa)), for disks of radius 1 and 2 (whose h_kappa is sqrt(2) times
+// longer) at a step below h_kappa, and above it to kappa v / (g h).
+TEST(Solver, RelativeToleranceHeldBelowItsStep) {
+  const SolverSettings solver;
+  for (const double radius : {1.0, 2.0})
+    for (const double h : {0.0005, 0.0028 * radius, 0.005 * radius}) {
+      auto p = bare_params(20.0 * radius, 40.0 * radius);
+      p.radius = radius;
+      p.time_step = h;
+      Batch batch({setup(p, column(4, 10.0 * radius, radius))}, solver);
+      batch.step();
+      auto d = batch.disks(0);
+      const double fast = 2.0 * std::sqrt(p.gravity * radius);
+      d[3].vx = fast;
+      batch.set_disks(0, {3}, {d[3]});
+      batch.step();
+      const double h_kappa = 0.0028 * std::sqrt(radius / p.gravity);
+      const double expected = solver.relative_tolerance * fast / (p.gravity * std::max(h, h_kappa));
+      ASSERT_GT(expected, solver.tolerance);
+      EXPECT_DOUBLE_EQ(batch.status(0).tolerance, expected) << "radius " << radius << ", h " << h;
+    }
+}
+
 // SolverSettings::relative_tolerance kappa: a step's tolerance is max(tolerance, kappa v_max /
 // (g h)) [h m g], v_max the largest speed after the step before. A column resting on the floor
 // (v_max = 0) is solved exactly as without it, bit for bit. A pile dropped from rest settles

@@ -78,8 +78,8 @@ struct SystemStatus {
   int last_sweeps = 0;    // sweeps of the last step
   long newton_steps = 0;  // Newton steps of the accelerated solver (src/newton.hpp), all steps
   bool converged = true;  // the last step's solve reached the tolerance
-  // The tolerance the last step's solve ran to [h m g]: max(tolerance, kappa v_max / (g h)),
-  // v_max the max_speed before it (SolverSettings::relative_tolerance).
+  // The tolerance the last step's solve ran to [h m g]: max(tolerance, kappa v_max / (g max(h,
+  // h_kappa))), v_max the max_speed before it (SolverSettings::relative_tolerance).
   double tolerance = 0.0;
   double max_speed = 0.0;         // max(|v|, R|w|) after the last step
   double max_centre_speed = 0.0;  // max |v|

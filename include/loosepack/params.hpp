@@ -111,6 +111,14 @@ inline bool solver_kind_from_name(const std::string& name, SolverKind& kind) {
   return false;
 }
 
+// h_kappa [sqrt(R/g)] of SolverSettings::relative_tolerance: below this step the relative term
+// stops growing like 1/h. The term lets a step's impulses err by kappa m v_max, an error per unit
+// of time of kappa m v_max / h; held at its value at 0.0028, the step of Bo = 1e3 where kappa was
+// measured against the tight solve (docs/PERFORMANCE.md, "The tolerance follows the motion"),
+// for the smaller steps of Bo > 1e3. With 1/h's growth, at h = 2.8e-4 (Bo = 1e5) the solve's
+// error kept half of a deposit swinging at 0.75 sqrt(gR) without loss, where nothing can move.
+constexpr double kRelativeToleranceStep = 0.0028;
+
 // How the contact problem is solved; shared by all systems of a batch except the tolerance,
 // which a system's SystemSetup may set.
 struct SolverSettings {
@@ -123,9 +131,10 @@ struct SolverSettings {
   // kappa: while a system moves, a step's solve ends once no impulse changes in a sweep by more
   // than kappa times the momentum of its fastest disk (m v_max, v_max the largest |v| or R|w|
   // after the last step), or by the tolerance above if that is larger: the step's tolerance is
-  // max(tolerance, kappa v_max / (g h)) [h m g]. Near rest the absolute tolerance decides, so
-  // rest detection and the forces of a structure at rest are as before; during an avalanche
-  // the impulses converge relative to the motion. 0: the absolute tolerance alone.
+  // max(tolerance, kappa v_max / (g max(h, h_kappa))) [h m g] (h_kappa: kRelativeToleranceStep
+  // above). Near rest the absolute tolerance decides, so rest detection and the forces of a
+  // structure at rest are as before; during an avalanche the impulses converge relative to the
+  // motion. 0: the absolute tolerance alone.
   double relative_tolerance = 1e-3;
   // omega: P <- P + omega (P_local - P). 0.8 since the accuracy/time study (docs/PERFORMANCE.md):
   // fewer sweeps than 1.0 at the same accuracy for protocols A and C.
