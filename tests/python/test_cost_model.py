@@ -334,7 +334,7 @@ def test_members_above_bo_1e3(program, tmp_path, relaxation, factor):
     40 R wide and 60 R to 180 R tall, lie about the model (the geometric mean of the points'
     ratios within 0.75-1.33), each point within a factor of 2 in the whole system and of 7 in
     regions, where members that avalanche and members that do not differ a hundredfold. tau
-    alone prices them 3 to 30 times too high."""
+    alone prices them, in the geometric mean, 3 times too high or more."""
     points = {k: v for k, v in cost_heights(relaxation, "cost-bond-2026-12-07.jsonl").items()
               if k[2] > 1e3}
     keys = sorted(points)
