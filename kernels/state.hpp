@@ -79,7 +79,7 @@ struct SystemViews {
       gravity_y, cohesive_force, cohesion_range, friction, rolling_friction, time_step,
       weight,     // weight: m g of a mean disk, the force unit of tolerances
       tolerance,  // solver tolerance [h m g]: a sweep whose largest impulse change is below it ends
-      step_tolerance;     // this step's: max(tolerance, kappa v_max / (g h)) (SolverSettings)
+      step_tolerance;     // this step's: max(tolerance, kappa v_max / (g max(h, h_kappa)))
   KView<int> max_sweeps;  // solver sweep cap per step
   KView<int> floor_cohesion;
   // [S] counter-based random stream: key (seed, member) and the next draw index
