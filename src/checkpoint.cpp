@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <set>
 #include <type_traits>
 
 #include "kernels/state.hpp"
@@ -334,7 +335,8 @@ std::string program_identity() {
 
 std::uint64_t scan_fingerprint(const Scan& scan) {
   const std::string program = program_identity();
-  return fnv1a(scan.content.data(), scan.content.size(), fnv1a(program.data(), program.size()));
+  return fnv1a(scan.resume_identity.data(), scan.resume_identity.size(),
+               fnv1a(program.data(), program.size()));
 }
 
 std::string encode_members(const std::vector<MemberResult>& results) {
@@ -369,7 +371,7 @@ std::string selection_name(const std::string& selection) {
 void write_checkpoint_selection(const std::string& directory, const std::string& selection,
                                 bool snapshots, const Scan& scan) {
   replace_file(directory + "/scan", [&](const std::string& tmp) {
-    write_bytes(tmp, program_identity() + "\n" + scan.content);
+    write_bytes(tmp, program_identity() + "\n" + scan.resume_identity);
   });
   if (snapshots)
     replace_file(directory + "/snapshots",
@@ -472,8 +474,31 @@ std::string what_differs(const std::string& directory, const Scan& scan) {
     return "it was written by " + program + ", this is " + program_identity();
   const std::string theirs((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
   const std::string differs =
-      first_difference(theirs, scan.content, "the checkpoint's scan", "this one");
+      first_difference(theirs, scan.resume_identity, "the checkpoint's scan", "this one");
   return differs.empty() ? "a setting of the scan file was changed since" : differs;
+}
+}  // namespace
+
+namespace {
+// A resume may change protocol.max_collapse_time (it is not in the fingerprint:
+// Scan::resume_identity). A collapse that ended, at rest or in a failure, within the new cap's
+// steps ends the same under it; one stopped at its cap has the result of that cap alone; a
+// collapse still running goes on under the new cap while it has not reached it. Protocols A and B
+// have no collapse. The steps of member `m`'s collapse under this scan's cap:
+long collapse_cap_steps(const Member& m, const Scan& scan) {
+  return static_cast<long>(std::ceil(scan.protocol.max_collapse_time / m.params.time_step));
+}
+bool same_under_cap(const MemberResult& r, const Scan& scan) {
+  if (r.member.protocol != Protocol::C) return true;
+  const long cap = collapse_cap_steps(r.member, scan);
+  return r.capped != 0 ? r.steps == cap : r.steps <= cap;
+}
+bool goes_on_under_cap(MemberSnapshot& snap, const Scan& scan) {
+  if (snap.phase != MemberPhase::Collapse) return true;
+  const long cap = collapse_cap_steps(snap.result.member, scan);
+  if (snap.stage.steps >= cap) return false;
+  snap.stage.cap = cap;
+  return true;
 }
 }  // namespace
 
@@ -523,9 +548,21 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
     out.generation = std::max(out.generation, generation);
     ++out.parts;
   }
-  for (auto& [id, r] : finished) out.members.push_back(std::move(r));
+  std::set<std::uint64_t> kept, going_on;
+  for (auto& [id, r] : finished)
+    if (same_under_cap(r, scan)) {
+      kept.insert(id);
+      out.members.push_back(std::move(r));
+    }
   for (auto& [id, snap] : running)
-    if (!finished.count(id)) out.running.push_back(std::move(snap.second));
+    if (!kept.count(id) && goes_on_under_cap(snap.second, scan)) {
+      going_on.insert(id);
+      out.running.push_back(std::move(snap.second));
+    }
+  for (const auto& [id, r] : finished)
+    out.run_again += kept.count(id) || going_on.count(id) ? 0 : 1;
+  for (const auto& [id, snap] : running)
+    out.run_again += finished.count(id) || going_on.count(id) ? 0 : 1;
   out.snapshots = fs::exists(directory + "/snapshots");
   return out;
 }

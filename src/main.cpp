@@ -286,6 +286,7 @@ class RunCommand {
   int claim_output();
   int claim_space();
   int read_checkpoint();
+  std::string run_again_note() const;
   void share_out();
   void announce() const;
   RunHooks hooks();
@@ -554,6 +555,18 @@ void RunCommand::announce() const {
     std::cerr << "loosepack: resuming from " << ck_dir << ": " << resumed.size() << " of "
               << members.size() << " members finished, computing the other " << todo.size() << " ("
               << started.size() << " of them from where they were)\n";
+  if (o.resume && ck.run_again > 0) std::cerr << "loosepack: " << run_again_note() << "\n";
+}
+
+// What a resume under another protocol.max_collapse_time than the checkpoint's computes again.
+std::string RunCommand::run_again_note() const {
+  std::ostringstream note;
+  note << ck.run_again << (ck.run_again == 1 ? " member" : " members") << " of " << ck_dir
+       << " collapsed otherwise than protocol.max_collapse_time = "
+       << scan.protocol.max_collapse_time
+       << " sqrt(R/g) lets a collapse end (stopped at another cap, or past this one): "
+       << (ck.run_again == 1 ? "it runs" : "they run") << " again from the start";
+  return note.str();
 }
 
 // This rank's checkpoint: the members finished since the last one in a new part of their own
@@ -998,6 +1011,7 @@ int RunCommand::dry_run() const {
         "# resuming from %s: %zu of %zu members finished, %zu to compute (%zu of them from "
         "where they were)\n",
         ck_dir.c_str(), resumed.size(), members.size(), todo.size(), started.size());
+  if (o.resume && ck.run_again > 0) std::printf("# %s\n", run_again_note().c_str());
   std::printf(
       "%-6s %-5s %-10s %-8s %-8s %-8s %-8s %s\n", "point", "prot", "Bo", "r_capt", "width",
       "height", "members",

@@ -566,8 +566,9 @@ void integers_as_reals(toml::table& identity) {
 // The settings a scan's identity (Scan::content) is made of: the parsed file less what no
 // member's result depends on, [scan] batch_size (a run may resume with another --batch-size) and
 // the table's keys that say so (SettingKey::changes_no_result), the integers of real-valued keys
-// as reals. A table left empty is left out, as in a file without it.
-toml::table identity_of(const toml::table& root) {
+// as reals. A table left empty is left out, as in a file without it. `for_resume`: less
+// protocol.max_collapse_time too (Scan::resume_identity).
+toml::table identity_of(const toml::table& root, bool for_resume) {
   toml::table identity = root;
   auto drop = [&](const char* section, const char* key) {
     auto* table = identity[section].as_table();
@@ -578,6 +579,7 @@ toml::table identity_of(const toml::table& root) {
   drop("scan", "batch_size");
   for (const auto& k : setting_keys())
     if (k.changes_no_result) drop(k.section, k.key);
+  if (for_resume) drop("protocol", "max_collapse_time");
   integers_as_reals(identity);
   return identity;
 }
@@ -767,11 +769,15 @@ Scan ScanParser::parse() {
   check_fused_step();
   // The identity is written once every value is valid: toml++ 3.3's writer converts an inf or
   // a nan in an array to an integer (undefined behaviour), and every key refuses them.
-  std::ostringstream content;
-  content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
-          << TOML_LIB_PATCH << "\n"
-          << identity_of(root);
-  scan.content = content.str();
+  const auto written = [&](bool for_resume) {
+    std::ostringstream content;
+    content << "# written by toml++ " << TOML_LIB_MAJOR << "." << TOML_LIB_MINOR << "."
+            << TOML_LIB_PATCH << "\n"
+            << identity_of(root, for_resume);
+    return content.str();
+  };
+  scan.content = written(false);
+  scan.resume_identity = written(true);
   scan.points = std::move(points);
   return scan;
 }

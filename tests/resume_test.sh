@@ -194,6 +194,45 @@ same full.h5 c.h5
 "$exe" run s.toml -o t.h5 --batch-size 2 --resume --force -q
 same full.h5 t.h5
 
+# A resume may change protocol.max_collapse_time: the checkpoint's collapses that the new cap ends
+# the same are kept, the others run again (stopped at the old cap, or past the new one), a running
+# collapse goes on under the new cap short of it, and the file is the one a run with the new cap
+# writes. At 12 sqrt(R/g) (1 200 steps at Bo = 10, 1 334 at 1e2) two collapses of point 0000 stop
+# at the cap; the members run in order, so a checkpoint of 4 finished members holds both.
+sed 's/^lower_half_from = 2$/&\n[protocol]\nmax_collapse_time = 12/' s.toml > c12.toml
+"$exe" run c12.toml -o c12_full.h5 --batch-size 1 2>c12.log
+grep -q "point 0000: the collapse of 2 of 4 finished members was stopped" c12.log ||
+  fail "the cap of 12 stopped other collapses than two of point 0000: $(cat c12.log)"
+killed_after_four() {  # SIGKILL once the checkpoint holds 4 finished members
+  "$exe" run "$1" -o "$2" --batch-size 1 --checkpoint-every 0 >/dev/null 2>&1 &
+  local pid=$!
+  for _ in $(seq 1 1000); do
+    [ -e "$2.checkpoint/part-1-0-4.bin" ] && break
+    sleep 0.02
+  done
+  kill -KILL "$pid"
+  wait "$pid" 2>/dev/null || true
+  [ -e "$2.checkpoint/part-1-0-4.bin" ] && [ ! -e "$2" ] || fail "$2: no checkpoint of 4 members"
+}
+again_msg="2 members of %s collapsed otherwise than protocol.max_collapse_time = %s sqrt(R/g)"
+killed_after_four s.toml lower.h5
+"$exe" run c12.toml -o lower.h5 --batch-size 1 --resume 2>lower.log
+grep -q "$(printf "$again_msg" lower.h5.checkpoint 12)" lower.log || fail "$(cat lower.log)"
+same c12_full.h5 lower.h5
+killed_after_four c12.toml longer.h5
+"$exe" run s.toml -o longer.h5 --batch-size 1 --resume 2>longer.log
+grep -q "$(printf "$again_msg" longer.h5.checkpoint 3000)" longer.log || fail "$(cat longer.log)"
+same full.h5 longer.h5
+interrupt TERM run12.h5 run12.log  # a collapse running at the stop goes on, or runs again
+"$exe" run c12.toml -o run12.h5 --batch-size 1 --resume -q
+same c12_full.h5 run12.h5
+# Members run with two caps are not one run's: merge refuses them.
+"$exe" run s.toml -o m0.h5 --member 0 -q
+"$exe" run c12.toml -o m1.h5 --member 1 -q
+msg=$("$exe" merge m0.h5 m1.h5 -o m01.h5 --partial 2>&1) && fail "members of two caps merged"
+grep -q "m1.h5 holds members of another scan than m0.h5: key 'protocol.max_collapse_time'" \
+  <<< "$msg" || fail "message: $msg"
+
 # A member stopped while it runs goes on from where it was: one protocol-A member of a few
 # seconds, checkpointed every half second, stopped with SIGTERM once a checkpoint holds it and
 # resumed, gives the uninterrupted run's file, depositing only the disks it had not.

@@ -43,14 +43,17 @@ Scan small_scan(const std::string& system = "width = 12\nheight = 12\nbond_numbe
                     "test.toml");
 }
 
-// A member result with every field set, including a NaN with a payload and signed zeros.
+// A member result with every field set, including a NaN with a payload and signed zeros. Its
+// collapse was stopped at the scan's cap, as a checkpoint of this scan may hold it (a resume
+// keeps only the members its protocol.max_collapse_time ends the same: read_checkpoint).
 MemberResult filled(const Scan& scan, std::size_t id) {
   MemberResult r;
   r.member = members_of(scan).at(id);
   r.failure = Failure::NonFinite;
-  r.steps = 123456789012;
-  r.sweeps = 42;
-  r.capped = 3;
+  r.steps =
+      static_cast<long>(std::ceil(scan.protocol.max_collapse_time / r.member.params.time_step));
+  r.sweeps = 123456789012;
+  r.capped = 1;
   r.wall_time = 0.125;
   r.x = {1.0, -0.0, std::numeric_limits<double>::denorm_min()};
   r.y_i = {2.0, 3.0, 4.0};
@@ -416,6 +419,67 @@ TEST(Checkpoint, FinishedPartsWinOverSnapshots) {
   ASSERT_EQ(ck.running.size(), 1u);
   EXPECT_EQ(ck.running[0].result.member.id, 2u);
   EXPECT_EQ(ck.generation, 2);
+}
+
+// A resume may change protocol.max_collapse_time: a member of the checkpoint is kept where the
+// new cap gives it the same result, and runs again where not. Steps are those of the collapse,
+// the cap's ceil(T / h) (h = 0.01 at Bo = 10 and 20: T = 10 is 1 000 steps).
+TEST(Checkpoint, AChangedCollapseCapKeepsTheMembersItWouldEndTheSame) {
+  const std::string system = "width = 12\nheight = 12\nbond_number = [10, 20]\n";
+  const Scan wrote = small_scan(system);  // the default cap, 3 000: 300 000 steps
+  const auto collapse = [&](const std::string& cap) {
+    return small_scan(system + "[protocol]\nmax_collapse_time = " + cap + "\n");
+  };
+  for (const auto& m : members_of(wrote)) ASSERT_EQ(m.params.time_step, 0.01);
+  ASSERT_EQ(scan_fingerprint(collapse("10")), scan_fingerprint(wrote));
+  ASSERT_NE(collapse("10").content, wrote.content);  // a merge still tells them apart
+  const ScratchDir dir("loosepack-collapse-cap");
+  write_checkpoint_selection(dir.string(), "", false, wrote);
+  const auto ended = [&](std::size_t id, long steps, int capped) {
+    MemberResult r = filled(wrote, id);
+    r.failure = Failure::None;
+    r.steps = steps;
+    r.capped = capped;
+    return r;
+  };
+  // Members 0 and 1 came to rest after 1 000 and 1 001 steps, member 2 was stopped at the cap.
+  write_checkpoint_part(checkpoint_part(dir.string(), 1, 0, 1), scan_fingerprint(wrote),
+                        {ended(0, 1000, 0), ended(1, 1001, 0), ended(2, 300000, 1)});
+  // Member 3 collapses, 999 steps in.
+  MemberSnapshot running = snapshot(wrote, 3);
+  running.phase = MemberPhase::Collapse;
+  running.stage.steps = 999;
+  running.stage.cap = 300000;
+  write_checkpoint_part(checkpoint_part(dir.string(), 1, 0), scan_fingerprint(wrote), {},
+                        {running});
+  const auto ids = [](const CheckpointContents& ck) {
+    std::vector<std::uint64_t> out;
+    for (const auto& r : ck.members) out.push_back(r.member.id);
+    return out;
+  };
+  const auto same = read_checkpoint(dir.string(), wrote);
+  EXPECT_EQ(ids(same), (std::vector<std::uint64_t>{0, 1, 2}));
+  EXPECT_EQ(same.running.size(), 1u);
+  EXPECT_EQ(same.run_again, 0);
+  // A cap of 1 000 steps: member 0 ends as before, 1 and 2 would have stopped at the cap, and 3
+  // goes on under it.
+  const auto lower = read_checkpoint(dir.string(), collapse("10"));
+  EXPECT_EQ(ids(lower), (std::vector<std::uint64_t>{0}));
+  ASSERT_EQ(lower.running.size(), 1u);
+  EXPECT_EQ(lower.running[0].stage.cap, 1000);
+  EXPECT_EQ(lower.running[0].stage.steps, 999);
+  EXPECT_EQ(lower.run_again, 2);
+  // A cap of 999 steps (9.985 / 0.01, rounded up): member 3 is there already, so it runs again.
+  const auto at_the_snapshot = read_checkpoint(dir.string(), collapse("9.985"));
+  EXPECT_TRUE(ids(at_the_snapshot).empty());
+  EXPECT_TRUE(at_the_snapshot.running.empty());
+  EXPECT_EQ(at_the_snapshot.run_again, 4);
+  // A longer cap: member 2, stopped at the old one, would have gone on.
+  const auto longer = read_checkpoint(dir.string(), collapse("4000"));
+  EXPECT_EQ(ids(longer), (std::vector<std::uint64_t>{0, 1}));
+  ASSERT_EQ(longer.running.size(), 1u);
+  EXPECT_EQ(longer.running[0].stage.cap, 400000);
+  EXPECT_EQ(longer.run_again, 1);
 }
 
 // A checkpoint of another scan or program is refused with what differs: the first setting, with

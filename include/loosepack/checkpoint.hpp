@@ -19,9 +19,10 @@ class CheckpointError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Identifies what a checkpoint belongs to: the scan file's settings (Scan::content: an edit of
-// its comments or layout leaves them) and the program (version, commit and Kokkos backend),
-// since another build may give other bits.
+// Identifies what a checkpoint belongs to: the scan file's settings (Scan::resume_identity: an
+// edit of its comments or layout leaves them, and so does protocol.max_collapse_time, whose
+// members read_checkpoint checks one by one) and the program (version, commit and Kokkos
+// backend), since another build may give other bits.
 std::uint64_t scan_fingerprint(const Scan& scan);
 
 // Member results as bytes and back. Doubles travel bit for bit. Decoding takes each member's
@@ -45,8 +46,8 @@ std::string checkpoint_directory(const std::string& output_path);
 // std::nullopt where the file does not exist (a checkpoint of a build that wrote none) and
 // throws CheckpointError where it cannot be read or names no selection. With `snapshots` (the
 // run asked for --snapshots) the file `<directory>/snapshots` says so, and a resume writes them.
-// The file `<directory>/scan` holds the program and the scan's identity (Scan::content) the
-// fingerprint is made of, so that a refused resume can say what differs.
+// The file `<directory>/scan` holds the program and the scan's identity (Scan::resume_identity)
+// the fingerprint is made of, so that a refused resume can say what differs.
 void write_checkpoint_selection(const std::string& directory, const std::string& selection,
                                 bool snapshots, const Scan& scan);
 std::optional<std::string> read_checkpoint_selection(const std::string& directory);
@@ -76,6 +77,9 @@ struct CheckpointContents {
   int generation = 0;
   int parts = 0;
   bool snapshots = false;  // the run that wrote it asked for --snapshots
+  // Members it holds that run again from the start: collapses that end otherwise under this
+  // scan's protocol.max_collapse_time (stopped at another cap, or past this one).
+  int run_again = 0;
 };
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan);
 

@@ -122,6 +122,10 @@ struct Scan {
   // it was built with (another version may write a number otherwise, so a build against it
   // counts the same file as another scan: the safe side).
   std::string content;
+  // What a checkpoint's fingerprint is made of: `content` less protocol.max_collapse_time, which
+  // a resume may change (each member of the checkpoint is kept where the new cap gives it the
+  // same result, and runs again where not: read_checkpoint, src/checkpoint.cpp).
+  std::string resume_identity;
   std::string name = "scan";
   std::uint64_t seed = 1;
   int seeds = 1;          // members per scan point
