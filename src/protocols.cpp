@@ -53,22 +53,26 @@ double ballistic_cost(const SystemParams& p, double filled = 1.0) {
 // time per disk alone; bench/results/cost-relative-2026-11-25.jsonl, docs/PERFORMANCE.md "What a
 // member costs").
 double relaxation_time(const SystemParams& p) { return std::pow(1.0 + p.bond_number / 4.0, -0.7); }
-// Above Bo = 1e3 a deposit up to 180 R tall relaxes faster than tau says: a landed disk sticks
-// where it lands and the deposit avalanches less the stronger the cohesion, by (Bo/1e3)^-1 in
-// the whole system and (Bo/1e3)^-1.2 in regions, until nearly nothing moves (from Bo = 1e4 on):
-// what is left are the steps that find each disk at rest, a fifth of tau's cost in the whole
-// system (each step covers the deposit) and 0.03 of it in regions (each covers a region); the
-// least-squares fit (in log) to members 40 R wide, 60 R to 180 R tall, at Bo = 3e3 to 1e5
-// (bench/results/cost-bond-2026-12-07.jsonl). Taller deposits avalanche again: at 400 R and
-// Bo = 1e4 members relaxed in regions took 1.46 times tau's cost
-// (bench/results/cost-bo1e4-H400-2026-12-07.jsonl), so between 180 R and 400 R the factor
-// returns to 1, geometrically in the height (docs/PERFORMANCE.md, "What a member costs").
+// Above Bo = 1e3 a deposit too low to avalanche relaxes faster than tau says: a landed disk sticks
+// where it lands, and nearly nothing moves once the cohesion is three times Bo = 1e3's; what is
+// left are the steps that find each disk at rest, 0.16 of tau's cost in the whole system (each
+// step covers the deposit) and 0.03 in regions (each covers a region), reached as (Bo/1e3)^-2 and
+// (Bo/1e3)^-3. A taller deposit avalanches again, from a height that grows with the cohesion: the
+// factor returns to 1, geometrically in the height, between 120 R and 400 R at Bo = 1e4, heights
+// that scale like (Bo/1e4)^0.5 (66 R and 219 R at Bo = 3e3). Set from members of the present
+// program 40 R wide, 60 R to 180 R tall, at Bo = 3e3 to 1e5
+// (bench/results/cost-bond-held-2026-12-07.jsonl, and relative-tolerance-step-2026-12-07.jsonl's
+// held line for the whole system) and 400 R tall at Bo = 1e4 (claims-bo1e4-2026-12-07.jsonl, second
+// line): docs/PERFORMANCE.md, "What a member costs".
 double fewer_avalanches(const SystemParams& p, bool in_regions, double height) {
-  if (p.bond_number <= 1e3 || height >= 400.0) return 1.0;
-  const double fewer = in_regions ? std::max(std::pow(p.bond_number / 1e3, -1.2), 0.03)
-                                  : std::max(1e3 / p.bond_number, 0.2);
-  if (height <= 180.0) return fewer;
-  return std::pow(fewer, std::log(400.0 / height) / std::log(400.0 / 180.0));
+  if (p.bond_number <= 1e3) return 1.0;
+  const double fewer = in_regions ? std::max(std::pow(p.bond_number / 1e3, -3.0), 0.03)
+                                  : std::max(std::pow(p.bond_number / 1e3, -2.0), 0.16);
+  const double scale = std::sqrt(p.bond_number / 1e4);
+  const double low = 120.0 * scale, high = 400.0 * scale;
+  if (height >= high) return 1.0;
+  if (height <= low) return fewer;
+  return std::pow(fewer, std::log(high / height) / std::log(high / low));
 }
 // How the cost grows with the height, below and above the reference height of 60 R (the boxes
 // tau was fitted on were 60 R tall or less, so the cost is W^2/30 H^3 tau / h at 60 R). Up to
