@@ -216,6 +216,8 @@ killed_after_four() {  # SIGKILL once the checkpoint holds 4 finished members
 }
 again_msg="2 members of %s collapsed otherwise than protocol.max_collapse_time = %s sqrt(R/g)"
 killed_after_four s.toml lower.h5
+"$exe" run c12.toml -o lower.h5 --resume --dry-run | grep -q "^# $(printf "$again_msg" lower.h5.checkpoint 12)" ||
+  fail "--dry-run --resume does not say which members run again"
 "$exe" run c12.toml -o lower.h5 --batch-size 1 --resume 2>lower.log
 grep -q "$(printf "$again_msg" lower.h5.checkpoint 12)" lower.log || fail "$(cat lower.log)"
 same c12_full.h5 lower.h5
