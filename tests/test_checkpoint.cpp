@@ -445,39 +445,48 @@ TEST(Checkpoint, AChangedCollapseCapKeepsTheMembersItWouldEndTheSame) {
   // Members 0 and 1 came to rest after 1 000 and 1 001 steps, member 2 was stopped at the cap.
   write_checkpoint_part(checkpoint_part(dir.string(), 1, 0, 1), scan_fingerprint(wrote),
                         {ended(0, 1000, 0), ended(1, 1001, 0), ended(2, 300000, 1)});
-  // Member 3 collapses, 999 steps in.
-  MemberSnapshot running = snapshot(wrote, 3);
-  running.phase = MemberPhase::Collapse;
-  running.stage.steps = 999;
-  running.stage.cap = 300000;
+  // Member 3 collapses, 999 steps in; member 1's snapshot 500 steps in is still there (a run
+  // killed between its two writes leaves it).
+  const auto collapsing = [&](std::size_t id, long steps) {
+    MemberSnapshot snap = snapshot(wrote, id);
+    snap.phase = MemberPhase::Collapse;
+    snap.stage.steps = steps;
+    snap.stage.cap = 300000;
+    return snap;
+  };
   write_checkpoint_part(checkpoint_part(dir.string(), 1, 0), scan_fingerprint(wrote), {},
-                        {running});
+                        {collapsing(1, 500), collapsing(3, 999)});
+  const auto running_ids = [](const CheckpointContents& ck) {
+    std::vector<std::uint64_t> out;
+    for (const auto& s : ck.running) out.push_back(s.result.member.id);
+    return out;
+  };
   const auto ids = [](const CheckpointContents& ck) {
     std::vector<std::uint64_t> out;
     for (const auto& r : ck.members) out.push_back(r.member.id);
     return out;
   };
-  const auto same = read_checkpoint(dir.string(), wrote);
+  const auto same = read_checkpoint(dir.string(), wrote);  // the finished member 1 wins
   EXPECT_EQ(ids(same), (std::vector<std::uint64_t>{0, 1, 2}));
-  EXPECT_EQ(same.running.size(), 1u);
+  EXPECT_EQ(running_ids(same), (std::vector<std::uint64_t>{3}));
   EXPECT_EQ(same.run_again, 0);
-  // A cap of 1 000 steps: member 0 ends as before, 1 and 2 would have stopped at the cap, and 3
-  // goes on under it.
+  // A cap of 1 000 steps: member 0 ends as before; 1 would have stopped at the cap, so it goes on
+  // from its snapshot, as 3 does, under the new cap; 2 runs again.
   const auto lower = read_checkpoint(dir.string(), collapse("10"));
   EXPECT_EQ(ids(lower), (std::vector<std::uint64_t>{0}));
-  ASSERT_EQ(lower.running.size(), 1u);
-  EXPECT_EQ(lower.running[0].stage.cap, 1000);
-  EXPECT_EQ(lower.running[0].stage.steps, 999);
-  EXPECT_EQ(lower.run_again, 2);
-  // A cap of 999 steps (9.985 / 0.01, rounded up): member 3 is there already, so it runs again.
+  EXPECT_EQ(running_ids(lower), (std::vector<std::uint64_t>{1, 3}));
+  for (const auto& snap : lower.running) EXPECT_EQ(snap.stage.cap, 1000);
+  EXPECT_EQ(lower.running[1].stage.steps, 999);
+  EXPECT_EQ(lower.run_again, 1);
+  // A cap of 999 steps (9.985 / 0.01, rounded up): member 3 is there already, and 0 went past it.
   const auto at_the_snapshot = read_checkpoint(dir.string(), collapse("9.985"));
   EXPECT_TRUE(ids(at_the_snapshot).empty());
-  EXPECT_TRUE(at_the_snapshot.running.empty());
-  EXPECT_EQ(at_the_snapshot.run_again, 4);
+  EXPECT_EQ(running_ids(at_the_snapshot), (std::vector<std::uint64_t>{1}));
+  EXPECT_EQ(at_the_snapshot.run_again, 3);
   // A longer cap: member 2, stopped at the old one, would have gone on.
   const auto longer = read_checkpoint(dir.string(), collapse("4000"));
   EXPECT_EQ(ids(longer), (std::vector<std::uint64_t>{0, 1}));
-  ASSERT_EQ(longer.running.size(), 1u);
+  EXPECT_EQ(running_ids(longer), (std::vector<std::uint64_t>{3}));
   EXPECT_EQ(longer.running[0].stage.cap, 400000);
   EXPECT_EQ(longer.run_again, 1);
 }
