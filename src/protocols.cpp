@@ -91,7 +91,9 @@ double height_exponent(const SystemParams& p, bool in_regions) {
 // each), faster than the smaller boxes did below Bo = 1e3; in regions like H^2.9 at Bo = 10, H^3.5
 // at 1e2, H^3.6 at 3e2 and H^3.0 at 1e3 (at Bo = 1e2 and 3e2 a landed disk rolls further and its
 // regions grow larger; at 1e3 it sticks where it lands), linear in log10(Bo) between those and
-// constant beyond them (no region runs below Bo = 10 are recorded).
+// constant beyond them. Below Bo = 10 that prices region runs 2.5-5.5 times too high: at Bo = 0
+// and 1 they grow like H^2.2-2.5 from a lower cost at 60 R
+// (bench/results/cost-regions-low-bond-2026-12-07.jsonl; not refitted on yet).
 double tall_height_exponent(const SystemParams& p, bool in_regions) {
   if (!in_regions) return 3.7;
   const double log_bond[] = {1.0, 2.0, std::log10(300.0), 3.0};
