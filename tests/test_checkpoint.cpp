@@ -474,7 +474,7 @@ TEST(Checkpoint, AChangedCollapseCapKeepsTheMembersItWouldEndTheSame) {
   // from its snapshot, as 3 does, under the new cap; 2 runs again.
   const auto lower = read_checkpoint(dir.string(), collapse("10"));
   EXPECT_EQ(ids(lower), (std::vector<std::uint64_t>{0}));
-  EXPECT_EQ(running_ids(lower), (std::vector<std::uint64_t>{1, 3}));
+  ASSERT_EQ(running_ids(lower), (std::vector<std::uint64_t>{1, 3}));
   for (const auto& snap : lower.running) EXPECT_EQ(snap.stage.cap, 1000);
   EXPECT_EQ(lower.running[1].stage.steps, 999);
   EXPECT_EQ(lower.run_again, 1);
@@ -486,7 +486,7 @@ TEST(Checkpoint, AChangedCollapseCapKeepsTheMembersItWouldEndTheSame) {
   // A longer cap: member 2, stopped at the old one, would have gone on.
   const auto longer = read_checkpoint(dir.string(), collapse("4000"));
   EXPECT_EQ(ids(longer), (std::vector<std::uint64_t>{0, 1}));
-  EXPECT_EQ(running_ids(longer), (std::vector<std::uint64_t>{3}));
+  ASSERT_EQ(running_ids(longer), (std::vector<std::uint64_t>{3}));
   EXPECT_EQ(longer.running[0].stage.cap, 400000);
   EXPECT_EQ(longer.run_again, 1);
 }
