@@ -484,9 +484,10 @@ namespace {
 // Scan::resume_identity). A collapse that ended, at rest or in a failure, within the new cap's
 // steps ends the same under it; one stopped at its cap has the result of that cap alone; a
 // collapse still running goes on under the new cap while it has not reached it. Protocols A and B
-// have no collapse. The steps of member `m`'s collapse under this scan's cap:
+// have no collapse. The steps of member `m`'s collapse under this scan's cap, as its run counts
+// them (MemberRun::start_collapse):
 long collapse_cap_steps(const Member& m, const Scan& scan) {
-  return static_cast<long>(std::ceil(scan.protocol.max_collapse_time / m.params.time_step));
+  return steps_in(scan.protocol.max_collapse_time, m.params.time_step);
 }
 bool same_under_cap(const MemberResult& r, const Scan& scan) {
   if (r.member.protocol != Protocol::C) return true;

@@ -392,7 +392,7 @@ void MemberRun::sample(std::size_t k, double when, std::size_t count) {
 
 // Steps of slot k's system in `time` (a cap).
 long MemberRun::steps_for(std::size_t k, double time) const {
-  return static_cast<long>(std::ceil(time / batch_->params(static_cast<int>(k)).time_step));
+  return steps_in(time, batch_->params(static_cast<int>(k)).time_step);
 }
 
 }  // namespace loosepack

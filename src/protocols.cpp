@@ -167,6 +167,10 @@ double expected_cost(const Member& m) {
   return slow_cost(p, m.in_regions);
 }
 
+long steps_in(double time, double time_step) {
+  return static_cast<long>(std::ceil(time / time_step));
+}
+
 double collapse_steps(const SystemParams& p) {
   return std::sqrt(4.0 * p.height / (3.0 * std::abs(p.gravity))) / p.time_step;
 }

@@ -50,8 +50,7 @@ MemberResult filled(const Scan& scan, std::size_t id) {
   MemberResult r;
   r.member = members_of(scan).at(id);
   r.failure = Failure::NonFinite;
-  r.steps =
-      static_cast<long>(std::ceil(scan.protocol.max_collapse_time / r.member.params.time_step));
+  r.steps = steps_in(scan.protocol.max_collapse_time, r.member.params.time_step);
   r.sweeps = 123456789012;
   r.capped = 1;
   r.wall_time = 0.125;

@@ -432,10 +432,10 @@ TEST(Solver, RelativeToleranceHeldBelowItsStep) {
 }
 
 // SolverSettings::relative_tolerance kappa: a step's tolerance is max(tolerance, kappa v_max /
-// (g h)) [h m g], v_max the largest speed after the step before. A column resting on the floor
-// (v_max = 0) is solved exactly as without it, bit for bit. A pile dropped from rest settles
-// with steps that stop relative to its motion: each step's tolerance follows the formula from
-// the speed before it, the pile takes fewer sweeps, and once at rest the floor carries its
+// (g max(h, h_kappa))) [h m g], v_max the largest speed after the step before. A column resting on
+// the floor (v_max = 0) is solved exactly as without it, bit for bit. A pile dropped from rest
+// settles with steps that stop relative to its motion: each step's tolerance follows the formula
+// from the speed before it, the pile takes fewer sweeps, and once at rest the floor carries its
 // whole weight as closely as the absolute tolerance bounds it.
 TEST(Solver, RelativeToleranceLoosensOnlyWhileMoving) {
   auto p = bare_params(24.0, 60.0);

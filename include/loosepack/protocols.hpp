@@ -233,6 +233,10 @@ double expected_cost(const Member& m);
 // cost in seconds by it.
 constexpr double kSecondsPerCostUnit = 3.9e-8;
 
+// The steps of time step `time_step` in `time` [sqrt(R/g)], rounded up: how a member's caps
+// (protocol.max_relax_time, max_collapse_time) and rest.average_span count in steps.
+long steps_in(double time, double time_step);
+
 // The steps a collapse (protocol C) is expected to take, for the progress line's ETA: the top of
 // the column falling freely through two thirds of its height, sqrt(4 H / (3 g)), over the time
 // step (docs/PERFORMANCE.md, "What a member costs").
