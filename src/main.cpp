@@ -1049,11 +1049,11 @@ int RunCommand::dry_run() const {
   if (regions)
     std::printf(
         "# protocol.region_radius is set: the model prices protocol-A members relaxed in "
-        "regions as growing above 60 R like H^2.9 at Bo = 10, H^3.5-3.6 at 1e2-3e2 and H^3.0 "
-        "at 1e3, with fewer avalanches above 1e3; the recorded region runs took 0.60 to 1.58 "
-        "of it from Bo = 10 to 1e3 (60 R to 800 R tall), 0.53 to 2.0 above (60 R to 400 R) "
-        "and 0.18 to 0.41 below (Bo = 0 and 1, 60 R to 180 R), "
-        "where a member that avalanches costs a hundred times one that does not "
+        "regions as growing above 60 R like H^2.3 at Bo <= 1, H^2.9 at 10, H^3.5-3.6 at "
+        "1e2-3e2 and H^3.0 at 1e3, with fewer avalanches above 1e3; the recorded region runs "
+        "took 0.68 to 1.58 of it from Bo = 0 to 1e3 (60 R to 800 R tall) and 0.53 to 2.0 "
+        "above (60 R to 400 R), where a member that avalanches costs a hundred times one that "
+        "does not "
         "(docs/PERFORMANCE.md, \"What a member costs\")\n");
   if (!o.force && std::filesystem::exists(o.out_path))
     std::printf("# %s exists: the run would be refused without --force\n", o.out_path.c_str());

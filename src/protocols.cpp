@@ -74,6 +74,19 @@ double fewer_avalanches(const SystemParams& p, bool in_regions, double height) {
   if (height <= low) return fewer;
   return std::pow(fewer, std::log(high / height) / std::log(high / low));
 }
+// The value at p's Bond number of a table over log10(Bo): linear between its points, the end
+// values beyond them (Bo = 0 takes the first).
+template <int n>
+double interpolated_in_log_bond(const SystemParams& p, const double (&log_bond)[n],
+                                const double (&value)[n]) {
+  const double x = p.bond_number > 0.0 ? std::log10(p.bond_number) : log_bond[0];
+  if (x <= log_bond[0]) return value[0];
+  for (int k = 1; k < n; ++k)
+    if (x <= log_bond[k])
+      return value[k - 1] +
+             (value[k] - value[k - 1]) * (x - log_bond[k - 1]) / (log_bond[k] - log_bond[k - 1]);
+  return value[n - 1];
+}
 // How the cost grows with the height, below and above the reference height of 60 R (the boxes
 // tau was fitted on were 60 R tall or less, so the cost is W^2/30 H^3 tau / h at 60 R). Up to
 // 60 R a deposit H tall costs ~ H^q: a disk rolls over a surface that grows with the deposit, and
@@ -88,23 +101,27 @@ double height_exponent(const SystemParams& p, bool in_regions) {
 // Above 60 R, measured on members 40 R wide from 60 R to 180-800 R tall (docs/PERFORMANCE.md,
 // "What a member costs", gives the points; tests/python/test_cost_model.py checks them within a
 // factor of 2): the whole system grows like H^3.7 at every Bond number from 0 to 1e3 (3.4 to 3.8
-// each), faster than the smaller boxes did below Bo = 1e3; in regions like H^2.9 at Bo = 10, H^3.5
-// at 1e2, H^3.6 at 3e2 and H^3.0 at 1e3 (at Bo = 1e2 and 3e2 a landed disk rolls further and its
-// regions grow larger; at 1e3 it sticks where it lands), linear in log10(Bo) between those and
-// constant beyond them. Below Bo = 10 that prices region runs 2.5-5.5 times too high: at Bo = 0
-// and 1 they grow like H^2.2-2.5 from a lower cost at 60 R
-// (bench/results/cost-regions-low-bond-2026-12-07.jsonl; not refitted on yet).
+// each), faster than the smaller boxes did below Bo = 1e3; in regions like H^2.3 at Bo <= 1
+// (H^2.2 at Bo = 0, H^2.5 at 1: a landed disk rolls into place and its region holds all that
+// moves), H^2.9 at 10, H^3.5 at 1e2, H^3.6 at 3e2 and H^3.0 at 1e3 (at Bo = 1e2 and 3e2 a landed
+// disk rolls further and its regions grow larger; at 1e3 it sticks where it lands), linear in
+// log10(Bo) between those and constant beyond them.
 double tall_height_exponent(const SystemParams& p, bool in_regions) {
   if (!in_regions) return 3.7;
-  const double log_bond[] = {1.0, 2.0, std::log10(300.0), 3.0};
-  constexpr double q[] = {2.9, 3.5, 3.6, 3.0};
-  constexpr int n = 4;
-  const double x = p.bond_number > 0.0 ? std::log10(p.bond_number) : log_bond[0];
-  if (x <= log_bond[0]) return q[0];
-  for (int k = 1; k < n; ++k)
-    if (x <= log_bond[k])
-      return q[k - 1] + (q[k] - q[k - 1]) * (x - log_bond[k - 1]) / (log_bond[k] - log_bond[k - 1]);
-  return q[n - 1];
+  const double log_bond[] = {0.0, 1.0, 2.0, std::log10(300.0), 3.0};
+  constexpr double q[] = {2.3, 2.9, 3.5, 3.6, 3.0};
+  return interpolated_in_log_bond(p, log_bond, q);
+}
+// Below Bo = 1e2 regions cost less than the whole system already at 60 R, where a member's cost
+// is the whole system's (tau was fitted on whole-system scenes): 0.41 of it at Bo = 0 and 1, 0.62
+// at 10 (each member's relaxation stays in its region, where a step of the whole system covers
+// the deposit). The level: 0.4 at Bo <= 1, 1 from Bo = 1e2 on, linear in log10(Bo) between
+// (bench/results/cost-regions-low-bond-2026-12-07.jsonl and cost-heights-2026-12-07.jsonl).
+double region_level(const SystemParams& p, bool in_regions) {
+  if (!in_regions) return 1.0;
+  const double log_bond[] = {0.0, 2.0};
+  constexpr double level[] = {0.4, 1.0};
+  return interpolated_in_log_bond(p, log_bond, level);
 }
 // The cost of a deposit `height` tall relative to one of 60 R: (height / 60)^q below, and the
 // tall exponent above.
@@ -127,7 +144,8 @@ double width_cost(const SystemParams& p) {
 double slow_cost(const SystemParams& p, bool in_regions, double filled = 1.0) {
   const double height = filled * p.height;
   return width_cost(p) * std::pow(kReferenceHeight, 3.0) * height_cost(p, in_regions, height) *
-         relaxation_time(p) * fewer_avalanches(p, in_regions, height) / p.time_step;
+         region_level(p, in_regions) * relaxation_time(p) *
+         fewer_avalanches(p, in_regions, height) / p.time_step;
 }
 // A collapse: its steps grow like sqrt(H) / h (the column's fall), each steps the W H deposit,
 // and a taller column takes more sweeps a step: W H^2 / h. 0.25 (the collapse scenes' seconds per
