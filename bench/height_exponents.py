@@ -41,6 +41,19 @@ def bo1e2_table():
             "slice model a": ([a for a, _ in slice_a], [e for _, e in slice_a])}
 
 
+def h400_present_table():
+    """Bo = 1e3 from H = 400 to 800 with the present program's H = 400 point (10 members,
+    tall-A-H400-2026-12-07.jsonl, jackknife errors) and the H = 800 point of the series above."""
+    results = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
+    with open(os.path.join(results, "tall-A-H400-2026-12-07.jsonl")) as f:
+        h400 = json.loads(f.readline())
+    return {"c of Delta y(y_i) [1e-4]": ((h400["fit_yi"]["coef"][2] * 1e4, 3.97),
+                                         (h400["fit_yi"]["error"][2] * 1e4, 0.13)),
+            "c of Delta y(y_e) [1e-4]": ((h400["fit_ye"]["coef"][2] * 1e4, 3.90),
+                                         (h400["fit_ye"]["error"][2] * 1e4, 0.18)),
+            "slice model a": ((h400["slice_a"][0], 0.335), (h400["slice_a"][1], 0.007))}
+
+
 # Each series: its heights, members per height, records, each quantity's values and errors at
 # those heights (a function that gives them), and the spans of heights fitted.
 SERIES = {
@@ -59,6 +72,13 @@ SERIES = {
                               (0.016, 0.018, 0.013, 0.010, 0.013, 0.007)),
         },
         "spans": ((120, 300), (120, 400), (240, 400), (400, 800), (120, 800)),
+    },
+    "1e3-h400-2026-12-07": {
+        "heights": (400, 800),
+        "members": (10, 4),
+        "records": ("tall-A-H400-2026-12-07.jsonl", "tall-A-H800-2026-11-26.jsonl"),
+        "table": h400_present_table,
+        "spans": ((400, 800),),
     },
     "1e2": {
         "heights": (120, 180, 240, 400),

@@ -167,8 +167,9 @@ def region_points():
     relative_tolerance 1e-3 (each member's CPU summed over 16), the regions of the comparison with
     the whole system (B of each line, its user CPU over its members), the wide runs at H = 120
     (their records' cpu_s_per_member, A and B; at Bo = 1e2 the wide shards' user CPU over the
-    members), and the tall fig. 7 runs at H = 400 (user CPU over 8 members) and 800 (the mean of
-    the members' wall times, each on a core it shared: at most their CPU)."""
+    members), and the tall fig. 7 runs at H = 400 (user CPU over 8 members; the present
+    program's 10 members, their wall times' geometric mean, each on a core of its own) and 800
+    (the mean of the members' wall times, each on a core it shared: at most their CPU)."""
     points = {}
 
     def put(width, height, bond, cpu):
@@ -201,6 +202,8 @@ def region_points():
         add(r["a_point"], sum(map(float, shards)) / members)
     (h400,) = records("tall-A-H400-2026-11-26.jsonl")
     put(40, 400, 1000, h400["cpu_s"] / int(re.search(r"seeds = (\d+)", h400["scene"]).group(1)))
+    (h400,) = records("tall-A-H400-2026-12-07.jsonl")  # each member on a core of its own
+    put(40, 400, 1000, statistics.geometric_mean(h400["member_wall_s"]))
     (h800,) = records("tall-A-H800-2026-11-26.jsonl")  # each member's wall time on a shared core
     put(40, 800, 1000, statistics.mean(h800["member_wall_s"]))
     return points
