@@ -43,15 +43,18 @@ def bo1e2_table():
 
 def h400_present_table():
     """Bo = 1e3 from H = 400 to 800 with the present program's H = 400 point (10 members,
-    tall-A-H400-2026-12-07.jsonl, jackknife errors) and the H = 800 point of the series above."""
+    tall-A-H400-2026-12-07.jsonl, jackknife errors) and the H = 800 point of the "1e3" series."""
     results = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
     with open(os.path.join(results, "tall-A-H400-2026-12-07.jsonl")) as f:
         h400 = json.loads(f.readline())
-    return {"c of Delta y(y_i) [1e-4]": ((h400["fit_yi"]["coef"][2] * 1e4, 3.97),
-                                         (h400["fit_yi"]["error"][2] * 1e4, 0.13)),
-            "c of Delta y(y_e) [1e-4]": ((h400["fit_ye"]["coef"][2] * 1e4, 3.90),
-                                         (h400["fit_ye"]["error"][2] * 1e4, 0.18)),
-            "slice model a": ((h400["slice_a"][0], 0.335), (h400["slice_a"][1], 0.007))}
+    at_400 = {"c of Delta y(y_i) [1e-4]": [c * 1e4 for c in
+                                           (h400["fit_yi"]["coef"][2], h400["fit_yi"]["error"][2])],
+              "c of Delta y(y_e) [1e-4]": [c * 1e4 for c in
+                                           (h400["fit_ye"]["coef"][2], h400["fit_ye"]["error"][2])],
+              "slice model a": h400["slice_a"]}
+    at_800 = SERIES["1e3"]["heights"].index(800)
+    return {name: ((at_400[name][0], values[at_800]), (at_400[name][1], errors[at_800]))
+            for name, (values, errors) in SERIES["1e3"]["table"]().items()}
 
 
 # Each series: its heights, members per height, records, each quantity's values and errors at
