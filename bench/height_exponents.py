@@ -42,7 +42,7 @@ def bo1e2_table():
 
 
 def h400_present_table():
-    """Bo = 1e3 from H = 400 to 800 with the present program's H = 400 point (10 members,
+    """Bo = 1e3 from H = 400 to 800 with the present program's H = 400 point (16 members,
     tall-A-H400-2026-12-07.jsonl, jackknife errors) and the H = 800 point of the "1e3" series."""
     results = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
     with open(os.path.join(results, "tall-A-H400-2026-12-07.jsonl")) as f:
@@ -78,7 +78,7 @@ SERIES = {
     },
     "1e3-h400-2026-12-07": {
         "heights": (400, 800),
-        "members": (10, 4),
+        "members": (16, 4),
         "records": ("tall-A-H400-2026-12-07.jsonl", "tall-A-H800-2026-11-26.jsonl"),
         "table": h400_present_table,
         "spans": ((400, 800),),
