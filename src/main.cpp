@@ -288,7 +288,9 @@ class RunCommand {
   int read_checkpoint();
   std::string run_again_note() const;
   void share_out();
+  double seconds_left(const Member& m) const;
   void announce() const;
+  void announce_cost() const;
   RunHooks hooks();
   void save_checkpoint();
   void write_checkpoint();
@@ -341,6 +343,7 @@ class RunCommand {
   std::vector<Member> todo, mine;
   std::vector<MemberSnapshot> started;
   std::vector<double> shard_cost;  // expected cost of each rank's share
+  double expected_s = 0.0, expected_wall_s = 0.0;  // the model's CPU s left, in all and a rank
   std::string ck_dir, part;
   std::uint64_t fingerprint = 0;  // of the scan, in every checkpoint part (computed once)
   bool selection_written = false;  // the checkpoint's `selection` file, by this rank
@@ -532,10 +535,25 @@ void RunCommand::share_out() {
   const auto shards = shard_members(todo, ranks.size());
   for (std::size_t k : shards[static_cast<std::size_t>(ranks.rank())]) mine.push_back(todo[k]);
   shard_cost.assign(shards.size(), 0.0);
-  for (std::size_t r = 0; r < shards.size(); ++r)
-    for (std::size_t k : shards[r]) shard_cost[r] += expected_cost(todo[k]);
+  for (std::size_t r = 0; r < shards.size(); ++r) {
+    double left = 0.0;
+    for (std::size_t k : shards[r]) {
+      shard_cost[r] += expected_cost(todo[k]);
+      left += seconds_left(todo[k]);
+    }
+    expected_s += left;
+    expected_wall_s = std::max(expected_wall_s, left);
+  }
   latest.resize(static_cast<std::size_t>(ranks.size()));
   final.assign(static_cast<std::size_t>(ranks.size()), 0);
+}
+
+// The cost model's CPU seconds for member m to compute (right within a factor of a few): what is
+// left of it where it goes on from its snapshot.
+double RunCommand::seconds_left(const Member& m) const {
+  for (const auto& snap : started)
+    if (snap.result.member.id == m.id) return cost_left(snap) * kSecondsPerCostUnit;
+  return expected_cost(m) * kSecondsPerCostUnit;
 }
 
 void RunCommand::announce() const {
@@ -556,6 +574,21 @@ void RunCommand::announce() const {
               << members.size() << " members finished, computing the other " << todo.size() << " ("
               << started.size() << " of them from where they were)\n";
   if (o.resume && ck.run_again > 0) std::cerr << "loosepack: " << run_again_note() << "\n";
+  announce_cost();
+}
+
+// What the cost model expects of the members to compute, as `--dry-run` prints it, and how
+// long on this run's ranks.
+void RunCommand::announce_cost() const {
+  char seconds[32];
+  std::snprintf(seconds, sizeof seconds, "%.3g", expected_s);
+  std::cerr << "loosepack: the cost model expects about " << seconds << " CPU s";
+  if (const std::string words = in_words(expected_s); !words.empty())
+    std::cerr << " (" << words << " of one core)";
+  if (ranks.size() > 1)
+    if (const std::string words = in_words(expected_wall_s); !words.empty())
+      std::cerr << ", about " << words << " on the " << ranks.size() << " ranks";
+  std::cerr << ", right within a factor of a few (`--dry-run` gives it by point)\n";
 }
 
 // What a resume under another protocol.max_collapse_time than the checkpoint's computes again.
@@ -1017,20 +1050,16 @@ int RunCommand::dry_run() const {
       "height", "members",
       o.resume ? "expected CPU s per member, of what is left" : "expected CPU s per member");
   // A member that goes on from its snapshot has the share its snapshot had done behind it.
-  std::map<std::uint64_t, double> left;
-  for (const auto& snap : started) left[snap.result.member.id] = cost_left(snap);
   double total = 0.0;
   for (const auto& pt : scan.points) {
     int n = 0;
-    double cost = 0.0;
+    double cost = 0.0;  // right within a factor of a few
     for (const auto& m : o.resume ? todo : members)
       if (m.point == pt.index) {
         ++n;
-        const auto l = left.find(m.id);
-        cost += l == left.end() ? expected_cost(m) : l->second;
+        cost += seconds_left(m);
       }
     if (n == 0) continue;
-    cost *= kSecondsPerCostUnit;  // right within a factor of a few
     total += cost;
     std::printf("%04d   %-5s %-10g %-8g %-8g %-8g %-8d %.3g\n", pt.index,
                 protocol_name(pt.protocol).c_str(), pt.params.bond_number, pt.params.capture_radius,

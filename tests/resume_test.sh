@@ -160,6 +160,10 @@ cp -r t.h5.checkpoint e.h5.checkpoint
 "$exe" run edited.toml -o e.h5 --resume 2>e.log || fail "a comment made the checkpoint unusable"
 grep -q "resuming from e.h5.checkpoint: [1-9][0-9]* of 8 members finished" e.log ||
   fail "the commented scan's resume: $(cat e.log)"
+# It announces what the plan above priced: the model's seconds of what is left.
+want=$(sed -n 's/^# expected: about \([0-9.e+-]*\) CPU s in all.*/\1/p' plan.txt)
+[ -n "$want" ] && grep -qF "loosepack: the cost model expects about $want CPU s" e.log ||
+  fail "the resume's estimate is not the plan's ($want s): $(cat e.log)"
 same full.h5 e.h5 --except scan_text --except scan_file
 sed -i 's/seeds = 4 # edited/seeds = 5/' edited.toml
 cp -r t.h5.checkpoint e5.h5.checkpoint
