@@ -723,7 +723,7 @@ void RunCommand::show(bool force) {
     std::fprintf(stderr,
                  ", %d relaxing for %ld steps or more (the longest for %ld, at %s the rest speed)",
                  p.relaxing_long, kLongRelaxation, p.relax_steps, times(p.relax_speed).c_str());
-  if (const double eta = progress_eta(p, el); eta >= 0.0 && !finished) {
+  if (const double eta = run_eta(latest, final, p, el); eta >= 0.0 && !finished) {
     const std::string words = in_words(eta);
     const std::string spelled = words.empty() ? "" : " (" + words + ")";
     std::fprintf(stderr, ", about %.0f%% done, rough ETA %.0f s%s", 100.0 * p.fraction, eta,

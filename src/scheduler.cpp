@@ -52,6 +52,18 @@ double progress_eta(const Progress& p, double elapsed) {
   return elapsed * (1.0 - p.fraction) / since;
 }
 
+double run_eta(const std::vector<Progress>& ranks, const std::vector<char>& finished,
+               const Progress& all, double elapsed) {
+  double eta = 0.0;
+  for (std::size_t r = 0; r < ranks.size(); ++r) {
+    if (finished[r] || !(ranks[r].fraction < 1.0)) continue;  // done, or a rank with no share
+    const double left = progress_eta(ranks[r], elapsed);
+    if (left < 0.0) return progress_eta(all, elapsed);
+    eta = std::max(eta, left);
+  }
+  return eta;
+}
+
 int default_batch_size() {
   if (kOnDevice) return 4096;
   return Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 64 : 4;

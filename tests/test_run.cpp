@@ -190,6 +190,25 @@ TEST(Progress, EtaCountsTheRateSinceTheStart) {
   EXPECT_LT(progress_eta(p, 10.0), 0.0);
 }
 
+// Under mpirun the run ends with its slowest rank: with one rank done and the other half way
+// after 100 s, 100 s are left, not the 33 s that the whole run's 75 % would say; with both
+// running, the slower one's; while a running rank has no estimate, the whole run's.
+TEST(Progress, EtaIsTheSlowestRanks) {
+  std::vector<Progress> ranks(2);
+  ranks[0].fraction = 1.0;
+  ranks[1].fraction = 0.5;
+  Progress all;
+  all.fraction = 0.75;
+  EXPECT_NEAR(run_eta(ranks, {1, 0}, all, 100.0), 100.0, 1e-9);
+  EXPECT_NEAR(progress_eta(all, 100.0), 100.0 / 3.0, 1e-9);
+  ranks[0].fraction = 0.8;
+  EXPECT_NEAR(run_eta(ranks, {0, 0}, all, 100.0), 100.0, 1e-9);
+  ranks[1].fraction = 0.9;
+  EXPECT_NEAR(run_eta(ranks, {0, 0}, all, 100.0), 25.0, 1e-9);
+  ranks[1].fraction = 0.005;
+  EXPECT_NEAR(run_eta(ranks, {0, 0}, all, 100.0), 100.0 / 3.0, 1e-9);
+}
+
 namespace {
 
 // A run of `scan` stopped at its first snapshot after `reports` progress reports: the snapshots,

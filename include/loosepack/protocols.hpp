@@ -146,6 +146,11 @@ struct Progress {
 // Seconds left at the rate since the start: elapsed (1 - fraction) / (fraction - start_fraction);
 // negative (no estimate) until the run has done 1 % of its cost.
 double progress_eta(const Progress& p, double elapsed);
+// A run under mpirun ends with its slowest rank: the largest of the running ranks' ETAs (each
+// rank's Progress over its own share, `finished` those done), each at its own rate; the whole
+// run's (`all`) while a running rank has no estimate yet.
+double run_eta(const std::vector<Progress>& ranks, const std::vector<char>& finished,
+               const Progress& all, double elapsed);
 using ProgressFn = std::function<void(const Progress&)>;
 
 // What a caller may attach to a run.
