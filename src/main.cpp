@@ -343,7 +343,7 @@ class RunCommand {
   std::vector<Member> todo, mine;
   std::vector<MemberSnapshot> started;
   std::vector<double> shard_cost;  // expected cost of each rank's share
-  double expected_s = 0.0, expected_wall_s = 0.0;  // the model's CPU s left, in all and a rank
+  double expected_s = 0.0, expected_wall_s = 0.0;  // the model's CPU s left: all, busiest rank
   std::string ck_dir, part;
   std::uint64_t fingerprint = 0;  // of the scan, in every checkpoint part (computed once)
   bool selection_written = false;  // the checkpoint's `selection` file, by this rank
@@ -574,7 +574,7 @@ void RunCommand::announce() const {
               << members.size() << " members finished, computing the other " << todo.size() << " ("
               << started.size() << " of them from where they were)\n";
   if (o.resume && ck.run_again > 0) std::cerr << "loosepack: " << run_again_note() << "\n";
-  announce_cost();
+  if (!todo.empty()) announce_cost();
 }
 
 // What the cost model expects of the members to compute, as `--dry-run` prints it, and how

@@ -54,11 +54,13 @@ double progress_eta(const Progress& p, double elapsed) {
 
 double run_eta(const std::vector<Progress>& ranks, const std::vector<char>& finished,
                const Progress& all, double elapsed) {
-  double eta = 0.0;
+  double eta = -1.0;
   for (std::size_t r = 0; r < ranks.size(); ++r) {
-    if (finished[r] || !(ranks[r].fraction < 1.0)) continue;  // done, or a rank with no share
+    const double f = ranks[r].fraction;
+    if (finished[r] || std::isnan(f)) continue;  // done, or a rank with no share (0 of 0)
+    if (f >= 1.0) return -1.0;  // its last member past the model's cost: no estimate
     const double left = progress_eta(ranks[r], elapsed);
-    if (left < 0.0) return progress_eta(all, elapsed);
+    if (left < 0.0) return progress_eta(all, elapsed);  // not yet 1 % on: the whole run's
     eta = std::max(eta, left);
   }
   return eta;

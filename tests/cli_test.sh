@@ -87,7 +87,7 @@ grep -q "CPU s in all (the cost model" "$dir/dry.txt" || fail "--dry-run spells 
 # The run itself announces the dry run's estimate at its start.
 want=$(sed -n 's/^# expected: about \([0-9.e+-]*\) CPU s in all.*/\1/p' "$dir/dry.txt")
 "$exe" run "$dir/good.toml" -o "$dir/announced.h5" 2>"$dir/announced.log"
-[ -n "$want" ] && grep -qF "loosepack: the cost model expects about $want CPU s," "$dir/announced.log" ||
+[ -n "$want" ] && grep -qF "loosepack: the cost model expects about $want CPU s" "$dir/announced.log" ||
   fail "the run's estimate is not the dry run's ($want s): $(cat "$dir/announced.log")"
 # A long estimate also in the unit a reader would use, the largest it fills once: here its seconds
 # over a year of 365.25 days, or over a day (the seconds are printed to 3 digits: within 0.5 %).

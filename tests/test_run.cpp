@@ -207,6 +207,17 @@ TEST(Progress, EtaIsTheSlowestRanks) {
   EXPECT_NEAR(run_eta(ranks, {0, 0}, all, 100.0), 25.0, 1e-9);
   ranks[1].fraction = 0.005;
   EXPECT_NEAR(run_eta(ranks, {0, 0}, all, 100.0), 100.0 / 3.0, 1e-9);
+  // A finished rank counts for nothing whatever it reported last, and so does one with no
+  // members (0 of 0); a running rank at 100 % of the model's cost leaves no estimate, and so
+  // does a run with no rank running.
+  ranks[0].fraction = 0.9;
+  ranks[1].fraction = 0.5;
+  EXPECT_NEAR(run_eta(ranks, {1, 0}, all, 100.0), 100.0, 1e-9);
+  ranks[0].fraction = std::nan("");
+  EXPECT_NEAR(run_eta(ranks, {0, 0}, all, 100.0), 100.0, 1e-9);
+  ranks[0].fraction = 1.0;
+  EXPECT_LT(run_eta(ranks, {0, 0}, all, 100.0), 0.0);
+  EXPECT_LT(run_eta(ranks, {1, 1}, all, 100.0), 0.0);
 }
 
 namespace {

@@ -147,8 +147,11 @@ struct Progress {
 // negative (no estimate) until the run has done 1 % of its cost.
 double progress_eta(const Progress& p, double elapsed);
 // A run under mpirun ends with its slowest rank: the largest of the running ranks' ETAs (each
-// rank's Progress over its own share, `finished` those done), each at its own rate; the whole
-// run's (`all`) while a running rank has no estimate yet.
+// rank's Progress over its own share, `finished` those done; a rank with no members, whose
+// fraction is 0 of 0, left out), each at its own rate; the whole run's (`all`) while a running
+// rank has not done 1 % since its start (or not reported yet); none (negative) while a running
+// rank's fraction has reached 1 (its last member costing more than the model said) or no rank
+// is running.
 double run_eta(const std::vector<Progress>& ranks, const std::vector<char>& finished,
                const Progress& all, double elapsed);
 using ProgressFn = std::function<void(const Progress&)>;
