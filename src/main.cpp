@@ -342,6 +342,7 @@ class RunCommand {
   long resumed_disks = 0;  // the disks of the members finished before the resume
   std::vector<Member> todo, mine;
   std::vector<MemberSnapshot> started;
+  std::map<std::uint64_t, double> cost_left_of;  // of each started member (cost_left), by id
   std::vector<double> shard_cost;  // expected cost of each rank's share
   double expected_s = 0.0, expected_wall_s = 0.0;  // the model's CPU s left: all, busiest rank
   std::string ck_dir, part;
@@ -518,7 +519,10 @@ int RunCommand::read_checkpoint() {
     if (!resumed.count(m.id)) todo.push_back(m);
   // Members that had started go on from their snapshots (every rank has them all).
   for (auto& snap : ck.running)
-    if (selected.count(snap.result.member.id)) started.push_back(std::move(snap));
+    if (selected.count(snap.result.member.id)) {
+      cost_left_of[snap.result.member.id] = cost_left(snap);
+      started.push_back(std::move(snap));
+    }
   part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
   fingerprint = scan_fingerprint(scan);
   if (ck.snapshots && !snapshots) {
@@ -551,9 +555,8 @@ void RunCommand::share_out() {
 // The cost model's CPU seconds for member m to compute (right within a factor of a few): what is
 // left of it where it goes on from its snapshot.
 double RunCommand::seconds_left(const Member& m) const {
-  for (const auto& snap : started)
-    if (snap.result.member.id == m.id) return cost_left(snap) * kSecondsPerCostUnit;
-  return expected_cost(m) * kSecondsPerCostUnit;
+  const auto left = cost_left_of.find(m.id);
+  return (left == cost_left_of.end() ? expected_cost(m) : left->second) * kSecondsPerCostUnit;
 }
 
 void RunCommand::announce() const {
