@@ -534,16 +534,20 @@ int RunCommand::read_checkpoint() {
   return 0;
 }
 
-// This rank's share of the members to compute, balanced by their expected cost.
+// This rank's share of the members to compute, balanced by what the cost model leaves of each
+// (the whole of a member not started, the rest of one that goes on from its snapshot), so that
+// a resumed run's ranks end together.
 void RunCommand::share_out() {
-  const auto shards = shard_members(todo, ranks.size());
+  std::vector<double> left_of;
+  for (const auto& m : todo) left_of.push_back(seconds_left(m));
+  const auto shards = balance_costs(left_of, ranks.size());
   for (std::size_t k : shards[static_cast<std::size_t>(ranks.rank())]) mine.push_back(todo[k]);
   shard_cost.assign(shards.size(), 0.0);
   for (std::size_t r = 0; r < shards.size(); ++r) {
     double left = 0.0;
     for (std::size_t k : shards[r]) {
       shard_cost[r] += expected_cost(todo[k]);
-      left += seconds_left(todo[k]);
+      left += left_of[k];
     }
     expected_s += left;
     expected_wall_s = std::max(expected_wall_s, left);

@@ -221,22 +221,27 @@ double cost_left(const MemberSnapshot& snap) {
   return std::max(0.0, expected_cost(m) - running_cost(m, snap.phase, got));
 }
 
-std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members, int ranks) {
+std::vector<std::vector<std::size_t>> balance_costs(const std::vector<double>& costs, int ranks) {
   std::vector<std::vector<std::size_t>> out(static_cast<std::size_t>(std::max(1, ranks)));
-  std::vector<std::size_t> order(members.size());
+  std::vector<std::size_t> order(costs.size());
   for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
-  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return expected_cost(members[a]) > expected_cost(members[b]);
-  });
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return costs[a] > costs[b]; });
   std::vector<double> load(out.size(), 0.0);
   for (std::size_t k : order) {
     const auto r =
         static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
-    load[r] += expected_cost(members[k]);
+    load[r] += costs[k];
     out[r].push_back(k);
   }
   for (auto& v : out) std::sort(v.begin(), v.end());
   return out;
+}
+
+std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members, int ranks) {
+  std::vector<double> costs;
+  for (const auto& m : members) costs.push_back(expected_cost(m));
+  return balance_costs(costs, ranks);
 }
 
 }  // namespace loosepack

@@ -561,6 +561,20 @@ TEST(Checkpoint, ShardsBalanceExpectedCost) {
   EXPECT_EQ(shard_members({}, 4).size(), 4u);
 }
 
+// A resumed MPI run balances what is left: of four equal members, the two that had nearly
+// finished go one to each rank with a fresh one, where their full costs would pair the two
+// fresh ones on one rank (members 0 and 2 on one rank, 1 and 3 on the other).
+TEST(Checkpoint, RanksBalanceTheCostLeft) {
+  EXPECT_EQ(balance_costs({1.0, 1.0, 1.0, 1.0}, 2),
+            (std::vector<std::vector<std::size_t>>{{0, 2}, {1, 3}}));
+  const auto left = balance_costs({0.1, 1.0, 0.1, 1.0}, 2);
+  ASSERT_EQ(left.size(), 2u);
+  EXPECT_EQ(left[0], std::vector<std::size_t>({0, 1}));
+  EXPECT_EQ(left[1], std::vector<std::size_t>({2, 3}));
+  EXPECT_EQ(balance_costs({}, 3), std::vector<std::vector<std::size_t>>(3));
+  EXPECT_EQ(balance_costs({2.0, 1.0}, 0), (std::vector<std::vector<std::size_t>>{{0, 1}}));
+}
+
 namespace {
 // A protocol-A member of the given Bond number and box, at the time step of Bo = 1e3.
 Member deposit_member(double bo, double width, double height) {

@@ -1,6 +1,7 @@
 // MPI ranks of one run (OpenMPI; without MPI a run is one rank). Members are sharded over the
-// ranks (shard_members), each rank runs its share, and rank 0 gathers the results and writes
-// the output file; progress from every rank reaches rank 0, which alone talks to the user.
+// ranks by what the cost model leaves of each (balance_costs), each rank runs its share, and
+// rank 0 gathers the results and writes the output file; progress from every rank reaches rank
+// 0, which alone talks to the user.
 #pragma once
 #include <memory>
 #include <string>

@@ -262,9 +262,14 @@ double running_cost(const Member& m, MemberPhase phase, double got);
 // `--dry-run`): expected_cost less the share its snapshot had done.
 double cost_left(const MemberSnapshot& snap);
 
-// Splits members over `ranks` so that the expected costs balance (largest first, each to the
-// least loaded rank; ties to the lower rank). Deterministic: every rank computes the same.
-// Returns, per rank, indices into `members` in increasing order.
+// Splits work items of the given costs over `ranks` so that the costs balance (largest first,
+// each to the least loaded rank; ties to the lower index and rank). Deterministic: every rank
+// computes the same. Returns, per rank, indices into `costs` in increasing order.
+std::vector<std::vector<std::size_t>> balance_costs(const std::vector<double>& costs, int ranks);
+
+// balance_costs of the members' expected costs: the split of a scan into shards (`run --shard
+// K/N`), fixed by the scan alone. An MPI run balances what is left of each member instead
+// (cost_left of a started one), so that a resumed run's ranks end together.
 std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members, int ranks);
 
 // Grid capacity for one member: enough slots for the densest packing below H.
