@@ -7,7 +7,8 @@ For two runs of the same scan points with different settings (relaxation regions
 whole system, two time steps, two program versions), prints per point one row per quantity:
 each file's value with its standard error, and how far apart they are in combined standard
 errors, sqrt(e_A^2 + e_B^2) (a pair whose files define the observables otherwise, their bands,
-strips, bins, stop rule or event threshold, is said to be):
+strips, bins, stop rule or event threshold, is said to be); an unpaired scalar also gives A/B,
+its error from the two relative errors to first order (the JSON's `ratio`, `ratio_error`):
 
   nu_lower_half, mean abs(Delta y) the point's ensemble means and standard errors (protocol C
                                   also nu_i and dnu/nu_i)
@@ -131,6 +132,8 @@ class Row:
             number = lambda v: float(v) if math.isfinite(v) else None
             for key, v in zip(("a_value", "a_error", "b_value", "b_error"), self.values):
                 record[key] = number(v)
+            if self.paired is None and (q := ratio(*self.values)):
+                record["ratio"], record["ratio_error"] = map(number, q)
         if self.paired is not None:
             record["paired_difference"], record["paired_error"] = map(number, self.paired)
         return record
@@ -140,15 +143,28 @@ def value(v, e):
     return f"{v:.4g} +- {e:.2g}"
 
 
+def ratio(a, ea, b, eb):
+    """A / B and its standard error to first order, the two estimates independent; None where B
+    is 0 (a ratio that means nothing) or A is (no relative error)."""
+    if a == 0 or b == 0:
+        return None
+    q = a / b
+    return q, abs(q) * math.hypot(ea / a, eb / b)
+
+
 def scalar(name, a, ea, b, eb, sigma):
-    """Two estimates with standard errors: their distance in combined standard errors."""
+    """Two estimates with standard errors: their distance in combined standard errors, and A / B
+    (how a width or a setting scales a quantity, as docs/REPRODUCTION.md quotes it)."""
     combined = math.hypot(ea, eb)
     if math.isnan(a) or math.isnan(b) or math.isnan(combined):
         return Row(name, value(a, ea), value(b, eb), math.nan, sigma,
                    "not judged (no value or no error: fewer than two members finished)",
                    (a, ea, b, eb))
     z = abs(b - a) / combined if combined > 0 else (0.0 if a == b else math.inf)
-    return Row(name, value(a, ea), value(b, eb), z, sigma, f"{z:.2f} sigma", (a, ea, b, eb))
+    detail = f"{z:.2f} sigma"
+    if q := ratio(a, ea, b, eb):
+        detail += f"; A/B {q[0]:.3g} +- {q[1]:.2g}"
+    return Row(name, value(a, ea), value(b, eb), z, sigma, detail, (a, ea, b, eb))
 
 
 def one_sided(name, in_a, in_b):

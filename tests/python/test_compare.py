@@ -466,3 +466,18 @@ def test_claims_histogram_fits_are_the_programs(runs):
             assert chi2 == pytest.approx(g.attrs["chi2"], rel=1e-6)
             assert ts == pytest.approx((g.attrs["next_term_t"], g.attrs["second_term_t"]),
                                        rel=1e-5)
+
+
+def test_scalars_give_the_ratio_of_their_values(runs):
+    d, cohesive, weak = runs
+    run_tool(cohesive, weak, "--json", d / "ratio.jsonl")
+    rows = {r["quantity"]: r for r in json.loads(open(d / "ratio.jsonl").read())["rows"]}
+    r = rows["mean abs(Delta y) [R]"]
+    q = r["a_value"] / r["b_value"]
+    assert r["ratio"] == pytest.approx(q, rel=1e-12)
+    assert r["ratio_error"] == pytest.approx(
+        q * math.hypot(r["a_error"] / r["a_value"], r["b_error"] / r["b_value"]), rel=1e-12)
+    assert f"A/B {q:.3g}" in r["detail"]
+    assert "ratio" not in rows["nu(y)"]  # a chi2 row has no value to divide
+    assert compare.ratio(1.0, 0.1, 0.0, 0.1) is None  # nothing to divide by
+    assert compare.ratio(2.0, 0.2, 4.0, 0.4) == pytest.approx((0.5, 0.5 * math.hypot(0.1, 0.1)))
