@@ -21,8 +21,12 @@ import math
 import os
 import re
 import subprocess
+import sys
 
 import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tools"))
+from compare import ratio  # noqa: E402  (A/B and its first-order error, as compare.py gives it)
 
 RESULTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "results")
 CURVATURES = ("Delta y(y_i): c", "Delta y(y_e): c")
@@ -65,12 +69,6 @@ def pairs(paths):
                 if key not in out or rank(pair) >= rank(out[key]):
                     out[key] = pair
     return out
-
-
-def ratio(a, ea, b, eb):
-    """a / b and its first-order error, the two independent."""
-    q = a / b
-    return q, abs(q) * math.hypot(ea / a, eb / b)
 
 
 def constant_and_power(heights, ratios, errors):
