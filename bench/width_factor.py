@@ -50,6 +50,7 @@ def pairs(paths):
     """Each width pair of the records, keyed by (Bond number, wide width, height): the wide and
     narrow members, the record's file and date, and each curvature's two values and errors."""
     out = {}
+    rank = lambda p: (p["members"], p["date"])  # most wide members, then narrow, then latest
     for path in paths:
         date = re.search(r"(\d{4}-\d\d-\d\d)", os.path.basename(path)).group(1)
         with open(path) as f:
@@ -65,7 +66,6 @@ def pairs(paths):
                         "c": {q: value_of(rows[q], "a") + value_of(rows[q], "b")
                               for q in CURVATURES}}
                 key = (bond, wide, height)
-                rank = lambda p: (p["members"], p["date"])
                 if key not in out or rank(pair) >= rank(out[key]):
                     out[key] = pair
     return out

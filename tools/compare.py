@@ -163,7 +163,7 @@ def scalar(name, a, ea, b, eb, sigma):
     z = abs(b - a) / combined if combined > 0 else (0.0 if a == b else math.inf)
     detail = f"{z:.2f} sigma"
     if q := ratio(a, ea, b, eb):
-        detail += f"; A/B {q[0]:.3g} +- {q[1]:.2g}"
+        detail += f"; A/B {q[0]:#.3g} +- {q[1]:.2g}"
     return Row(name, value(a, ea), value(b, eb), z, sigma, detail, (a, ea, b, eb))
 
 

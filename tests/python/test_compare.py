@@ -477,7 +477,7 @@ def test_scalars_give_the_ratio_of_their_values(runs):
     assert r["ratio"] == pytest.approx(q, rel=1e-12)
     assert r["ratio_error"] == pytest.approx(
         q * math.hypot(r["a_error"] / r["a_value"], r["b_error"] / r["b_value"]), rel=1e-12)
-    assert f"A/B {q:.3g}" in r["detail"]
+    assert f"A/B {q:#.3g}" in r["detail"]  # three digits, trailing zeros kept
     assert "ratio" not in rows["nu(y)"]  # a chi2 row has no value to divide
     assert compare.ratio(1.0, 0.1, 0.0, 0.1) is None  # nothing to divide by
     assert compare.ratio(2.0, 0.2, 4.0, 0.4) == pytest.approx((0.5, 0.5 * math.hypot(0.1, 0.1)))
