@@ -1,7 +1,7 @@
-// Shards: the members of one scan split into N parts that run apart (`loosepack run SCAN
-// --shard K/N`, one job of a batch system's job array each), each writing a result file of its
-// own, and merged into the file one run of the whole scan writes (`loosepack merge`). A shard
-// is what rank K of an N-rank run computes; its file carries its members as a checkpoint part
+// Shards: the members of one scan split into N parts that run apart (`loosepack run SCAN --shard
+// K/N`, one job of a batch system's job array each), each writing a result file of its own, and
+// merged into the file one run of the whole scan writes (`loosepack merge`). A shard is what rank K
+// of an N-rank run started afresh computes; its file carries its members as a checkpoint part
 // encodes them, which is how MPI ranks send theirs to rank 0. Every file of fewer than all of a
 // scan's members carries them so (a member's, the finished ones'), and merges alike.
 #pragma once
@@ -25,7 +25,8 @@ class ShardError : public std::runtime_error {
 // "K/N" as (K, N), 0 <= K < N; throws ShardError saying what is wrong.
 std::pair<int, int> parse_shard(const std::string& text);
 
-// The members of shard k of n: rank k's share of an n-rank run (shard_members), in member order.
+// The members of shard k of n: rank k's share of an n-rank run that starts afresh (shard_members;
+// a resumed run balances what is left instead), in member order.
 std::vector<Member> shard_of(const std::vector<Member>& members, int k, int n);
 
 // The files of some of one scan's members, read for a merge (`loosepack merge`): shards' files,
