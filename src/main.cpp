@@ -673,6 +673,12 @@ std::string times(double ratio) {
   std::snprintf(buf, sizeof buf, ratio >= 10.0 ? "%.0f times" : "%.2g times", ratio);
   return buf;
 }
+
+// ", at R times the rest speed" for a speed over the rest speed, nothing where it is not known
+// (negative: Progress::relax_speed).
+std::string at_speed(double ratio) {
+  return ratio >= 0.0 ? ", at " + times(ratio) + " the rest speed" : "";
+}
 }  // namespace
 
 // Progress of all ranks, on rank 0, at most every 2 s unless forced; the line of every member
@@ -720,16 +726,15 @@ void RunCommand::show(bool force) {
   if (p.disks_before > 0) std::fprintf(stderr, " (%ld before the resume)", p.disks_before);
   std::fprintf(stderr, ", %.0f disks/s, %.0f s elapsed", el > 0 ? disks_here / el : 0.0, el);
   if (p.collapsing > 0) {
-    std::fprintf(stderr, ", %d collapsing (the longest for %ld steps, at %s the rest speed",
-                 p.collapsing, p.collapse_steps, times(p.collapse_speed).c_str());
+    std::fprintf(stderr, ", %d collapsing (the longest for %ld steps%s", p.collapsing,
+                 p.collapse_steps, at_speed(p.collapse_speed).c_str());
     if (p.collapse_mean_speed >= 0.0)
       std::fprintf(stderr, ", averaged %s", times(p.collapse_mean_speed).c_str());
     std::fprintf(stderr, ")");
   }
   if (p.relaxing_long > 0)
-    std::fprintf(stderr,
-                 ", %d relaxing for %ld steps or more (the longest for %ld, at %s the rest speed)",
-                 p.relaxing_long, kLongRelaxation, p.relax_steps, times(p.relax_speed).c_str());
+    std::fprintf(stderr, ", %d relaxing for %ld steps or more (the longest for %ld%s)",
+                 p.relaxing_long, kLongRelaxation, p.relax_steps, at_speed(p.relax_speed).c_str());
   if (const double eta = run_eta(latest, final, p, el); eta >= 0.0 && !finished) {
     const std::string words = in_words(eta);
     const std::string spelled = words.empty() ? "" : " (" + words + ")";

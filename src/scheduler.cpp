@@ -444,12 +444,13 @@ void MemberRun::report() {
 }
 
 // The largest speed of slot k's system after its last step (its region's, in a region), over
-// rest.speed: what the rest test compares.
+// rest.speed: what the rest test compares; -1 where the system has not stepped since it was
+// loaded (a region cut again around the moving disks), whose speed is not known yet.
 double MemberRun::speed_over_rest(std::size_t k) const {
   const int s = static_cast<int>(k);
   const SystemStatus& st =
       slots_[k].phase == Phase::Region ? regions_->status(s) : batch_->status(s);
-  return st.rest_speed(scan_.rest.spin) / scan_.rest.speed;
+  return st.steps > 0 ? st.rest_speed(scan_.rest.spin) / scan_.rest.speed : -1.0;
 }
 
 // Slot sl's running_cost, computed again only where its phase or its progress changed: report()

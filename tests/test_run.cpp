@@ -614,3 +614,40 @@ TEST(Backend, DefaultsFillOnlyWhatTheScanLeavesOpen) {
   resolve_backend_defaults(fused, 100);
   EXPECT_TRUE(fused.solver.fused_step);
 }
+
+// In a relaxation region the progress line names the speed of the region's last step; a region
+// cut again around the moving disks has taken none yet, and its speed is not known: reported as
+// -1 (not as the 0 of a system at rest), and the line then names no speed. Frictionless disks in
+// regions of radius 5 slide on for more than kLongRelaxation steps, their regions cut again as
+// they move.
+TEST(Progress, ARegionCutAgainNamesNoSpeedBeforeItSteps) {
+  const auto scan = scan_of(R"(
+[scan]
+protocol = "A"
+seeds = 2
+[system]
+width = 16.0
+height = 12.0
+bond_number = 0.0
+friction = 0.0
+rolling_friction = 0.0
+[protocol]
+region_radius = 5.0
+region_check_every = 1
+[observables]
+lower_half_from = 0.0
+)");
+  int reports = 0, unknown = 0;
+  RunHooks hooks;
+  hooks.progress = [&](const Progress& p) {
+    if (p.relaxing_long == 0) return;
+    ++reports;
+    if (p.relax_speed == -1.0)
+      ++unknown;
+    else
+      EXPECT_GE(p.relax_speed, 0.0);
+  };
+  run_members(scan, members_of(scan), hooks);
+  EXPECT_GT(reports, 1000);
+  EXPECT_GT(unknown, 0);  // the scene reports between a cut and its region's first step
+}

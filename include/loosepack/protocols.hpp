@@ -125,7 +125,8 @@ struct Progress {
   // collapse deposits nothing, so without them a long one would look stalled).
   int collapsing = 0;
   long collapse_steps = 0;
-  double collapse_speed = 0.0;  // that collapse's largest speed over rest.speed (the rest test's)
+  // That collapse's largest speed over rest.speed (the rest test's); -1 before its first step.
+  double collapse_speed = 0.0;
   // ... and its mean speed over rest.speed (the averaged rest test's, rest.average_span;
   // SystemStatus::mean_speed): negative until its second span has ended.
   double collapse_mean_speed = -1.0;
@@ -134,7 +135,9 @@ struct Progress {
   // for thousands of steps, at the paper's size for hours, depositing nothing meanwhile).
   int relaxing_long = 0;
   long relax_steps = 0;
-  double relax_speed = 0.0;  // that relaxation's largest speed over rest.speed
+  // That relaxation's largest speed over rest.speed; -1 where its system has not stepped yet
+  // (a relaxation region cut again around the moving disks, between the cut and its step).
+  double relax_speed = 0.0;
   // Fraction of the run's expected cost (expected_cost) done, counting running members by how
   // far they got: for the ETA only.
   double fraction = 0.0;
