@@ -65,6 +65,8 @@ def pairs(paths):
                         "record": os.path.basename(path),
                         "c": {q: value_of(rows[q], "a") + value_of(rows[q], "b")
                               for q in CURVATURES}}
+                if not all(ratio(*c) for c in pair["c"].values()):
+                    continue  # a narrow curvature not resolved from 0: no ratio to take
                 key = (bond, wide, height)
                 if key not in out or rank(pair) >= rank(out[key]):
                     out[key] = pair

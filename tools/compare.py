@@ -8,7 +8,8 @@ whole system, two time steps, two program versions), prints per point one row pe
 each file's value with its standard error, and how far apart they are in combined standard
 errors, sqrt(e_A^2 + e_B^2) (a pair whose files define the observables otherwise, their bands,
 strips, bins, stop rule or event threshold, is said to be); an unpaired scalar also gives A/B,
-its error from the two relative errors to first order (the JSON's `ratio`, `ratio_error`):
+its error from the two relative errors to first order (the JSON's `ratio`, `ratio_error`), where
+B lies more than two of its errors from 0:
 
   nu_lower_half, mean abs(Delta y) the point's ensemble means and standard errors (protocol C
                                   also nu_i and dnu/nu_i)
@@ -145,8 +146,9 @@ def value(v, e):
 
 def ratio(a, ea, b, eb):
     """A / B and its standard error to first order, the two estimates independent; None where B
-    is 0 (a ratio that means nothing) or A is (no relative error)."""
-    if a == 0 or b == 0:
+    is not resolved from 0 (within two of its errors: a ratio whose first-order error means
+    nothing, as for a profile's constant a near 0) or A is 0 (no relative error)."""
+    if a == 0 or not abs(b) > 2 * eb:
         return None
     q = a / b
     return q, abs(q) * math.hypot(ea / a, eb / b)

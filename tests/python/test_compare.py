@@ -480,4 +480,6 @@ def test_scalars_give_the_ratio_of_their_values(runs):
     assert f"A/B {q:#.3g}" in r["detail"]  # three digits, trailing zeros kept
     assert "ratio" not in rows["nu(y)"]  # a chi2 row has no value to divide
     assert compare.ratio(1.0, 0.1, 0.0, 0.1) is None  # nothing to divide by
+    assert compare.ratio(1.0, 0.1, 0.15, 0.1) is None  # B within two errors of 0
+    assert compare.ratio(1.0, 0.1, 0.25, 0.1) is not None
     assert compare.ratio(2.0, 0.2, 4.0, 0.4) == pytest.approx((0.5, 0.5 * math.hypot(0.1, 0.1)))

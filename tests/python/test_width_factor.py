@@ -77,3 +77,12 @@ def test_the_pair_of_most_members_is_taken_and_other_widths_kept_apart(tmp_path)
     assert by[(1000.0, 100.0)]["pairs"][0]["members"] == (8, 16)
     assert by[(1000.0, 200.0)]["ratios"][wf.CURVATURES[0]][0][0] == pytest.approx(2.0)
     assert by[(1000.0, 300.0)]["fits"][wf.CURVATURES[0]][4] is None  # one height: no power
+
+
+def test_a_narrow_curvature_not_resolved_from_zero_leaves_its_height_out(tmp_path):
+    flat = record(180, 1.0, 1.0)
+    for row in flat["rows"]:
+        row.update(b_value=0.01, b_error=0.04)  # the 40 R box's c within its error of 0
+    path = write(tmp_path / "paper-width-A-z-2026-01-01.jsonl",
+                 [record(120, 0.9, 1.0), flat, record(240, 0.9, 1.0)])
+    assert wf.series(wf.pairs([path]))[(1000.0, 100.0)]["heights"] == [120, 240]
