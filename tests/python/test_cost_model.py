@@ -8,6 +8,7 @@ the same model with the height exponent of Bo = 1e2 for every Bond number and th
 without the Bond number's relaxation time either, and it orders the scenes as their measured
 costs do."""
 
+import glob
 import json
 import math
 import os
@@ -167,7 +168,8 @@ def region_points():
     relative_tolerance 1e-3 (each member's CPU summed over 16), the regions of the comparison with
     the whole system (B of each line, its user CPU over its members), the wide runs at H = 120
     (their records' cpu_s_per_member, A and B; at Bo = 1e2 the wide shards' user CPU over the
-    members), and the tall fig. 7 runs at H = 400 (user CPU over 8 members; the present
+    members; the width pairs whose records hold each member's wall time, `member_wall_s`, one
+    rank a core, their geometric mean), and the tall fig. 7 runs at H = 400 (user CPU over 8 members; the present
     program's 16 members, their wall times' geometric mean, each on a core of its own) and 800
     (the mean of the members' wall times, each on a core it shared: at most their CPU)."""
     points = {}
@@ -200,6 +202,10 @@ def region_points():
         shards = re.search(r"user CPU s: wide shards ([0-9.]+), ([0-9.]+)", r["label"]).groups()
         members = int(re.search(r"members (\d+)$", r["a_point"]).group(1))
         add(r["a_point"], sum(map(float, shards)) / members)
+    for path in sorted(glob.glob(os.path.join(RESULTS, "paper-width-A-*.jsonl"))):
+        for r in records(os.path.basename(path)):  # width pairs with each member's CPU
+            for side, walls in r.get("member_wall_s", {}).items():
+                add(r[side + "_point"], statistics.geometric_mean(walls))
     (h400,) = records("tall-A-H400-2026-11-26.jsonl")
     put(40, 400, 1000, h400["cpu_s"] / int(re.search(r"seeds = (\d+)", h400["scene"]).group(1)))
     (h400,) = records("tall-A-H400-2026-12-07.jsonl")  # each member on a core of its own
