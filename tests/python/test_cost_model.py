@@ -169,9 +169,10 @@ def region_points():
     the whole system (B of each line, its user CPU over its members), the wide runs at H = 120
     (their records' cpu_s_per_member, A and B; at Bo = 1e2 the wide shards' user CPU over the
     members; the width pairs whose records hold each member's wall time, `member_wall_s`, one
-    rank a core, their geometric mean), and the tall fig. 7 runs at H = 400 (user CPU over 8 members; the present
-    program's 16 members, their wall times' geometric mean, each on a core of its own) and 800
-    (the mean of the members' wall times, each on a core it shared: at most their CPU)."""
+    rank a core, their geometric mean), and the tall fig. 7 runs at H = 400 (user CPU over 8
+    members; the present program's 16 members, their wall times' geometric mean, each on a core
+    of its own) and 800 (the mean of the members' wall times, each on a core it shared: at most
+    their CPU)."""
     points = {}
 
     def put(width, height, bond, cpu):
