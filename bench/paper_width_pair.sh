@@ -1,39 +1,50 @@
 #!/usr/bin/env bash
 # Fig. 7 at the paper's width (docs/REPRODUCTION.md, "At the paper's width"): protocol A at
-# Bo = 1e3 and one height, a wide box against a 40 R box, with the settings of the tall and wide
-# fig. 7 files (relaxation regions r = 8 checked every 10th disk, `solver.tolerance` = 3e-3) and
-# the paper's stop rule at both widths, scan seed 2011; then tools/compare.py on the pair.
+# Bo = 1e3 (or another Bond number) and one height, a wide box against a 40 R box, with the
+# settings of the tall and wide fig. 7 files (relaxation regions r = 8 checked every 10th disk,
+# `solver.tolerance` = 3e-3) and the paper's stop rule at both widths, scan seed 2011; then
+# tools/compare.py on the pair.
 #
-#   bench/paper_width_pair.sh OUT_DIR HEIGHT [WIDTH] [WIDE_MEMBERS] [NARROW_MEMBERS]
+#   bench/paper_width_pair.sh OUT_DIR HEIGHT [WIDTH] [WIDE_MEMBERS] [NARROW_MEMBERS] \
+#     [BOND TIME_STEP]
 #
 # WIDTH of the wide box in R (default 200), WIDE_MEMBERS (default 2) and NARROW_MEMBERS (default
-# 16) members. Each scan runs as two shards side by side (`run --shard 0/2` and `1/2`, a core
-# each) that write a checkpoint every 5 minutes, then `loosepack merge` joins them. Stop it with
-# Ctrl-C: the shards save their checkpoints, and the next call with the same arguments goes on
-# from them (a shard whose file is there is not run again). The comparison is appended to
-# OUT_DIR/comparison.jsonl, labelled with the shards' user CPU seconds and the program's version
-# (the test bench_paper_width_pair_tiny runs it on boxes 48 R and 40 R wide, 24 R tall).
+# 16) members; BOND and TIME_STEP another Bond number and its step for both boxes (fig. 11's:
+# 100 0.009), the scans then named with _bo and the Bond number. Each scan runs as two shards
+# side by side (`run --shard 0/2` and `1/2`, a core each) that write a checkpoint every 5
+# minutes, then `loosepack merge` joins them. Stop it with Ctrl-C: the shards save their
+# checkpoints, and the next call with the same arguments goes on from them (a shard whose file is
+# there is not run again). The comparison is appended to OUT_DIR/comparison.jsonl, labelled with
+# the shards' user CPU seconds and the program's version (the test bench_paper_width_pair_tiny
+# runs it on boxes 48 R and 40 R wide, 24 R tall, at Bo = 1e3 and 1e2).
 # LOOSEPACK names the binary (default build/loosepack); a checkpoint goes on only with the build
 # that wrote it.
 set -euo pipefail
 usage="usage: paper_width_pair.sh OUT_DIR HEIGHT [WIDTH] [WIDE_MEMBERS] [NARROW_MEMBERS]"
+usage+=" [BOND TIME_STEP]"
 out=${1:?$usage}
 height=$(printf '%.1f' "${2:?$usage}")
 width=$(printf '%.1f' "${3:-200}")
 wide_members=${4:-2}
 narrow_members=${5:-16}
+bond=${6:-} time_step=${7:-}
+[ -z "$bond" ] || [ -n "$time_step" ] || { echo "$usage (BOND needs its TIME_STEP)" >&2; exit 2; }
 here=$(cd "$(dirname "$0")" && pwd)
 exe=$(realpath "${LOOSEPACK:-$here/../build/loosepack}")
 paper="$here/../examples/paper"
 mkdir -p "$out"
 cd "$out"
 
-# scan NAME EXAMPLE WIDTH MEMBERS: the example file at this height and width, its own name,
-# the paper's stop rule, MEMBERS seeds in batches of one (a shard's members one after another).
+# scan NAME EXAMPLE WIDTH MEMBERS: the example file at this height and width (and Bond number),
+# its own name, the paper's stop rule, MEMBERS seeds in batches of one (a shard's members one
+# after another).
 scan() {
+  local bond_edits=()
+  [ -z "$bond" ] || bond_edits=(-e "s/^bond_number = .*/bond_number = $(printf '%.1f' "$bond")/"
+    -e "s/^time_step = .*/time_step = $time_step/")
   sed -e "s/^name = .*/name = \"$1\"/" -e "s/^seeds = .*/seeds = $4/" \
     -e "s/^batch_size = .*/batch_size = 1/" -e "s/^width = .*/width = $3/" \
-    -e "s/^height = .*/height = $height/" -e '/^stop_rule = /d' \
+    -e "s/^height = .*/height = $height/" -e '/^stop_rule = /d' "${bond_edits[@]}" \
     -e 's/^\[protocol\]$/[protocol]\nstop_rule = "no_room"/' "$paper/$2" >"$1.toml"
   "$exe" run "$1.toml" --dry-run >/dev/null # refuses a file the edits broke, naming the line
 }
@@ -63,7 +74,8 @@ shards() {
 # The user CPU seconds of NAME's shards over all their runs.
 cpu() { cat "$1"-[01].cpu 2>/dev/null | awk '{s += $1} END {printf "%.0f", s}'; }
 
-wide="wide${width%.0}_h${height%.0}" narrow="narrow40_h${height%.0}"
+tag=${bond:+_bo$bond}
+wide="wide${width%.0}_h${height%.0}$tag" narrow="narrow40_h${height%.0}$tag"
 scan "$wide" fig07_scaled_profiles_wide.toml "$width" "$wide_members"
 scan "$narrow" fig07_scaled_profiles_tall.toml 40.0 "$narrow_members"
 shards "$wide"
