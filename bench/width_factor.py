@@ -48,7 +48,8 @@ def value_of(row, side):
 
 def pairs(paths):
     """Each width pair of the records, keyed by (Bond number, wide width, height): the wide and
-    narrow members, the record's file and date, and each curvature's two values and errors."""
+    narrow members, the record's file and date, and each curvature's ratio wide / narrow with
+    its error (compare.py's `ratio`)."""
     out = {}
     rank = lambda p: (p["members"], p["date"])  # most wide members, then narrow, then latest
     for path in paths:
@@ -63,9 +64,9 @@ def pairs(paths):
                     continue
                 pair = {"members": (wide_members, narrow_members), "date": date,
                         "record": os.path.basename(path),
-                        "c": {q: value_of(rows[q], "a") + value_of(rows[q], "b")
-                              for q in CURVATURES}}
-                if not all(ratio(*c) for c in pair["c"].values()):
+                        "ratio": {q: ratio(*value_of(rows[q], "a"), *value_of(rows[q], "b"))
+                                  for q in CURVATURES}}
+                if not all(pair["ratio"].values()):
                     continue  # a narrow curvature not resolved from 0: no ratio to take
                 key = (bond, wide, height)
                 if key not in out or rank(pair) >= rank(out[key]):
@@ -98,7 +99,7 @@ def series(pairs_by_key):
         s["heights"].append(height)
         s["pairs"].append(pair)
         for q in CURVATURES:
-            s["ratios"].setdefault(q, []).append(ratio(*pair["c"][q]))
+            s["ratios"].setdefault(q, []).append(pair["ratio"][q])
     for s in out.values():
         s["fits"] = {q: constant_and_power(s["heights"], [v for v, _ in rs], [e for _, e in rs])
                      for q, rs in s["ratios"].items()}
