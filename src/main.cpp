@@ -288,7 +288,6 @@ class RunCommand {
   int read_checkpoint();
   std::string run_again_note() const;
   void share_out();
-  double seconds_left(const Member& m) const;
   void announce() const;
   void announce_cost() const;
   RunHooks hooks();
@@ -342,7 +341,6 @@ class RunCommand {
   long resumed_disks = 0;  // the disks of the members finished before the resume
   std::vector<Member> todo, mine;
   std::vector<MemberSnapshot> started;
-  std::map<std::uint64_t, double> cost_left_of;  // of each started member (cost_left), by id
   std::vector<double> shard_cost;  // expected cost of each rank's share
   double expected_s = 0.0, expected_wall_s = 0.0;  // the model's CPU s left: all, busiest rank
   std::string ck_dir, part;
@@ -520,7 +518,6 @@ int RunCommand::read_checkpoint() {
   // Members that had started go on from their snapshots (every rank has them all).
   for (auto& snap : ck.running)
     if (selected.count(snap.result.member.id)) {
-      cost_left_of[snap.result.member.id] = cost_left(snap);
       started.push_back(std::move(snap));
     }
   part = checkpoint_part(ck_dir, ck.generation + 1, ranks.rank());
@@ -535,32 +532,18 @@ int RunCommand::read_checkpoint() {
 }
 
 // This rank's share of the members to compute, balanced by what the cost model leaves of each
-// (the whole of a member not started, the rest of one that goes on from its snapshot), so that
-// a resumed run's ranks end together.
+// (share_over_ranks), so that a resumed run's ranks end together.
 void RunCommand::share_out() {
-  std::vector<double> left_of;
-  for (const auto& m : todo) left_of.push_back(seconds_left(m));
-  const auto shards = balance_costs(left_of, ranks.size());
-  for (std::size_t k : shards[static_cast<std::size_t>(ranks.rank())]) mine.push_back(todo[k]);
-  shard_cost.assign(shards.size(), 0.0);
-  for (std::size_t r = 0; r < shards.size(); ++r) {
-    double left = 0.0;
-    for (std::size_t k : shards[r]) {
-      shard_cost[r] += expected_cost(todo[k]);
-      left += left_of[k];
-    }
-    expected_s += left;
-    expected_wall_s = std::max(expected_wall_s, left);
+  const RankShares shares = share_over_ranks(todo, started, ranks.size());
+  for (std::size_t k : shares.members[static_cast<std::size_t>(ranks.rank())])
+    mine.push_back(todo[k]);
+  shard_cost = shares.expected;
+  for (double left : shares.left) {
+    expected_s += left * kSecondsPerCostUnit;
+    expected_wall_s = std::max(expected_wall_s, left * kSecondsPerCostUnit);
   }
   latest.resize(static_cast<std::size_t>(ranks.size()));
   final.assign(static_cast<std::size_t>(ranks.size()), 0);
-}
-
-// The cost model's CPU seconds for member m to compute (right within a factor of a few): what is
-// left of it where it goes on from its snapshot.
-double RunCommand::seconds_left(const Member& m) const {
-  const auto left = cost_left_of.find(m.id);
-  return (left == cost_left_of.end() ? expected_cost(m) : left->second) * kSecondsPerCostUnit;
 }
 
 void RunCommand::announce() const {
@@ -1062,14 +1045,16 @@ int RunCommand::dry_run() const {
       "height", "members",
       o.resume ? "expected CPU s per member, of what is left" : "expected CPU s per member");
   // A member that goes on from its snapshot has the share its snapshot had done behind it.
+  const auto& listed = o.resume ? todo : members;
+  const std::vector<double> left = costs_left(listed, started);
   double total = 0.0;
   for (const auto& pt : scan.points) {
     int n = 0;
     double cost = 0.0;  // right within a factor of a few
-    for (const auto& m : o.resume ? todo : members)
-      if (m.point == pt.index) {
+    for (std::size_t k = 0; k < listed.size(); ++k)
+      if (listed[k].point == pt.index) {
         ++n;
-        cost += seconds_left(m);
+        cost += left[k] * kSecondsPerCostUnit;
       }
     if (n == 0) continue;
     total += cost;

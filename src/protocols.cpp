@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "loosepack/geometry.hpp"
 #include "member_run.hpp"
@@ -242,6 +243,34 @@ std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& m
   std::vector<double> costs;
   for (const auto& m : members) costs.push_back(expected_cost(m));
   return balance_costs(costs, ranks);
+}
+
+std::vector<double> costs_left(const std::vector<Member>& todo,
+                               const std::vector<MemberSnapshot>& started) {
+  std::map<std::uint64_t, const MemberSnapshot*> snapshot_of;
+  for (const auto& snap : started) snapshot_of[snap.result.member.id] = &snap;
+  std::vector<double> left;
+  for (const auto& m : todo) {
+    const auto snap = snapshot_of.find(m.id);
+    left.push_back(snap == snapshot_of.end() ? expected_cost(m) : cost_left(*snap->second));
+  }
+  return left;
+}
+
+RankShares share_over_ranks(const std::vector<Member>& todo,
+                            const std::vector<MemberSnapshot>& started, int ranks) {
+  const std::vector<double> left_of = costs_left(todo, started);
+  RankShares shares;
+  shares.members = balance_costs(left_of, ranks);
+  for (const auto& mine : shares.members) {
+    shares.expected.push_back(0.0);
+    shares.left.push_back(0.0);
+    for (std::size_t k : mine) {
+      shares.expected.back() += expected_cost(todo[k]);
+      shares.left.back() += left_of[k];
+    }
+  }
+  return shares;
 }
 
 }  // namespace loosepack

@@ -561,10 +561,10 @@ TEST(Checkpoint, ShardsBalanceExpectedCost) {
   EXPECT_EQ(shard_members({}, 4).size(), 4u);
 }
 
-// A resumed MPI run balances what is left: of four equal members, the two that had nearly
-// finished go one to each rank with a fresh one, where their full costs would pair the two
-// fresh ones on one rank (members 0 and 2 on one rank, 1 and 3 on the other).
-TEST(Checkpoint, RanksBalanceTheCostLeft) {
+// balance_costs puts the largest cost first, each on the least loaded rank (ties to the lower
+// rank): four equal costs alternate over two ranks, two small ones go with one large one each,
+// and no rank (0) means one.
+TEST(Checkpoint, BalanceCostsLargestFirstOnTheLeastLoadedRank) {
   EXPECT_EQ(balance_costs({1.0, 1.0, 1.0, 1.0}, 2),
             (std::vector<std::vector<std::size_t>>{{0, 2}, {1, 3}}));
   const auto left = balance_costs({0.1, 1.0, 0.1, 1.0}, 2);
@@ -655,6 +655,35 @@ TEST(Checkpoint, AMemberFromItsSnapshotIsExpectedToCostWhatIsLeft) {
   ASSERT_NEAR(share_left, 0.5, 1.0 / collapse_steps(c.params));
   EXPECT_NEAR(cost_left(collapse), share_left * (expected_cost(c) - ballistic),
               1e-12 * expected_cost(c));
+}
+
+// A resumed MPI run shares out what the cost model leaves of each member: of four equal members,
+// 0 and 2 nearly done (their snapshots 95 % filled), each rank gets one of them and one fresh
+// member ({0, 1} and {2, 3}), and the ranks' costs left are equal; the whole costs would pair
+// the nearly done ones on one rank ({0, 2} and {1, 3}, the shards' split).
+TEST(Checkpoint, RanksShareWhatIsLeftOfEachMember) {
+  std::vector<Member> todo;
+  for (std::uint64_t id = 0; id < 4; ++id) {
+    todo.push_back(deposit_member(1e3, 40.0, 60.0));
+    todo.back().id = id;
+  }
+  std::vector<MemberSnapshot> started(2);
+  for (std::size_t k = 0; k < 2; ++k) {
+    started[k].result.member = todo[2 * k];
+    started[k].stage.filled = 0.95;
+  }
+  const double whole = expected_cost(todo[0]);
+  const double nearly_done = cost_left(started[0]);
+  ASSERT_LT(nearly_done, 0.5 * whole);
+  EXPECT_EQ(costs_left(todo, started),
+            (std::vector<double>{nearly_done, whole, nearly_done, whole}));
+  const RankShares shares = share_over_ranks(todo, started, 2);
+  EXPECT_EQ(shares.members, (std::vector<std::vector<std::size_t>>{{0, 1}, {2, 3}}));
+  EXPECT_EQ(shares.left, (std::vector<double>{whole + nearly_done, whole + nearly_done}));
+  EXPECT_EQ(shares.expected, (std::vector<double>{2.0 * whole, 2.0 * whole}));
+  EXPECT_EQ(shard_members(todo, 2), (std::vector<std::vector<std::size_t>>{{0, 2}, {1, 3}}));
+  // A fresh run (nothing started) shares the whole costs, as the shards do.
+  EXPECT_EQ(share_over_ranks(todo, {}, 2).members, shard_members(todo, 2));
 }
 
 // A ballistic deposit looks for each disk's landing place among all the disks before it

@@ -1,5 +1,5 @@
 // MPI ranks of one run (OpenMPI; without MPI a run is one rank). Members are sharded over the
-// ranks by what the cost model leaves of each (balance_costs), each rank runs its share, and
+// ranks by what the cost model leaves of each (share_over_ranks), each rank runs its share, and
 // rank 0 gathers the results and writes the output file; progress from every rank reaches rank
 // 0, which alone talks to the user.
 #pragma once

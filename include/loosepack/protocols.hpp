@@ -272,8 +272,22 @@ std::vector<std::vector<std::size_t>> balance_costs(const std::vector<double>& c
 
 // balance_costs of the members' expected costs: the split of a scan into shards (`run --shard
 // K/N`), fixed by the scan alone. An MPI run balances what is left of each member instead
-// (cost_left of a started one), so that a resumed run's ranks end together.
+// (share_over_ranks), so that a resumed run's ranks end together.
 std::vector<std::vector<std::size_t>> shard_members(const std::vector<Member>& members, int ranks);
+
+// What the cost model leaves of each member to compute: cost_left of its snapshot where it goes
+// on from one of `started`, else its whole expected_cost.
+std::vector<double> costs_left(const std::vector<Member>& todo,
+                               const std::vector<MemberSnapshot>& started);
+
+// The members to compute shared over an MPI run's ranks: balance_costs of their costs_left.
+struct RankShares {
+  std::vector<std::vector<std::size_t>> members;  // per rank: indices into todo, increasing
+  std::vector<double> expected;                   // per rank: its members' whole expected_cost
+  std::vector<double> left;                       // per rank: their costs_left
+};
+RankShares share_over_ranks(const std::vector<Member>& todo,
+                            const std::vector<MemberSnapshot>& started, int ranks);
 
 // Grid capacity for one member: enough slots for the densest packing below H.
 int member_capacity(const SystemParams& p);
