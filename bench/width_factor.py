@@ -48,8 +48,8 @@ def value_of(row, side):
 
 def pairs(paths):
     """Each width pair of the records, keyed by (Bond number, wide width, height): the wide and
-    narrow members, the record's file and date, and each curvature's ratio wide / narrow with
-    its error (compare.py's `ratio`)."""
+    narrow members, the record's file and date, each curvature's (value, error) wide and narrow,
+    and its ratio wide / narrow with its error (compare.py's `ratio`)."""
     out = {}
     rank = lambda p: (p["members"], p["date"])  # most wide members, then narrow, then latest
     for path in paths:
@@ -62,10 +62,10 @@ def pairs(paths):
                 rows = {r["quantity"]: r for r in record["rows"]}
                 if narrow != 40.0 or not all(q in rows for q in CURVATURES):
                     continue
+                values = {q: (value_of(rows[q], "a"), value_of(rows[q], "b")) for q in CURVATURES}
                 pair = {"members": (wide_members, narrow_members), "date": date,
-                        "record": os.path.basename(path),
-                        "ratio": {q: ratio(*value_of(rows[q], "a"), *value_of(rows[q], "b"))
-                                  for q in CURVATURES}}
+                        "record": os.path.basename(path), "values": values,
+                        "ratio": {q: ratio(*wide, *narrow) for q, (wide, narrow) in values.items()}}
                 if not all(pair["ratio"].values()):
                     continue  # a narrow curvature not resolved from 0: no ratio to take
                 key = (bond, wide, height)
