@@ -158,7 +158,8 @@ struct PointAnalysis {
 struct ScanAnalysis {
   Fit increase_vs_log_height;  // C: dnu/nu_i = c0 + c1 ln H (points differing in H)
   Fit increase_vs_nu_initial;  // C: dnu/nu_i = A nu_i^p (points differing in nu_i)
-  Fit quadratic_vs_height;     // A: |c| of the Delta y(y_e) parabola = A H^p (paper: p = -1)
+  Fit quadratic_vs_height;     // A: c of the Delta y(y_e) parabola = A H^p (paper: p = -1), over
+                               // the points where c lies beyond three errors above 0
   Fit slice_vs_height;         // A: the slice model's a = A H^p (paper: p = 0, so c = a/H ~ 1/H)
 };
 
