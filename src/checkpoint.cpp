@@ -536,9 +536,13 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
     }
     CheckpointPart part =
         decode_checkpoint_part(bytes, members, fingerprint, "checkpoint " + file, remedy);
+    // A member finished twice (under another collapse cap, then run again under this one): the
+    // record that this scan's cap ends the same is kept, whichever part came first.
     for (auto& r : part.finished) {
       const auto id = r.member.id;
-      finished.emplace(id, std::move(r));
+      const auto [it, fresh] = finished.try_emplace(id, std::move(r));
+      if (!fresh && !same_under_cap(it->second, scan) && same_under_cap(r, scan))
+        it->second = std::move(r);
     }
     int generation = 0;
     std::sscanf(fs::path(file).filename().string().c_str(), "part-%d-", &generation);

@@ -1,7 +1,8 @@
 // An advisory lock on an output path, held for a whole run: a second run writing the same `-o`
 // (or its checkpoint) is refused before any work, with the holder's pid. The lock is
 // `<path>.lock` (flock, LOCK_EX); the kernel releases it when the holder dies, so a run killed
-// by SIGKILL leaves a file that the next run simply locks again.
+// by SIGKILL leaves a file that the next run simply locks again. A file at that path that is not
+// such a lock (a user's file named so) is left as it is and the run refused.
 #pragma once
 #include <fcntl.h>
 #include <sys/file.h>
@@ -11,6 +12,7 @@
 #include <cerrno>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 namespace loosepack {
@@ -28,6 +30,9 @@ class OutputLock {
   std::string acquire(const std::string& path) {
     lock_path_ = path + ".lock";
     warning_.clear();
+    if (!lock_file_or_none(lock_path_))
+      return lock_path_ + " is there and is not a lock of this program's (which holds a pid at " +
+             "most), so it would be overwritten and removed: move it away or give another -o";
     for (int attempt = 0; attempt < 10; ++attempt) {
       fd_ = ::open(lock_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
       if (fd_ < 0) return "cannot create the lock file " + lock_path_ + ": " + std::strerror(errno);
@@ -73,6 +78,18 @@ class OutputLock {
   }
 
  private:
+  // Whether `p` is free to take as a lock: nothing there, or a regular file holding at most a
+  // pid (a run that died left it, or another is taking its lock now). Where it cannot be looked
+  // at, opening it says why.
+  static bool lock_file_or_none(const std::string& p) {
+    struct stat st {};
+    if (::lstat(p.c_str(), &st) != 0) return true;
+    if (!S_ISREG(st.st_mode) || st.st_size > 32) return false;
+    std::ifstream in(p);
+    const std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    return text.find_first_not_of("0123456789\n") == std::string::npos;
+  }
+
   std::string lock_path_, warning_;
   int fd_ = -1;
 };

@@ -234,6 +234,17 @@ pkill -P "$holder" sleep; wait "$holder" 2>/dev/null || true
 [ "$rc" -eq 2 ] && grep -q "being written by another run (pid 4242" <<< "$msg" || fail "held lock (exit $rc): $msg"
 [ "$rc2" -eq 2 ] && grep -q "being written by another run" <<< "$msg2" || fail "held lock, analyse (exit $rc2): $msg2"
 [ -e "$dir/held.h5" ] && fail "a refused run wrote the held output"
+# A file at the lock's path that is not a lock (a result file named so) is not overwritten or
+# removed: the run is refused.
+cp "$dir/good.h5" "$dir/users.h5.lock"
+set +e
+msg=$("$exe" run "$dir/good.toml" -o "$dir/users.h5" -q 2>&1); rc=$?
+set -e
+[ "$rc" -eq 2 ] && grep -q "users.h5.lock is there and is not a lock of this program's" <<< "$msg" ||
+  fail "a user's file at the lock's path (exit $rc): $msg"
+cmp -s "$dir/good.h5" "$dir/users.h5.lock" || fail "a user's file at the lock's path was changed"
+[ -e "$dir/users.h5" ] && fail "a refused run wrote its output beside a user's file at its lock"
+rm "$dir/users.h5.lock"
 # A temporary left by a run that died while writing on this host is removed by the next run of
 # that output (named with the host, and as programs before the host was in the name wrote it);
 # another host's, whose process cannot be seen from here, is left alone.

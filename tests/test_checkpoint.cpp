@@ -488,6 +488,20 @@ TEST(Checkpoint, AChangedCollapseCapKeepsTheMembersItWouldEndTheSame) {
   ASSERT_EQ(running_ids(longer), (std::vector<std::uint64_t>{3}));
   EXPECT_EQ(longer.running[0].stage.cap, 400000);
   EXPECT_EQ(longer.run_again, 1);
+  // Member 2 run again under that cap came to rest after 350 000 steps (a second generation's
+  // part, read after the first's): under it each member is kept, and nothing runs again; under
+  // the first cap its first record is kept.
+  write_checkpoint_part(checkpoint_part(dir.string(), 2, 0, 1), scan_fingerprint(wrote),
+                        {ended(2, 350000, 0)});
+  const auto again = read_checkpoint(dir.string(), collapse("4000"));
+  EXPECT_EQ(ids(again), (std::vector<std::uint64_t>{0, 1, 2}));
+  ASSERT_EQ(again.members.size(), 3u);
+  EXPECT_EQ(again.members[2].steps, 350000);
+  EXPECT_EQ(again.run_again, 0);
+  const auto first = read_checkpoint(dir.string(), wrote);
+  ASSERT_EQ(ids(first), (std::vector<std::uint64_t>{0, 1, 2}));
+  EXPECT_EQ(first.members[2].steps, 300000);
+  EXPECT_EQ(first.run_again, 0);
 }
 
 // A checkpoint of another scan or program is refused with what differs: the first setting, with
