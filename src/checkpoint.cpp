@@ -526,6 +526,12 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
   const std::uint64_t fingerprint = scan_fingerprint(scan);
   std::map<std::uint64_t, MemberResult> finished;
   std::map<std::uint64_t, std::pair<int, MemberSnapshot>> running;  // the latest generation's
+  struct RunningPart {
+    std::string file;
+    int generation;
+    std::vector<std::uint64_t> ids;
+  };
+  std::vector<RunningPart> running_parts;
   for (const auto& file : files) {
     std::string bytes;
     try {
@@ -546,7 +552,10 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
     }
     int generation = 0;
     std::sscanf(fs::path(file).filename().string().c_str(), "part-%d-", &generation);
+    // A part of snapshots alone is a rank's running part (part-G-R.bin).
+    if (part.finished.empty()) running_parts.push_back({file, generation, {}});
     for (auto& snap : part.running) {
+      if (part.finished.empty()) running_parts.back().ids.push_back(snap.result.member.id);
       auto& latest = running[snap.result.member.id];
       if (generation >= latest.first) latest = {generation, std::move(snap)};
     }
@@ -568,6 +577,12 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
     out.run_again += kept.count(id) || going_on.count(id) ? 0 : 1;
   for (const auto& [id, snap] : running)
     out.run_again += finished.count(id) || going_on.count(id) ? 0 : 1;
+  for (const auto& p : running_parts)
+    if (p.generation < out.generation &&
+        std::all_of(p.ids.begin(), p.ids.end(), [&](std::uint64_t id) {
+          return kept.count(id) || running.at(id).first > p.generation;
+        }))
+      out.superseded.push_back(p.file);
   out.snapshots = fs::exists(directory + "/snapshots");
   return out;
 }

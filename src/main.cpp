@@ -287,6 +287,7 @@ class RunCommand {
   int claim_space();
   int read_checkpoint();
   std::string run_again_note() const;
+  void remove_superseded_parts() const;
   void share_out();
   void announce() const;
   void announce_cost() const;
@@ -371,6 +372,7 @@ int RunCommand::run() {
   if (o.dry_run) return o.resume && read_checkpoint() != 0 ? kInvalid : dry_run();
   if (const int rc = read_checkpoint()) return rc;
   if (o.finished_only) return write_finished();
+  remove_superseded_parts();
   if (claim_space() != 0) return kInvalid;
   share_out();
   announce();
@@ -529,6 +531,14 @@ int RunCommand::read_checkpoint() {
           " asked for the final states; this one writes them too");
   }
   return 0;
+}
+
+// Rank 0, once every rank has read the checkpoint: the running parts that later records replace
+// (CheckpointContents::superseded) go; one that cannot be removed stays, read and replaced again.
+void RunCommand::remove_superseded_parts() const {
+  if (!ranks.root()) return;
+  std::error_code ec;
+  for (const auto& file : ck.superseded) std::filesystem::remove(file, ec);
 }
 
 // This rank's share of the members to compute, balanced by what the cost model leaves of each

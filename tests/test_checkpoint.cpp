@@ -504,6 +504,40 @@ TEST(Checkpoint, AChangedCollapseCapKeepsTheMembersItWouldEndTheSame) {
   EXPECT_EQ(first.run_again, 0);
 }
 
+// A resume finds the running parts of earlier generations whose every snapshot a later record
+// replaces (superseded: the run removes them). Generation 1 held members 0 and 1 running on
+// rank 0 and member 2 on rank 1; generation 2 finished member 0 and took member 1 further, so
+// rank 0's first part is superseded; rank 1's is not (member 2 goes on from it), nor is the
+// latest generation's part, and both snapshots are still read.
+TEST(Checkpoint, RunningPartsThatLaterRecordsReplaceAreSuperseded) {
+  const Scan scan = small_scan();
+  const ScratchDir dir("loosepack-superseded");
+  const std::string d = dir.string();
+  const auto fingerprint = scan_fingerprint(scan);
+  write_checkpoint_selection(d, "", false, scan);
+  write_checkpoint_part(checkpoint_part(d, 1, 0), fingerprint, {},
+                        {snapshot(scan, 0), snapshot(scan, 1)});
+  write_checkpoint_part(checkpoint_part(d, 1, 1), fingerprint, {}, {snapshot(scan, 2)});
+  write_checkpoint_part(checkpoint_part(d, 2, 0, 1), fingerprint, {filled(scan, 0)});
+  MemberSnapshot further = snapshot(scan, 1);
+  further.stage.steps = 40;
+  write_checkpoint_part(checkpoint_part(d, 2, 0), fingerprint, {}, {further});
+  const auto ck = read_checkpoint(d, scan);
+  EXPECT_EQ(ck.superseded, std::vector<std::string>{checkpoint_part(d, 1, 0)});
+  ASSERT_EQ(ck.running.size(), 2u);
+  EXPECT_EQ(ck.running[0].result.member.id, 1u);
+  EXPECT_EQ(ck.running[0].stage.steps, 40);
+  EXPECT_EQ(ck.running[1].result.member.id, 2u);
+  ASSERT_EQ(ck.members.size(), 1u);
+  // Without the superseded part the checkpoint reads the same.
+  std::filesystem::remove(ck.superseded[0]);
+  const auto without = read_checkpoint(d, scan);
+  EXPECT_TRUE(without.superseded.empty());
+  ASSERT_EQ(without.running.size(), 2u);
+  EXPECT_EQ(without.running[0].stage.steps, 40);
+  EXPECT_EQ(without.members.size(), 1u);
+}
+
 // A checkpoint of another scan or program is refused with what differs: the first setting, with
 // its value there and here, or the program that wrote it (the `scan` file beside the parts).
 TEST(Checkpoint, ARefusedCheckpointSaysWhatDiffers) {

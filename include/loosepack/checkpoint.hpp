@@ -80,6 +80,10 @@ struct CheckpointContents {
   // Members it holds that run again from the start: collapses that end otherwise under this
   // scan's protocol.max_collapse_time (stopped at another cap, or past this one).
   int run_again = 0;
+  // Running parts of earlier generations whose every snapshot a later record replaces (its
+  // member's snapshot in a later generation's part, or its finished record kept): a resumed run
+  // removes them, so that a checkpoint does not grow by a copy of the snapshots each resume.
+  std::vector<std::string> superseded;
 };
 CheckpointContents read_checkpoint(const std::string& directory, const Scan& scan);
 
