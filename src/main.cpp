@@ -630,7 +630,9 @@ void RunCommand::save_after_error(const std::string& who) {
 }
 
 void RunCommand::write_checkpoint() {
-  std::filesystem::create_directories(ck_dir);
+  // A new checkpoint directory is flushed into its parent, so that a power loss cannot take the
+  // whole checkpoint with it once its parts are on the disk.
+  if (std::filesystem::create_directories(ck_dir)) sync_path(directory_of_path(ck_dir));
   if (!selection_written) {  // by every rank, before its first part: no part lies there without it
     write_checkpoint_selection(ck_dir, selection(), snapshots, scan);
     selection_written = true;
@@ -776,9 +778,13 @@ RunHooks RunCommand::hooks() {
       std::ostringstream os;
       os << "loosepack: " << who << "member " << id << " was still inside a step " << grace
          << " s after the stop, so the checkpoint ";
+      const bool resumed_from = std::any_of(
+          started.begin(), started.end(), [&](const auto& s) { return s.result.member.id == id; });
       if (running.count(id) > 0)
         os << "keeps its snapshot from " << std::fixed << std::setprecision(0)
            << seconds_since(last_snapshots) << " s before (a resume repeats that work)";
+      else if (resumed_from)
+        os << "keeps the snapshot this run went on from (a resume repeats this run's work on it)";
       else
         os << "has no snapshot of it (a resume starts it again)";
       std::cerr << os.str() << "\n";
