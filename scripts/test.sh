@@ -2,7 +2,7 @@
 # From a fresh Debian bookworm machine: install dependencies, build, run the test suite.
 #   scripts/test.sh          the suite (ctest), less the tests labelled "long"
 #   scripts/test.sh --all    every test, with the long ones: the paper's Gaussian histogram at
-#                            40 R x 180 R (reproduction_gaussian, 760 CPU s; CI runs it too)
+#                            40 R x 180 R (reproduction_gaussian, 693 CPU s; CI runs it too)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 select=(-LE long)

@@ -4,8 +4,8 @@
 # tools/claims.py on examples/paper/claims_gaussian_reduced.toml (40 R x 180 R, 8 members),
 # together with the parabola of positive curvature that the same point shows and the histogram's
 # skew as its height slices' Gaussians summed make it. Run under
-# mpirun -np 2 when the build has MPI and $2 names mpirun (about 6.5 minutes), else on one core
-# (about 13; 760 CPU s on an Intel Xeon VM). Labelled "long" (tests/CMakeLists.txt).
+# mpirun -np 2 when the build has MPI and $2 names mpirun (about 7 minutes), else on one core
+# (about 12; 693 CPU s on an Intel Xeon VM). Labelled "long" (tests/CMakeLists.txt).
 source "$(dirname "$0")/common.sh"
 scan="$repo/examples/paper/claims_gaussian_reduced.toml"
 if [ -n "${2:-}" ]; then
