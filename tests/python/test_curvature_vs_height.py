@@ -1,11 +1,11 @@
 """bench/curvature_vs_height.py: fig. 7's curvatures against H, the 40 R series and the width
 pairs' points, with lines of c ~ 1/H."""
-import json
 import os
 
 import pytest
 
 from script_module import load_script
+from test_width_factor import write  # records as JSON lines, the path back
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 cvh = load_script(os.path.join(HERE, "..", "..", "bench", "curvature_vs_height.py"))
@@ -19,13 +19,6 @@ def record(height, width, c_wide, c_narrow, narrow_members=16, bond=1000):
     rows = [{"quantity": q, "a_value": c_wide, "a_error": 0.1 * c_wide, "b_value": c_narrow,
              "b_error": 0.1 * c_narrow} for q in cvh.CURVATURES]
     return {"a_point": point(width, 2), "b_point": point(40, narrow_members), "rows": rows}
-
-
-def write(path, records):
-    with open(path, "w") as f:
-        for r in records:
-            f.write(json.dumps(r) + "\n")
-    return str(path)
 
 
 def test_pairs_give_each_ensemble_once_in_units_of_1e_4(tmp_path):
