@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iomanip>
+#include <map>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -1164,7 +1165,8 @@ void print_summary_head(hid_t file, const std::string& path, std::size_t points,
 }
 
 // Scan parameters without a column of their own get one where the points differ in them, so that
-// a scan over widths or radii does not read as repeated rows: (attribute, column title).
+// a scan over widths, radii or time steps does not read as repeated rows: (attribute, column
+// title).
 using ExtraColumns = std::vector<std::pair<const char*, const char*>>;
 ExtraColumns extra_columns(hid_t file, const std::vector<std::string>& names) {
   ExtraColumns extras;
@@ -1177,6 +1179,16 @@ ExtraColumns extra_columns(hid_t file, const std::vector<std::string>& names) {
         values.insert(double_attribute(file, n, attribute));
     if (values.size() > 1) extras.emplace_back(attribute, title);
   }
+  // The time step follows the Bond number by default: a column where points of one Bond number
+  // differ in it (a time step axis).
+  std::map<double, std::set<double>> steps_of_bond;
+  for (const auto& n : names)
+    if (H5Aexists_by_name(file, n.c_str(), "time_step", H5P_DEFAULT) > 0)
+      steps_of_bond[double_attribute(file, n, "bond_number")].insert(
+          double_attribute(file, n, "time_step"));
+  if (std::any_of(steps_of_bond.begin(), steps_of_bond.end(),
+                  [](const auto& bond) { return bond.second.size() > 1; }))
+    extras.emplace_back("time_step", "h");
   return extras;
 }
 

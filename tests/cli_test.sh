@@ -372,6 +372,18 @@ printf '[scan]\nprotocol = "B"\n[system]\nwidth = [20, 30]\nradius = [1, 2]\nhei
 "$exe" summary "$dir/widths.h5" | grep -qE "^point .* mu_r +L_x +R +nu_lower_half" ||
   fail "summary of a scan over widths and radii: $("$exe" summary "$dir/widths.h5")"
 "$exe" summary "$dir/widths.h5" | grep -qE "^0003 .* 30 +2 +0\." || fail "summary row of width 30, R 2"
+# The time step has a column where points of one Bond number differ in it (an axis), not where it
+# follows the Bond number (the default h at Bo = 0 and 1e2: 0.01 and 0.009).
+printf '[scan]\nprotocol = "A"\n[system]\nwidth = 12\nheight = 12\nbond_number = [0, 100]\n' \
+  > "$dir/steps.toml"
+"$exe" run "$dir/steps.toml" -o "$dir/follows.h5" -q
+"$exe" summary "$dir/follows.h5" | grep -qE "^point .* mu_r +h " &&
+  fail "summary shows a time step that follows the Bond number: $("$exe" summary "$dir/follows.h5")"
+printf 'time_step = [0.01, 0.005]\n' >> "$dir/steps.toml"
+"$exe" run "$dir/steps.toml" -o "$dir/steps.h5" -q
+"$exe" summary "$dir/steps.h5" | grep -qE "^point .* mu_r +h +nu_lower_half" ||
+  fail "summary of a scan over time steps: $("$exe" summary "$dir/steps.h5")"
+"$exe" summary "$dir/steps.h5" | grep -qE "^0001 .* 0\.005 +0\." || fail "summary row of h = 0.005"
 set +e
 "$exe" summary "$dir/bad.toml" >/dev/null 2>&1 && fail "summary of a non-HDF5 file succeeded"
 # A result file given as the scan file is named as not a text file.

@@ -87,6 +87,28 @@ def file_tag(g):
     return f" [{os.path.basename(g.file.filename)}]" if SEVERAL_FILES else ""
 
 
+# Parameters a label names besides protocol, Bo, r_capt and H: those in which points that
+# would be labelled alike differ (main(): splitting_keys), e.g. a time step or width axis.
+LABEL_KEYS = ()
+LABEL_BASE = ("protocol", "bond_number", "capture_radius", "height")
+
+
+def splitting_keys(points, base, candidates):
+    """The candidate attributes in which some points equal in `base` (and file) differ: what a
+    point's name must add so that two such points do not read alike."""
+    out = []
+    for k in candidates:
+        seen = {}
+        for g in points:
+            if k not in g.attrs:
+                continue
+            key = tuple(attribute_value(attr(g, b)) for b in base) + (file_tag(g),)
+            seen.setdefault(key, set()).add(attribute_value(attr(g, k)))
+        if any(len(v) > 1 for v in seen.values()):
+            out.append(k)
+    return tuple(out)
+
+
 def label(g):
     bo = attr(g, "bond_number")
     bo_s = "inf" if math.isinf(bo) else f"{bo:g}"
@@ -94,6 +116,7 @@ def label(g):
     if attr(g, "capture_radius") != 1.0:
         s += f", r_capt={attr(g, 'capture_radius'):g}"
     s += f", H={attr(g, 'height'):g}"
+    s += "".join(f", {k}={attribute_value(attr(g, k)):g}" for k in LABEL_KEYS)
     return s + file_tag(g)
 
 
@@ -170,6 +193,9 @@ def nu_lower_half(points, out, written):
     if x_key is None:
         return
     others = [k for k in SCAN_KEYS if k != x_key and k in points[0].attrs]
+    # The time step follows the Bond number by default: a series of its own only where points
+    # of one x and one set of the others differ in it (a time step axis).
+    others += splitting_keys(points, [x_key] + others, ("time_step",))
     varying = [k for k in others if len({attribute_value(attr(g, k)) for g in points}) > 1]
     series = {}
     for g in points:  # a series per file too, where several are drawn
@@ -601,9 +627,11 @@ def main():
     files = [open_result(path) for path in args.file]
     # One file: its fits across points too. Several: those fits belong to each file alone.
     whole = files[0] if len(files) == 1 else None
-    global SEVERAL_FILES
+    global SEVERAL_FILES, LABEL_KEYS
     SEVERAL_FILES = len(files) > 1
     points = [f["points"][k] for f in files for k in sorted(f["points"])]
+    LABEL_KEYS = splitting_keys(points, LABEL_BASE, [k for k in SCAN_KEYS + ("time_step",)
+                                                     if k not in LABEL_BASE])
     written = []
     density_profiles(points, out, written)
     nu_lower_half(points, out, written)

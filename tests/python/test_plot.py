@@ -45,6 +45,38 @@ def collapse_increase_axis(path, figures, mean, sem):
     return figures["collapse_increase.png"].axes[1]
 
 
+def test_a_time_step_axis_is_its_own_series_and_named(tmp_path, figures):
+    """Points at Bo = 0 and 100 with h = 0.01 and 0.005 (a time-step axis): two series of
+    nu_lower_half named by their steps, and labels that tell the four points apart; with the
+    time step following the Bond number (the default's h(Bo)), one series and no step named."""
+    def scan(path, steps):
+        f = h5py.File(path, "w")
+        points = [point(f, k, protocol="A", width=12.0, time_step=h,
+                        nu_lower_half_mean=0.8 - 0.001 * bo - 10 * h, nu_lower_half_sem=0.01)
+                  for k, (bo, h) in enumerate(steps)]
+        for g, (bo, _) in zip(points, steps):
+            g.attrs["bond_number"] = bo
+        return f, points
+
+    f, points = scan(tmp_path / "axis.h5", [(0.0, 0.01), (0.0, 0.005), (100.0, 0.01),
+                                           (100.0, 0.005)])
+    plot.LABEL_KEYS = plot.splitting_keys(points, plot.LABEL_BASE, ("width", "time_step"))
+    assert plot.LABEL_KEYS == ("time_step",)
+    assert len({plot.label(g) for g in points}) == 4
+    plot.nu_lower_half(points, str(tmp_path), [])
+    ax = figures["nu_lower_half.png"].axes[0]
+    assert sorted(t.get_text() for t in ax.get_legend().get_texts()) == [
+        "time_step 0.005", "time_step 0.01"]
+    f.close()
+    f, points = scan(tmp_path / "follows.h5", [(0.0, 0.01), (100.0, 0.009)])
+    plot.LABEL_KEYS = plot.splitting_keys(points, plot.LABEL_BASE, ("width", "time_step"))
+    assert plot.LABEL_KEYS == ()
+    plot.nu_lower_half(points, str(tmp_path), [])
+    assert len(figures["nu_lower_half.png"].axes[0].get_legend().get_texts()) == 1
+    f.close()
+    plot.LABEL_KEYS = ()
+
+
 def test_a_bar_to_zero_but_for_round_off_is_cut(tmp_path, figures):
     """Two members of which one did not collapse: the error is the mean, less round-off; its bar
     is cut like one that reaches 0, and the log axis does not stretch over decades for it."""
