@@ -149,9 +149,10 @@ void MemberRun::advance_region(std::size_t k, Mask& closing) {
     if (sl.steps < sl.cap) return;
     regions_->stop(*batch_, s);
     sl.event_capped = true;
-    // With no check due the event stays open, as after a region that rested: the box full, the
-    // whole system's final check belongs to it.
-    if (check_due) {
+    // The cap ends the disk's relaxation, its check too where one is due. The event stays open,
+    // as after a region that rested (the next disk closes it as it is): the box full, the whole
+    // system's final check belongs to it. A region of the final check itself ends it.
+    if (sl.final_check) {
       closing[k] = 1;
     } else {
       sl.event_open = true;

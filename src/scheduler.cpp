@@ -311,8 +311,7 @@ void MemberRun::finish(std::size_t k) {
   r.contacts = batch_->contacts(s);
   if (r.failure == Failure::None && escaped(disks, batch_->params(s))) r.failure = Failure::Escaped;
   // An overlap beyond kMaxFinalOverlap R is a failure too. It is measured on the disks as they
-  // ended: a member whose last region hit its time cap ends without a whole-system step, and
-  // the contacts' gaps are then those of an earlier step.
+  // ended, not on the contacts' gaps, which are those the last step started from.
   if (r.failure == Failure::None &&
       max_overlap(disks, batch_->params(s).width) > kMaxFinalOverlap * batch_->params(s).radius)
     r.failure = Failure::Overlap;
