@@ -428,6 +428,12 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
   }
   if (members.empty()) refuse_empty_selection(every, path, selection);
   const fs::path p(path);
+  // XDMF names the HDF5 file it reads as FILE:/dataset, which ParaView splits at the first ':'.
+  if (format == ExportFormat::Xdmf && p.filename().string().find(':') != std::string::npos)
+    throw std::invalid_argument(
+        path + ": its name holds ':', which the XDMF files' references (FILE:/dataset) cannot " +
+        "carry (ParaView reads the name up to the ':'): copy or link it to a name without one, " +
+        "or export --format extxyz");
   const std::string base = (p.parent_path() / p.stem()).string();  // the files lie next to it
   // An earlier export's files are replaced; a result file where one would go, before anything
   // is written, is refused.

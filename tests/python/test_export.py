@@ -1,6 +1,7 @@
 """`loosepack export`: the XDMF files opened by ParaView's own reader and the extended XYZ read
 back by ASE, each compared with the disks, contacts and trajectories of the result file."""
 
+import os
 import re
 import subprocess
 
@@ -87,6 +88,20 @@ def test_a_selection_the_file_lacks_is_refused_with_its_range(exported):
                               text=True)
         assert done.returncode == 2
         assert message in done.stderr
+
+
+def test_a_name_with_a_colon_is_refused_for_xdmf_and_exported_as_extxyz(exported, tmp_path):
+    """XDMF refers to the result file as FILE:/dataset, which ParaView splits at the first ':':
+    such a name is refused (exit 2, nothing written); extended XYZ holds no reference."""
+    res, _ = exported
+    out = tmp_path / "run-10:00.h5"
+    out.write_bytes(open(res.path, "rb").read())
+    done = subprocess.run([loosepack.find_program(), "export", str(out), "--point", "0"],
+                          capture_output=True, text=True)
+    assert done.returncode == 2
+    assert "its name holds ':'" in done.stderr
+    assert sorted(os.listdir(tmp_path)) == ["run-10:00.h5"]
+    assert export_copy(res, out, "--format", "extxyz", "--point", "0")
 
 
 def damaged_copy(res, tmp_path, name, edit):
