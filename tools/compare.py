@@ -78,7 +78,8 @@ hold the same point indices (two runs of one scan's points with a setting change
 time step), the index pairs them, and the parameters they differ in are named. Points of
 different protocols are not compared (exit 2). A scalar without an error (a point with one
 finished member) is not judged, nor is a quantity one file holds and the other lacks (its row
-says which). A scalar differs when its distance exceeds --sigma (2) combined
+says which), nor the mean size of the avalanche events where a side's events all lie in one bin
+of sizes (their error from the bins would be 0). A scalar differs when its distance exceeds --sigma (2) combined
 standard errors; a profile or histogram when its chi2 exceeds the bound; the shapes when no shape
 fits both and a verdict is one. With n scalars compared at 2 sigma, about n/20 differ by chance,
 and more where the errors come from few members (about 9 % of them with 4 members, 6.5 % with 8:
@@ -514,8 +515,14 @@ def events(pa, pb, sigma):
     edges = ea["edges"][()]
     ma, se_a = mean_log(edges, ea["moved_counts"][()], rows(ea, "moved_counts"))
     mb, se_b = mean_log(edges, eb["moved_counts"][()], rows(eb, "moved_counts"))
+    name = "events: mean log10(disks moved)"
     if math.isfinite(ma) and math.isfinite(mb):
-        yield scalar("events: mean log10(disks moved)", ma, se_a, mb, se_b, sigma)
+        if se_a > 0 and se_b > 0:
+            yield scalar(name, ma, se_a, mb, se_b, sigma)
+        else:  # every event of a side in one bin: its error from the bins' centres is no error
+            yield Row(name, value(ma, se_a), value(mb, se_b), math.nan, sigma,
+                      "not judged (a side's events all in one bin of sizes: no error)",
+                      (ma, se_a, mb, se_b))
     for key, name in (("moved_counts", "disks moved"), ("steps_counts", "steps")):
         if per_member:
             a, b = merged_from_the_top(rows(ea, key), rows(eb, key))

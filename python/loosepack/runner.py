@@ -114,9 +114,10 @@ def scan_file_for(out):
 
 
 def _refuse_invalid(exe, text, path, out):
-    """Raises the program's LoosepackError where it refuses `text` as a scan, before `text`
-    replaces the scan file `path` (the earlier scan stays beside its result): a dry run of a copy
-    beside it (a file of its own, removed after), its messages naming `path`."""
+    """Raises the program's LoosepackError where it refuses `text` as a scan, before `text` is
+    written to the scan file `path` (an earlier scan there stays beside its result; none is left
+    where there was none): a dry run of a copy beside it (a file of its own, removed after), its
+    messages naming `path`."""
     fd, check = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
                                  prefix=os.path.basename(path) + ".")
     with os.fdopen(fd, "w") as f:
@@ -128,8 +129,9 @@ def _refuse_invalid(exe, text, path, out):
         os.remove(check)
     if done.returncode != 0:
         message = done.stderr.replace(check, path)
-        raise LoosepackError("loosepack run exited with %d (%s kept its earlier scan):\n%s"
-                             % (done.returncode, path, message), done.returncode, message)
+        kept = "kept its earlier scan" if os.path.exists(path) else "not written"
+        raise LoosepackError("loosepack run exited with %d (%s %s):\n%s"
+                             % (done.returncode, path, kept, message), done.returncode, message)
 
 
 def run(scan, out, force=False, progress=True, program=None, args=()):
@@ -153,6 +155,7 @@ def run(scan, out, force=False, progress=True, program=None, args=()):
         if not os.path.isdir(directory):
             raise LoosepackError("the directory %s of out %s does not exist (make it first)"
                                  % (directory, os.fspath(out)), 2, "")
+        other = True  # what the scan file holds, if anything, is not this scan
         if os.path.exists(path):
             with open(path) as f:
                 other = f.read() != text
@@ -160,10 +163,10 @@ def run(scan, out, force=False, progress=True, program=None, args=()):
                 raise LoosepackError("%s exists with another scan: the scan dict would "
                                      "replace it; pass force=True, or give another out" % path,
                                      2, "")
-            if other:
-                _refuse_invalid(exe, text, path, out)
-        with open(path, "w") as f:
-            f.write(text)
+        if other:
+            _refuse_invalid(exe, text, path, out)
+            with open(path, "w") as f:
+                f.write(text)
     else:
         path = os.fspath(scan)
     cmd = [exe, "run", path, "-o", os.fspath(out)] + (["--force"] if force else []) + list(args)

@@ -417,6 +417,22 @@ def test_events_compared_by_the_members_scatter(tmp_path):
         assert len(rows) == 3 and not any(r.within for r in rows), [r.record() for r in rows]
 
 
+def test_events_all_in_one_bin_are_not_judged(tmp_path):
+    """A side whose every event lies in one bin of sizes (3 events of 2 disks) has a mean log10
+    with a jackknife error of 0, which is the bins' doing, not a precision: not judged, where an
+    error of 0 would put any difference at infinitely many sigma."""
+    import h5py
+    rng = np.random.default_rng(5)
+    with h5py.File(tmp_path / "one_bin.h5", "w") as f:
+        a = event_point(f, "a", rng, (0.1, 0.6))
+        b = event_point(f, "b", rng, (0.0,), members=3, events=1)  # each member: one small event
+        assert compare.mean_log(b["events/edges"][()], b["events/moved_counts"][()],
+                                b["events/member_moved_counts"][()])[1] == 0
+        row = next(compare.events(a, b, 3.0))
+        assert row.name == "events: mean log10(disks moved)"
+        assert math.isnan(row.distance) and "not judged" in row.detail
+
+
 def shape_point(f, name, preferred, gaussian_chi2, exponential_chi2, dof=20):
     """A point whose cut histogram has the two fits with these chi2 (no per-member counts)."""
     cut = f.create_group(f"{name}/abs_dy_histogram/shape_cut")
