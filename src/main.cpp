@@ -1329,9 +1329,15 @@ int merge_command(const MergeOptions& m) {
     return kInvalid;
   }
   const int failed = report_failures(merged.members, merged.scan.file);
+  // Files whose runs stored the final states (run --snapshots) merge into a file with them, as
+  // a resume of such a run writes them.
+  const bool snapshots = m.snapshots || merged.snapshots;
+  if (snapshots && !m.snapshots && !m.quiet)
+    std::cerr << "loosepack: the files hold their members' final states (run --snapshots): the "
+                 "merged file holds them too\n";
   try {
     report_members_left_out(
-        write_member_results(m.out_path, merged.scan, merged.info, merged.members, m.snapshots));
+        write_member_results(m.out_path, merged.scan, merged.info, merged.members, snapshots));
   } catch (const std::exception& e) {
     std::cerr << "loosepack: " << e.what() << "\n";
     return kError;

@@ -912,6 +912,13 @@ PartFile read_part_file(const std::string& path) {
           "--finished-only, and partial merges, of one build)");
     out.scan_text = scan_text_of(file);
     out.scan_file = string_attribute(file, "/", "scan_file");
+    if (H5Lexists(file, "points", H5P_DEFAULT) > 0)
+      for (const std::string& point : children(file, "points")) {
+        const std::string members = "points/" + point + "/members";
+        if (H5Lexists(file, members.c_str(), H5P_DEFAULT) <= 0) continue;
+        for (const std::string& child : children(file, members))
+          out.snapshots = out.snapshots || child.rfind("snapshot_", 0) == 0;
+      }
     out.info.start_time = string_attribute(file, "/", "start_time");
     out.info.end_time = string_attribute(file, "/", "end_time");
     out.info.wall_seconds = double_attribute(file, "/", "wall_seconds");

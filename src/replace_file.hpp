@@ -105,7 +105,8 @@ void replace_file(const std::string& path, Write write) {
     write(tmp);
     sync_path(tmp);
     if (std::rename(tmp.c_str(), path.c_str()) != 0)
-      throw std::runtime_error("cannot rename " + tmp + " to " + path);
+      throw std::runtime_error("cannot rename " + tmp + " to " + path + ": " +
+                               std::strerror(errno));
     sync_path(directory_of_path(path));
   } catch (...) {
     std::remove(tmp.c_str());

@@ -210,6 +210,8 @@ MergedParts read_parts(const std::vector<std::string>& paths) {
   std::sort(out.members.begin(), out.members.end(),
             [](const MemberResult& a, const MemberResult& b) { return a.member.id < b.member.id; });
   out.info = merged_info(files, static_cast<long>(all.size() - out.members.size()));
+  out.snapshots =
+      std::any_of(files.begin(), files.end(), [](const PartFile& f) { return f.snapshots; });
   return out;
 }
 

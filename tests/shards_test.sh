@@ -48,6 +48,13 @@ grep -q "with 9 members from 3 files" merge.log || fail "merge: $(cat merge.log)
 # The comparison can fail: without --snapshots the merged file lacks the whole run's snapshots.
 expect_rc 3 plain.log "$exe" merge p0.h5 p1.h5 p2.h5 -o plain.h5
 /usr/bin/python3 "$here/h5_equal.py" whole.h5 plain.h5 >/dev/null && fail "h5_equal saw no difference"
+# A shard run with --snapshots merges into a file with them, as a resume of such a run writes
+# them, and says so.
+LOOSEPACK_INJECT_NAN=1 "$exe" run s.toml --shard 0/3 -o ps0.h5 --snapshots 2>ps0.log || true
+expect_rc 3 kept.log "$exe" merge ps0.h5 p1.h5 p2.h5 -o kept.h5
+same whole.h5 kept.h5
+grep -q "the files hold their members' final states (run --snapshots): the merged file holds" \
+  kept.log || fail "merge of a shard with snapshots: $(cat kept.log)"
 # Two shards of three are refused, naming the one missing; with --partial they give a file that
 # counts the third's members as missing, and say so even with -q.
 expect_rc 2 two.log "$exe" merge p0.h5 p2.h5 -o two.h5

@@ -1221,7 +1221,7 @@ def main():
                 f"points/{name}"))
         results.extend(read_damaged_as_unusable(lambda: list(check_scan(f, path)), path, "/"))
     if not results:
-        print(f"claims.py: {path}: no scan point the claims speak about")
+        print(f"claims.py: {path}: no scan point the claims speak about", file=sys.stderr)
         sys.exit(2)
     text, status = report(results)
     print(text)

@@ -55,6 +55,7 @@ std::string capped_collapses_note(int point, const std::vector<double>& failure,
 struct PartFile {
   std::string path, scan_text, scan_file, members;
   RunInfo info;
+  bool snapshots = false;  // it holds its members' final states (run --snapshots)
 };
 PartFile read_part_file(const std::string& path);
 

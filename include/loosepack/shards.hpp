@@ -46,6 +46,7 @@ struct MergedParts {
   std::vector<MemberResult> members;
   RunInfo info;
   std::vector<std::string> missing;
+  bool snapshots = false;  // a file holds its members' final states (run --snapshots)
 };
 MergedParts read_parts(const std::vector<std::string>& paths);
 
