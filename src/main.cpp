@@ -138,7 +138,8 @@ const char* signal_name(int s) {
 // SIGINT or SIGTERM ends the program at once (a user's, or a batch system's last word); the
 // others are not repeated by a user and may be by the system (SIGXCPU every CPU second past the
 // soft limit), so a repeat of them leaves the saving to go on. Where g_say_stop is set (rank 0
-// of a run that talks) the first one is acknowledged at once, since the saving can take a while.
+// of a run that talks, while its members are computed) the first one is acknowledged at once,
+// since the saving can take a while.
 volatile std::sig_atomic_t g_signal = 0;
 volatile std::sig_atomic_t g_say_stop = 0;
 extern "C" void on_signal(int s) {
@@ -376,8 +377,10 @@ int RunCommand::run() {
   if (claim_space() != 0) return kInvalid;
   share_out();
   announce();
+  g_say_stop = talk && !o.quiet;  // a stop is acknowledged while members are computed
   if (const int rc = compute()) return rc;
   const int stopped = wait_for_ranks();  // the last progress line, then the timing after it
+  g_say_stop = 0;
   print_timing();
   if (stopped) return stopped;
   const int rc = collect_and_write();
@@ -619,12 +622,12 @@ void RunCommand::save_checkpoint() {
 // After an error the run cannot go on from: the members finished since the last checkpoint
 // are saved, where the disk allows (the error of a failed save already said what was kept).
 void RunCommand::save_after_error(const std::string& who) {
-  if (fresh.empty()) return;
   try {
-    save_checkpoint();
+    if (!fresh.empty()) save_checkpoint();
   } catch (const std::exception&) {
     return;
   }
+  if (!std::filesystem::exists(ck_dir)) return;  // nothing finished yet, nothing saved before
   std::cerr << "loosepack: " << who << "the members it had finished are saved in " << ck_dir
             << "; once the cause is fixed, continue with: " << resume_command() << "\n";
 }
@@ -946,6 +949,7 @@ int RunCommand::wait_for_ranks() {
     while (std::find(final.begin(), final.end(), 0) != final.end()) {
       if (const int stopped = ranks.receive_progress(latest, final, true); stopped && !stop)
         stop = stopped;
+      if (!stop) stop = g_signal;  // a signal to rank 0 once its own share is done
       if (stop && !told) {
         ranks.send_stop(stop, final);
         told = true;
@@ -1446,7 +1450,6 @@ int main(int argc, char** argv) {
     return kInvalid;
   }
   if (*run_cmd) {
-    g_say_stop = ranks.root() && !o.quiet;
     for (const auto& [number, name] : kStopSignals) std::signal(number, on_signal);
     return run(o, ranks);
   }

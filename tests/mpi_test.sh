@@ -52,6 +52,38 @@ for victim in 1 0; do
   "$exe" run long.toml -o stop$victim.h5 --resume --dry-run >/dev/null ||
     fail "SIGTERM to rank $victim: the checkpoint does not resume"
 done
+# A signal to rank 0 after its own share is done, while rank 1 computes (held by SIGSTOP until
+# then), stops the whole run too: rank 1 saves where its members are, and the run ends with
+# 128 + the signal and a checkpoint that resumes.
+mpirun --oversubscribe -np 2 "$exe" run long.toml -o late.h5 --checkpoint-every 1 2>late.log &
+job=$!
+for _ in $(seq 300); do grep -q "members," late.log && break; sleep 0.1; done
+declare -A rank_pid
+for p in $(pgrep -P $job); do
+  r=$(tr '\0' '\n' </proc/$p/environ | sed -n 's/^OMPI_COMM_WORLD_RANK=//p')
+  rank_pid[$r]=$p
+done
+kill -STOP "${rank_pid[1]}"
+for _ in $(seq 1200); do grep -q "4/8 members" late.log && break; sleep 0.1; done
+grep -q "4/8 members" late.log || { kill -CONT "${rank_pid[1]}"; kill -KILL $job; fail "rank 0's share did not finish: $(cat late.log)"; }
+kill -TERM "${rank_pid[0]}"
+sleep 1
+kill -CONT "${rank_pid[1]}"
+for _ in $(seq 600); do kill -0 $job 2>/dev/null || break; sleep 0.1; done
+if kill -0 $job 2>/dev/null; then
+  kill -KILL $job
+  fail "SIGTERM to rank 0 after its share: the run did not end within 60 s: $(cat late.log)"
+fi
+set +e
+wait $job
+rc=$?
+set -e
+[ "$rc" -eq 143 ] || fail "SIGTERM to rank 0 after its share: exit code $rc: $(cat late.log)"
+grep -q "interrupted by SIGTERM: .* continue with: loosepack run long.toml -o late.h5 --resume" late.log ||
+  fail "SIGTERM to rank 0 after its share: no word of the resume: $(cat late.log)"
+[ ! -e late.h5 ] || fail "SIGTERM to rank 0 after its share: the file was written"
+"$exe" run long.toml -o late.h5 --resume --dry-run >/dev/null ||
+  fail "SIGTERM to rank 0 after its share: the checkpoint does not resume"
 # The comparison itself can fail: another scan seed gives other datasets.
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > seed2.toml
 "$exe" run seed2.toml -o seed2.h5 -q
