@@ -1439,7 +1439,18 @@ int main(int argc, char** argv) {
     return rc == 0 ? kOk : kInvalid;  // --help exits 0; every usage error 2
   }
 
-  Kokkos::ScopeGuard kokkos(argc, argv);
+  // Kokkos reads its own options (--kokkos-threads=N, ...) and environment (KOKKOS_NUM_THREADS);
+  // one it cannot read throws, which is invalid input, not a crash.
+  std::optional<Kokkos::ScopeGuard> kokkos;
+  try {
+    kokkos.emplace(argc, argv);
+  } catch (const std::exception& e) {
+    if (ranks.root())
+      std::cerr << "loosepack: a Kokkos option (--kokkos-...) or KOKKOS_ variable could not be "
+                   "read ("
+                << e.what() << "): give it a whole number\n";
+    return kInvalid;
+  }
   if (version) {
     if (ranks.root()) std::cout << version_text();
     return kOk;

@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <sstream>
 
 #define TOML_EXCEPTIONS 1
@@ -122,10 +123,11 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
   std::vector<double> out;
   if (auto arr = node.as_array()) {
     if (arr->empty()) fail(file, node, key, "an axis needs at least one value");
+    std::set<double> seen;
     for (const auto& e : *arr) {
       const double v = as_number(file, e, key, must);
       // The same value twice would make two scan points of one set of parameters.
-      if (std::find(out.begin(), out.end(), v) != out.end())
+      if (!seen.insert(v).second)
         fail(file, e, key, "the value " + format_number(v) + " is already in this axis");
       out.push_back(v);
     }
@@ -168,10 +170,19 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
     if (points > 1 && from == to)
       fail(file, node, key,
            "from equals to: the range is one value, not " + std::to_string(points));
+    if (!log && !(std::isfinite(from) && std::isfinite(to)))
+      fail(file, node, key,
+           "a linear range needs finite from and to (list \"inf\" in `also` to add it)");
+    std::set<double> range;
     for (int k = 0; k < points; ++k) {
       const double f = points == 1 ? 0.0 : static_cast<double>(k) / (points - 1);
-      out.push_back(log ? log_range_value(from, to, f) : from + f * (to - from));
+      range.insert(log ? log_range_value(from, to, f) : from + f * (to - from));
     }
+    if (static_cast<int>(range.size()) < points)
+      fail(file, node, key,
+           "from and to lie too close for " + std::to_string(points) + " points: they give " +
+               std::to_string(range.size()) + " distinct values");
+    out.insert(out.end(), range.begin(), range.end());
     // The `also` values merged in order, each value once.
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());

@@ -128,6 +128,14 @@ set -e
 "$exe" --version --kokkos-threads=1 | grep -q " backend, 1 thread(s)" ||
   fail "--kokkos-threads=1 did not reach Kokkos: $("$exe" --version --kokkos-threads=1)"
 "$exe" --help | grep -q -- "--kokkos-threads=N" || fail "the help does not name --kokkos-threads"
+# One Kokkos cannot read is invalid input (exit 2 with a message), not an abort.
+for bad in "--kokkos-threads=abc" "--kokkos-threads=99999999999"; do
+  set +e
+  msg=$("$exe" run "$dir/good.toml" -o "$dir/never.h5" --dry-run "$bad" 2>&1); rc=$?
+  set -e
+  [ "$rc" -eq 2 ] && grep -q "a Kokkos option (--kokkos-...) or KOKKOS_ variable could not be read" \
+    <<< "$msg" || fail "$bad (exit $rc): $msg"
+done
 # --timing: every stage of the (staged) step, then the solve's balance. With the team solver's
 # solve split over launches of at most 4 sweeps, the first line says so, the slowest system sweeps at most 4
 # times a launch, and fewer system steps end in a launch than systems take part in it.
