@@ -435,14 +435,19 @@ std::vector<std::string> export_viewer_files(const std::string& path, ExportForm
         "carry (ParaView reads the name up to the ':'): copy or link it to a name without one, " +
         "or export --format extxyz");
   const std::string base = (p.parent_path() / p.stem()).string();  // the files lie next to it
-  // An earlier export's files are replaced; a result file where one would go, before anything
-  // is written, is refused.
+  // An earlier export's files are replaced; a result file or a directory where one would go,
+  // before anything is written, is refused.
   for (const auto& m : members) {
     const auto [viewer, sidecar] = viewer_paths(m, format, base);
-    for (const std::string& at : {viewer, sidecar})
-      if (!at.empty() && fs::exists(at) && result_file_problem(at).empty())
+    for (const std::string& at : {viewer, sidecar}) {
+      if (at.empty() || !fs::exists(at)) continue;
+      if (!fs::is_regular_file(at))
+        throw std::invalid_argument(at + " is not a file (a directory?), where export writes a " +
+                                    "viewer file of " + path + ": move it away");
+      if (result_file_problem(at).empty())
         throw std::invalid_argument(at + " is a loosepack result file, where export writes a " +
                                     "viewer file of " + path + ": move it away");
+    }
   }
   auto build = [&](const MemberData& m) {
     try {

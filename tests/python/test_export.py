@@ -104,6 +104,18 @@ def test_a_name_with_a_colon_is_refused_for_xdmf_and_exported_as_extxyz(exported
     assert export_copy(res, out, "--format", "extxyz", "--point", "0")
 
 
+def test_a_directory_where_a_viewer_file_goes_is_refused_before_anything_is_written(exported,
+                                                                                     tmp_path):
+    res, _ = exported
+    out = tmp_path / "dir.h5"
+    out.write_bytes(open(res.path, "rb").read())
+    (tmp_path / "dir_p0000_s1.xmf").mkdir()
+    done = subprocess.run([loosepack.find_program(), "export", str(out), "--point", "0"],
+                          capture_output=True, text=True)
+    assert done.returncode == 2 and "dir_p0000_s1.xmf is not a file" in done.stderr
+    assert sorted(os.listdir(tmp_path)) == ["dir.h5", "dir_p0000_s1.xmf"]
+
+
 def damaged_copy(res, tmp_path, name, edit):
     """A copy of the result file with one member's datasets edited by `edit(group)`."""
     out = tmp_path / name
