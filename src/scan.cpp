@@ -1118,15 +1118,19 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
   const double g = std::abs(sp.params.gravity), h = sp.params.time_step;
   const double reach = g * h * scan.rest.steps;
   if (!dynamics || !(g > 0.0) || reach >= kRestWindowSpeeds * scan.rest.speed) return;
-  const auto need =
-      static_cast<long>(std::ceil(kRestWindowSpeeds * scan.rest.speed / (g * h) - 1e-9));
+  constexpr double kMostRestSteps = 1e6;  // rest.steps' bound (src/settings.cpp)
+  const double need = std::ceil(kRestWindowSpeeds * scan.rest.speed / (g * h) - 1e-9);
   std::ostringstream why;
   why << "h = " << h << " with rest.steps = " << scan.rest.steps
       << ": a disk set free falls only g h rest.steps = " << reach
       << " sqrt(gR) fast within the rest window, below " << kRestWindowSpeeds << " rest speeds ("
       << kRestWindowSpeeds * scan.rest.speed
-      << "), so rest would be declared before anything moved; set [rest] steps >= " << need
-      << " (docs/SCAN.md, [rest])";
+      << "), so rest would be declared before anything moved; ";
+  if (need <= kMostRestSteps)
+    why << "set [rest] steps >= " << static_cast<long>(need) << " (docs/SCAN.md, [rest])";
+  else
+    why << "[rest] steps would need " << need << ", beyond its bound of 1e6: take a larger "
+        << "time_step or rest.speed (docs/SCAN.md, [rest])";
   if (const auto [node, name] = where_set("time_step"); node) fail(file, *node, name, why.str());
   const auto steps_node = setting_nodes.find("rest.steps");
   if (steps_node != setting_nodes.end()) fail(file, *steps_node->second, "rest.steps", why.str());

@@ -246,6 +246,10 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
        "bad.toml:2:12: key 'system.friction': from and to lie too close for 4 points"},
       {"[system]\nbond_number = { from = 1, to = \"inf\", points = 2 }\n",
        "bad.toml:2:15: key 'system.bond_number': a linear range needs finite from and to"},
+      {"[system]\nbond_number = 100\ntime_step = 1e-10\n",  // no rest.steps would do
+       "bad.toml:3:13: key 'system.time_step': h = 1e-10 with rest.steps = 10: a disk set free"},
+      {"[system]\nbond_number = 100\ntime_step = 1e-10\n",
+       "[rest] steps would need 2e+07, beyond its bound of 1e6"},
       {"[scan]\nprotocol = [\"A\", \"B\", \"A\"]\n",
        "bad.toml:2:23: key 'scan.protocol': the value \"A\" is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
