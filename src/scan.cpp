@@ -61,11 +61,17 @@ std::string where(const std::string& file, const toml::source_region& src) {
   throw ScanError(where(file, node.source()) + ": key '" + key + "': " + what);
 }
 
+// C0 and DEL, and the C1 controls U+0080 to U+009F (in UTF-8 0xC2 0x80 to 0xC2 0x9F), which a
+// terminal may take as commands.
 bool has_control_character(const std::string& s) {
-  return std::any_of(s.begin(), s.end(), [](char c) {
-    const auto u = static_cast<unsigned char>(c);
-    return u < 0x20 || u == 0x7f;
-  });
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    const auto u = static_cast<unsigned char>(s[k]);
+    if (u < 0x20 || u == 0x7f) return true;
+    if (u == 0xc2 && k + 1 < s.size() && static_cast<unsigned char>(s[k + 1]) < 0xa0 &&
+        static_cast<unsigned char>(s[k + 1]) >= 0x80)
+      return true;
+  }
+  return false;
 }
 
 std::string format_number(double v) {

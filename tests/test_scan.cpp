@@ -259,6 +259,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[scan]\nname = \"\"\n", "bad.toml:2:8: key 'scan.name': expected a non-empty string"},
       {"[scan]\nname = \"two\\nlines\"\n",  // it would break the summary's "# scan" line
        "bad.toml:2:8: key 'scan.name': expected a non-empty string without control characters"},
+      {"[scan]\nname = \"a\\u009Bb\"\n",  // a C1 control (CSI), which a terminal obeys
+       "bad.toml:2:8: key 'scan.name': expected a non-empty string without control characters"},
       {"[scan]\nprotocol = \"D\"\n", "key 'scan.protocol': expected \"A\", \"B\" or \"C\""},
       {"[solver]\nkind = \"newton\"\n", "key 'solver.kind'"},
       {"[solver]\ntolerance = 2.0\n", "key 'solver.tolerance': value 2 outside the allowed range"},
