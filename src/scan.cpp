@@ -804,24 +804,31 @@ Scan ScanParser::parse() {
 // of nu(y) below H (a strip reaching over H would count the empty space above the box).
 void ScanParser::check_bands(double height) const {
   const auto& obs = scan.observables;
+  // A band the file leaves at its default is refused where the file sets the height.
+  const auto fail_band = [&](const std::string& key, const std::string& reason) {
+    if (!setting_nodes.count(key))
+      if (const auto [node, name] = where_set("height"); node)
+        fail(file, *node, name, key + " (its default, not set in the file) " + reason);
+    fail_setting(key, reason);
+  };
   if (!(obs.strip_width <= height)) {
     std::ostringstream o;
     o << obs.strip_width << " must be at most H = " << height
       << " of every point (nu(y) is measured in the strips that fit below H)";
-    fail_setting("observables.strip_width", o.str());
+    fail_band("observables.strip_width", o.str());
   }
   if (!(obs.lower_half_from_at(height) < 0.5 * height)) {
     std::ostringstream o;
     o << obs.lower_half_from << " must lie below H/2 = " << 0.5 * height
       << " of every point (nu_lower_half is the band from it to H/2)";
-    fail_setting("observables.lower_half_from", o.str());
+    fail_band("observables.lower_half_from", o.str());
   }
   const double bottom = obs.cut_bottom_at(height), top = obs.cut_top_at(height);
   if (!(bottom + top < height)) {
     std::ostringstream o;
     o << "cut_bottom + cut_top = " << bottom + top << " must lie below H = " << height
       << " of every point (the cut histogram and the profile fits use the band between them)";
-    fail_setting(obs.cut_top_given ? "observables.cut_top" : "observables.cut_bottom", o.str());
+    fail_band(obs.cut_top_given ? "observables.cut_top" : "observables.cut_bottom", o.str());
   }
 }
 
