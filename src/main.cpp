@@ -1067,16 +1067,17 @@ int RunCommand::dry_run() const {
   // A member that goes on from its snapshot has the share its snapshot had done behind it.
   const auto& listed = o.resume ? todo : members;
   const std::vector<double> left = costs_left(listed, started);
+  std::map<int, std::pair<int, double>> of_point;  // members, CPU s (right within a few times)
+  for (std::size_t k = 0; k < listed.size(); ++k) {
+    auto& [members_there, seconds] = of_point[listed[k].point];
+    ++members_there;
+    seconds += left[k] * kSecondsPerCostUnit;
+  }
   double total = 0.0;
   for (const auto& pt : scan.points) {
-    int n = 0;
-    double cost = 0.0;  // right within a factor of a few
-    for (std::size_t k = 0; k < listed.size(); ++k)
-      if (listed[k].point == pt.index) {
-        ++n;
-        cost += left[k] * kSecondsPerCostUnit;
-      }
-    if (n == 0) continue;
+    const auto there = of_point.find(pt.index);
+    if (there == of_point.end()) continue;
+    const auto [n, cost] = there->second;
     total += cost;
     std::printf("%04d   %-5s %-10g %-8g %-8g %-8g %-8d %.3g\n", pt.index,
                 protocol_name(pt.protocol).c_str(), pt.params.bond_number, pt.params.capture_radius,
