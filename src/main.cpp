@@ -1446,10 +1446,12 @@ int main(int argc, char** argv) {
   try {
     kokkos.emplace(argc, argv);
   } catch (const std::exception& e) {
+    std::string why = e.what();
+    why = why.substr(0, why.find('\n'));  // Kokkos's first line; a traceback note follows it
     if (ranks.root())
       std::cerr << "loosepack: a Kokkos option (--kokkos-...) or KOKKOS_ variable could not be "
                    "read ("
-                << e.what() << "): give it a whole number\n";
+                << why << "): give it a valid value (loosepack --help)\n";
     return kInvalid;
   }
   if (version) {

@@ -1186,15 +1186,24 @@ ExtraColumns extra_columns(hid_t file, const std::vector<std::string>& names) {
         values.insert(double_attribute(file, n, attribute));
     if (values.size() > 1) extras.emplace_back(attribute, title);
   }
-  // The time step follows the Bond number by default: a column where points of one Bond number
-  // differ in it (a time step axis).
-  std::map<double, std::set<double>> steps_of_bond;
-  for (const auto& n : names)
-    if (H5Aexists_by_name(file, n.c_str(), "time_step", H5P_DEFAULT) > 0)
-      steps_of_bond[double_attribute(file, n, "bond_number")].insert(
-          double_attribute(file, n, "time_step"));
-  if (std::any_of(steps_of_bond.begin(), steps_of_bond.end(),
-                  [](const auto& bond) { return bond.second.size() > 1; }))
+  // The default time step follows the other parameters (the Bond number, d_c, g): a column
+  // where points equal in all of them differ in it (a time step axis).
+  std::map<std::pair<std::string, std::vector<double>>, std::set<double>> steps_of;
+  for (const auto& n : names) {
+    if (H5Aexists_by_name(file, n.c_str(), "time_step", H5P_DEFAULT) <= 0) continue;
+    std::vector<double> others;
+    for (const char* a :
+         {"bond_number", "cohesion_range", "gravity", "radius", "polydispersity", "width", "height",
+          "friction", "rolling_friction", "capture_radius", "disk_density", "floor_cohesion"})
+      if (H5Aexists_by_name(file, n.c_str(), a, H5P_DEFAULT) > 0)
+        others.push_back(double_attribute(file, n, a));
+    // (A point without its protocol is named by its row, which reads it.)
+    const bool named = H5Aexists_by_name(file, n.c_str(), "protocol", H5P_DEFAULT) > 0;
+    steps_of[{named ? string_attribute(file, n, "protocol") : "", others}].insert(
+        double_attribute(file, n, "time_step"));
+  }
+  if (std::any_of(steps_of.begin(), steps_of.end(),
+                  [](const auto& same) { return same.second.size() > 1; }))
     extras.emplace_back("time_step", "h");
   return extras;
 }

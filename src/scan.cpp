@@ -186,8 +186,8 @@ std::vector<double> as_axis(const std::string& file, const toml::node& node, con
     }
     if (static_cast<int>(range.size()) < points)
       fail(file, node, key,
-           "from and to lie too close for " + std::to_string(points) + " points: they give " +
-               std::to_string(range.size()) + " distinct values");
+           "from and to lie too close for " + std::to_string(points) +
+               " distinct points (they give " + std::to_string(range.size()) + ")");
     out.insert(out.end(), range.begin(), range.end());
     // The `also` values merged in order, each value once.
     std::sort(out.begin(), out.end());
@@ -775,8 +775,11 @@ Scan ScanParser::parse() {
     point_table = explicit_points.empty() ? nullptr : &explicit_points[k];
     validate_point(points[k]);
   }
+  for (std::size_t k = 0; k < points.size(); ++k) {  // a band refused at the point's height
+    point_table = explicit_points.empty() ? nullptr : &explicit_points[k];
+    check_bands(points[k].params.height);
+  }
   point_table = nullptr;
-  for (const auto& sp : points) check_bands(sp.params.height);
   reset_unused_capture_radius(points);
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
@@ -1143,7 +1146,7 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
     why << "set [rest] steps >= " << static_cast<long>(need) << " (docs/SCAN.md, [rest])";
   else
     why << "[rest] steps would need " << need << ", beyond its bound of 1e6: take a larger "
-        << "time_step or rest.speed (docs/SCAN.md, [rest])";
+        << "time_step or a smaller rest.speed (docs/SCAN.md, [rest])";
   if (const auto [node, name] = where_set("time_step"); node) fail(file, *node, name, why.str());
   const auto steps_node = setting_nodes.find("rest.steps");
   if (steps_node != setting_nodes.end()) fail(file, *steps_node->second, "rest.steps", why.str());

@@ -62,6 +62,20 @@ interrupt TERM t.h5 t.log
 [ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat t.log)"
 grep -q "continue with: loosepack run s.toml -o t.h5 --resume" t.log || fail "message: $(cat t.log)"
 [ ! -e t.h5 ] || fail "an interrupted run wrote an output file"
+# Each resume writes its running part under its own generation; the next resume removes an
+# earlier one whose every snapshot a later part replaces (a copy of the checkpoint, resumed and
+# stopped twice: generation 1's running part goes at the start of generation 3), and the run
+# still ends with the uninterrupted run's file.
+cp -r t.h5.checkpoint g.h5.checkpoint
+[ -e g.h5.checkpoint/part-1-0.bin ] || fail "no running part after a stop: $(ls g.h5.checkpoint)"
+interrupt TERM g.h5 g2.log --resume
+[ -e g.h5.checkpoint/part-1-0.bin ] || fail "generation 2 removed generation 1's running part"
+interrupt TERM g.h5 g3.log --resume
+[ "$rc" -eq 143 ] || fail "SIGTERM exit code $rc: $(cat g3.log)"
+[ ! -e g.h5.checkpoint/part-1-0.bin ] ||
+  fail "generation 1's running part outlived two resumes: $(ls g.h5.checkpoint)"
+"$exe" run s.toml -o g.h5 --batch-size 1 --resume -q
+same full.h5 g.h5
 # A dry run over the checkpoint says the run would be refused; with --resume it plans what is left.
 "$exe" run s.toml -o t.h5 --dry-run | grep -q "checkpoint of an interrupted run exists (t.h5.checkpoint): the run would be refused without --resume" ||
   fail "a dry run did not see the checkpoint"

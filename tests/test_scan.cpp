@@ -240,10 +240,10 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\nheight = { from = 20, to = 20, points = 3 }\n",
        "bad.toml:2:10: key 'system.height': from equals to: the range is one value, not 3"},
       {"[system]\nbond_number = { from = 1, to = 1.000000001, points = 3, log = true }\n",
-       "bad.toml:2:15: key 'system.bond_number': from and to lie too close for 3 points: they "
-       "give 1 distinct values"},
+       "bad.toml:2:15: key 'system.bond_number': from and to lie too close for 3 distinct points "
+       "(they give 1)"},
       {"[system]\nfriction = { from = 0.3, to = 0.3000000000000001, points = 4 }\n",
-       "bad.toml:2:12: key 'system.friction': from and to lie too close for 4 points"},
+       "bad.toml:2:12: key 'system.friction': from and to lie too close for 4 distinct points"},
       {"[system]\nbond_number = { from = 1, to = \"inf\", points = 2 }\n",
        "bad.toml:2:15: key 'system.bond_number': a linear range needs finite from and to"},
       {"[system]\nbond_number = 100\ntime_step = 1e-10\n",  // no rest.steps would do

@@ -102,11 +102,20 @@ def splitting_keys(points, base, candidates):
         for g in points:
             if k not in g.attrs:
                 continue
-            key = tuple(attribute_value(attr(g, b)) for b in base) + (file_tag(g),)
+            key = tuple(attribute_value(g.attrs[b]) if b in g.attrs else None
+                        for b in base) + (file_tag(g),)  # a file of an older program lacks some
             seen.setdefault(key, set()).add(attribute_value(attr(g, k)))
         if any(len(v) > 1 for v in seen.values()):
             out.append(k)
     return tuple(out)
+
+
+def label_keys(points):
+    """LABEL_KEYS of these points: the scan parameters that split points alike in protocol, Bo,
+    r_capt and H, and the time step where it splits points alike in every scan parameter (by
+    default it follows Bo and d_c)."""
+    return (splitting_keys(points, LABEL_BASE, [k for k in SCAN_KEYS if k not in LABEL_BASE])
+            + splitting_keys(points, SCAN_KEYS, ("time_step",)))
 
 
 def label(g):
@@ -116,7 +125,7 @@ def label(g):
     if attr(g, "capture_radius") != 1.0:
         s += f", r_capt={attr(g, 'capture_radius'):g}"
     s += f", H={attr(g, 'height'):g}"
-    s += "".join(f", {k}={attribute_value(attr(g, k)):g}" for k in LABEL_KEYS)
+    s += "".join(f", {k}={attribute_value(attr(g, k)):g}" for k in LABEL_KEYS if k in g.attrs)
     return s + file_tag(g)
 
 
@@ -630,8 +639,7 @@ def main():
     global SEVERAL_FILES, LABEL_KEYS
     SEVERAL_FILES = len(files) > 1
     points = [f["points"][k] for f in files for k in sorted(f["points"])]
-    LABEL_KEYS = splitting_keys(points, LABEL_BASE, [k for k in SCAN_KEYS + ("time_step",)
-                                                     if k not in LABEL_BASE])
+    LABEL_KEYS = label_keys(points)
     written = []
     density_profiles(points, out, written)
     nu_lower_half(points, out, written)

@@ -60,7 +60,7 @@ def test_a_time_step_axis_is_its_own_series_and_named(tmp_path, figures):
 
     f, points = scan(tmp_path / "axis.h5", [(0.0, 0.01), (0.0, 0.005), (100.0, 0.01),
                                            (100.0, 0.005)])
-    plot.LABEL_KEYS = plot.splitting_keys(points, plot.LABEL_BASE, ("width", "time_step"))
+    plot.LABEL_KEYS = plot.label_keys(points)
     assert plot.LABEL_KEYS == ("time_step",)
     assert len({plot.label(g) for g in points}) == 4
     plot.nu_lower_half(points, str(tmp_path), [])
@@ -69,7 +69,7 @@ def test_a_time_step_axis_is_its_own_series_and_named(tmp_path, figures):
         "time_step 0.005", "time_step 0.01"]
     f.close()
     f, points = scan(tmp_path / "follows.h5", [(0.0, 0.01), (100.0, 0.009)])
-    plot.LABEL_KEYS = plot.splitting_keys(points, plot.LABEL_BASE, ("width", "time_step"))
+    plot.LABEL_KEYS = plot.label_keys(points)
     assert plot.LABEL_KEYS == ()
     plot.nu_lower_half(points, str(tmp_path), [])
     assert len(figures["nu_lower_half.png"].axes[0].get_legend().get_texts()) == 1
