@@ -253,6 +253,9 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\nwidth = 12\nheight = 3\nradius = 0.5\n",  // a default band, refused at H
        "bad.toml:3:10: key 'system.height': observables.strip_width (its default, not set in "
        "the file) 3.97 must be at most H = 3"},
+      {"[system]\nwidth = 12\nheight = 100\nradius = 0.5\n[[point]]\nheight = 3\n",  // its own H
+       "bad.toml:6:10: key 'point.height': observables.strip_width (its default, not set in "
+       "the file) 3.97 must be at most H = 3"},
       {"[scan]\nprotocol = [\"A\", \"B\", \"A\"]\n",
        "bad.toml:2:23: key 'scan.protocol': the value \"A\" is already in this axis"},
       {"[system]\nwidht = 20\n", "bad.toml:2:9: key 'system.widht': unknown key"},
