@@ -29,6 +29,26 @@ grep -q "3 MPI ranks" k3.log || fail "rank count not reported"
 # its checkpoint and ends with 128 + the signal, rank 0 says how to go on, and the checkpoint
 # resumes (no rank waits for the stopped one).
 printf '[scan]\nname = "long"\nseeds = 8\nprotocol = "A"\n[system]\nwidth = 30\nheight = 60\nbond_number = 1000\n[observables]\nlower_half_from = 2\n' >long.toml
+# stopped_by_sigterm JOB NAME WHAT: the mpirun JOB writing NAME.h5 (log NAME.log) ends within
+# 60 s with 128 + SIGTERM, says how to resume, writes no file, and its checkpoint resumes.
+stopped_by_sigterm() {
+  local job=$1 name=$2 what=$3
+  for _ in $(seq 600); do kill -0 "$job" 2>/dev/null || break; sleep 0.1; done
+  if kill -0 "$job" 2>/dev/null; then
+    kill -KILL "$job"
+    fail "$what: the run did not end within 60 s: $(cat "$name.log")"
+  fi
+  set +e
+  wait "$job"
+  rc=$?
+  set -e
+  [ "$rc" -eq 143 ] || fail "$what: exit code $rc: $(cat "$name.log")"
+  grep -q "interrupted by SIGTERM: .* continue with: loosepack run long.toml -o $name.h5 --resume" \
+    "$name.log" || fail "$what: no word of the resume: $(cat "$name.log")"
+  [ ! -e "$name.h5" ] || fail "$what: the file was written"
+  "$exe" run long.toml -o "$name.h5" --resume --dry-run >/dev/null ||
+    fail "$what: the checkpoint does not resume"
+}
 for victim in 1 0; do
   mpirun --oversubscribe -np 2 "$exe" run long.toml -o stop$victim.h5 --checkpoint-every 1 \
     2>stop$victim.log &
@@ -37,20 +57,7 @@ for victim in 1 0; do
   for p in $(pgrep -P $job); do
     tr '\0' '\n' </proc/$p/environ | grep -qx "OMPI_COMM_WORLD_RANK=$victim" && kill -TERM $p
   done
-  for _ in $(seq 600); do kill -0 $job 2>/dev/null || break; sleep 0.1; done
-  if kill -0 $job 2>/dev/null; then
-    kill -KILL $job
-    fail "SIGTERM to rank $victim: the run did not end within 60 s: $(cat stop$victim.log)"
-  fi
-  set +e
-  wait $job
-  rc=$?
-  set -e
-  [ "$rc" -eq 143 ] || fail "SIGTERM to rank $victim: exit code $rc: $(cat stop$victim.log)"
-  grep -q "interrupted by SIGTERM: .* continue with: loosepack run long.toml -o stop$victim.h5 --resume" stop$victim.log ||
-    fail "SIGTERM to rank $victim: no word of the resume: $(cat stop$victim.log)"
-  "$exe" run long.toml -o stop$victim.h5 --resume --dry-run >/dev/null ||
-    fail "SIGTERM to rank $victim: the checkpoint does not resume"
+  stopped_by_sigterm $job stop$victim "SIGTERM to rank $victim"
 done
 # A signal to rank 0 after its own share is done, while rank 1 computes (held by SIGSTOP until
 # then), stops the whole run too: rank 1 saves where its members are, and the run ends with
@@ -65,25 +72,15 @@ for p in $(pgrep -P $job); do
 done
 kill -STOP "${rank_pid[1]}"
 for _ in $(seq 1200); do grep -q "4/8 members" late.log && break; sleep 0.1; done
-grep -q "4/8 members" late.log || { kill -CONT "${rank_pid[1]}"; kill -KILL $job; fail "rank 0's share did not finish: $(cat late.log)"; }
+if ! grep -q "4/8 members" late.log; then
+  kill -CONT "${rank_pid[1]}"
+  kill -KILL $job
+  fail "rank 0's share did not finish: $(cat late.log)"
+fi
 kill -TERM "${rank_pid[0]}"
 sleep 1
 kill -CONT "${rank_pid[1]}"
-for _ in $(seq 600); do kill -0 $job 2>/dev/null || break; sleep 0.1; done
-if kill -0 $job 2>/dev/null; then
-  kill -KILL $job
-  fail "SIGTERM to rank 0 after its share: the run did not end within 60 s: $(cat late.log)"
-fi
-set +e
-wait $job
-rc=$?
-set -e
-[ "$rc" -eq 143 ] || fail "SIGTERM to rank 0 after its share: exit code $rc: $(cat late.log)"
-grep -q "interrupted by SIGTERM: .* continue with: loosepack run long.toml -o late.h5 --resume" late.log ||
-  fail "SIGTERM to rank 0 after its share: no word of the resume: $(cat late.log)"
-[ ! -e late.h5 ] || fail "SIGTERM to rank 0 after its share: the file was written"
-"$exe" run long.toml -o late.h5 --resume --dry-run >/dev/null ||
-  fail "SIGTERM to rank 0 after its share: the checkpoint does not resume"
+stopped_by_sigterm $job late "SIGTERM to rank 0 after its share"
 # The comparison itself can fail: another scan seed gives other datasets.
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > seed2.toml
 "$exe" run seed2.toml -o seed2.h5 -q
