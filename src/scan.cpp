@@ -1134,7 +1134,10 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
   const double g = std::abs(sp.params.gravity), h = sp.params.time_step;
   const double reach = g * h * scan.rest.steps;
   if (!dynamics || !(g > 0.0) || reach >= kRestWindowSpeeds * scan.rest.speed) return;
-  constexpr double kMostRestSteps = 1e6;  // rest.steps' bound (src/settings.cpp)
+  const auto& keys = setting_keys();
+  const double most_rest_steps = std::find_if(keys.begin(), keys.end(), [](const SettingKey& k) {
+                                   return std::string(k.section) + "." + k.key == "rest.steps";
+                                 })->hi;
   const double need = std::ceil(kRestWindowSpeeds * scan.rest.speed / (g * h) - 1e-9);
   std::ostringstream why;
   why << "h = " << h << " with rest.steps = " << scan.rest.steps
@@ -1142,11 +1145,12 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
       << " sqrt(gR) fast within the rest window, below " << kRestWindowSpeeds << " rest speeds ("
       << kRestWindowSpeeds * scan.rest.speed
       << "), so rest would be declared before anything moved; ";
-  if (need <= kMostRestSteps)
+  if (need <= most_rest_steps)
     why << "set [rest] steps >= " << static_cast<long>(need) << " (docs/SCAN.md, [rest])";
   else
-    why << "[rest] steps would need " << need << ", beyond its bound of 1e6: take a larger "
-        << "time_step or a smaller rest.speed (docs/SCAN.md, [rest])";
+    why << "[rest] steps would need " << need << ", beyond its bound of "
+        << format_number(most_rest_steps)
+        << ": take a larger time_step or a smaller rest.speed (docs/SCAN.md, [rest])";
   if (const auto [node, name] = where_set("time_step"); node) fail(file, *node, name, why.str());
   const auto steps_node = setting_nodes.find("rest.steps");
   if (steps_node != setting_nodes.end()) fail(file, *steps_node->second, "rest.steps", why.str());

@@ -249,7 +249,7 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\nbond_number = 100\ntime_step = 1e-10\n",  // no rest.steps would do
        "bad.toml:3:13: key 'system.time_step': h = 1e-10 with rest.steps = 10: a disk set free"},
       {"[system]\nbond_number = 100\ntime_step = 1e-10\n",
-       "[rest] steps would need 2e+07, beyond its bound of 1e6"},
+       "[rest] steps would need 2e+07, beyond its bound of 1e+06"},
       {"[system]\nwidth = 12\nheight = 3\nradius = 0.5\n",  // a default band, refused at H
        "bad.toml:3:10: key 'system.height': observables.strip_width (its default, not set in "
        "the file) 3.97 must be at most H = 3"},
