@@ -552,10 +552,10 @@ CheckpointContents read_checkpoint(const std::string& directory, const Scan& sca
     }
     int generation = 0;
     std::sscanf(fs::path(file).filename().string().c_str(), "part-%d-", &generation);
-    // A part of snapshots alone is a rank's running part (part-G-R.bin).
-    if (part.finished.empty()) running_parts.push_back({file, generation, {}});
+    const bool running_part = part.finished.empty();  // snapshots alone: part-G-R.bin
+    if (running_part) running_parts.push_back({file, generation, {}});
     for (auto& snap : part.running) {
-      if (part.finished.empty()) running_parts.back().ids.push_back(snap.result.member.id);
+      if (running_part) running_parts.back().ids.push_back(snap.result.member.id);
       auto& latest = running[snap.result.member.id];
       if (generation >= latest.first) latest = {generation, std::move(snap)};
     }

@@ -261,21 +261,26 @@ void binned_stat(hid_t parent, const std::string& name, const BinnedStat& b) {
   for (const auto& [field, member] : kBinnedMemberFields) dataset(g, field, b.*member);
 }
 
+// A point's system parameters as its attributes (name, value), in the order they are written.
+std::vector<std::pair<const char*, double>> param_attributes(const SystemParams& p) {
+  return {{"width", p.width},
+          {"height", p.height},
+          {"radius", p.radius},
+          {"polydispersity", p.polydispersity},
+          {"disk_density", p.disk_density},
+          {"gravity", p.gravity},
+          {"bond_number", p.bond_number},
+          {"cohesive_force", p.cohesive_force()},
+          {"cohesion_range", p.cohesion_range},
+          {"floor_cohesion", p.floor_cohesion ? 1.0 : 0.0},
+          {"friction", p.friction},
+          {"rolling_friction", p.rolling_friction},
+          {"time_step", p.time_step},
+          {"capture_radius", p.capture_radius}};
+}
+
 void params(hid_t g, const SystemParams& p) {
-  attribute(g, "width", p.width);
-  attribute(g, "height", p.height);
-  attribute(g, "radius", p.radius);
-  attribute(g, "polydispersity", p.polydispersity);
-  attribute(g, "disk_density", p.disk_density);
-  attribute(g, "gravity", p.gravity);
-  attribute(g, "bond_number", p.bond_number);
-  attribute(g, "cohesive_force", p.cohesive_force());
-  attribute(g, "cohesion_range", p.cohesion_range);
-  attribute(g, "floor_cohesion", p.floor_cohesion ? 1.0 : 0.0);
-  attribute(g, "friction", p.friction);
-  attribute(g, "rolling_friction", p.rolling_friction);
-  attribute(g, "time_step", p.time_step);
-  attribute(g, "capture_radius", p.capture_radius);
+  for (const auto& [name, value] : param_attributes(p)) attribute(g, name, value);
 }
 
 // A fit: datasets coef and error (parameter k and its standard error), attributes valid,
@@ -1171,6 +1176,27 @@ void print_summary_head(hid_t file, const std::string& path, std::size_t points,
   out << "\n";
 }
 
+// Whether points equal in their protocol and every other system parameter differ in the time
+// step (a time step axis): its default follows the others (Bo, d_c, g), so a scan over Bo alone
+// has none.
+bool time_step_axis(hid_t file, const std::vector<std::string>& names) {
+  std::map<std::pair<std::string, std::vector<double>>, std::set<double>> steps_of;
+  for (const auto& n : names) {
+    const auto has = [&](const char* a) {
+      return H5Aexists_by_name(file, n.c_str(), a, H5P_DEFAULT) > 0;
+    };
+    if (!has("time_step")) continue;
+    std::vector<double> others;
+    for (const auto& [a, unused] : param_attributes(SystemParams{}))
+      if (std::string(a) != "time_step" && has(a)) others.push_back(double_attribute(file, n, a));
+    // (A point without its protocol is named by its row, which reads it.)
+    auto& steps = steps_of[{has("protocol") ? string_attribute(file, n, "protocol") : "", others}];
+    steps.insert(double_attribute(file, n, "time_step"));
+    if (steps.size() > 1) return true;
+  }
+  return false;
+}
+
 // Scan parameters without a column of their own get one where the points differ in them, so that
 // a scan over widths, radii or time steps does not read as repeated rows: (attribute, column
 // title).
@@ -1186,25 +1212,7 @@ ExtraColumns extra_columns(hid_t file, const std::vector<std::string>& names) {
         values.insert(double_attribute(file, n, attribute));
     if (values.size() > 1) extras.emplace_back(attribute, title);
   }
-  // The default time step follows the other parameters (the Bond number, d_c, g): a column
-  // where points equal in all of them differ in it (a time step axis).
-  std::map<std::pair<std::string, std::vector<double>>, std::set<double>> steps_of;
-  for (const auto& n : names) {
-    if (H5Aexists_by_name(file, n.c_str(), "time_step", H5P_DEFAULT) <= 0) continue;
-    std::vector<double> others;
-    for (const char* a :
-         {"bond_number", "cohesion_range", "gravity", "radius", "polydispersity", "width", "height",
-          "friction", "rolling_friction", "capture_radius", "disk_density", "floor_cohesion"})
-      if (H5Aexists_by_name(file, n.c_str(), a, H5P_DEFAULT) > 0)
-        others.push_back(double_attribute(file, n, a));
-    // (A point without its protocol is named by its row, which reads it.)
-    const bool named = H5Aexists_by_name(file, n.c_str(), "protocol", H5P_DEFAULT) > 0;
-    steps_of[{named ? string_attribute(file, n, "protocol") : "", others}].insert(
-        double_attribute(file, n, "time_step"));
-  }
-  if (std::any_of(steps_of.begin(), steps_of.end(),
-                  [](const auto& same) { return same.second.size() > 1; }))
-    extras.emplace_back("time_step", "h");
+  if (time_step_axis(file, names)) extras.emplace_back("time_step", "h");
   return extras;
 }
 

@@ -81,9 +81,9 @@ finished member) is not judged, nor is a quantity one file holds and the other l
 says which), nor the mean size of the avalanche events where a side's events all lie in one bin
 of sizes (their error from the bins would be 0). A scalar differs when its distance exceeds
 --sigma (2) combined standard errors; a profile or histogram when its chi2 exceeds the bound;
-the shapes when no shape fits both and a verdict is one. With n scalars compared at 2 sigma, about n/20 differ by chance,
-and more where the errors come from few members (about 9 % of them with 4 members, 6.5 % with 8:
-an error estimated from few members is itself uncertain). Exits with 1 when anything differs, 2
+the shapes when no shape fits both and a verdict is one. With n scalars compared at 2 sigma,
+about n/20 differ by chance, and more where the errors come from few members (about 9 % of them
+with 4 members, 6.5 % with 8: an error estimated from few members is itself uncertain). Exits with 1 when anything differs, 2
 on unusable input.
 --json appends one JSON line per point (a scalar's values and errors also as numbers, `a_value`,
 `a_error`, `b_value`, `b_error`, and with --paired the members' difference B - A and its error,

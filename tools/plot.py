@@ -202,8 +202,8 @@ def nu_lower_half(points, out, written):
     if x_key is None:
         return
     others = [k for k in SCAN_KEYS if k != x_key and k in points[0].attrs]
-    # The time step follows the Bond number by default: a series of its own only where points
-    # of one x and one set of the others differ in it (a time step axis).
+    # The default time step follows Bo and d_c: a series of its own only where points of one x
+    # and one set of the others differ in it (a time step axis).
     others += splitting_keys(points, [x_key] + others, ("time_step",))
     varying = [k for k in others if len({attribute_value(attr(g, k)) for g in points}) > 1]
     series = {}
