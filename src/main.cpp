@@ -937,10 +937,11 @@ void RunCommand::print_wall_time() const {
 }
 
 // Rank 0 shows progress until every rank is done, finished or stopped. A rank stopped by a
-// signal stops the run: rank 0 tells the ranks still computing to stop, and waits until each
-// has saved its checkpoint and said so, so that no rank waits for another that has gone.
-// Then every rank learns whether the run stopped; at a stop rank 0 says what was saved and how
-// to go on, and the exit code is 128 + the signal on every rank.
+// signal stops the run, as does a signal to a rank that has finished its share while others
+// compute: rank 0 tells the ranks still computing to stop, and waits until each has saved its
+// checkpoint and said so, so that no rank waits for another that has gone. Then every rank
+// learns whether the run stopped; at a stop rank 0 says what was saved and how to go on, and
+// the exit code is 128 + the signal on every rank.
 int RunCommand::wait_for_ranks() {
   int stop = g_signal;
   if (talk) {
@@ -957,11 +958,11 @@ int RunCommand::wait_for_ranks() {
       if (!stop) show(false);
     }
     if (!stop) show(true);
+    stop = ranks.decide(stop);
   } else {
     ranks.send_progress(own, true, g_signal);
+    stop = ranks.await_verdict(own, g_signal);
   }
-  stop = ranks.broadcast(stop);
-  ranks.poll_stop();  // a stop notice that crossed this rank's final message
   if (!stop) return 0;
   if (!talk) return 128 + stop;
   const std::string by = signal_name(stop);

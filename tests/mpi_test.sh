@@ -2,7 +2,8 @@
 # MPI: a scan sharded over K = 1, 2 and 3 ranks (mpirun --oversubscribe) gives output identical
 # to a run without mpirun (tests/h5_equal.py: every dataset and attribute but the run's times
 # and rank count), with a failed member (injected NaN) among them, and progress and failures
-# are printed once; a signal to one rank stops them all. (The failed member itself:
+# are printed once; a signal to one rank stops them all, also one that reaches a rank that has
+# finished its share while another computes. (The failed member itself:
 # tests/failure_test.sh.)
 source "$(dirname "$0")/common.sh"
 cd "$dir"
@@ -29,10 +30,11 @@ grep -q "3 MPI ranks" k3.log || fail "rank count not reported"
 # its checkpoint and ends with 128 + the signal, rank 0 says how to go on, and the checkpoint
 # resumes (no rank waits for the stopped one).
 printf '[scan]\nname = "long"\nseeds = 8\nprotocol = "A"\n[system]\nwidth = 30\nheight = 60\nbond_number = 1000\n[observables]\nlower_half_from = 2\n' >long.toml
-# stopped_by_sigterm JOB NAME WHAT: the mpirun JOB writing NAME.h5 (log NAME.log) ends within
-# 60 s with 128 + SIGTERM, says how to resume, writes no file, and its checkpoint resumes.
+# stopped_by_sigterm JOB NAME WHAT [SCAN]: the mpirun JOB of SCAN (long.toml) writing NAME.h5
+# (log NAME.log) ends within 60 s with 128 + SIGTERM, says how to resume, writes no file, and its
+# checkpoint resumes.
 stopped_by_sigterm() {
-  local job=$1 name=$2 what=$3
+  local job=$1 name=$2 what=$3 scan=${4:-long.toml}
   for _ in $(seq 600); do kill -0 "$job" 2>/dev/null || break; sleep 0.1; done
   if kill -0 "$job" 2>/dev/null; then
     kill -KILL "$job"
@@ -43,10 +45,10 @@ stopped_by_sigterm() {
   rc=$?
   set -e
   [ "$rc" -eq 143 ] || fail "$what: exit code $rc: $(cat "$name.log")"
-  grep -q "interrupted by SIGTERM: .* continue with: loosepack run long.toml -o $name.h5 --resume" \
+  grep -q "interrupted by SIGTERM: .* continue with: loosepack run $scan -o $name.h5 --resume" \
     "$name.log" || fail "$what: no word of the resume: $(cat "$name.log")"
   [ ! -e "$name.h5" ] || fail "$what: the file was written"
-  "$exe" run long.toml -o "$name.h5" --resume --dry-run >/dev/null ||
+  "$exe" run "$scan" -o "$name.h5" --resume --dry-run >/dev/null ||
     fail "$what: the checkpoint does not resume"
 }
 for victim in 1 0; do
@@ -81,6 +83,17 @@ kill -TERM "${rank_pid[0]}"
 sleep 1
 kill -CONT "${rank_pid[1]}"
 stopped_by_sigterm $job late "SIGTERM to rank 0 after its share"
+# A signal to rank 1 after its own share is done (a member 10 R tall against rank 0's 90 R one)
+# stops the whole run too.
+sed 's/seeds = 8/seeds = 1/; s/height = 60/height = [90.0, 10.0]/' long.toml >uneven.toml
+mpirun --oversubscribe -np 2 "$exe" run uneven.toml -o late1.h5 --checkpoint-every 1 2>late1.log &
+job=$!
+for _ in $(seq 600); do grep -q "1/2 members" late1.log && break; sleep 0.1; done
+grep -q "1/2 members" late1.log || fail "rank 1's share did not finish first: $(cat late1.log)"
+for p in $(pgrep -P $job); do
+  tr '\0' '\n' </proc/$p/environ | grep -qx "OMPI_COMM_WORLD_RANK=1" && kill -TERM $p
+done
+stopped_by_sigterm $job late1 "SIGTERM to rank 1 after its share" uneven.toml
 # The comparison itself can fail: another scan seed gives other datasets.
 sed 's/name = "mixed"/name = "mixed"\nseed = 2/' s.toml > seed2.toml
 "$exe" run seed2.toml -o seed2.h5 -q

@@ -3,6 +3,7 @@
 // rank 0 gathers the results and writes the output file; progress from every rank reaches rank
 // 0, which alone talks to the user.
 #pragma once
+#include <csignal>
 #include <memory>
 #include <string>
 #include <vector>
@@ -44,10 +45,18 @@ class Ranks {
   // done to stop (`signal`); the others poll for that notice (the signal, or 0).
   void send_stop(int signal, const std::vector<char>& final) const;
   int poll_stop() const;
+  // The end of the wait for the ranks, once each has sent its final message. Rank 0 (`decide`)
+  // sends every rank the run's verdict (the signal that stops it, or 0) and then takes all
+  // that rank sent before it learnt the verdict, so no message is left unreceived. The others
+  // (`await_verdict`) wait for it; a signal that reaches such a rank meanwhile goes to rank 0
+  // in a final message again (`own`, with the signal), where it stops the run like a signal to
+  // rank 0 while ranks still compute. Both return the verdict.
+  int decide(int stop) const;
+  int await_verdict(const Progress& own, const volatile std::sig_atomic_t& signal);
 
  private:
   int rank_ = 0, size_ = 1;
-  struct Pending;  // the progress message in flight (MPI only)
+  struct Pending;  // the progress message in flight and the messages counted (MPI only)
   std::unique_ptr<Pending> pending_;
 };
 
