@@ -1145,6 +1145,17 @@ std::vector<char*> without_kokkos_options(int argc, char** argv) {
   return out;
 }
 
+// A count or an index: the whole number CLI11's range check would call out of range (2.0).
+const CLI::Validator kWholeNumber(
+    [](const std::string& text) {
+      char* end = nullptr;
+      errno = 0;
+      (void)std::strtoll(text.c_str(), &end, 10);
+      return !text.empty() && *end == '\0' && errno == 0 ? std::string()
+                                                         : "'" + text + "' is not a whole number";
+    },
+    "INT");
+
 // `loosepack run`'s options, into `o`.
 CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
   auto* run_cmd = app.add_subcommand(
@@ -1164,6 +1175,7 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
                     "nothing (with --resume: the members the checkpoint does not hold finished)");
   run_cmd->add_flag("-q,--quiet", o.quiet, "no progress on stderr");
   run_cmd->add_option("--batch-size", o.batch_size, "systems per batch (overrides scan.batch_size)")
+      ->check(kWholeNumber)
       ->check(CLI::Range(1, 1000000));
   run_cmd->add_flag("--snapshots", o.snapshots,
                     "store every member's final disks (x, y_i, y_e, r) and contact forces");
@@ -1194,6 +1206,7 @@ CLI::App* add_run_command(CLI::App& app, RunOptions& o) {
   auto* member =
       run_cmd
           ->add_option("--member", o.member, "run only this member (id as printed for a failure)")
+          ->check(kWholeNumber)
           ->check(CLI::Range(0L, 1000000000L));
   run_cmd
       ->add_option("--shard", o.shard,
@@ -1246,8 +1259,10 @@ void add_file_commands(CLI::App& app, FileCommands& f) {
       ->capture_default_str()
       ->check(CLI::IsMember({"xdmf", "extxyz"}));
   f.exporter->add_option("--point", f.export_selection.point, "this scan point only")
+      ->check(kWholeNumber)
       ->check(CLI::Range(0, 1000000));
   f.exporter->add_option("--seed", f.export_selection.seed, "this seed index only")
+      ->check(kWholeNumber)
       ->check(CLI::Range(0, 1000000000));
 }
 

@@ -24,6 +24,10 @@ msg=$("$exe" summary "$dir" 2>&1); rc=$?
   fail "a directory given as the result file (exit $rc): $msg"
 msg=$("$exe" run "$repo/examples/default.toml" --checkpoint-every nan --dry-run 2>&1); rc=$?
 [ "$rc" -eq 2 ] || fail "--checkpoint-every nan exited $rc, expected 2: $msg"
+# A count given as a fraction is called what it is, not out of range.
+msg=$("$exe" run "$repo/examples/default.toml" --batch-size 2.0 --dry-run 2>&1); rc=$?
+[ "$rc" -eq 2 ] && grep -q "^loosepack: --batch-size: '2.0' is not a whole number" <<< "$msg" ||
+  fail "--batch-size 2.0 (exit $rc): $msg"
 set -e
 # Every scan file the repository ships is valid input.
 for scan in "$repo"/examples/*.toml "$repo"/examples/paper/*.toml; do

@@ -190,6 +190,28 @@ def density_profiles(points, out, written):
 SCAN_KEYS = ("protocol", "bond_number") + SYSTEM_BUT_BOND
 
 
+def series_along(points, x_key):
+    """The points as series along the attribute `x_key`: one for each set of the other scan
+    parameters (and file, where several are drawn), each with its name, which holds the
+    parameters that differ between series ("" where none does), in the order of the keys."""
+    others = [k for k in SCAN_KEYS if k != x_key and k in points[0].attrs]
+    # The default time step follows Bo and d_c: a series of its own only where points of one x
+    # and one set of the others differ in it (a time step axis).
+    others += splitting_keys(points, [x_key] + others, ("time_step",))
+    varying = [k for k in others if len({attribute_value(attr(g, k)) for g in points}) > 1]
+    series = {}
+    for g in points:
+        key = tuple(attribute_value(attr(g, k)) for k in others) + (file_tag(g),)
+        series.setdefault(key, []).append(g)
+    named = []
+    for key, gs in sorted(series.items()):
+        values = dict(zip(others, key))
+        name = ", ".join(f"{k} {values[k]:g}" if isinstance(values[k], float) else f"{values[k]}"
+                         for k in varying) + key[-1]
+        named.append((name.strip(), sorted(gs, key=lambda g: float(attr(g, x_key)))))
+    return named
+
+
 def nu_lower_half(points, out, written):
     """nu_lower_half against the Bond number, or against the capture radius where all points
     share one Bond number (figs. 2-3, 13): a series for each set of the other scan parameters,
@@ -201,31 +223,18 @@ def nu_lower_half(points, out, written):
                   if len({float(attr(g, k)) for g in points}) > 1), None)
     if x_key is None:
         return
-    others = [k for k in SCAN_KEYS if k != x_key and k in points[0].attrs]
-    # The default time step follows Bo and d_c: a series of its own only where points of one x
-    # and one set of the others differ in it (a time step axis).
-    others += splitting_keys(points, [x_key] + others, ("time_step",))
-    varying = [k for k in others if len({attribute_value(attr(g, k)) for g in points}) > 1]
-    series = {}
-    for g in points:  # a series per file too, where several are drawn
-        key = tuple(attribute_value(attr(g, k)) for k in others) + (file_tag(g),)
-        series.setdefault(key, []).append(g)
     xs = sorted({float(attr(g, x_key)) for g in points})
     finite = [b for b in xs if b > 0 and not math.isinf(b)]
     lo = min(finite) / 10 if finite else 0.1
     hi = max(finite) * 10 if finite else 10
     where = lambda b: lo if b == 0 else hi if math.isinf(b) else b
     fig, ax = plt.subplots(figsize=(6, 4.5))
-    for key, gs in sorted(series.items()):
-        gs = sorted(gs, key=lambda g: float(attr(g, x_key)))
-        named = dict(zip(others, key))
-        name = ", ".join(f"{k} {named[k]:g}" if isinstance(named[k], float) else f"{named[k]}"
-                         for k in varying) + key[-1]
+    for name, gs in series_along(points, x_key):
         ax.errorbar([where(float(attr(g, x_key))) for g in gs],
                     [attr(g, "nu_lower_half_mean") for g in gs],
                     yerr=bars([attr(g, "nu_lower_half_sem") for g in gs]), fmt="o-", capsize=3,
-                    label=name.strip() or f"{named['protocol']}, {named['width']:g} R x "
-                                          f"{named['height']:g} R")
+                    label=name or f"{text(attr(gs[0], 'protocol'))}, {attr(gs[0], 'width'):g} R "
+                                  f"x {attr(gs[0], 'height'):g} R")
     ax.set_xscale("log")
     ax.set_xticks([where(b) for b in xs],
                   ["0" if b == 0 else "inf" if math.isinf(b) else f"{b:g}" for b in xs])
@@ -345,10 +354,11 @@ SAME_BUT_HEIGHT = ("bond_number", "capture_radius", "cohesion_range", "friction"
 def scaled_avalanche_profiles(f, points, out, written):
     """The paper's fig. 7: protocol-A profiles of several heights with both axes over H (a
     profile H f(y/H) collapses), beside the curvature c2 and the slice model's a against H.
-    Drawn for the largest group of protocol-A points that differ only in their height."""
+    Drawn for the largest group of protocol-A points that differ only in their height, at a
+    Bond number between 0 and inf (as the program's fits across heights take them)."""
     groups = {}
     for g in points:
-        if text(attr(g, "protocol")) == "A" and not math.isinf(attr(g, "bond_number")):
+        if text(attr(g, "protocol")) == "A" and 0 < attr(g, "bond_number") < math.inf:
             key = tuple(float(g.attrs[k]) for k in SAME_BUT_HEIGHT if k in g.attrs)
             groups.setdefault(key, []).append(g)
     a_pts = max(groups.values(), key=lambda v: len({attr(g, "height") for g in v}), default=[])
@@ -426,12 +436,11 @@ def collapse_increase(f, points, out, written):
     lower = increase - bars([attr(g, "relative_increase_sem") for g in c])
     lower[lower <= RELATIVE_ZERO * increase] = 0.0  # a bar to 0 but for round-off reaches 0
     floor = 0.5 * min(np.concatenate([increase[increase > 0], lower[lower > 0]]), default=1.0)
-    for rc in sorted({attr(g, "capture_radius") for g in c}):
-        g_rc = [g for g in c if attr(g, "capture_radius") == rc]
+    for name, g_rc in series_along(c, "height"):  # a series for each set of the others
         inc = np.array([attr(g, "relative_increase_mean") for g in g_rc], dtype=float)
         err = bars([attr(g, "relative_increase_sem") for g in g_rc])
         nu_i = np.array([attr(g, "nu_initial_mean") for g in g_rc], dtype=float)
-        lab = f"r_capt = {rc:g}"
+        lab = name or f"r_capt = {attr(g_rc[0], 'capture_radius'):g}"
         axes[0].errorbar([attr(g, "height") for g in g_rc], inc, yerr=err, fmt="o", capsize=3,
                          label=lab)
         on = inc > 0  # a log axis has no place for the others

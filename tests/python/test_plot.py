@@ -109,6 +109,41 @@ def test_collapse_increase_on_a_log_axis_cuts_bars_that_reach_zero(tmp_path, fig
                               "1 point at dnu/nu_i <= 0 left out")
 
 
+def test_collapse_increase_draws_a_series_for_each_bond_number(tmp_path, figures):
+    """Protocol-C points at two Bond numbers and three heights: two series against H, each
+    named by its Bond number and holding its own three points."""
+    with h5py.File(tmp_path / "bo.h5", "w") as f:
+        points = [point(f, k, height=h, relative_increase_mean=0.01 * (k + 1),
+                        relative_increase_sem=0.001, nu_initial_mean=0.3 + 0.01 * k)
+                  for k, h in enumerate([10.0, 14.0, 18.0] * 2)]
+        for g in points[3:]:
+            g.attrs["bond_number"] = 1000.0
+        plot.collapse_increase(None, points, str(tmp_path), [])
+    ax = figures["collapse_increase.png"].axes[0]
+    assert sorted(t.get_text() for t in ax.get_legend().get_texts()) == [
+        "bond_number 1000", "bond_number 30"]
+    drawn = sorted(list(line.get_xdata()) for line in ax.lines if line.get_marker() == "o")
+    assert drawn == [[10.0, 14.0, 18.0]] * 2
+
+
+def test_scaled_profiles_leave_out_bo_zero(tmp_path, figures):
+    """Fig. 7's heights at Bo = 0 and 100 (three each, Bo = 0 a group of its own): the figure
+    draws the Bo = 100 points, as the program's fits across heights take them (0 < Bo < inf)."""
+    with h5py.File(tmp_path / "h.h5", "w") as f:
+        points = []
+        for k, (bo, h) in enumerate([(0.0, 8.0), (0.0, 12.0), (0.0, 16.0), (100.0, 8.0),
+                                     (100.0, 12.0), (100.0, 16.0)]):
+            g = point(f, k, protocol="A", height=h)
+            g.attrs["bond_number"] = bo
+            a = g.create_group("avalanche_by_ye")
+            a["centre"], a["mean"], a["sem"] = [1.0, 2.0], [-0.1, -0.2], [0.01, 0.01]
+            points.append(g)
+        plot.scaled_avalanche_profiles(None, points, str(tmp_path), [])
+    ax = figures["scaled_avalanche_profiles.png"].axes[0]
+    assert sorted(t.get_text() for t in ax.get_legend().get_texts()) == [
+        f"A, Bo=100, H={h}" for h in (12, 16, 8)]
+
+
 def test_histogram_fits_are_drawn_over_the_bins_they_fit(tmp_path, figures):
     """The |Delta y| histogram's fits go through the bins between the counts' 0.5 % and 99.5 %
     quantiles (src/analysis.cpp, histogram_shape): each curve runs from the first such bin's
