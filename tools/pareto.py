@@ -46,8 +46,13 @@ def load(path):
                 r = json.loads(line)
             except json.JSONDecodeError as e:
                 sys.exit(f"pareto.py: {path}:{n}: not a JSON record ({e})")
-            if r.get("study") != "accuracy":
+            if not isinstance(r, dict) or r.get("study") != "accuracy":
                 continue
+            missing = [k for k in ("setup", "wall_s", "sweeps", "over_budget", "failed")
+                       if k not in r] or [k for k in ("label", "protocol", "solver")
+                                          if k not in r["setup"]]
+            if missing:
+                sys.exit(f"pareto.py: {path}:{n}: an accuracy record without '{missing[0]}'")
             runs.setdefault(r["setup"]["protocol"], []).append(r)
     if not runs:
         sys.exit(f"pareto.py: {path}: no 'accuracy' records (run bench_study --study accuracy)")
@@ -187,9 +192,12 @@ def main():
     dominated = False
     for p in sorted(runs):
         table(p, runs[p], a.cost)
+        # The default setting is dominated where each of its runs is, by another setting (its
+        # runs differ by the timing noise, which the test allows for).
         d = [r for r in runs[p] if r["setup"]["label"].startswith("default")]
-        by = [o["setup"]["label"] for o in runs[p] for r in d
-              if o is not r and dominates(o, r, timing_noise(runs[p]), a.cost)]
+        by = set.intersection(*({o["setup"]["label"] for o in runs[p]
+                                 if o not in d and dominates(o, r, timing_noise(runs[p]), a.cost)}
+                                for r in d)) if d else set()
         if d and by:
             dominated = True
             print(f"\nProtocol {p}: the default is dominated by {', '.join(sorted(set(by)))} "

@@ -5,6 +5,7 @@ import math
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -12,6 +13,7 @@ import tempfile
 from .results import load
 
 # The exit codes of `loosepack run` (docs/OUTPUT.md, "Exit codes").
+EXIT_REFUSED = 2  # invalid input or a run refused before anything is computed
 EXIT_MEMBERS_FAILED = 3
 
 
@@ -141,9 +143,10 @@ def run(scan, out, force=False, progress=True, program=None, args=()):
     OUT.toml beside the result (scan_file_for), the scan file the result names and the program's
     error messages point into; an OUT.toml of other text is replaced only with force. out: the
     result file. force: replace an existing `out` (and OUT.toml, once the program takes the new
-    scan). args: more command-line arguments (["--snapshots"]). Raises LoosepackError when the
-    program fails; when only members failed (exit 3) the file is written, a warning printed, and
-    the result returned."""
+    scan: where it refuses the run, the earlier OUT.toml is put back). args: more command-line
+    arguments (["--snapshots"]). Raises LoosepackError when the program fails; when only members
+    failed (exit 3) the file is written, a warning printed, and the result returned. Interrupted
+    in Python, it stops the program (which saves its checkpoint) before the exception goes on."""
     exe = find_program(program)
     if isinstance(scan, dict):
         path = scan_file_for(out)
@@ -165,27 +168,65 @@ def run(scan, out, force=False, progress=True, program=None, args=()):
                                      2, "")
         if other:
             _refuse_invalid(exe, text, path, out)
-            with open(path, "w") as f:
-                f.write(text)
+            earlier = _replace_text(path, text)
     else:
         path = os.fspath(scan)
     cmd = [exe, "run", path, "-o", os.fspath(out)] + (["--force"] if force else []) + list(args)
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            bufsize=1)
-    stderr = []
-    for line in proc.stderr:
-        stderr.append(line)
-        _show(line, progress)
-    proc.stdout.read()
-    code = proc.wait()
-    if progress:
-        sys.stderr.write("\n")
-    text = "".join(stderr)
+    code, text = _follow(cmd, progress)
     if code == EXIT_MEMBERS_FAILED:
         sys.stderr.write("loosepack: members failed (the file is written):\n" + text)
     elif code != 0:
+        if code == EXIT_REFUSED and isinstance(scan, dict) and other:
+            # Refused where a dry run could not tell (a checkpoint of another run to resume, an
+            # output another run writes): the scan file that run names is put back.
+            _replace_text(path, earlier)
+            text += "(%s %s)\n" % (path, "kept its earlier scan" if earlier is not None
+                                    else "not written")
         raise LoosepackError("loosepack run exited with %d:\n%s" % (code, text), code, text)
     return load(out)
+
+
+def _replace_text(path, text):
+    """Writes `text` to `path` whole (None: removes it) and returns what was there (None)."""
+    earlier = None
+    if os.path.exists(path):
+        with open(path) as f:
+            earlier = f.read()
+    if text is None:
+        os.remove(path)
+        return earlier
+    fd, temporary = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
+                                     prefix=os.path.basename(path) + ".")
+    with os.fdopen(fd, "w") as f:
+        f.write(text)
+    os.replace(temporary, path)
+    return earlier
+
+
+def _follow(cmd, progress):
+    """Runs `loosepack run` with its progress shown; (exit code, stderr). Where this process is
+    interrupted meanwhile (a KeyboardInterrupt that reached Python alone), the program is told
+    to stop by SIGUSR1, which saves its checkpoint, and is waited for before the exception goes
+    on. Where a terminal's SIGINT reached the program too, SIGUSR1 is a repeat it ignores (a
+    second SIGINT would end it unsaved), and where both are pending at once SIGINT, of the lower
+    number, is taken first."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            bufsize=1)
+    stderr = []
+    try:
+        for line in proc.stderr:
+            stderr.append(line)
+            _show(line, progress)
+        proc.stdout.read()
+        code = proc.wait()
+    except BaseException:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGUSR1)
+        proc.wait()
+        raise
+    if progress:
+        sys.stderr.write("\n")
+    return code, "".join(stderr)
 
 
 def summary(path, program=None):

@@ -3,6 +3,7 @@ checked against what the file's own data or a formula says it must be."""
 
 import math
 import shutil
+import subprocess
 import tomllib
 
 import h5py
@@ -260,6 +261,38 @@ def test_bad_input_raises_with_the_programs_message(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["bad.h5", "bad.toml"]
     with pytest.raises(loosepack.LoosepackError):
         loosepack.run(good, tmp_path / "x.toml", progress=False)
+
+
+LONG = {"scan": {"name": "long", "seeds": 2, "protocol": "A"},
+        "system": {"width": 30.0, "height": 60.0, "bond_number": 1000.0}}
+
+
+def test_an_interrupted_python_run_stops_the_program_with_its_checkpoint(tmp_path, monkeypatch):
+    """A KeyboardInterrupt that reaches Python alone, at the first progress line: run() stops
+    the program, which saves its checkpoint and writes no file, before the exception goes on.
+    Then a dict of another scan is refused (a checkpoint of the first to resume) and the scan
+    file the resume needs still holds the first scan, which resumes."""
+    out = tmp_path / "long.h5"
+
+    def interrupt(line, progress):
+        if "members," in line:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(loosepack.runner, "_show", interrupt)
+    with pytest.raises(KeyboardInterrupt):
+        loosepack.run(LONG, out)
+    monkeypatch.undo()
+    assert not out.exists() and (tmp_path / "long.h5.checkpoint").is_dir()
+    assert not (tmp_path / "long.h5.lock").exists()  # the program has ended
+    other = {"scan": dict(LONG["scan"], seeds=3), "system": LONG["system"]}
+    with pytest.raises(loosepack.LoosepackError) as e:
+        loosepack.run(other, out, progress=False, force=True)
+    assert e.value.returncode == 2 and "long.toml kept its earlier scan" in str(e.value), str(
+        e.value)
+    assert (tmp_path / "long.toml").read_text() == loosepack.to_toml(LONG)
+    resume = subprocess.run([loosepack.find_program(), "run", str(tmp_path / "long.toml"), "-o",
+                             str(out), "--resume", "--dry-run"], capture_output=True, text=True)
+    assert resume.returncode == 0, resume.stderr
 
 
 def test_a_failed_members_state_is_read_and_named(tmp_path, monkeypatch):
