@@ -15,7 +15,7 @@ nu(y) rms, avalanche rms, largest overlap). Differences below the noise level of
 standard errors of both ensembles combined) are not resolved: within the noise two errors count
 as equal. Likewise "faster" means faster by more than the timing noise of the run: the relative
 difference of the two runs of the default ("default" and "default (repeat)"), at least 5 %.
-Exits with status 1 when the default setting is dominated.
+Exits with status 1 when the default setting is dominated: each of its runs by one other setting.
 
 --cost sweeps judges cost by the solver sweeps instead of the wall time: a count that does not
 depend on the machine's load (no timing noise), comparable only between settings of the same
