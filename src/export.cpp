@@ -259,6 +259,24 @@ void write_sidecar(hid_t sidecar, const Sidecar& c) {
   sidecar_dataset(sidecar, c.group + "/connectivity", c.ends, 2, H5T_STD_I64LE, H5T_NATIVE_LLONG);
 }
 
+// A snapshot's nc contacts as lines (their ends in the sidecar file `side`) with their forces.
+std::string xdmf_contacts(const std::string& h5, const std::string& g, std::size_t nc,
+                          const std::string& side) {
+  std::ostringstream o;
+  o << "<Grid Name=\"contacts\" GridType=\"Uniform\">\n"
+    << "<Topology TopologyType=\"Polyline\" NumberOfElements=\"" << nc
+    << "\" NodesPerElement=\"2\"><DataItem Dimensions=\"" << nc
+    << " 2\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << xml_text(side) << ":" << g
+    << "/connectivity</DataItem></Topology>\n"
+    << "<Geometry GeometryType=\"XY\"><DataItem Dimensions=\"" << 2 * nc
+    << " 2\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << xml_text(side) << ":" << g
+    << "/lines</DataItem></Geometry>\n";
+  for (const char* a : {"normal", "tangential", "moment"})
+    o << attribute(a, "Cell", item(h5, g + "/contact_" + std::string(a), nc));
+  o << "</Grid>\n";
+  return o.str();
+}
+
 // A snapshot: the disks as points (radius, y_i, y_e, Delta y, velocities at a failure) and
 // the contacts as lines with their forces (those in the sidecar file `side`).
 std::string xdmf_snapshot(hid_t file, const MemberData& m, const std::string& h5,
@@ -275,17 +293,10 @@ std::string xdmf_snapshot(hid_t file, const MemberData& m, const std::string& h5
   o << attribute("delta_y", "Node", function("$0 - $1", n, ye + item(h5, g + "/y_i", n)));
   if (m.kind == "failure")
     for (const char* a : {"vx", "vy", "w"}) o << attribute(a, "Node", item(h5, g + "/" + a, n));
-  o << "</Grid>\n<Grid Name=\"contacts\" GridType=\"Uniform\">\n"
-    << "<Topology TopologyType=\"Polyline\" NumberOfElements=\"" << nc
-    << "\" NodesPerElement=\"2\"><DataItem Dimensions=\"" << nc
-    << " 2\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << xml_text(side) << ":" << g
-    << "/connectivity</DataItem></Topology>\n"
-    << "<Geometry GeometryType=\"XY\"><DataItem Dimensions=\"" << 2 * nc
-    << " 2\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << xml_text(side) << ":" << g
-    << "/lines</DataItem></Geometry>\n";
-  for (const char* a : {"normal", "tangential", "moment"})
-    o << attribute(a, "Cell", item(h5, g + "/contact_" + std::string(a), nc));
   o << "</Grid>\n";
+  // A deposit without contacts (protocol B, Bo = inf) has no contacts grid: one of no lines
+  // reading an empty dataset is an error to ParaView's XDMF reader.
+  if (nc > 0) o << xdmf_contacts(h5, g, nc, side);
   return "<Grid Name=\"point " + m.point + " seed " + std::to_string(m.seed) +
          "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n" + o.str() + "</Grid>\n";
 }

@@ -1,9 +1,11 @@
 """`loosepack export`: the XDMF files opened by ParaView's own reader and the extended XYZ read
 back by ASE, each compared with the disks, contacts and trajectories of the result file."""
 
+import importlib.util
 import os
 import re
 import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -319,6 +321,19 @@ def test_a_member_without_dynamics_has_no_trajectory_to_export(tmp_path):
     stem = str(snaps)[:-len(".h5")]
     assert sorted(done.stdout.split()) == sorted(
         [stem + "_p0000_s%d%s" % (s, t) for s in (0, 1) for t in (".xmf", "_contacts.h5")])
+    # Its snapshots hold no contact: their XDMF has no contacts grid, whose empty dataset
+    # ParaView's reader refuses, and ParaView reads the disks (and prints no error).
+    with h5py.File(snaps, "r") as f:
+        n = len(f["points/0000/members/snapshot_0/x"])
+        assert len(f["points/0000/members/snapshot_0/contact_i"]) == 0
+    xmf = stem + "_p0000_s0.xmf"
+    assert 'Name="contacts"' not in open(xmf).read()
+    read = ("from paraview import simple, servermanager\n"
+            "data = servermanager.Fetch(simple.XDMFReader(FileNames=[%r]))\n"
+            "print(data.GetNumberOfBlocks(), data.GetBlock(0).GetNumberOfPoints())\n" % xmf)
+    if importlib.util.find_spec("paraview") is not None:
+        done = subprocess.run([sys.executable, "-c", read], capture_output=True, text=True)
+        assert done.stdout.split() == ["1", str(n)] and "rror" not in done.stderr, done.stderr
 
 
 def test_the_exported_times_are_the_stored_ones_to_the_last_digit(exported, tmp_path):
