@@ -429,9 +429,14 @@ void write_header(hid_t file, const Scan& scan, const RunInfo& info) {
   attribute(file, "cxx_flags", std::string(LOOSEPACK_CXX_FLAGS));
   attribute(file, "kokkos_execution_space", std::string(Kokkos::DefaultExecutionSpace::name()));
   attribute(file, "kokkos_version", static_cast<double>(KOKKOS_VERSION));
+  const bool unit_radius = std::all_of(scan.points.begin(), scan.points.end(),
+                                       [](const ScanPoint& p) { return p.params.radius == 1.0; });
   attribute(file, "units",
-            std::string("disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
-                        "time sqrt(R/g); lengths in R"));
+            std::string(unit_radius ? "disk radius R = 1, disk mass m = 1 (R = 1), g = 1, "
+                                      "time sqrt(R/g); lengths in R"
+                                    : "lengths in the scan file's unit, in which a point's mean "
+                                      "disk radius is its attribute radius; a disk of radius r "
+                                      "has mass r^2, g = 1, time sqrt(unit/g)"));
   attribute(file, "start_time", info.start_time);
   attribute(file, "end_time", info.end_time);
   attribute(file, "wall_seconds", info.wall_seconds);
@@ -1145,11 +1150,12 @@ namespace {
 // The groups under /points of a result file, as points/NNNN in order; a group of another name is
 // the file's damage (std::runtime_error naming it).
 std::vector<std::string> point_groups(hid_t file) {
+  std::vector<std::pair<int, std::string>> numbered;  // by number: 9999 before 10000
+  for (const std::string& child : children(file, "points"))
+    numbered.emplace_back(group_number(child, "/points/" + child), "points/" + child);
+  std::sort(numbered.begin(), numbered.end());
   std::vector<std::string> names;
-  for (const std::string& child : children(file, "points")) {
-    group_number(child, "/points/" + child);
-    names.push_back("points/" + child);
-  }
+  for (auto& [number, name] : numbered) names.push_back(std::move(name));
   return names;
 }
 
@@ -1158,7 +1164,8 @@ void print_summary_head(hid_t file, const std::string& path, std::size_t points,
                         std::ostream& out) {
   out << "# " << path << ": scan '" << string_attribute(file, "/", "scan_name") << "', " << points
       << " points, " << double_attribute(file, "/", "wall_seconds")
-      << " s of the run that wrote it";
+      << (H5Aexists(file, "merged_from") > 0 ? " s of the runs merged"
+                                             : " s of the run that wrote it");
   double unfinished = 0.0;
   if (H5Aexists(file, "members_unfinished") > 0) {
     unfinished = double_attribute(file, "/", "members_unfinished");
@@ -1202,15 +1209,22 @@ bool time_step_axis(hid_t file, const std::vector<std::string>& names) {
 // title).
 using ExtraColumns = std::vector<std::pair<const char*, const char*>>;
 ExtraColumns extra_columns(hid_t file, const std::vector<std::string>& names) {
+  // The point's system attributes (param_attributes) but those of the fixed columns, the
+  // cohesive force (it follows Bo) and the time step (below), each with its column's title.
+  const std::map<std::string, const char*> titles = {{"width", "L_x"},
+                                                     {"radius", "R"},
+                                                     {"polydispersity", "sd_R/R"},
+                                                     {"cohesion_range", "d_c"},
+                                                     {"floor_cohesion", "floor_coh"}};
   ExtraColumns extras;
-  for (const auto& [attribute, title] :
-       {std::pair("width", "L_x"), std::pair("radius", "R"), std::pair("polydispersity", "sd_R/R"),
-        std::pair("cohesion_range", "d_c")}) {
+  for (const auto& [attribute, unused] : param_attributes(SystemParams{})) {
+    const auto title = titles.find(attribute);
+    if (title == titles.end()) continue;
     std::set<double> values;
     for (const auto& n : names)
       if (H5Aexists_by_name(file, n.c_str(), attribute, H5P_DEFAULT) > 0)
         values.insert(double_attribute(file, n, attribute));
-    if (values.size() > 1) extras.emplace_back(attribute, title);
+    if (values.size() > 1) extras.emplace_back(attribute, title->second);
   }
   if (time_step_axis(file, names)) extras.emplace_back("time_step", "h");
   return extras;
@@ -1231,20 +1245,21 @@ void print_point_row(hid_t file, const std::string& n, const ExtraColumns& extra
   const std::string prot = string_attribute(file, n, "protocol");
   std::string rel = "-";
   if (prot == "C") rel = pm(d("relative_increase_mean"), d("relative_increase_sem"));
-  std::ostringstream bo;
-  bo << d("bond_number");
   const H5 g = open_group(file, n);
   const int members = count_attribute(g, "members"), failed = count_attribute(g, "failed");
-  // Each line whole or not at all: an attribute that cannot be read stops before it.
+  // Each line whole or not at all: an attribute that cannot be read stops before it. A value
+  // wider than its column keeps a space before the next.
   std::ostringstream line;
-  line << std::left << std::setw(12) << n.substr(7) << std::setw(6) << prot << std::setw(10)
-       << bo.str() << std::setw(8) << d("capture_radius") << std::setw(8) << d("height")
-       << std::setw(8) << d("friction") << std::setw(8) << d("rolling_friction");
-  for (const auto& [attribute, title] : extras) {
+  line << std::left;
+  const auto cell = [&line](int width, double value) {
     std::ostringstream v;
-    v << std::setprecision(6) << d(attribute);
-    line << std::setw(10) << v.str() + " ";
-  }
+    v << std::setprecision(6) << value;
+    line << std::setw(width) << v.str() + " ";
+  };
+  line << std::setw(12) << n.substr(7) << std::setw(6) << prot;
+  cell(10, d("bond_number"));
+  for (const char* a : {"capture_radius", "height", "friction", "rolling_friction"}) cell(8, d(a));
+  for (const auto& [attribute, title] : extras) cell(10, d(attribute));
   line << std::setw(22) << pm(d("nu_lower_half_mean"), d("nu_lower_half_sem")) << std::setw(20)
        << pm(d("mean_abs_dy_mean"), d("mean_abs_dy_sem")) << std::setw(22) << rel << members << "("
        << failed << ")\n";

@@ -384,6 +384,27 @@ printf '[scan]\nprotocol = "B"\n[system]\nwidth = [20, 30]\nradius = [1, 2]\nhei
 "$exe" summary "$dir/widths.h5" | grep -qE "^point .* mu_r +L_x +R +nu_lower_half" ||
   fail "summary of a scan over widths and radii: $("$exe" summary "$dir/widths.h5")"
 "$exe" summary "$dir/widths.h5" | grep -qE "^0003 .* 30 +2 +0\." || fail "summary row of width 30, R 2"
+# With a radius other than 1 the root's units say lengths are in the scan file's unit.
+/usr/bin/python3 -c 'import h5py, sys; print(h5py.File(sys.argv[1])["/"].attrs["units"])' \
+  "$dir/widths.h5" | grep -q "^lengths in the scan file's unit" || fail "units at radius 2"
+# Points that differ only in floor_cohesion show it; a value wider than its column (mu_r
+# 0.0123457 in 8) keeps a space before the next.
+printf '[scan]\nprotocol = "B"\n[system]\nwidth = 12\nheight = 12\nrolling_friction = 0.0123457\n[[point]]\nfloor_cohesion = true\n[[point]]\nfloor_cohesion = false\n' \
+  > "$dir/floor.toml"
+"$exe" run "$dir/floor.toml" -o "$dir/floor.h5" -q
+"$exe" summary "$dir/floor.h5" | grep -qE "^point .* mu_r +floor_coh +nu_lower_half" ||
+  fail "summary of points differing in floor_cohesion: $("$exe" summary "$dir/floor.h5")"
+"$exe" summary "$dir/floor.h5" | grep -qE "^0001 .* 0\.3 +0\.0123457 0 +0\." ||
+  fail "summary row of mu_r 0.0123457, floor_cohesion false: $("$exe" summary "$dir/floor.h5")"
+# Points 10000 and above come after 9999 (the groups' names sort otherwise).
+printf '[scan]\nprotocol = "B"\n[system]\nwidth = 12\nheight = 12\nfriction = [0.1, 0.2, 0.3]\n' \
+  > "$dir/many.toml"
+"$exe" run "$dir/many.toml" -o "$dir/many.h5" -q
+/usr/bin/python3 -c 'import h5py, sys
+with h5py.File(sys.argv[1], "r+") as f:
+    f.move("points/0000", "points/10000"); f.move("points/0001", "points/9999")' "$dir/many.h5"
+[ "$("$exe" summary "$dir/many.h5" | grep -oE "^[0-9]+ " | tr -d ' ' | tr '\n' ' ')" = \
+  "0002 9999 10000 " ] || fail "summary's point order: $("$exe" summary "$dir/many.h5")"
 # The time step has a column where points of one Bond number differ in it (an axis), not where it
 # follows the Bond number (the default h at Bo = 0 and 1e2: 0.01 and 0.009).
 printf '[scan]\nprotocol = "A"\n[system]\nwidth = 12\nheight = 12\nbond_number = [0, 100]\n' \
