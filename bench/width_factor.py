@@ -76,18 +76,21 @@ def pairs(paths):
 
 def constant_and_power(heights, ratios, errors):
     """The ratios' weighted mean and its error, chi2 against it and its degrees of freedom, and
-    the weighted slope of ln(ratio) against ln H with its error (None for one height)."""
+    the weighted slope of ln(ratio) against ln H with its error (None for one height). Both in
+    ln(ratio), whose error e/r does not grow with the ratio: a linear mean weighted by 1/e^2,
+    with e proportional to r, would favour the lower ratios."""
     r, e = np.array(ratios), np.array(errors)
-    w = 1.0 / e ** 2
-    mean = float((w * r).sum() / w.sum())
-    chi2 = float((w * (r - mean) ** 2).sum())
-    if len(r) < 2:
-        return mean, float(w.sum() ** -0.5), chi2, 0, None
     x, y, wl = np.log(heights), np.log(r), (r / e) ** 2
+    log_mean = float((wl * y).sum() / wl.sum())
+    mean = math.exp(log_mean)
+    chi2 = float((wl * (y - log_mean) ** 2).sum())
+    if len(r) < 2:
+        return mean, mean * float(wl.sum() ** -0.5), chi2, 0, None
     a = np.vstack([np.ones_like(x), x]).T
     cov = np.linalg.inv(a.T @ (a * wl[:, None]))
     slope = (cov @ (a.T @ (wl * y)))[1]
-    return mean, float(w.sum() ** -0.5), chi2, len(r) - 1, (float(slope), math.sqrt(cov[1, 1]))
+    return (mean, mean * float(wl.sum() ** -0.5), chi2, len(r) - 1,
+            (float(slope), math.sqrt(cov[1, 1])))
 
 
 def series(pairs_by_key):

@@ -66,6 +66,16 @@ def test_a_constant_factor_has_no_power_and_no_chi2(tmp_path):
     assert error == pytest.approx(0.9 * math.hypot(0.05, 0.04) / math.sqrt(2))
 
 
+def test_ratios_of_equal_relative_errors_weigh_alike(tmp_path):
+    """Ratios 0.8 and 1.25 with the same relative error: their mean is the geometric one, 1.0
+    (a linear mean weighted by 1/e^2 would give 0.88, favouring the lower ratio)."""
+    path = write(tmp_path / "paper-width-A-z-2026-01-01.jsonl",
+                 [record(120, 0.8, 1.0), record(240, 1.25, 1.0)])
+    mean, error, _, _, _ = wf.series(wf.pairs([path]))[(1000.0, 100.0)]["fits"][wf.CURVATURES[0]]
+    assert mean == pytest.approx(1.0)
+    assert error == pytest.approx(math.hypot(0.05, 0.04) / math.sqrt(2))
+
+
 def test_the_pair_of_most_members_is_taken_and_other_widths_kept_apart(tmp_path):
     old = write(tmp_path / "paper-width-A-H120-2026-01-01.jsonl",
                 [record(120, 1.0, 1.0, wide_members=4), record(120, 2.0, 1.0, width=200)])
