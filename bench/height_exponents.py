@@ -95,13 +95,18 @@ SERIES = {
 
 
 def exponent(series, values, errors, low, high):
-    """(p, its error, chi2/dof or None) of y = A H^p over the series' heights in [low, high]."""
+    """(p, its error, chi2/dof or None) of y = A H^p over the series' heights in [low, high].
+    As the program fits across points: each error widened by sqrt((n-1)/(n-3)) for its n
+    members, and the fit's error scaled by sqrt(chi2/dof) where that exceeds 1; a point of 3
+    members or fewer keeps its error as estimated and leaves the fit without a chi2 to judge
+    (None)."""
     heights, members = series["heights"], series["members"]
     use = [k for k, h in enumerate(heights) if low <= h <= high]
+    few = any(members[k] <= 3 for k in use)
     x = np.log([heights[k] for k in use])
     y = np.log([values[k] for k in use])
-    sigma = np.array([errors[k] / values[k] * math.sqrt((members[k] - 1) / (members[k] - 3))
-                      for k in use])
+    widen = lambda n: math.sqrt((n - 1) / (n - 3)) if n > 3 else 1.0
+    sigma = np.array([errors[k] / values[k] * widen(members[k]) for k in use])
     w = 1.0 / sigma ** 2
     a = np.vstack([np.ones_like(x), x]).T
     cov = np.linalg.inv(a.T @ (a * w[:, None]))
@@ -109,7 +114,8 @@ def exponent(series, values, errors, low, high):
     dof = len(use) - 2
     chi2 = float((w * (y - a @ coef) ** 2).sum())
     scale = math.sqrt(chi2 / dof) if dof > 0 and chi2 / dof > 1 else 1.0
-    return float(coef[1]), math.sqrt(cov[1, 1]) * scale, (chi2 / dof if dof > 0 else None)
+    return float(coef[1]), math.sqrt(cov[1, 1]) * scale, (chi2 / dof if dof > 0 and not few
+                                                          else None)
 
 
 def main():

@@ -34,6 +34,19 @@ def test_a_scatter_beyond_the_errors_widens_the_error():
     assert e == pytest.approx(unscaled, rel=1e-9)
 
 
+def test_a_point_of_three_members_or_fewer_is_not_widened_and_leaves_no_chi2():
+    """As the program: a point of 3 or 2 members keeps its error (sqrt((n-1)/(n-3)) has no value
+    there) and the fit reports no chi2 to judge; the others are widened as always."""
+    few = {"heights": (120, 180, 240, 400), "members": (8, 3, 2, 8)}
+    values = [3.0 * h ** -1.1 * f for h, f in zip(few["heights"], (1.0, 1.1, 0.9, 1.0))]
+    errors = [0.05 * v for v in values]
+    p, e, reduced = he.exponent(few, values, errors, 120, 400)
+    assert reduced is None and -1.3 < p < -0.9
+    p, e, reduced = he.exponent(few, values, errors, 120, 180)
+    sigma = 0.05 * math.hypot(math.sqrt(7 / 5), 1.0)
+    assert e == pytest.approx(sigma / math.log(180 / 120), rel=1e-9)
+
+
 def test_the_bo1e2_series_is_read_from_its_records():
     table = he.SERIES["1e2"]["table"]()
     for name, (values, errors) in table.items():
