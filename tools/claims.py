@@ -371,6 +371,10 @@ def read_damaged_as_unusable(read, path, where):
 
 
 def fail_missing(path, name):
+    if "member_" in name:  # rows the run writes (files from 2026-11-24 on), no analysis can add
+        unusable(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
+                 "the members' rows come from the run itself, in files from 2026-11-24 on: run "
+                 "the scan again with the present program)")
     unusable(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
              f"`loosepack analyse {path}` adds the current analysis to a file of an older one)")
 
@@ -811,12 +815,15 @@ def check_point(point, path):
         yield (f"{where}: its claims", NOT_JUDGED,
                f"{finished} member{'' if finished == 1 else 's'} finished: no ensemble to judge")
         return
-    if protocol == "A" and 0 < bo < 1e4:
+    if protocol == "A" and 0 < bo < 1e4 and not moved(point):
+        yield (f"{where}: its avalanche profile and trajectory claims", NOT_JUDGED,
+               f"nothing moved: mean |Delta y| {float(a['mean_abs_dy_mean']):.2g} R, below the "
+               "event threshold")
+    elif protocol == "A" and 0 < bo < 1e4:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: Delta y(y_e) is a parabola with positive curvature", holds, detail)
-    if protocol == "A" and 0 < bo < 1e4 and "members" in point and any(
-            k.startswith("trajectory_") for k in point["members"]):
-        yield from trajectory_claims(point, where)
+        if "members" in point and any(k.startswith("trajectory_") for k in point["members"]):
+            yield from trajectory_claims(point, where)
     if protocol == "A" and 1e4 <= bo < math.inf:
         holds, _, detail = parabola_verdict(*profile_shapes(point, path))
         yield (f"{where}: at Bo >= 1e4 no parabola can be identified",

@@ -73,18 +73,20 @@ does not say "bound from splits of the members". So are nu(y) rows of files with
 rows (`nu/member_mean`).
 
 Points pair up by their parameters (protocol, Bond number, box, capture radius, disk and contact
-parameters, time step). Where some have no counterpart of the same parameters and the two files
-hold the same point indices (two runs of one scan's points with a setting changed, such as the
-time step), the index pairs them, and the parameters they differ in are named. Points of
-different protocols are not compared (exit 2). A scalar without an error (a point with one
-finished member) is not judged, nor is a quantity one file holds and the other lacks (its row
-says which), nor the mean size of the avalanche events where a side's events all lie in one bin
-of sizes (their error from the bins would be 0). A scalar differs when its distance exceeds
---sigma (2) combined standard errors; a profile or histogram when its chi2 exceeds the bound;
-the shapes when no shape fits both and a verdict is one. With n scalars compared at 2 sigma,
-about n/20 differ by chance, and more where the errors come from few members (about 9 % of them
-with 4 members, 6.5 % with 8: an error estimated from few members is itself uncertain). Exits with 1 when anything differs, 2
-on unusable input.
+parameters, time step). Where some have no counterpart of the same parameters and the two files hold
+the same point indices (two runs of one scan's points with a setting changed, such as the time
+step), the index pairs them, and the parameters they differ in are named. Points of different
+protocols are not compared (exit 2). A scalar without an error (a point with one finished member) is
+not judged, nor is a quantity one file holds and the other lacks (its row says which), nor the mean
+size of the avalanche events where a side's events all lie in one bin of sizes or come from one
+member (no error), nor the histogram's shape where a side has fewer than 4 members with disks (its
+verdict rests on Poisson's errors), nor mean abs(Delta y) and the profile fits where in both files
+the disks moved less than `event_threshold` on average (round-off). A scalar differs when its
+distance exceeds --sigma (2) combined standard errors; a profile or histogram when its chi2 exceeds
+the bound; the shapes when no shape fits both and a verdict is one. With n scalars compared at 2
+sigma, about n/20 differ by chance, and more where the errors come from few members (about 9 % of
+them with 4 members, 6.5 % with 8: an error estimated from few members is itself uncertain). Exits
+with 1 when anything differs, 2 on unusable input.
 --json appends one JSON line per point (a scalar's values and errors also as numbers, `a_value`,
 `a_error`, `b_value`, `b_error`, and with --paired the members' difference B - A and its error,
 `paired_difference`, `paired_error`). Uses Debian's python3-h5py, python3-numpy and python3-scipy.
@@ -105,7 +107,7 @@ except ImportError as e:  # pragma: no cover
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from claims import (Profile, attribute_value, check_result_file, chi2_quantile99,  # noqa: E402
-                    jackknife, text)
+                    jackknife, moved, text)
 
 
 class Row:
@@ -307,7 +309,8 @@ def profile_fits(pa, pb, sigma, both=None):
             continue
         ca, ea, cb, eb = fa["coef"][()], fa["error"][()], fb["coef"][()], fb["error"][()]
         name = lambda k: f"Delta y({'y_i' if by == 'yi' else 'y_e'}): {'abc'[k]}"
-        if both is not None and len(ca) == len(cb) and "member_mean" in pa[key]:
+        if (both is not None and len(ca) == len(cb) and "member_mean" in pa[key]
+                and "member_mean" in pb[key]):
             difference, error = paired_fit_difference(pa, pb, key, len(ca) - 1, both)
             for k in range(len(ca)):
                 yield paired_row(name(k), ca[k], ea[k], cb[k], eb[k], difference[k], error[k],
@@ -427,9 +430,17 @@ def histogram(pa, pb):
     va, vb = text(sa.attrs["preferred"]), text(sb.attrs["preferred"])
     fits = [v for v in ("gaussian", "exponential") if acceptable(sa, v) and acceptable(sb, v)]
     same = bool(fits) or (va == vb and va not in ("gaussian", "exponential"))
+    # Fewer than 4 members with disks: the program's verdict rests on Poisson's errors, far too
+    # small for counts that move together (as claims.py, which judges no shape by them).
+    poisson = [w for w, h, sh in (("A", ha, sa), ("B", hb, sb))
+               if "member_counts_cut" in h and not sh.attrs.get("member_errors", 0)]
     if not fits and "none" in (va, vb):  # a histogram of too few bins for a shape fit
         yield Row("abs(Delta y) histogram (cut): shape", va, vb, math.nan, 0.0,
                   "not judged (too few bins to fit a shape)")
+    elif poisson:
+        yield Row("abs(Delta y) histogram (cut): shape", va, vb, math.nan, 0.0,
+                  f"not judged ({' and '.join(poisson)}: fewer than 4 members with disks, no "
+                  "errors from their scatter to judge a shape by)")
     else:
         yield Row("abs(Delta y) histogram (cut): shape", va, vb, 0.0 if same else 1.0, 0.0,
                   f"{' and '.join(fits)} fit{'s' if len(fits) == 1 else ''} both" if fits else
@@ -455,10 +466,11 @@ def mean_log(edges, counts, member_rows=None):
     m = (counts * centre).sum() / n
     if member_rows is not None:
         rows = member_rows[member_rows.sum(axis=1) > 0]
-        if len(rows) >= 2:
-            rest = rows.sum(axis=0) - rows  # each member left out in turn
-            loo = (rest * centre).sum(axis=1) / rest.sum(axis=1)
-            return m, float(jackknife(loo))
+        if len(rows) < 2:  # one member's events: no scatter over members to take an error from
+            return m, math.nan
+        rest = rows.sum(axis=0) - rows  # each member left out in turn
+        loo = (rest * centre).sum(axis=1) / rest.sum(axis=1)
+        return m, float(jackknife(loo))
     var = (counts * (centre - m) ** 2).sum() / (n - 1)
     return m, math.sqrt(var / n)
 
@@ -517,7 +529,11 @@ def events(pa, pb, sigma):
     mb, se_b = mean_log(edges, eb["moved_counts"][()], rows(eb, "moved_counts"))
     name = "events: mean log10(disks moved)"
     if math.isfinite(ma) and math.isfinite(mb):
-        if se_a > 0 and se_b > 0:
+        if math.isnan(se_a) or math.isnan(se_b):
+            yield Row(name, value(ma, se_a), value(mb, se_b), math.nan, sigma,
+                      "not judged (a side's events from one member: no error from their scatter)",
+                      (ma, se_a, mb, se_b))
+        elif se_a > 0 and se_b > 0:
             yield scalar(name, ma, se_a, mb, se_b, sigma)
         else:  # every event of a side in one bin: its error from the bins' centres is no error
             yield Row(name, value(ma, se_a), value(mb, se_b), math.nan, sigma,
@@ -545,6 +561,14 @@ def compare_point(pa, pb, sigma, both=None):
     rows += profile_fits(pa, pb, sigma, both)
     rows += histogram(pa, pb)
     rows += events(pa, pb, sigma)
+    if not moved(pa) and not moved(pb):
+        # Disks that moved less than event_threshold on average in both files: the sizes of
+        # the moves and the profile's lines are round-off's (as the program's fits across points
+        # and claims.py leave them), whatever their distance.
+        for r in rows:
+            if r.name.startswith(("mean abs(Delta y)", "Delta y(")) and r.judged:
+                r.distance = math.nan
+                r.detail = "not judged (nothing moved beyond event_threshold in either file)"
     return rows
 
 

@@ -153,16 +153,32 @@ def test_a_line_is_judged_by_its_quadratic_term_about_once_in_a_hundred():
     assert chi2_rejects > binomial_quantile(2000, 0.01), chi2_rejects
 
 
-def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_path):
+def test_parabola_passes_on_a_parabola_and_fails_on_a_constant_or_a_line(tmp_path, capsys):
     claim = "Delta y(y_e) is a parabola with positive curvature"
     with pytest.raises(SystemExit):  # the per-member rows are needed, and said so
         verdicts(point_file(tmp_path, "none", "A", 100.0, {}))
+    # rows that only a run writes: no `loosepack analyse` can add them
+    assert "run the scan again" in capsys.readouterr().err
     assert verdicts(point_file(tmp_path, "p", "A", 100.0, {"avalanche_by_ye": PARABOLA}))[claim][0]
     assert not verdicts(point_file(tmp_path, "c", "A", 100.0, {"avalanche_by_ye": CONSTANT}))[claim][0]
     assert not verdicts(point_file(tmp_path, "l", "A", 100.0, {"avalanche_by_ye": LINE}))[claim][0]
     # A parabola whose vertex lies outside the band is a curved line, not the paper's profile.
     shifted = lambda y: 0.0004 * (y + 60.0) ** 2
     assert not verdicts(point_file(tmp_path, "s", "A", 100.0, {"avalanche_by_ye": shifted}))[claim][0]
+
+
+def test_a_point_where_nothing_moved_has_its_avalanche_claims_not_judged(tmp_path):
+    """Bo = 1e3 in a box too low to avalanche: the disks moved by round-off (mean |Delta y| far
+    below event_threshold), so the profile's shape and the trajectories say nothing of the
+    physics: not judged (a parabola of round-off would pass or fail by chance)."""
+    path = point_file(tmp_path, "still", "A", 1000.0, {"avalanche_by_ye": PARABOLA})
+    with h5py.File(path, "r+") as f:
+        f["points/0000"].attrs["mean_abs_dy_mean"] = 2.4e-5
+        f.create_group("settings").attrs["event_threshold"] = 0.1
+    out = verdicts(path)
+    assert list(out) == ["its avalanche profile and trajectory claims"], out
+    ok, detail = out["its avalanche profile and trajectory claims"]
+    assert ok is claims.NOT_JUDGED and "nothing moved" in detail
 
 
 def test_too_little_to_judge_is_skipped_not_failed(tmp_path):

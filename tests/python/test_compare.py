@@ -162,6 +162,45 @@ def test_a_point_of_one_member_is_not_judged(tmp_path):
     assert "not judged" in out.stdout
 
 
+def test_one_members_histogram_shape_and_events_are_not_judged(tmp_path):
+    """Single members of two scan seeds: the histogram's shape verdicts rest on Poisson's errors
+    and the events' mean size has no scatter over members to take an error from: neither is
+    judged (they read as differences between two draws of one ensemble)."""
+    files = []
+    for seed in (2027, 2028):
+        files.append(loosepack.run({"scan": {"name": "one", "seed": seed, "seeds": 1,
+                                             "protocol": "A"},
+                                    "system": {"width": 24.0, "height": 24.0,
+                                               "bond_number": 1.0}},
+                                   tmp_path / f"one{seed}.h5", progress=False).path)
+    out = run_tool(*files, "--json", tmp_path / "one.jsonl")
+    rows = {r["quantity"]: r for r in json.loads(open(tmp_path / "one.jsonl").read())["rows"]}
+    shape = rows["abs(Delta y) histogram (cut): shape"]
+    assert shape["within"] is None and "fewer than 4 members" in shape["detail"], shape
+    events = rows["events: mean log10(disks moved)"]
+    assert events["within"] is None and "one member" in events["detail"], events
+
+
+def test_nothing_moved_is_not_judged(tmp_path):
+    """Bo = 1e4 in a low box: the disks move by round-off (far below event_threshold), in
+    amounts that depend on the solver's tolerance: two tolerances' mean abs(Delta y) and
+    profile lines are not judged, as the program's fits across points leave such points out."""
+    files = []
+    for tolerance in (1e-3, 1e-4):
+        files.append(loosepack.run({"scan": {"name": "still", "seed": 3, "seeds": 6,
+                                             "protocol": "A"},
+                                    "system": {"width": 24.0, "height": 16.0,
+                                               "bond_number": 1e4},
+                                    "solver": {"tolerance": tolerance}},
+                                   tmp_path / f"still{tolerance}.h5", progress=False).path)
+    with h5py.File(files[0]) as f:
+        assert f["points/0000"].attrs["mean_abs_dy_mean"] < f["settings"].attrs["event_threshold"]
+    run_tool(*files, "--json", tmp_path / "still.jsonl")
+    rows = json.loads(open(tmp_path / "still.jsonl").read())["rows"]
+    moves = [r for r in rows if r["quantity"].startswith(("mean abs(Delta y)", "Delta y("))]
+    assert moves and all(r["within"] is None and "nothing moved" in r["detail"] for r in moves)
+
+
 def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
     """--paired: a shift of every member's nu_lower_half by a third of the ensemble's standard
     error is inside the combined errors of two independent ensembles, and far outside the
@@ -222,6 +261,23 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
     assert "fewer than 4 members finished in both: compared unpaired" in out.stderr
     few = {r["quantity"]: r for r in json.loads(open(tmp_path / "few.jsonl").read())["rows"]}
     assert "paired_difference" not in few["nu_lower_half"]
+
+
+def test_paired_with_a_file_without_member_profiles_compares_the_fits_unpaired(runs, tmp_path):
+    """A file of before 2026-11-24 holds no per-member profile rows: with --paired, in either
+    order, its profile fits are compared unpaired (it was called damaged when second)."""
+    d, cohesive, _ = runs
+    old = tmp_path / "old.h5"
+    shutil.copy(cohesive, old)
+    with h5py.File(old, "r+") as f:
+        for by in ("yi", "ye"):
+            del f[f"points/0000/avalanche_by_{by}/member_mean"]
+    for a, b in ((cohesive, old), (old, cohesive)):
+        out = run_tool(a, b, "--paired", "--json", tmp_path / "p.jsonl")
+        assert out.returncode == 0, out.stdout + out.stderr
+        rows = json.loads(open(tmp_path / "p.jsonl").read().splitlines()[-1])["rows"]
+        fits = [r for r in rows if r["quantity"].startswith("Delta y(")]
+        assert fits and all("paired" not in r["detail"] for r in fits)
 
 
 def test_paired_members_are_matched_by_seed_in_files_of_some_members(tmp_path):
