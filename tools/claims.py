@@ -221,8 +221,10 @@ class Profile:
     """A binned avalanche profile's per-member rows in a band of heights: the pooled means of
     all members and of all but one, for fits with jackknife errors."""
 
-    def __init__(self, group, low, high, members=None):
-        """members: a mask of the members to take (all with disks when None)."""
+    def __init__(self, group, low, high, members=None, bins=None):
+        """members: a mask of the members to take (all with disks when None); bins: a mask of
+        the bins it may take (all when None), of which it takes those its members fill
+        (`use`)."""
         count = group["member_count"][()]
         mean = group["member_mean"][()]
         pos = group["member_position"][()]
@@ -233,6 +235,9 @@ class Profile:
         centre = group["centre"][()]
         use = (count.sum(axis=0) >= 10) & (count > 0).all(axis=0) & (centre >= low) & \
             (centre <= high)
+        if bins is not None:
+            use &= bins
+        self.use = use
         self.count, self.mean, self.pos = count[:, use], mean[:, use], pos[:, use]
         self.members, self.bins = self.count.shape
 

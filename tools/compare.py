@@ -45,9 +45,11 @@ With --paired the two files hold the same members (one scan seed, the same point
 file of some of them, `--finished-only` or a shard's, pairs its members with the same seeds),
 each started from the same drops, so a member's two results are correlated and the combined
 errors above too large. nu_lower_half, mean abs(Delta y) (from the members' own values, in files
-from 2026-11-28 on) and the profile fits are then compared member by member: the standard error
-of the members' differences, and the jackknife of the fits' difference (the same member left out
-of both files), over the members that finished in both. The other quantities, distributions,
+from 2026-11-28 on), in protocol C nu_i and dnu/nu_i (each member's nu_lower_half / nu_i - 1, in
+files from 2026-12-05 on) and the profile fits (through the bins both files' members fill) are
+then compared member by member: the standard error of the members' differences, and the
+jackknife of the fits' difference (the same member left out of both files), over the members
+that finished in both. The other quantities, distributions,
 stay as above. A point with fewer than 4 members finished in both is compared unpaired, and says
 so.
 
@@ -254,6 +256,17 @@ def members_in_both(pa, pb):
     return (ok_a, ok_b), ""
 
 
+def member_values(point, key):
+    """The point's members' own values of `key` (members/KEY; dnu/nu_i, which has none stored,
+    from each member's nu_lower_half / nu_i - 1, as the program's mean), or None."""
+    if key == "relative_increase":
+        if not all(f"members/{k}" in point for k in ("nu_lower_half", "nu_initial")):
+            return None
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return point["members/nu_lower_half"][()] / point["members/nu_initial"][()] - 1.0
+    return point[f"members/{key}"][()] if f"members/{key}" in point else None
+
+
 def point_scalars(pa, pb, sigma, both=None):
     for key, name in (("nu_lower_half", "nu_lower_half"), ("mean_abs_dy", "mean abs(Delta y) [R]"),
                       ("nu_initial", "nu_i"), ("relative_increase", "dnu/nu_i")):
@@ -265,11 +278,11 @@ def point_scalars(pa, pb, sigma, both=None):
             continue
         a, ea = float(pa.attrs[f"{key}_mean"]), float(pa.attrs[f"{key}_sem"])
         b, eb = float(pb.attrs[f"{key}_mean"]), float(pb.attrs[f"{key}_sem"])
-        per_member = f"members/{key}"
-        if both is not None and per_member in pa and per_member in pb:
+        va, vb = member_values(pa, key), member_values(pb, key)
+        if both is not None and va is not None and vb is not None:
             # A finished member without a value (a band its collapse left empty) pairs with
             # nothing, as the means leave it out.
-            d = pb[per_member][()][both[1]] - pa[per_member][()][both[0]]
+            d = vb[both[1]] - va[both[0]]
             d = d[np.isfinite(d)]
             if len(d) < 2:
                 yield Row(name, value(a, ea), value(b, eb), math.nan, sigma,
@@ -283,11 +296,15 @@ def point_scalars(pa, pb, sigma, both=None):
 
 
 def paired_fit_difference(pa, pb, key, degree, both):
-    """The difference B - A of the profile fit's coefficients through every bin both ensembles'
-    members fill (as the program fits), and its jackknife error with the same member left out
-    of both."""
+    """The difference B - A of the profile fit's coefficients, each through the bins that every
+    member of both ensembles fills (where the two files bin alike; else each through its own,
+    as the program fits), and its jackknife error with the same member left out of both."""
     prof_a = Profile(pa[key], -math.inf, math.inf, both[0])
     prof_b = Profile(pb[key], -math.inf, math.inf, both[1])
+    if np.array_equal(pa[key]["centre"][()], pb[key]["centre"][()]):
+        common = prof_a.use & prof_b.use
+        prof_a = Profile(pa[key], -math.inf, math.inf, both[0], common)
+        prof_b = Profile(pb[key], -math.inf, math.inf, both[1], common)
     fit = lambda prof, m=None: np.polynomial.polynomial.polyfit(*prof.pooled(m), degree)
     full = fit(prof_b) - fit(prof_a)
     loo = [fit(prof_b, m) - fit(prof_a, m) for m in range(prof_a.members)]

@@ -263,6 +263,50 @@ def test_paired_members_tell_a_shift_their_scatter_hides(runs, tmp_path):
     assert "paired_difference" not in few["nu_lower_half"]
 
 
+def test_paired_collapse_compares_the_increase_member_by_member(tmp_path):
+    """Protocol C: every member's final density 1 % higher is found in dnu/nu_i by the members'
+    differences (from nu_lower_half / nu_i - 1 of each), as in nu_lower_half; unpaired the
+    members' scatter hides it."""
+    c = loosepack.run({"scan": {"name": "c", "seeds": 6, "protocol": "C"},
+                       "system": {"width": 24.0, "height": 40.0, "bond_number": 1000.0,
+                                  "capture_radius": 2.0}}, tmp_path / "c.h5", progress=False)
+    denser = tmp_path / "denser.h5"
+    shutil.copy(c.path, denser)
+    with h5py.File(denser, "r+") as f:
+        p = f["points/0000"]
+        nu = p["members/nu_lower_half"]
+        nu[...] = nu[()] * 1.01
+        increase = nu[()] / p["members/nu_initial"][()] - 1
+        p.attrs["nu_lower_half_mean"] = nu[()].mean()
+        p.attrs["relative_increase_mean"] = increase.mean()
+    def rows(name, *extra):
+        run_tool(c.path, denser, "--json", tmp_path / name, *extra)
+        return {r["quantity"]: r for r in json.loads(open(tmp_path / name).read())["rows"]}
+
+    paired, unpaired = rows("paired.jsonl", "--paired"), rows("unpaired.jsonl")
+    assert "(paired)" in paired["dnu/nu_i"]["detail"] and not paired["dnu/nu_i"]["within"]
+    assert unpaired["dnu/nu_i"]["within"]
+
+
+def test_paired_fits_go_through_the_bins_both_files_fill(runs, tmp_path):
+    """B is A with one member's disks of one profile bin gone (that bin drops out of B's fit):
+    the paired difference of the fits goes through the bins both fill, so equal data elsewhere
+    give a difference of 0 (through each file's own bins it was not)."""
+    d, cohesive, _ = runs
+    holed = tmp_path / "holed.h5"
+    shutil.copy(cohesive, holed)
+    with h5py.File(holed, "r+") as f:
+        count = f["points/0000/avalanche_by_ye/member_count"]
+        c = count[()]
+        filled = np.flatnonzero((c > 0).all(axis=0) & (c.sum(axis=0) >= 10))
+        c[0, filled[len(filled) // 2]] = 0
+        count[...] = c
+    run_tool(cohesive, holed, "--paired", "--json", tmp_path / "holed.jsonl")
+    rows = {r["quantity"]: r for r in json.loads(open(tmp_path / "holed.jsonl").read())["rows"]}
+    for k in "abc":
+        assert rows[f"Delta y(y_e): {k}"]["paired_difference"] == 0, rows[f"Delta y(y_e): {k}"]
+
+
 def test_paired_with_a_file_without_member_profiles_compares_the_fits_unpaired(runs, tmp_path):
     """A file of before 2026-11-24 holds no per-member profile rows: with --paired, in either
     order, its profile fits are compared unpaired (it was called damaged when second)."""
