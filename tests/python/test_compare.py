@@ -173,7 +173,7 @@ def test_one_members_histogram_shape_and_events_are_not_judged(tmp_path):
                                     "system": {"width": 24.0, "height": 24.0,
                                                "bond_number": 1.0}},
                                    tmp_path / f"one{seed}.h5", progress=False).path)
-    out = run_tool(*files, "--json", tmp_path / "one.jsonl")
+    run_tool(*files, "--json", tmp_path / "one.jsonl")
     rows = {r["quantity"]: r for r in json.loads(open(tmp_path / "one.jsonl").read())["rows"]}
     shape = rows["abs(Delta y) histogram (cut): shape"]
     assert shape["within"] is None and "fewer than 4 members" in shape["detail"], shape
