@@ -10,6 +10,12 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
+# libFuzzer reads a time that is not a positive number as no limit at all.
+if ! [[ "$seconds" =~ ^[0-9]+$ ]] || [ "$seconds" -lt 1 ]; then
+  echo "usage: scripts/fuzz.sh [seconds per target, at least 1] [target...]" \
+    "(the seconds come first: scripts/fuzz.sh 60 fuzz_scan)" >&2
+  exit 2
+fi
 shift || true
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(fuzz_scan fuzz_checkpoint fuzz_results)

@@ -7,6 +7,7 @@
 # Run it alone: beside a one-core job, the threads' barriers made a test of 100 s take over 900.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+bash scripts/install-deps.sh --test  # the suite's own packages (pytest, ParaView, strace, ...)
 bash scripts/build-kokkos.sh openmp
 bash scripts/build.sh  # the Serial build of the same tree, to compare with
 # Without OMP_PROC_BIND Kokkos warns at every start-up, which the command-line tests take for a

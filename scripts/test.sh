@@ -6,6 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 select=(-LE long)
+[ $# -le 1 ] || set -- usage
 case "${1:-}" in
   --all) select=() ;;
   "") ;;

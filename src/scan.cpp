@@ -210,7 +210,9 @@ const std::vector<SystemKey>& system_keys() {
        // the nearest image alone (kernels/contacts.hpp).
        [](const SystemParams& p) {
          const bool ok = p.width >= smallest_width(p) && std::isfinite(p.width);
-         return ok ? "" : "L_x must be finite and >= 2 (2 R_max + d_c)";
+         return ok ? ""
+                   : "L_x must be finite and >= 2 (2 R_max + d_c), here " +
+                         format_number(smallest_width(p));
        }},
       {"height", [](SystemParams& p, double v) { p.height = v; },
        [](const SystemParams& p) {
@@ -1146,14 +1148,16 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
       << kRestWindowSpeeds * scan.rest.speed
       << "), so rest would be declared before anything moved; ";
   if (need <= most_rest_steps)
-    why << "set [rest] steps >= " << static_cast<long>(need) << " (docs/SCAN.md, [rest])";
+    why << "set [rest] steps >= " << static_cast<long>(need)
+        << ", or a smaller rest.speed (docs/SCAN.md, [rest])";
   else
     why << "[rest] steps would need " << need << ", beyond its bound of "
         << format_number(most_rest_steps)
         << ": take a larger time_step or a smaller rest.speed (docs/SCAN.md, [rest])";
   if (const auto [node, name] = where_set("time_step"); node) fail(file, *node, name, why.str());
-  const auto steps_node = setting_nodes.find("rest.steps");
-  if (steps_node != setting_nodes.end()) fail(file, *steps_node->second, "rest.steps", why.str());
+  for (const char* setting : {"rest.steps", "rest.speed"})
+    if (const auto node = setting_nodes.find(setting); node != setting_nodes.end())
+      fail(file, *node->second, setting, why.str());
   // Neither is set: h is the default time step of the point's Bond number.
   why << "; h is the default time step at Bo = " << sp.params.bond_number
       << " (or set system.time_step)";

@@ -121,8 +121,10 @@ std::vector<SettingKey> protocol_keys() {
        [](Scan& s, double v) { s.protocol.region_radius = v; }, nullptr, nullptr, nullptr,
        [](const Scan& s) {
          const double r = s.protocol.region_radius;
-         return r > 0.0 && r < 5.0 ? std::string("must be 0 (no regions) or at least 5 radii")
-                                   : std::string();
+         return r > 0.0 && r < 5.0
+                    ? std::string(
+                          "must be 0 (no regions) or at least 5 (in the file's length unit)")
+                    : std::string();
        },
        nullptr},
       {"protocol", "region_check_every", Type::Integer, 1, 1e6, "disks",

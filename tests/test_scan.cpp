@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "loosepack/geometry.hpp"
 #include "loosepack/scan.hpp"
 #include "loosepack/settings.hpp"
 #include "tests/scan_errors.hpp"
@@ -226,9 +227,10 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[system]\ncapture_radius = 0.5\n",
        "key 'system.capture_radius': r_capt must be in [1, 10]"},
       {"[system]\nheight = 3\n", "key 'system.height': H must be finite and >= 4 R"},
-      {"[system]\nwidth = 2\n", "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c)"},
+      {"[system]\nwidth = 2\n",
+       "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c), here 4.02"},
       {"[system]\nwidth = \"inf\"\n",
-       "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c)"},
+       "key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c), here 4.02"},
       {"[system]\nwidth = nan\n", "bad.toml:2:9: key 'system.width': nan is not a value"},
       {"[solver]\ntolerance = nan\n", "key 'solver.tolerance': nan is not a value"},
       {"[system]\nbond_number = [100, 1e3, 100]\n",
@@ -292,7 +294,8 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
       {"[rest]\nsteps = 1.5\n", "key 'rest.steps': expected an integer"},
       {"[rest]\nconverged = 0\n", "bad.toml:2:13: key 'rest.converged': expected true or false"},
       {"[protocol]\nregion_radius = 3\n",
-       "bad.toml:2:17: key 'protocol.region_radius': must be 0 (no regions) or at least 5 radii"},
+       "bad.toml:2:17: key 'protocol.region_radius': must be 0 (no regions) or at least 5 (in the "
+       "file's length unit)"},
       {"[protocol]\nregion_check_every = 0\n", "key 'protocol.region_check_every': expected an"},
       {"[colour]\nred = 1\n",
        "key 'colour': unknown section (allowed: scan, system, solver, rest, protocol, "
@@ -348,10 +351,24 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
 // "inf" is offered where it is a value (the Bond number without gravity), not for keys that must
 // be finite, nor for a range's ends of such a key; a value that is no number is told the key's
 // range.
+// The width's bound is the box's own: twice a contact's reach from the largest disk, which a
+// polydisperse packing makes larger than the defaults' 4.02.
+TEST(Scan, TheWidthsBoundIsNamedForThePointsDisks) {
+  SystemParams p;
+  p.polydispersity = 0.3;
+  std::ostringstream least;
+  least << smallest_width(p);
+  EXPECT_GT(smallest_width(p), 4.02 + 1.0);
+  EXPECT_EQ(error_of("[system]\nwidth = 5\npolydispersity = 0.3\n"),
+            "bad.toml:2:9: key 'system.width': L_x must be finite and >= 2 (2 R_max + d_c), here " +
+                least.str());
+}
+
 TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
   const std::string bo = "expected a number: Bo must be 0, in (0, 1e8], or \"inf\" (";
   EXPECT_EQ(error_of("[system]\nwidth = \"wide\"\n"),
-            "bad.toml:2:9: key 'system.width': expected a number: L_x must be finite and >= 2 (2 R_max + d_c)");
+            "bad.toml:2:9: key 'system.width': expected a number: L_x must be finite and >= 2 (2 "
+            "R_max + d_c), here 4.02");
   EXPECT_EQ(
       error_of("[system]\nheight = { from = 40, to = \"tall\", points = 2 }\n"),
       "bad.toml:2:28: key 'system.height.to': expected a number: H must be finite and >= 4 R");
@@ -359,7 +376,8 @@ TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
                 .rfind("bad.toml:2:32: key 'system.bond_number.to': " + bo, 0),
             0u);
   EXPECT_EQ(error_of("[[point]]\nwidth = \"x\"\n"),
-            "bad.toml:2:9: key 'point.width': expected a number: L_x must be finite and >= 2 (2 R_max + d_c)");
+            "bad.toml:2:9: key 'point.width': expected a number: L_x must be finite and >= 2 (2 "
+            "R_max + d_c), here 4.02");
   EXPECT_EQ(error_of("[[point]]\nbond_number = \"x\"\n")
                 .rfind("bad.toml:2:15: key 'point.bond_number': " + bo, 0),
             0u);
@@ -368,13 +386,20 @@ TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
 }
 
 // The rest window's bound g h rest.steps >= 2 rest.speed: where the file sets no time step the
-// error points at rest.steps, a rest window long enough makes a tiny time step valid, and
-// ballistic points (no dynamics) are not bound by it. Where the file sets neither, h is the
-// default of a large Bond number, 0.9 sqrt(d_c / (Bo g)), and the error points at the Bond number.
+// error points at rest.steps (or rest.speed), a rest window long enough makes a tiny time step
+// valid, and ballistic points (no dynamics) are not bound by it. Where the file sets neither, h is
+// the default of a large Bond number, 0.9 sqrt(d_c / (Bo g)), and the error points at the Bond
+// number.
 TEST(Scan, RestWindowMustLetAFallingDiskShow) {
   EXPECT_NE(error_of("[rest]\nspeed = 0.5\nsteps = 10\n[system]\nbond_number = 0\n")
                 .find("bad.toml:3:9: key 'rest.steps': h = 0.01 with rest.steps = 10"),
             std::string::npos);
+  // A rest speed set alone is where the error lies (the time step is the default's at Bo = 1e3,
+  // 0.9 sqrt(d_c / (Bo g)) = 0.00284605).
+  EXPECT_EQ(error_of("[rest]\nspeed = 0.5\n[system]\nwidth = 24\n")
+                .rfind("bad.toml:2:9: key 'rest.speed': h = 0.00284605 with rest.steps = 10", 0),
+            0u)
+      << error_of("[rest]\nspeed = 0.5\n[system]\nwidth = 24\n");
   const std::string large_bo = error_of("[system]\nbond_number = 1e6\n");
   const double h = 0.9 * std::sqrt(0.01 / 1e6);
   const long need = static_cast<long>(std::ceil(2.0 * 1e-3 / h));
@@ -382,7 +407,8 @@ TEST(Scan, RestWindowMustLetAFallingDiskShow) {
             0u)
       << large_bo;
   EXPECT_NE(large_bo.find("set [rest] steps >= " + std::to_string(need) +
-                          " (docs/SCAN.md, [rest]); h is the default time step at Bo = 1e+06"),
+                          ", or a smaller rest.speed (docs/SCAN.md, [rest]); h is the default "
+                          "time step at Bo = 1e+06"),
             std::string::npos)
       << large_bo;
   EXPECT_NO_THROW(
