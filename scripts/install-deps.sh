@@ -2,6 +2,10 @@
 # Installs the Debian bookworm packages loosepack needs (with --test: the test suite's too).
 # Idempotent; quiet when all are present.
 set -euo pipefail
+if [ $# -gt 1 ] || { [ $# -eq 1 ] && [ "$1" != "--test" ]; }; then
+  echo "usage: scripts/install-deps.sh [--test]" >&2
+  exit 2
+fi
 packages=(
   build-essential cmake git pkg-config clang libclang-rt-dev
   libtrilinos-kokkos-dev libeigen3-dev libsuitesparse-dev libhdf5-dev
@@ -15,10 +19,6 @@ packages=(
 # test; xvfb for rendering with ParaView, tools/render_deposit.py; strace and procps's pgrep,
 # with which tests/resume_test.sh counts a run's checkpoint writes; time's /usr/bin/time, with
 # which the bench scripts the suite runs measure CPU time).
-if [ $# -gt 1 ] || { [ $# -eq 1 ] && [ "$1" != "--test" ]; }; then
-  echo "usage: scripts/install-deps.sh [--test]" >&2
-  exit 2
-fi
 if [ "${1:-}" = "--test" ]; then
   packages+=(python3-pytest python3-paraview python3-ase python3-venv python3-setuptools
     python3-wheel xvfb xauth strace procps time)

@@ -163,7 +163,7 @@ int Ranks::decide(int stop) const {
 
 int Ranks::await_verdict(const Progress& own, const volatile std::sig_atomic_t& signal) {
   int verdict[2] = {0, 0};
-  bool passed_on = false;
+  bool passed_on = pending_->message.stopped != 0;  // the final message carried a signal
   for (;;) {
     poll_stop();  // a stop notice that crossed this rank's final message
     int flag = 0;

@@ -1158,7 +1158,7 @@ void ScanParser::check_rest_window(const ScanPoint& sp) {
   for (const char* setting : {"rest.steps", "rest.speed"})
     if (const auto node = setting_nodes.find(setting); node != setting_nodes.end())
       fail(file, *node->second, setting, why.str());
-  // Neither is set: h is the default time step of the point's Bond number.
+  // None of them is set: h is the default time step of the point's Bond number.
   why << "; h is the default time step at Bo = " << sp.params.bond_number
       << " (or set system.time_step)";
   if (const auto [node, name] = where_set("bond_number"); node) fail(file, *node, name, why.str());

@@ -90,6 +90,7 @@ mpirun --oversubscribe -np 2 "$exe" run uneven.toml -o late1.h5 --checkpoint-eve
 job=$!
 for _ in $(seq 600); do grep -q "1/2 members" late1.log && break; sleep 0.1; done
 grep -q "1/2 members" late1.log || fail "rank 1's share did not finish first: $(cat late1.log)"
+sleep 2  # past its final message (a progress message may count the member first)
 for p in $(pgrep -P $job); do
   tr '\0' '\n' </proc/$p/environ | grep -qx "OMPI_COMM_WORLD_RANK=1" && kill -TERM $p
 done

@@ -348,9 +348,6 @@ TEST(Scan, RejectsBadInputWithFileLineAndKey) {
   scan_errors::expect_refused(cases);
 }
 
-// "inf" is offered where it is a value (the Bond number without gravity), not for keys that must
-// be finite, nor for a range's ends of such a key; a value that is no number is told the key's
-// range.
 // The width's bound is the box's own: twice a contact's reach from the largest disk, which a
 // polydisperse packing makes larger than the defaults' 4.02.
 TEST(Scan, TheWidthsBoundIsNamedForThePointsDisks) {
@@ -364,6 +361,9 @@ TEST(Scan, TheWidthsBoundIsNamedForThePointsDisks) {
                 least.str());
 }
 
+// "inf" is offered where it is a value (the Bond number without gravity), not for keys that must
+// be finite, nor for a range's ends of such a key; a value that is no number is told the key's
+// range.
 TEST(Scan, OnlyTheBondNumberIsOfferedInfinity) {
   const std::string bo = "expected a number: Bo must be 0, in (0, 1e8], or \"inf\" (";
   EXPECT_EQ(error_of("[system]\nwidth = \"wide\"\n"),

@@ -378,8 +378,8 @@ def read_damaged_as_unusable(read, path, where):
 def fail_missing(path, name):
     if "member_" in name:  # rows the run writes (files from 2026-11-24 on), no analysis can add
         unusable(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
-                 "the members' rows come from the run itself, in files from 2026-11-24 on: run "
-                 "the scan again with the present program)")
+                 "the members' rows come from the run itself, which an older program did not "
+                 "write: run the scan again with the present program)")
     unusable(f"claims.py: {path}: '{name}' is missing (was the file written by loosepack? "
              f"`loosepack analyse {path}` adds the current analysis to a file of an older one)")
 

@@ -49,9 +49,8 @@ from 2026-11-28 on), in protocol C nu_i and dnu/nu_i (each member's nu_lower_hal
 files from 2026-12-05 on) and the profile fits (through the bins both files' members fill) are
 then compared member by member: the standard error of the members' differences, and the
 jackknife of the fits' difference (the same member left out of both files), over the members
-that finished in both. The other quantities, distributions,
-stay as above. A point with fewer than 4 members finished in both is compared unpaired, and says
-so.
+that finished in both. The other quantities, distributions, stay as above. A point with fewer
+than 4 members finished in both is compared unpaired, and says so.
 
 A strip's or bin's difference over its combined standard error, each error from the scatter
 of few members, follows Student's t (Welch's degrees of freedom), whose tails are heavier than
@@ -447,8 +446,9 @@ def histogram(pa, pb):
     va, vb = text(sa.attrs["preferred"]), text(sb.attrs["preferred"])
     fits = [v for v in ("gaussian", "exponential") if acceptable(sa, v) and acceptable(sb, v)]
     same = bool(fits) or (va == vb and va not in ("gaussian", "exponential"))
-    # Fewer than 4 members with disks: the program's verdict rests on Poisson's errors, far too
-    # small for counts that move together (as claims.py, which judges no shape by them).
+    # No errors from the members' scatter (fewer than 4 members with disks): the program's
+    # verdict rests on Poisson's errors, far too small for counts that move together (as
+    # claims.py, which judges no shape by them).
     poisson = [w for w, h, sh in (("A", ha, sa), ("B", hb, sb))
                if "member_counts_cut" in h and not sh.attrs.get("member_errors", 0)]
     if not fits and "none" in (va, vb):  # a histogram of too few bins for a shape fit
@@ -456,8 +456,8 @@ def histogram(pa, pb):
                   "not judged (too few bins to fit a shape)")
     elif poisson:
         yield Row("abs(Delta y) histogram (cut): shape", va, vb, math.nan, 0.0,
-                  f"not judged ({' and '.join(poisson)}: fewer than 4 members with disks, no "
-                  "errors from their scatter to judge a shape by)")
+                  f"not judged ({' and '.join(poisson)}: no errors from the members' scatter to "
+                  "judge a shape by, its verdict on Poisson's)")
     else:
         yield Row("abs(Delta y) histogram (cut): shape", va, vb, 0.0 if same else 1.0, 0.0,
                   f"{' and '.join(fits)} fit{'s' if len(fits) == 1 else ''} both" if fits else

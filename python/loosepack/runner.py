@@ -199,6 +199,9 @@ def _replace_text(path, text):
                                      prefix=os.path.basename(path) + ".")
     with os.fdopen(fd, "w") as f:
         f.write(text)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(temporary, 0o666 & ~umask)  # as open() would make it (mkstemp's is 0600)
     os.replace(temporary, path)
     return earlier
 
@@ -222,7 +225,8 @@ def _follow(cmd, progress):
     except BaseException:
         if proc.poll() is None:
             proc.send_signal(signal.SIGUSR1)
-        proc.wait()
+        _, rest = proc.communicate()  # read to the end: the pipes fill while it saves
+        sys.stderr.write(("\n" if progress else "") + rest)  # its last words: how to resume
         raise
     if progress:
         sys.stderr.write("\n")

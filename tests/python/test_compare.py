@@ -176,7 +176,7 @@ def test_one_members_histogram_shape_and_events_are_not_judged(tmp_path):
     run_tool(*files, "--json", tmp_path / "one.jsonl")
     rows = {r["quantity"]: r for r in json.loads(open(tmp_path / "one.jsonl").read())["rows"]}
     shape = rows["abs(Delta y) histogram (cut): shape"]
-    assert shape["within"] is None and "fewer than 4 members" in shape["detail"], shape
+    assert shape["within"] is None and "members' scatter" in shape["detail"], shape
     events = rows["events: mean log10(disks moved)"]
     assert events["within"] is None and "one member" in events["detail"], events
 

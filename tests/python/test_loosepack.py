@@ -2,6 +2,7 @@
 checked against what the file's own data or a formula says it must be."""
 
 import math
+import os
 import shutil
 import subprocess
 import tomllib
@@ -263,11 +264,18 @@ def test_bad_input_raises_with_the_programs_message(tmp_path):
         loosepack.run(good, tmp_path / "x.toml", progress=False)
 
 
+def umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 LONG = {"scan": {"name": "long", "seeds": 2, "protocol": "A"},
         "system": {"width": 30.0, "height": 60.0, "bond_number": 1000.0}}
 
 
-def test_an_interrupted_python_run_stops_the_program_with_its_checkpoint(tmp_path, monkeypatch):
+def test_an_interrupted_python_run_stops_the_program_with_its_checkpoint(tmp_path, monkeypatch,
+                                                                          capsys):
     """A KeyboardInterrupt that reaches Python alone, at the first progress line: run() stops
     the program, which saves its checkpoint and writes no file, before the exception goes on.
     Then a dict of another scan is refused (a checkpoint of the first to resume) and the scan
@@ -282,6 +290,8 @@ def test_an_interrupted_python_run_stops_the_program_with_its_checkpoint(tmp_pat
     with pytest.raises(KeyboardInterrupt):
         loosepack.run(LONG, out)
     monkeypatch.undo()
+    assert "continue with: loosepack run" in capsys.readouterr().err  # the program's last words
+    assert oct((tmp_path / "long.toml").stat().st_mode & 0o777) == oct(0o666 & ~umask())
     assert not out.exists() and (tmp_path / "long.h5.checkpoint").is_dir()
     assert not (tmp_path / "long.h5.lock").exists()  # the program has ended
     other = {"scan": dict(LONG["scan"], seeds=3), "system": LONG["system"]}
