@@ -24,6 +24,11 @@ dir=$1 cuda=$2 host=$3 before=${4:-}
 for f in "$cuda/loosepack" "$cuda/tests/loosepack_tests" "$host/loosepack" $before; do
   [ -x "$f" ] || { echo "gpu_bundle.sh: $f is not built" >&2; exit 2; }
 done
+# DIR is replaced whole: refused unless it is absent, empty or an earlier bundle.
+if [ -e "$dir" ] && [ -n "$(ls -A "$dir")" ] && [ ! -f "$dir/device/loosepack" ]; then
+  echo "gpu_bundle.sh: $dir holds other files than a bundle's: give a new DIR" >&2
+  exit 2
+fi
 rm -rf "$dir"
 mkdir -p "$dir/device" "$dir/host" "$dir/lib"
 cp "$cuda/loosepack" "$cuda/tests/loosepack_tests" "$dir/device/"

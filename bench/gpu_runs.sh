@@ -82,7 +82,8 @@ for name in C A; do
       2>"$work/timing.txt" || rc=$?
     wall=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { print b - a }')
     [ -n "${KEEP:-}" ] && cp "$work/timing.txt" "$KEEP/$name-$solver.txt"
-    if [ -z "${LIMIT:-}" ] || [ $rc -eq 0 ]; then
+    # timeout's 124: stopped at the limit, as asked; any other failure is the run's own.
+    if [ -z "${LIMIT:-}" ] || [ $rc -ne 124 ]; then
       [ $rc -eq 0 ] || { cat "$work/timing.txt" >&2; exit $rc; }
       # The summary's table row: nu_lower_half, then (C) dnu/nu_i.
       row=$("$loosepack" summary "$work/$name.h5" |

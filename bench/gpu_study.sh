@@ -44,6 +44,11 @@ if [ $# -lt 3 ]; then
 fi
 out=$1 device=$2 host=$3 before=${4:-}
 here=$(cd "$(dirname "$0")" && pwd)
+# One study an OUT: a second's lines would join the first's in its files and summary.
+if [ -d "$out" ] && [ -n "$(ls -A "$out")" ]; then
+  echo "gpu_study.sh: $out is not empty (an earlier study?): give a new OUT" >&2
+  exit 2
+fi
 mkdir -p "$out"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

@@ -54,7 +54,7 @@ if [ ! -f "$name.toml" ]; then
 fi
 if [ -f "$name.h5" ]; then
   echo "paper_size_member.sh: $out/$name.h5 is finished; summary:" >&2
-  exec python3 "$here/paper_size_member.py" "$out/progress.tsv"
+  exec python3 "$here/paper_size_member.py" progress.tsv
 fi
 resume=()
 [ -d "$name.h5.checkpoint" ] && resume=(--resume)
@@ -64,7 +64,10 @@ run=$(($(wc -l <runs.txt) + 1))
 commit=$("$exe" --version 2>/dev/null | head -n 1 || true)
 echo "$run $(date -u +%FT%TZ) $commit ${resume[*]}" >>runs.txt
 
-"$exe" run "$name.toml" -o "$name.h5" --checkpoint-every 300 "${resume[@]}" 2>>"$name.log" &
+# In a session of its own, so that a signal to this script's process group (Ctrl-C, timeout, a
+# batch system) reaches it once, from the trap below: a second SIGINT would end it unsaved.
+setsid "$exe" run "$name.toml" -o "$name.h5" --checkpoint-every 300 "${resume[@]}" \
+  2>>"$name.log" &
 pid=$!
 tick=$(getconf CLK_TCK)
 cpu= disks= written=
@@ -83,7 +86,7 @@ record() {  # the last sample as a row of progress.tsv, once
   printf '%s\t%s\t%s\t%s\n' "$run" "$(date +%s)" "$cpu" "$disks" >>progress.tsv
   written="$cpu $disks"
 }
-trap 'kill -INT $pid 2>/dev/null; wait $pid || true; record; exit 130' INT TERM
+trap 'kill -INT $pid 2>/dev/null; wait $pid || true; record; exit 130' INT TERM HUP
 stopper=
 if [ -n "${FOR_S:-}" ]; then
   { sleep "$FOR_S" && kill -INT "$pid" 2>/dev/null; } &
@@ -101,8 +104,14 @@ while kill -0 "$pid" 2>/dev/null; do
   record
 done
 record
-wait "$pid" || true
+rc=0
+wait "$pid" || rc=$?
 [ -n "$stopper" ] && { kill "$stopper" 2>/dev/null || true; }
-tail -n 1 "$name.log" | grep -q 'interrupted' && tail -n 2 "$name.log" | head -n 1 >&2
+if tail -n 1 "$name.log" | grep -q 'interrupted'; then
+  tail -n 2 "$name.log" | head -n 1 >&2
+elif [ "$rc" -ne 0 ]; then  # refused or failed: say so (the run's line in runs.txt stays)
+  echo "paper_size_member.sh: loosepack run exited with $rc: $(tail -n 1 "$name.log")" >&2
+  exit "$rc"
+fi
 [ -f "$name.h5" ] && python3 "$here/paper_size_member.py" progress.tsv
 exit 0

@@ -49,10 +49,24 @@ scan() {
   "$exe" run "$1.toml" --dry-run >/dev/null # refuses a file the edits broke, naming the line
 }
 
+# The scan file a result file was run from (its stored text), or nothing where it is absent.
+stored_scan() {
+  [ -e "$1" ] || return 0
+  /usr/bin/python3 -c 'import h5py, sys; print(h5py.File(sys.argv[1], "r")["scan_text"][()].decode())' "$1"
+}
+
 # shards NAME: runs NAME.toml as two shards side by side, each going on from its checkpoint if
-# it left one; merges them into NAME.h5.
+# it left one; merges them into NAME.h5. A result file of the name from another call (other
+# members) is refused, not taken for this one.
 shards() {
-  local pids=() k
+  local pids=() k file
+  for file in "$1.h5" "$1-0.h5" "$1-1.h5"; do
+    [ ! -e "$file" ] || [ "$(stored_scan "$file")" = "$(cat "$1.toml")" ] || {
+      echo "paper_width_pair.sh: $out/$file was run from another scan than this call's" \
+        "$1.toml (other members?): move it away, or give another OUT_DIR" >&2
+      exit 2
+    }
+  done
   for k in 0 1; do
     [ -e "$1-$k.h5" ] && continue
     local resume=()
@@ -81,8 +95,15 @@ scan "$narrow" fig07_scaled_profiles_tall.toml 40.0 "$narrow_members"
 shards "$wide"
 shards "$narrow"
 # compare.py's exit status 1 (some quantity differs) is a result, not a failure of this script.
+# The label names the program that ran the members (the files' own commit); a pair compared
+# before is not appended again.
+commit=$(/usr/bin/python3 -c 'import h5py, sys; print(h5py.File(sys.argv[1], "r").attrs["git_commit"])' "$wide.h5")
+if grep -qF "\"a\": \"$wide.h5\", \"b\": \"$narrow.h5\"" comparison.jsonl 2>/dev/null; then
+  echo "paper_width_pair.sh: $wide against $narrow is in $out/comparison.jsonl already" >&2
+  exit 0
+fi
 rc=0
 /usr/bin/python3 "$here/../tools/compare.py" "$wide.h5" "$narrow.h5" --json comparison.jsonl \
-  --label "H = $height: $width R wide, $wide_members members ($(cpu "$wide") CPU s) against 40 R wide, $narrow_members members ($(cpu "$narrow") CPU s); $("$exe" --version | head -1)" ||
+  --label "H = $height: $width R wide, $wide_members members ($(cpu "$wide") CPU s) against 40 R wide, $narrow_members members ($(cpu "$narrow") CPU s); loosepack of commit $commit" ||
   rc=$?
 [ "$rc" -le 1 ] || exit "$rc"

@@ -19,7 +19,14 @@ out=${1:?usage: regions_comparison.sh OUT_DIR [CHECK] [JOBS]}
 check=${2:-10}
 jobs=${3:-2}
 here=$(cd "$(dirname "$0")" && pwd)
-exe=${LOOSEPACK:-$here/../build/loosepack}
+exe=$(realpath "${LOOSEPACK:-$here/../build/loosepack}")  # it runs from OUT_DIR
+for bo in ${BONDS:-1e3 1e2}; do
+  case "$bo" in
+    1e3 | 1e2) ;;
+    *) echo "regions_comparison.sh: BONDS takes 1e3 and 1e2 (the scenes' time steps), not $bo" >&2
+       exit 2 ;;
+  esac
+done
 mkdir -p "$out"
 cd "$out"
 
@@ -42,11 +49,16 @@ for h in ${HEIGHTS:-180 120}; do
     names+=("bo${bo}_h${h}_whole" "bo${bo}_h${h}_regions${check}")
   done
 done
+# A scan stopped before (its checkpoint beside it) goes on from it; the time file keeps a line
+# per run of it.
 run_one() {
-  [ -e "$1.h5" ] || /usr/bin/time -f "user %U" -o "$1.time" "$2" run "$1.toml" -o "$1.h5" -q
+  local resume=()
+  [ -d "$1.h5.checkpoint" ] && resume=(--resume)
+  [ -e "$1.h5" ] ||
+    /usr/bin/time -a -f "user %U" -o "$1.time" "$2" run "$1.toml" -o "$1.h5" -q "${resume[@]}"
 }
 export -f run_one
-printf '%s\n' "${names[@]}" | xargs -P "$jobs" -I{} bash -c "run_one {} $exe"
+printf '%s\n' "${names[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one "$1" "$2"' _ {} "$exe"
 for h in ${HEIGHTS:-180 120}; do
   for bo in ${BONDS:-1e3 1e2}; do
     a="bo${bo}_h${h}_whole" b="bo${bo}_h${h}_regions${check}"
