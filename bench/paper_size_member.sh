@@ -61,7 +61,8 @@ resume=()
 [ -f progress.tsv ] || printf 'run\tepoch_s\tcpu_s\tdisks\n' >progress.tsv
 touch runs.txt  # a line per run
 run=$(($(wc -l <runs.txt) + 1))
-commit=$("$exe" --version 2>/dev/null | head -n 1 || true)
+# The program (version, commit; its Kokkos backend) and the machine.
+commit="$("$exe" --version 2>/dev/null | head -n 2 | paste -sd ' ' || true); $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores"
 echo "$run $(date -u +%FT%TZ) $commit ${resume[*]}" >>runs.txt
 
 # In a session of its own, so that a signal to this script's process group (Ctrl-C, timeout, a

@@ -104,6 +104,6 @@ if grep -qF "\"a\": \"$wide.h5\", \"b\": \"$narrow.h5\"" comparison.jsonl 2>/dev
 fi
 rc=0
 /usr/bin/python3 "$here/../tools/compare.py" "$wide.h5" "$narrow.h5" --json comparison.jsonl \
-  --label "H = $height: $width R wide, $wide_members members ($(cpu "$wide") CPU s) against 40 R wide, $narrow_members members ($(cpu "$narrow") CPU s); loosepack of commit $commit" ||
+  --label "H = $height: $width R wide, $wide_members members ($(cpu "$wide") CPU s) against 40 R wide, $narrow_members members ($(cpu "$narrow") CPU s); loosepack of commit $commit; $("$exe" --version | sed -n 2p) on $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores" ||
   rc=$?
 [ "$rc" -le 1 ] || exit "$rc"

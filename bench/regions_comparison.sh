@@ -63,7 +63,7 @@ for h in ${HEIGHTS:-180 120}; do
   for bo in ${BONDS:-1e3 1e2}; do
     a="bo${bo}_h${h}_whole" b="bo${bo}_h${h}_regions${check}"
     /usr/bin/python3 "$here/../tools/compare.py" "$a.h5" "$b.h5" --paired --json comparison.jsonl \
-      --label "whole system ($(cat "$a.time" 2>/dev/null)) against regions r = 8, region_check_every = ${check} ($(cat "$b.time" 2>/dev/null)); $("$exe" --version | head -1)" ||
+      --label "whole system ($(cat "$a.time" 2>/dev/null)) against regions r = 8, region_check_every = ${check} ($(cat "$b.time" 2>/dev/null)); $("$exe" --version | head -2 | paste -sd ' '); on $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores" ||
       true
   done
 done
