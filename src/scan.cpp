@@ -9,7 +9,6 @@
 #include <fstream>
 #include <functional>
 #include <map>
-#include <numeric>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -709,7 +708,6 @@ class ScanParser {
   void warn_unresolved_barrier(const std::vector<ScanPoint>& points);
   void warn_diverging_jacobi();
   void reset_unused_capture_radius(std::vector<ScanPoint>& points);
-  void refuse_repeated_points(const std::vector<ScanPoint>& points) const;
   void check_bands(double height) const;
   [[noreturn]] void fail_setting(const std::string& key, const std::string& reason) const;
   void check_sweeps_per_launch();
@@ -784,7 +782,6 @@ Scan ScanParser::parse() {
     check_bands(points[k].params.height);
   }
   point_table = nullptr;
-  refuse_repeated_points(points);
   reset_unused_capture_radius(points);
   check_counts(points);
   for (std::size_t k = 0; k < points.size(); ++k) points[k].index = static_cast<int>(k);
@@ -1221,40 +1218,6 @@ void ScanParser::warn_diverging_jacobi() {
 // disk with its dynamics. So an A point runs with capture_radius = 1 and says so in the output,
 // and an A point that the reset makes a repeat of another (a grid of protocols and capture
 // radii) is left out: it would compute the same members again under another label.
-// A [[point]] table that gives an earlier table's scan point again is refused, as an axis's
-// repeated value is: the same protocol and parameters, capture_radius aside in protocol A, where
-// it does not act. (Points of a grid differ in their axes' values.)
-void ScanParser::refuse_repeated_points(const std::vector<ScanPoint>& points) const {
-  if (explicit_points.empty()) return;
-  std::vector<ScanPoint> as_run = points;
-  for (auto& sp : as_run)
-    if (sp.protocol == Protocol::A) sp.params.capture_radius = 1.0;
-  const auto key = [&](std::size_t k) {
-    return std::make_pair(static_cast<int>(as_run[k].protocol), as_run[k].params.fields());
-  };
-  std::vector<std::size_t> order(points.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return key(a) < key(b); });
-  std::size_t earlier = 0, later = points.size();  // the first repeat in the file's order
-  for (std::size_t i = 1, first = 0; i < order.size(); ++i) {
-    if (!(key(order[i]) == key(order[first]))) {
-      first = i;
-      continue;
-    }
-    if (order[i] < later) std::tie(earlier, later) = std::pair(order[first], order[i]);
-  }
-  if (later == points.size()) return;
-  fail(file, *explicit_points[later].node, "point",
-       "this [[point]] table gives the scan point of table " + std::to_string(earlier + 1) +
-           " again (the same protocol and parameters" +
-           (points[later].protocol == Protocol::A &&
-                    points[later].params.capture_radius != points[earlier].params.capture_radius
-                ? "; capture_radius acts in protocols B and C only"
-                : "") +
-           "): list each point once");
-}
-
 void ScanParser::reset_unused_capture_radius(std::vector<ScanPoint>& points) {
   std::vector<ScanPoint> kept;
   int reset = 0, repeats = 0;

@@ -419,27 +419,6 @@ TEST(Scan, RestWindowMustLetAFallingDiskShow) {
                              "ok.toml"));
 }
 
-// A [[point]] table that gives an earlier table's point again is refused at its own line; in
-// protocol A a capture radius, which does not act there, makes no other point; in C it does.
-TEST(Scan, APointTableGivenTwiceIsRefused) {
-  const std::string head = "[system]\nwidth = 10.0\nheight = 8.0\n";
-  EXPECT_EQ(error_of(head + "[[point]]\nbond_number = 0\n[[point]]\nbond_number = 100\n" +
-                     "[[point]]\nbond_number = 100.0\n"),
-            "bad.toml:8:1: key 'point': this [[point]] table gives the scan point of table 2 "
-            "again (the same protocol and parameters): list each point once");
-  EXPECT_EQ(error_of(head + "[[point]]\nbond_number = 0\ncapture_radius = 2\n" +
-                     "[[point]]\nbond_number = 100\n[[point]]\nbond_number = 0\n" +
-                     "capture_radius = 3\n"),
-            "bad.toml:9:1: key 'point': this [[point]] table gives the scan point of table 1 "
-            "again (the same protocol and parameters; capture_radius acts in protocols B and C "
-            "only): list each point once");
-  EXPECT_EQ(parse_scan(head + "[[point]]\nprotocol = \"C\"\ncapture_radius = 2\n" +
-                           "[[point]]\nprotocol = \"C\"\ncapture_radius = 3\n",
-                       "ok.toml")
-                .points.size(),
-            2u);
-}
-
 TEST(Scan, ExplicitPointsOverrideTheSystemDefaults) {
   const auto scan = parse_scan(R"(
 [system]
