@@ -1241,8 +1241,9 @@ void ScanParser::reset_unused_capture_radius(std::vector<ScanPoint>& points) {
     << "capture_radius = 1";
   if (repeats > 0)
     o << ", and " << repeats << " protocol-A point" << (repeats > 1 ? "s" : "")
-      << " of the grid that differed from another only in it " << (repeats > 1 ? "are" : "is")
-      << " left out";
+      << (explicit_points.empty() ? " of the grid" : " ([[point]] table)")
+      << " that differed from another only in it " << (repeats > 1 ? "are" : "is")
+      << " left out (the points are numbered without " << (repeats > 1 ? "them" : "it") << ")";
   scan.warnings.push_back(o.str());
   points = std::move(kept);
 }

@@ -547,6 +547,17 @@ TEST(Scan, ProtocolAPointsRunWithCaptureRadiusOneOnce) {
                                   "grid that differed from another only in it are left out"),
             std::string::npos)
       << scan.warnings[0];
+  // [[point]] tables: the one left out is named as a table's, and the numbering said.
+  const auto listed = parse_scan(
+      "[system]\nwidth = 10.0\nheight = 8.0\n[[point]]\nbond_number = 0\ncapture_radius = 2\n"
+      "[[point]]\nbond_number = 100\n[[point]]\nbond_number = 0\ncapture_radius = 3\n",
+      "p.toml");
+  ASSERT_EQ(listed.points.size(), 2u);
+  EXPECT_NE(listed.warnings.at(0).find("1 protocol-A point ([[point]] table) that differed from "
+                                       "another only in it is left out (the points are numbered "
+                                       "without it)"),
+            std::string::npos)
+      << listed.warnings.at(0);
   ASSERT_EQ(scan.points.size(), 4u);
   std::vector<std::pair<Protocol, double>> got;
   for (const auto& sp : scan.points) got.emplace_back(sp.protocol, sp.params.capture_radius);
