@@ -62,7 +62,8 @@ resume=()
 touch runs.txt  # a line per run
 run=$(($(wc -l <runs.txt) + 1))
 # The program (version, commit; its Kokkos backend) and the machine.
-commit="$("$exe" --version 2>/dev/null | head -n 2 | paste -sd ' ' || true); $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores"
+machine="$(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores"
+commit="$("$exe" --version 2>/dev/null | head -n 2 | paste -sd ' ' || true); $machine"
 echo "$run $(date -u +%FT%TZ) $commit ${resume[*]}" >>runs.txt
 
 # In a session of its own, so that a signal to this script's process group (Ctrl-C, timeout, a

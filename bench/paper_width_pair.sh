@@ -52,7 +52,8 @@ scan() {
 # The scan file a result file was run from (its stored text), or nothing where it is absent.
 stored_scan() {
   [ -e "$1" ] || return 0
-  /usr/bin/python3 -c 'import h5py, sys; print(h5py.File(sys.argv[1], "r")["scan_text"][()].decode())' "$1"
+  /usr/bin/python3 -c 'import h5py, sys
+print(h5py.File(sys.argv[1], "r")["scan_text"][()].decode())' "$1"
 }
 
 # shards NAME: runs NAME.toml as two shards side by side, each going on from its checkpoint if
@@ -97,7 +98,8 @@ shards "$narrow"
 # compare.py's exit status 1 (some quantity differs) is a result, not a failure of this script.
 # The label names the program that ran the members (the files' own commit); a pair compared
 # before is not appended again.
-commit=$(/usr/bin/python3 -c 'import h5py, sys; print(h5py.File(sys.argv[1], "r").attrs["git_commit"])' "$wide.h5")
+commit=$(/usr/bin/python3 -c 'import h5py, sys
+print(h5py.File(sys.argv[1], "r").attrs["git_commit"])' "$wide.h5")
 if grep -qF "\"a\": \"$wide.h5\", \"b\": \"$narrow.h5\"" comparison.jsonl 2>/dev/null; then
   echo "paper_width_pair.sh: $wide against $narrow is in $out/comparison.jsonl already" >&2
   exit 0
