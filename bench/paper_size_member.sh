@@ -3,9 +3,9 @@
 # as many runs as it takes (docs/PERFORMANCE.md, "Scaling with system size"): the first call
 # starts it, every later call resumes it from its checkpoint, and each call appends the run's
 # CPU seconds against the disks deposited, once a minute and at its end, to OUT_DIR/progress.tsv
-# (a line per run in OUT_DIR/runs.txt: its start, the binary's version, --resume). When the
-# member has finished, the summary (bench/paper_size_member.py) gives its total CPU and the
-# exponent of the CPU against the disks deposited.
+# (a line per run in OUT_DIR/runs.txt: its start, the binary's version and backend, the machine,
+# --resume). When the member has finished, the summary (bench/paper_size_member.py) gives its
+# total CPU and the exponent of the CPU against the disks deposited.
 #
 #   bench/paper_size_member.sh OUT_DIR [BOND_NUMBER] [SETTINGS]
 #
@@ -22,6 +22,7 @@ out=${1:?usage: paper_size_member.sh OUT_DIR [BOND_NUMBER] [SETTINGS]}
 bond=${2:-1e3}
 settings=${3:-tall}
 here=$(cd "$(dirname "$0")" && pwd)
+source "$here/environment.sh"
 exe=${LOOSEPACK:-$here/../build/loosepack}
 [[ $exe == */* ]] && exe=$(realpath "$exe")  # the run goes on in OUT_DIR (a relative path would not)
 case "$bond" in
@@ -61,10 +62,8 @@ resume=()
 [ -f progress.tsv ] || printf 'run\tepoch_s\tcpu_s\tdisks\n' >progress.tsv
 touch runs.txt  # a line per run
 run=$(($(wc -l <runs.txt) + 1))
-# The program (version, commit; its Kokkos backend) and the machine.
-machine="$(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores"
-commit="$("$exe" --version 2>/dev/null | head -n 2 | paste -sd ' ' || true); $machine"
-echo "$run $(date -u +%FT%TZ) $commit ${resume[*]}" >>runs.txt
+environment=$(environment_text "$exe")
+echo "$run $(date -u +%FT%TZ) $environment ${resume[*]}" >>runs.txt
 
 # In a session of its own, so that a signal to this script's process group (Ctrl-C, timeout, a
 # batch system) reaches it once, from the trap below: a second SIGINT would end it unsaved.

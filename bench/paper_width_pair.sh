@@ -30,6 +30,7 @@ narrow_members=${5:-16}
 bond=${6:-} time_step=${7:-}
 [ -z "$bond" ] || [ -n "$time_step" ] || { echo "$usage (BOND needs its TIME_STEP)" >&2; exit 2; }
 here=$(cd "$(dirname "$0")" && pwd)
+source "$here/environment.sh"
 exe=$(realpath "${LOOSEPACK:-$here/../build/loosepack}")
 paper="$here/../examples/paper"
 mkdir -p "$out"
@@ -106,6 +107,6 @@ if grep -qF "\"a\": \"$wide.h5\", \"b\": \"$narrow.h5\"" comparison.jsonl 2>/dev
 fi
 rc=0
 /usr/bin/python3 "$here/../tools/compare.py" "$wide.h5" "$narrow.h5" --json comparison.jsonl \
-  --label "H = $height: $width R wide, $wide_members members ($(cpu "$wide") CPU s) against 40 R wide, $narrow_members members ($(cpu "$narrow") CPU s); loosepack of commit $commit; $("$exe" --version | sed -n 2p) on $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores" ||
+  --label "H = $height: $width R wide, $wide_members members ($(cpu "$wide") CPU s) against 40 R wide, $narrow_members members ($(cpu "$narrow") CPU s); the members' loosepack of commit $commit, compared on $(environment_text "$exe")" ||
   rc=$?
 [ "$rc" -le 1 ] || exit "$rc"

@@ -19,6 +19,7 @@ out=${1:?usage: regions_comparison.sh OUT_DIR [CHECK] [JOBS]}
 check=${2:-10}
 jobs=${3:-2}
 here=$(cd "$(dirname "$0")" && pwd)
+source "$here/environment.sh"
 exe=$(realpath "${LOOSEPACK:-$here/../build/loosepack}")  # it runs from OUT_DIR
 for bo in ${BONDS:-1e3 1e2}; do
   case "$bo" in
@@ -63,7 +64,7 @@ for h in ${HEIGHTS:-180 120}; do
   for bo in ${BONDS:-1e3 1e2}; do
     a="bo${bo}_h${h}_whole" b="bo${bo}_h${h}_regions${check}"
     /usr/bin/python3 "$here/../tools/compare.py" "$a.h5" "$b.h5" --paired --json comparison.jsonl \
-      --label "whole system ($(cat "$a.time" 2>/dev/null)) against regions r = 8, region_check_every = ${check} ($(cat "$b.time" 2>/dev/null)); $("$exe" --version | head -2 | paste -sd ' '); on $(lscpu | sed -n 's/^Model name: *//p' | head -n 1), $(nproc) cores" ||
+      --label "whole system ($(cat "$a.time" 2>/dev/null)) against regions r = 8, region_check_every = ${check} ($(cat "$b.time" 2>/dev/null)); $(environment_text "$exe")" ||
       true
   done
 done

@@ -120,10 +120,7 @@ def _refuse_invalid(exe, text, path, out):
     written to the scan file `path` (an earlier scan there stays beside its result; none is left
     where there was none): a dry run of a copy beside it (a file of its own, removed after), its
     messages naming `path`."""
-    fd, check = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
-                                 prefix=os.path.basename(path) + ".")
-    with os.fdopen(fd, "w") as f:
-        f.write(text)
+    check = _temporary_beside(path, text)
     try:
         done = subprocess.run([exe, "run", check, "-o", os.fspath(out), "--force", "--dry-run"],
                               capture_output=True, text=True)
@@ -195,15 +192,21 @@ def _replace_text(path, text):
     if text is None:
         os.remove(path)
         return earlier
+    os.replace(_temporary_beside(path, text), path)
+    return earlier
+
+
+def _temporary_beside(path, text):
+    """A new file of `text` beside `path` (PATH.XXXX), readable as open() would make it (umask
+    applied; mkstemp's own mode is 0600); its name."""
     fd, temporary = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
                                      prefix=os.path.basename(path) + ".")
     with os.fdopen(fd, "w") as f:
         f.write(text)
     umask = os.umask(0)
     os.umask(umask)
-    os.chmod(temporary, 0o666 & ~umask)  # as open() would make it (mkstemp's is 0600)
-    os.replace(temporary, path)
-    return earlier
+    os.chmod(temporary, 0o666 & ~umask)
+    return temporary
 
 
 def _follow(cmd, progress):
